@@ -1,0 +1,42 @@
+//! `multistep`: the command line over the multistep libraries. Each subcommand lives in its
+//! own module and only parses, calls a library and prints.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod moveargs;
+mod output;
+mod plan;
+
+#[derive(Parser, Debug)]
+#[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Plan one move: the exact tick of every step edge
+    Plan(plan::PlanArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.cmd {
+        Cmd::Plan(a) => plan::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // A closed pipe (`multistep plan … | head`) is not an error.
+            if let Some(io) = e.downcast_ref::<std::io::Error>() {
+                if io.kind() == std::io::ErrorKind::BrokenPipe {
+                    return ExitCode::SUCCESS;
+                }
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

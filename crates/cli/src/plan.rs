@@ -1,0 +1,119 @@
+//! `multistep plan`: a move's edges as CSV, or a summary after running the whole generator.
+
+use crate::moveargs::MoveArgs;
+use crate::output::Format;
+use clap::Args;
+use multistep_core::{EdgeGenerator, DEFAULT_CLOCK_HZ};
+use serde::Serialize;
+use std::io::Write;
+
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    #[command(flatten)]
+    pub mv: MoveArgs,
+    /// Clock frequency (Hz) that edges are counted in
+    #[arg(long, value_name = "HZ", default_value_t = DEFAULT_CLOCK_HZ)]
+    pub clock: f64,
+    /// Output: table (summary), csv (every edge) or json (summary)
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+}
+
+#[derive(Serialize, Debug)]
+pub struct PlanSummary {
+    pub mode: String,
+    pub steps: u64,
+    pub clock_hz: f64,
+    pub duration_s: f64,
+    pub last_edge_tick: u64,
+    pub peak_speed_steps_per_s: f64,
+    pub peak_accel_steps_per_s2: f64,
+    pub min_period_ticks: u64,
+    pub max_period_ticks: u64,
+    /// Edges settled in double-double because f64 could not decide the nearest tick.
+    pub settled_edges: u64,
+}
+
+pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
+    let profile = args.mv.plan()?;
+    let mut gen = EdgeGenerator::new(profile, args.clock)?;
+    let stdout = std::io::stdout();
+    if let Format::Csv = args.format {
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());
+        writeln!(w, "step,edge_tick,period_ticks")?;
+        let mut last = 0;
+        let mut buf = itoa_buf();
+        for (k, e) in (&mut gen).enumerate() {
+            write_row(&mut w, &mut buf, k as u64 + 1, e, e - last)?;
+            last = e;
+        }
+        w.flush()?;
+        return Ok(());
+    }
+    let (vpk, apk) = gen.profile().peaks();
+    let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
+    let (mut min_p, mut max_p, mut last) = (u64::MAX, 0u64, 0u64);
+    for e in &mut gen {
+        let p = e - last;
+        min_p = min_p.min(p);
+        max_p = max_p.max(p);
+        last = e;
+    }
+    let s = PlanSummary {
+        mode: args.mv.describe(),
+        steps,
+        clock_hz: args.clock,
+        duration_s: duration,
+        last_edge_tick: last,
+        peak_speed_steps_per_s: vpk,
+        peak_accel_steps_per_s2: apk,
+        min_period_ticks: min_p,
+        max_period_ticks: max_p,
+        settled_edges: gen.settled_count(),
+    };
+    let mut out = stdout.lock();
+    match args.format {
+        Format::Json => writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?,
+        _ => {
+            writeln!(out, "move          {}", s.mode)?;
+            writeln!(out, "steps         {}", s.steps)?;
+            writeln!(out, "clock         {} Hz", s.clock_hz)?;
+            writeln!(out, "duration      {:.9} s", s.duration_s)?;
+            writeln!(out, "last edge     {} ticks", s.last_edge_tick)?;
+            writeln!(out, "peak speed    {:.3} steps/s", s.peak_speed_steps_per_s)?;
+            writeln!(out, "peak accel    {:.3} steps/s²", s.peak_accel_steps_per_s2)?;
+            writeln!(out, "period        {} .. {} ticks", s.min_period_ticks, s.max_period_ticks)?;
+        }
+    }
+    Ok(())
+}
+
+fn itoa_buf() -> Vec<u8> {
+    Vec::with_capacity(64)
+}
+
+/// One CSV row, formatted without going through `fmt` machinery per field.
+fn write_row(w: &mut impl Write, buf: &mut Vec<u8>, step: u64, edge: u64, period: u64) -> std::io::Result<()> {
+    buf.clear();
+    push_u64(buf, step);
+    buf.push(b',');
+    push_u64(buf, edge);
+    buf.push(b',');
+    push_u64(buf, period);
+    buf.push(b'\n');
+    w.write_all(buf)
+}
+
+fn push_u64(buf: &mut Vec<u8>, mut x: u64) {
+    let mut tmp = [0u8; 20];
+    let mut i = tmp.len();
+    loop {
+        i -= 1;
+        tmp[i] = b'0' + (x % 10) as u8;
+        x /= 10;
+        if x == 0 {
+            break;
+        }
+    }
+    buf.extend_from_slice(&tmp[i..]);
+}

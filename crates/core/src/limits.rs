@@ -1,0 +1,223 @@
+//! Limits mode: the time-optimal profile of N steps under vmax, amax (and jmax, smax).
+//!
+//! A move is accel → cruise → decel. Each velocity change is done in minimum time with
+//! zero acceleration (and jerk) at its ends, so its velocity is point-symmetric about its
+//! midpoint and it covers `(v0 + v1)/2 · T` steps. The peak speed is the largest one whose
+//! accel and decel fit in N steps: closed form for the trapezoid, bisection on the
+//! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
+//! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
+
+use crate::error::{non_negative, positive, PlanError};
+use crate::profile::{Builder, LimitsMove, Order, Profile, MAX_STEPS};
+use crate::real::fm;
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Limits {
+    pub amax: f64,
+    pub jmax: f64,
+    pub smax: f64,
+    pub order: u8,
+}
+
+/// A minimum-time velocity change: pieces `(duration, highest derivative)` and total time.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Change {
+    pub entries: [(f64, f64); 7],
+    pub len: usize,
+    pub time: f64,
+}
+
+impl Change {
+    fn distance(&self, v0: f64, v1: f64) -> f64 {
+        0.5 * (v0 + v1) * self.time
+    }
+}
+
+/// Time to ramp a quantity from 0 to `peak` and back under a rate limit `r1` and a
+/// rate-of-rate limit `r2` (the classic jerk-limited ramp): `(t_edge, t_flat)`.
+fn ramp(peak: f64, r1: f64, r2: f64) -> (f64, f64) {
+    if peak * r2 >= r1 * r1 {
+        (r1 / r2, peak / r1 - r1 / r2)
+    } else {
+        (fm::sqrt(peak / r2), 0.0)
+    }
+}
+
+/// Minimum-time change from v0 to v1 (either direction).
+pub(crate) fn change(l: &Limits, v0: f64, v1: f64) -> Change {
+    let dv = (v1 - v0).abs();
+    let sg = if v1 >= v0 { 1.0 } else { -1.0 };
+    let mut entries = [(0.0, 0.0); 7];
+    if dv == 0.0 {
+        return Change {
+            entries,
+            len: 0,
+            time: 0.0,
+        };
+    }
+    match l.order {
+        2 => {
+            entries[0] = (dv / l.amax, sg * l.amax);
+            Change {
+                entries,
+                len: 1,
+                time: dv / l.amax,
+            }
+        }
+        3 => {
+            let (tj, ta) = ramp(dv, l.amax, l.jmax);
+            entries[0] = (tj, sg * l.jmax);
+            entries[1] = (ta, 0.0);
+            entries[2] = (tj, -sg * l.jmax);
+            Change {
+                entries,
+                len: 3,
+                time: 2.0 * tj + ta,
+            }
+        }
+        _ => {
+            // Peak acceleration a: the acceleration ramp is itself jerk/snap limited with
+            // rise time Tr(a); Δv = a·(Tr(a) + t_const).
+            let rise = |a: f64| {
+                let (ts, tj) = ramp(a, l.jmax, l.smax);
+                (ts, tj, 2.0 * ts + tj)
+            };
+            let (_, _, tr_max) = rise(l.amax);
+            let a = if dv >= l.amax * tr_max {
+                l.amax
+            } else {
+                let (j, s) = (l.jmax, l.smax);
+                // a·(a/J + J/S) = Δv when the jerk limit is reached, else 2a^{3/2}/√S = Δv
+                let a1 = 2.0 * dv / (j / s + fm::sqrt((j / s) * (j / s) + 4.0 * dv / j));
+                if a1 * s >= j * j {
+                    a1
+                } else {
+                    let x = dv * fm::sqrt(s) / 2.0;
+                    fm::cbrt(x * x)
+                }
+            };
+            let a = a.min(l.amax);
+            let (ts, tj, tr) = rise(a);
+            let tc = (dv / a - tr).max(0.0);
+            let s = sg * l.smax;
+            entries = [
+                (ts, s),
+                (tj, 0.0),
+                (ts, -s),
+                (tc, 0.0),
+                (ts, -s),
+                (tj, 0.0),
+                (ts, s),
+            ];
+            Change {
+                entries,
+                len: 7,
+                time: 2.0 * tr + tc,
+            }
+        }
+    }
+}
+
+fn check_limit(name: &'static str, v: Option<f64>, family: &'static str) -> Result<f64, PlanError> {
+    match v {
+        Some(x) => positive(name, x),
+        None => Err(PlanError::MissingLimit {
+            family,
+            missing: if name == "jmax" { "--jmax" } else { "--jmax and --smax" },
+        }),
+    }
+}
+
+pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
+    if m.steps == 0 {
+        return Err(PlanError::NoSteps);
+    }
+    if m.steps > MAX_STEPS {
+        return Err(PlanError::TooManySteps {
+            steps: m.steps,
+            max: MAX_STEPS,
+        });
+    }
+    let vmax = positive("vmax", m.vmax)?;
+    let amax = positive("amax", m.amax)?;
+    let vs = non_negative("start speed", m.start_speed)?;
+    let ve = non_negative("end speed", m.end_speed)?;
+    let (order, jmax, smax) = match m.order {
+        Order::Trapezoid => (2, f64::INFINITY, f64::INFINITY),
+        Order::SCurve => (3, check_limit("jmax", m.jmax, "scurve")?, f64::INFINITY),
+        Order::SCurve4 => {
+            if m.jmax.is_none() || m.smax.is_none() {
+                return Err(PlanError::MissingLimit {
+                    family: "scurve4",
+                    missing: "--jmax and --smax",
+                });
+            }
+            (
+                4,
+                check_limit("jmax", m.jmax, "scurve4")?,
+                check_limit("smax", m.smax, "scurve4")?,
+            )
+        }
+    };
+    for (name, v) in [("start speed", vs), ("end speed", ve)] {
+        if v > vmax {
+            return Err(PlanError::SpeedAboveLimit {
+                name,
+                value: v,
+                vmax,
+            });
+        }
+    }
+    let l = Limits {
+        amax,
+        jmax,
+        smax,
+        order,
+    };
+    let n = m.steps as f64;
+    let dist = |vp: f64| change(&l, vs, vp).distance(vs, vp) + change(&l, vp, ve).distance(vp, ve);
+    let vlo = vs.max(ve);
+    let vp = if dist(vmax) <= n {
+        vmax
+    } else {
+        let need = dist(vlo);
+        if need > n {
+            return Err(PlanError::TooShortForLimits {
+                steps: m.steps,
+                start_speed: vs,
+                end_speed: ve,
+                needed: need,
+            });
+        }
+        if order == 2 {
+            // vp² − vs² + vp² − ve² = 2·amax·N
+            fm::sqrt((2.0 * amax * n + vs * vs + ve * ve) / 2.0).clamp(vlo, vmax)
+        } else {
+            let (mut lo, mut hi) = (vlo, vmax);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if dist(mid) <= n {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        }
+    };
+    let up = change(&l, vs, vp);
+    let down = change(&l, vp, ve);
+    let cruise = if vp > 0.0 {
+        ((n - up.distance(vs, vp) - down.distance(vp, ve)) / vp).max(0.0)
+    } else {
+        0.0
+    };
+    let mut b = Builder::new();
+    b.push_schedule(order, vs, &up.entries[..up.len])?;
+    b.cruise(vp, cruise)?;
+    b.push_schedule(order, vp, &down.entries[..down.len])?;
+    b.finish(m.steps)
+}

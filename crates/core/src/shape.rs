@@ -1,0 +1,197 @@
+//! Velocity shapes that are not polynomials: parabolic, exponential and sine
+//! (DESIGN.md §2). On an accel phase `v(t) = vs + Δv·g(u)`, `u = t/T`, so the position is
+//! `vs·t + Δv·T·G(u)` with `G(u) = ∫₀ᵘ g`. A decel phase is the time mirror: its rate is
+//! `h(u) = g(1 − u)` and its integral `H(u) = G(1) − G(1 − u)`, written below in forms that
+//! do not cancel for small u.
+
+use crate::real::Real;
+
+/// A non-polynomial velocity shape `g(u)` on `u ∈ [0, 1]`, `g(0) = 0`, `g(1) = 1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// `g = √u` (seed 001 eq. (9)–(15)).
+    Parabolic,
+    /// `g = (1 − e^(−u/ρ)) / (1 − e^(−1/ρ))` (seed 001; seed 003 eq. (2)); ρ = τ/T.
+    Exponential { rho: f64 },
+    /// `g = (1 − cos πu) / 2`.
+    Sine,
+}
+
+/// Whether R is wider than f64 (then series coefficients are divided out in R, so the
+/// double-double path keeps its full precision).
+#[inline(always)]
+fn wide<R: Real>() -> bool {
+    core::mem::size_of::<R>() > 8
+}
+
+/// `first · Σ_{k≥0} Π_{m=1..k} (x / d(m))`, summed forward with the term recurrence.
+#[inline(always)]
+fn series<R: Real>(x: R, first: R, d: impl Fn(usize) -> f64) -> R {
+    let n = if wide::<R>() { 32 } else { 18 };
+    let mut term = first;
+    let mut sum = first;
+    for m in 1..n {
+        term = if wide::<R>() {
+            term * x / R::from_f64(d(m))
+        } else {
+            term * x * R::from_f64(1.0 / d(m))
+        };
+        sum = sum + term;
+    }
+    sum
+}
+
+/// `e^(−x) − 1 + x = x²/2 − x³/6 + …` without cancellation.
+#[inline]
+fn exp_tail<R: Real>(x: R) -> R {
+    if x.to_f64() < 0.5 {
+        // x²/2 · Σ (−x)^k · 2/(k+2)!
+        let half = R::from_f64(0.5);
+        series(-x, x * x * half, |m| (m + 2) as f64)
+    } else {
+        (-x).exp_m1() + x
+    }
+}
+
+/// `y − sin y = y³/6 − y⁵/120 + …` without cancellation.
+#[inline]
+fn sin_tail<R: Real>(y: R) -> R {
+    if y.to_f64() < 1.0 {
+        let first = y * y * y / R::from_f64(6.0);
+        series(-(y * y), first, |m| ((2 * m + 2) * (2 * m + 3)) as f64)
+    } else {
+        y - y.sin()
+    }
+}
+
+impl Shape {
+    /// `G(1) = ∫₀¹ g`: the fraction of `Δv·T` that a phase covers.
+    pub fn g1(self) -> f64 {
+        match self {
+            Shape::Parabolic => 2.0 / 3.0,
+            Shape::Sine => 0.5,
+            Shape::Exponential { rho } => {
+                let d = -crate::real::fm::exp_m1(-1.0 / rho);
+                exp_tail(1.0 / rho) * rho / d
+            }
+        }
+    }
+
+    /// `g(u)` (accel) or `h(u) = g(1−u)` (mirrored decel).
+    #[inline]
+    pub fn rate<R: Real>(self, u: R, mirrored: bool) -> R {
+        let one = R::from_f64(1.0);
+        let w = if mirrored { one - u } else { u };
+        match self {
+            Shape::Parabolic => w.sqrt(),
+            Shape::Sine => (one - (R::pi() * w).cos()) * R::from_f64(0.5),
+            Shape::Exponential { rho } => {
+                let r = R::from_f64(rho);
+                let d = -(-(one / r)).exp_m1();
+                -((-(w / r)).exp_m1()) / d
+            }
+        }
+    }
+
+    /// `G(u)` (accel) or `H(u)` (mirrored decel).
+    #[inline]
+    pub fn integral<R: Real>(self, u: R, mirrored: bool) -> R {
+        let one = R::from_f64(1.0);
+        let two_thirds = R::from_f64(2.0) / R::from_f64(3.0);
+        match (self, mirrored) {
+            (Shape::Parabolic, false) => two_thirds * u * u.sqrt(),
+            (Shape::Parabolic, true) => {
+                // (2/3)(1 − (1−u)^{3/2}) = (2/3)·u(3 − 3u + u²) / (1 + (1−u)^{3/2})
+                let w = one - u;
+                let three = R::from_f64(3.0);
+                two_thirds * u * (three - three * u + u * u) / (one + w * w.sqrt())
+            }
+            (Shape::Sine, false) => sin_tail(R::pi() * u) / (R::from_f64(2.0) * R::pi()),
+            (Shape::Sine, true) => {
+                let y = R::pi() * u;
+                u * R::from_f64(0.5) + y.sin() / (R::from_f64(2.0) * R::pi())
+            }
+            (Shape::Exponential { rho }, false) => {
+                let r = R::from_f64(rho);
+                let d = -(-(one / r)).exp_m1();
+                r * exp_tail(u / r) / d
+            }
+            (Shape::Exponential { rho }, true) => {
+                // (u − ρ(e^{−(1−u)/ρ} − e^{−1/ρ})) / D
+                let r = R::from_f64(rho);
+                let d = -(-(one / r)).exp_m1();
+                let x = u / r;
+                let diff = if x.to_f64() < 1.0 {
+                    (-(one / r)).exp() * x.exp_m1()
+                } else {
+                    (-((one - u) / r)).exp() - (-(one / r)).exp()
+                };
+                (u - r * diff) / d
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dd::Dd;
+
+    fn shapes() -> [Shape; 5] {
+        [
+            Shape::Parabolic,
+            Shape::Sine,
+            Shape::Exponential { rho: 0.25 },
+            Shape::Exponential { rho: 0.05 },
+            Shape::Exponential { rho: 3.0 },
+        ]
+    }
+
+    /// Simpson's rule on the rate must agree with the closed-form integral.
+    #[test]
+    fn integral_matches_quadrature() {
+        for s in shapes() {
+            for &mirrored in &[false, true] {
+                for &u in &[1e-6, 0.01, 0.3, 0.5, 0.77, 1.0] {
+                    let n = 20_000;
+                    let h = u / n as f64;
+                    let mut acc = 0.0;
+                    for k in 0..=n {
+                        let w = if k == 0 || k == n {
+                            1.0
+                        } else if k % 2 == 1 {
+                            4.0
+                        } else {
+                            2.0
+                        };
+                        acc += w * s.rate(k as f64 * h, mirrored);
+                    }
+                    let quad = acc * h / 3.0;
+                    let closed = s.integral(u, mirrored);
+                    let tol = if matches!(s, Shape::Parabolic) && !mirrored { 1e-9 } else { 1e-12 };
+                    assert!(
+                        (quad - closed).abs() <= tol * u.max(1e-3),
+                        "{s:?} m={mirrored} u={u}: {quad} vs {closed}"
+                    );
+                }
+            }
+            assert!((s.integral(1.0, false) - s.g1()).abs() < 1e-15);
+            assert!((s.integral(1.0, true) - s.g1()).abs() < 1e-15);
+            assert!((s.rate(1.0, false) - 1.0).abs() < 1e-15);
+            assert!(s.rate(0.0, false).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn dd_and_f64_agree() {
+        for s in shapes() {
+            for &mirrored in &[false, true] {
+                for &u in &[1e-9, 0.001, 0.49, 0.51, 0.999, 1.0] {
+                    let a = s.integral(u, mirrored);
+                    let b = s.integral(Dd::new(u), mirrored).to_f64();
+                    assert!((a - b).abs() <= 4e-16 * b.abs().max(1e-300), "{s:?} {mirrored} {u}: {a} {b}");
+                }
+            }
+        }
+    }
+}
