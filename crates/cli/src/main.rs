@@ -4,9 +4,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod experiment;
 mod moveargs;
 mod output;
 mod plan;
+mod simulate;
 
 #[derive(Parser, Debug)]
 #[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
@@ -19,12 +21,18 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Simulate one move on a motor and driver: lost steps and following error
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Reproduce the seed papers' experiments on the simulator
+    Experiment(experiment::ExperimentArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Experiment(a) => experiment::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

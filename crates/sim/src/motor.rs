@@ -243,6 +243,6 @@ mod tests {
     fn oscillation_damping_gives_the_requested_ratio() {
         let m = Motor::load("57mm").unwrap();
         let z = m.effective_damping_ratio(m.rated_current);
-        assert!((z - 0.1).abs() < 1e-12, "{z}");
+        assert!((z - 0.2).abs() < 1e-12, "{z}");
     }
 }
