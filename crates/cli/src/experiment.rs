@@ -69,29 +69,72 @@ fn deviation(ours: f64, paper: Option<f64>) -> String {
     }
 }
 
-fn print_curve_limits(out: &mut impl Write, r: &CurveLimits, s: &CurveLimitsSetup) -> std::io::Result<()> {
-    writeln!(out, "seed 001 curve limits: {} motor, {} V, {} microsteps, dt = {:e} s", r.motor, r.supply_voltage, r.microsteps, r.dt_s)?;
+fn print_curve_limits(
+    out: &mut impl Write,
+    r: &CurveLimits,
+    s: &CurveLimitsSetup,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "seed 001 curve limits: {} motor, {} V, {} microsteps, dt = {:e} s",
+        r.motor, r.supply_voltage, r.microsteps, r.dt_s
+    )?;
     writeln!(
         out,
         "calibrated: load inertia {:.4e} kg·m² (trapezoid {}° in {} ms is the limit); damping ratio ζ = {:.3} (not fitted), rotor oscillation {:.1} Hz",
         r.load_inertia, r.calibration_angle_deg, s.period_s * 1e3, r.damping_ratio, r.natural_frequency_hz
     )?;
     writeln!(out)?;
-    writeln!(out, "(a) largest angle without loss in 100 ms (40/20/40 ms)")?;
-    writeln!(out, "{:<12} {:>8} {:>8} {:>8}   {}", "family", "ours °", "paper °", "dev", "following error at the limit (°)")?;
+    writeln!(
+        out,
+        "(a) largest angle without loss in 100 ms (40/20/40 ms)"
+    )?;
+    writeln!(
+        out,
+        "{:<12} {:>8} {:>8} {:>8}   {}",
+        "family", "ours °", "paper °", "dev", "following error at the limit (°)"
+    )?;
     for (fam, v) in &r.max_angle_deg {
         let paper = r.paper_max_angle_deg.get(fam).copied();
         let e = &r.error_at_max_angle[fam];
-        let note = if fam == "trapezoid" { " (calibration cell)" } else { "" };
-        writeln!(out, "{:<12} {:>8.0} {}   {:+.2} … {:+.2}{}", fam, v, deviation(*v, paper), e.min_deg, e.max_deg, note)?;
+        let note = if fam == "trapezoid" {
+            " (calibration cell)"
+        } else {
+            ""
+        };
+        writeln!(
+            out,
+            "{:<12} {:>8.0} {}   {:+.2} … {:+.2}{}",
+            fam,
+            v,
+            deviation(*v, paper),
+            e.min_deg,
+            e.max_deg,
+            note
+        )?;
     }
     writeln!(out)?;
-    writeln!(out, "(b) shortest time for 360° (phases 40:20:40 of the time)")?;
-    writeln!(out, "{:<12} {:>8} {:>8} {:>8}   {}", "family", "ours ms", "paper ms", "dev", "following error at the limit (°)")?;
+    writeln!(
+        out,
+        "(b) shortest time for 360° (phases 40:20:40 of the time)"
+    )?;
+    writeln!(
+        out,
+        "{:<12} {:>8} {:>8} {:>8}   {}",
+        "family", "ours ms", "paper ms", "dev", "following error at the limit (°)"
+    )?;
     for (fam, v) in &r.min_time_360_ms {
         let paper = r.paper_min_time_360_ms.get(fam).copied();
         let e = &r.error_at_min_time[fam];
-        writeln!(out, "{:<12} {:>8.1} {}   {:+.2} … {:+.2}", fam, v, deviation(*v, paper), e.min_deg, e.max_deg)?;
+        writeln!(
+            out,
+            "{:<12} {:>8.1} {}   {:+.2} … {:+.2}",
+            fam,
+            v,
+            deviation(*v, paper),
+            e.min_deg,
+            e.max_deg
+        )?;
     }
     Ok(())
 }
@@ -103,10 +146,26 @@ fn two_axis(a: &TwoAxisArgs) -> anyhow::Result<()> {
         ReportFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&r)?)?,
         ReportFormat::Table => {
             writeln!(out, "seed 000 two-axis run: {} motors, {} microsteps, {} V, load {:.2e} kg·m², ζ = {:.3}", r.motor, r.microsteps, r.supply_voltage, r.load_inertia, r.damping_ratio)?;
-            writeln!(out, "trapezoid {}/{}/{} ms from rest; paper: following error within ±{} microsteps", r.accel_ms, r.cruise_ms, r.decel_ms, r.paper_bound_steps)?;
-            writeln!(out, "{:>6} {:>22} {:>22} {:>12}", "steps", "peak error (µsteps)", "range (µsteps)", "lost steps")?;
+            writeln!(
+                out,
+                "trapezoid {}/{}/{} ms from rest; paper: following error within ±{} microsteps",
+                r.accel_ms, r.cruise_ms, r.decel_ms, r.paper_bound_steps
+            )?;
+            writeln!(
+                out,
+                "{:>6} {:>22} {:>22} {:>12}",
+                "steps", "peak error (µsteps)", "range (µsteps)", "lost steps"
+            )?;
             for ax in &r.axes {
-                writeln!(out, "{:>6} {:>22.2} {:>10.2} … {:>+7.2} {:>12}", ax.steps, ax.peak_following_error_steps, ax.min_following_error_steps, ax.max_following_error_steps, ax.lost_steps)?;
+                writeln!(
+                    out,
+                    "{:>6} {:>22.2} {:>10.2} … {:>+7.2} {:>12}",
+                    ax.steps,
+                    ax.peak_following_error_steps,
+                    ax.min_following_error_steps,
+                    ax.max_following_error_steps,
+                    ax.lost_steps
+                )?;
             }
         }
     }

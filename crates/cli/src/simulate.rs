@@ -82,25 +82,59 @@ pub fn run(a: &SimulateArgs) -> anyhow::Result<()> {
         trace::write_csv(path, &r.trace)?;
     }
     if let Some(path) = &a.plot {
-        let title = format!("{} on {}, {} microsteps, {:?} driver", a.mv.describe(), motor.name, r.microsteps, r.mode);
+        let title = format!(
+            "{} on {}, {} microsteps, {:?} driver",
+            a.mv.describe(),
+            motor.name,
+            r.microsteps,
+            r.mode
+        );
         plot::plot_trace(path, &title, &r.trace)?;
     }
     let mut out = std::io::stdout().lock();
     match a.format {
         ReportFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&r)?)?,
         ReportFormat::Table => {
-            writeln!(out, "motor               {} ({} driver, {} microsteps, {} V)", motor.name, a.mode_name(), r.microsteps, cfg.driver.supply_voltage)?;
-            writeln!(out, "move                {}, {} steps, {:.6} s", a.mv.describe(), r.steps, r.move_time_s)?;
-            writeln!(out, "damping ratio ζ     {:.3} (rotor oscillation {:.1} Hz)", r.damping_ratio, r.natural_frequency_hz)?;
+            writeln!(
+                out,
+                "motor               {} ({} driver, {} microsteps, {} V)",
+                motor.name,
+                a.mode_name(),
+                r.microsteps,
+                cfg.driver.supply_voltage
+            )?;
+            writeln!(
+                out,
+                "move                {}, {} steps, {:.6} s",
+                a.mv.describe(),
+                r.steps,
+                r.move_time_s
+            )?;
+            writeln!(
+                out,
+                "damping ratio ζ     {:.3} (rotor oscillation {:.1} Hz)",
+                r.damping_ratio, r.natural_frequency_hz
+            )?;
             writeln!(out, "lost steps          {}", r.lost_steps)?;
             match r.first_loss_s {
                 Some(t) => writeln!(out, "first loss at       {:.6} s", t)?,
                 None => writeln!(out, "first loss at       never")?,
             }
-            writeln!(out, "following error     {:.3}° … {:.3}° (peak {:.3}°, {:.2} microsteps)", r.min_following_error_deg, r.max_following_error_deg, r.peak_following_error_deg, r.peak_following_error_steps)?;
+            writeln!(
+                out,
+                "following error     {:.3}° … {:.3}° (peak {:.3}°, {:.2} microsteps)",
+                r.min_following_error_deg,
+                r.max_following_error_deg,
+                r.peak_following_error_deg,
+                r.peak_following_error_steps
+            )?;
             writeln!(out, "final error         {:.3}°", r.final_error_deg)?;
             writeln!(out, "peak speed          {:.1}°/s", r.peak_speed_deg_s)?;
-            writeln!(out, "simulated           {:.6} s at dt = {:e} s", r.simulated_s, r.dt_s)?;
+            writeln!(
+                out,
+                "simulated           {:.6} s at dt = {:e} s",
+                r.simulated_s, r.dt_s
+            )?;
         }
     }
     Ok(())

@@ -37,7 +37,9 @@ pub enum SimError {
         limit: f64,
         max_dt: f64,
     },
-    #[error("edge ticks go backwards ({prev} then {next}); the edge stream must be non-decreasing")]
+    #[error(
+        "edge ticks go backwards ({prev} then {next}); the edge stream must be non-decreasing"
+    )]
     EdgesBackwards { prev: u64, next: u64 },
     #[error(transparent)]
     Plan(#[from] multistep_core::PlanError),

@@ -10,13 +10,26 @@ use std::collections::BTreeMap;
 use std::io::IsTerminal;
 
 /// Seed 001 Table 1: largest angle without lost steps in 100 ms (40 ms accel, 40 ms decel).
-pub const PAPER_MAX_ANGLE_DEG: [(&str, f64); 3] =
-    [("trapezoid", 810.0), ("exponential", 630.0), ("parabolic", 990.0)];
+pub const PAPER_MAX_ANGLE_DEG: [(&str, f64); 3] = [
+    ("trapezoid", 810.0),
+    ("exponential", 630.0),
+    ("parabolic", 990.0),
+];
 /// Seed 001 Table 2: shortest time for 360° with the phases in proportion 40:20:40.
-pub const PAPER_MIN_TIME_360_MS: [(&str, f64); 3] =
-    [("trapezoid", 48.0), ("exponential", 54.0), ("parabolic", 42.0)];
+pub const PAPER_MIN_TIME_360_MS: [(&str, f64); 3] = [
+    ("trapezoid", 48.0),
+    ("exponential", 54.0),
+    ("parabolic", 42.0),
+];
 /// The families compared: seed 001's three, then sine and both S-curves.
-pub const FAMILIES: [&str; 6] = ["trapezoid", "exponential", "parabolic", "sine", "scurve", "scurve4"];
+pub const FAMILIES: [&str; 6] = [
+    "trapezoid",
+    "exponential",
+    "parabolic",
+    "sine",
+    "scurve",
+    "scurve4",
+];
 
 /// Settings of the curve-limits experiment (seed 001 §3).
 #[derive(Clone, Debug)]
@@ -100,7 +113,11 @@ impl CurveLimitsSetup {
         }
         while hi - lo > tol {
             let mid = ((lo + hi) / 2.0 / tol).round() * tol;
-            let mid = if mid <= lo || mid >= hi { (lo + hi) / 2.0 } else { mid };
+            let mid = if mid <= lo || mid >= hi {
+                (lo + hi) / 2.0
+            } else {
+                mid
+            };
             if self.passes(m, family, mid, self.period_s)? {
                 lo = mid;
             } else {
@@ -147,7 +164,14 @@ impl CurveLimitsSetup {
             m.load_inertia = jl;
             m
         };
-        let ok = |jl: f64| self.passes(&with(jl), "trapezoid", self.calibration_angle_deg, self.period_s);
+        let ok = |jl: f64| {
+            self.passes(
+                &with(jl),
+                "trapezoid",
+                self.calibration_angle_deg,
+                self.period_s,
+            )
+        };
         if !ok(0.0)? {
             return Err(SimError::BadSetting {
                 field: "calibration_angle",
@@ -267,11 +291,18 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
         load_inertia: jl,
         calibration_angle_deg: setup.calibration_angle_deg,
         damping_ratio: motor.effective_damping_ratio(setup.cfg.driver.current),
-        natural_frequency_hz: motor.natural_frequency(setup.cfg.driver.current) / std::f64::consts::TAU,
+        natural_frequency_hz: motor.natural_frequency(setup.cfg.driver.current)
+            / std::f64::consts::TAU,
         max_angle_deg: BTreeMap::new(),
         min_time_360_ms: BTreeMap::new(),
-        paper_max_angle_deg: PAPER_MAX_ANGLE_DEG.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-        paper_min_time_360_ms: PAPER_MIN_TIME_360_MS.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+        paper_max_angle_deg: PAPER_MAX_ANGLE_DEG
+            .iter()
+            .map(|(k, v)| (k.to_string(), *v))
+            .collect(),
+        paper_min_time_360_ms: PAPER_MIN_TIME_360_MS
+            .iter()
+            .map(|(k, v)| (k.to_string(), *v))
+            .collect(),
         error_at_max_angle: BTreeMap::new(),
         error_at_min_time: BTreeMap::new(),
         simulations: 0,

@@ -4,7 +4,10 @@
 
 use crate::error::SimError;
 use crate::measures::{EnergyBalance, Measures};
-use crate::model::{Command, Plant, State, COULOMB_SMOOTHING, E_CU, E_IN, E_MECH, IA, IB, NSTATE, OM, TH, ZA, ZB};
+use crate::model::{
+    sin_cos_shifted, Command, Plant, State, COULOMB_SMOOTHING, E_CU, E_IN, E_MECH, IA, IB, NSTATE,
+    OM, TH, ZA, ZB,
+};
 use crate::motor::Motor;
 use crate::{DriverMode, SimConfig, SimResult, TraceRow};
 
@@ -17,7 +20,10 @@ pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
     let d = &cfg.driver;
     let j = m.inertia();
     let mut modes = vec![
-        ("rotor oscillation ω_n = √(N_r·K_m·I/J)", m.natural_frequency(d.current)),
+        (
+            "rotor oscillation ω_n = √(N_r·K_m·I/J)",
+            m.natural_frequency(d.current),
+        ),
         (
             "mechanical damping (B + D_s)/J",
             (m.viscous_friction + m.iron_loss_eddy + m.oscillation_damping(d.current)) / j,
@@ -34,7 +40,10 @@ pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
         ));
     }
     if let Some(w) = cfg.peak_speed_hint {
-        modes.push(("electrical frequency N_r·ω at peak speed", m.rotor_teeth as f64 * w.abs()));
+        modes.push((
+            "electrical frequency N_r·ω at peak speed",
+            m.rotor_teeth as f64 * w.abs(),
+        ));
     }
     modes
         .into_iter()
@@ -45,7 +54,11 @@ pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
 pub fn check_step(m: &Motor, cfg: &SimConfig) -> Result<(), SimError> {
     let dt = cfg.dt;
     if !(dt.is_finite() && dt > 0.0) {
-        return Err(SimError::BadSetting { field: "dt", value: dt, why: "must be > 0" });
+        return Err(SimError::BadSetting {
+            field: "dt",
+            value: dt,
+            why: "must be > 0",
+        });
     }
     let (mode, rate) = fastest_mode(m, cfg);
     if dt * rate > STABILITY_LIMIT {
@@ -69,10 +82,18 @@ fn rk4<const IDEAL: bool>(p: &Plant, x: &mut State, u: &Command, h: f64) {
         }
         y
     };
-    let k1 = p.rhs::<IDEAL>(x, u);
-    let k2 = p.rhs::<IDEAL>(&add(x, &k1, 0.5 * h), u);
-    let k3 = p.rhs::<IDEAL>(&add(x, &k2, 0.5 * h), u);
-    let k4 = p.rhs::<IDEAL>(&add(x, &k3, h), u);
+    // One sin_cos per step: the stages' angles are shifted from θ by at most h·|ω|.
+    let phi = p.nr * x[TH];
+    let (s, c) = phi.sin_cos();
+    let stage = |k: &State, a: f64| {
+        let y = add(x, k, a);
+        let (sy, cy) = sin_cos_shifted(s, c, phi, p.nr * a * k[TH]);
+        p.rhs_at::<IDEAL>(&y, u, sy, cy)
+    };
+    let k1 = p.rhs_at::<IDEAL>(x, u, s, c);
+    let k2 = stage(&k1, 0.5 * h);
+    let k3 = stage(&k2, 0.5 * h);
+    let k4 = stage(&k3, h);
     for i in 0..NSTATE {
         x[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
     }
@@ -89,7 +110,11 @@ pub fn run<I: Iterator<Item = u64>>(
     cfg.driver.validate()?;
     m.validate()?;
     if !(clock_hz.is_finite() && clock_hz > 0.0) {
-        return Err(SimError::BadSetting { field: "clock", value: clock_hz, why: "must be > 0" });
+        return Err(SimError::BadSetting {
+            field: "clock",
+            value: clock_hz,
+            why: "must be > 0",
+        });
     }
     check_step(m, cfg)?;
     let p = Plant::new(m, &cfg.driver, direction);
@@ -113,7 +138,9 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     let full_step = micro * cfg.driver.microsteps as f64;
     let wn = m.natural_frequency(cfg.driver.current);
     let zeta = m.effective_damping_ratio(cfg.driver.current);
-    let settle_max = cfg.settle_max.unwrap_or_else(|| (8.0 / (zeta.max(1e-3) * wn)).clamp(5e-3, 0.5));
+    let settle_max = cfg
+        .settle_max
+        .unwrap_or_else(|| (8.0 / (zeta.max(1e-3) * wn)).clamp(5e-3, 0.5));
     // ω* over [e_prev, e_next): one microstep per period, as the field moves (0 after the end).
     let omega_ref = |from: u64, to: Option<u64>| match to {
         Some(e) => dir * micro * clock / (e.saturating_sub(from).max(1)) as f64,
@@ -136,7 +163,9 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     let mut t = 0.0;
     let mut k: u64 = 0;
     let mut last_edge_t = 0.0;
-    let trace_every = cfg.trace_interval.map(|ti| ((ti / dt).round() as u64).max(1));
+    let trace_every = cfg
+        .trace_interval
+        .map(|ti| ((ti / dt).round() as u64).max(1));
     let mut trace = Vec::new();
     let err_of = |count: u64, x: &State| count as f64 * micro - dir * x[TH];
     loop {
@@ -168,7 +197,11 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
         meas.observe(t, err, x[OM]);
         if let Some(n) = trace_every {
             if k % n == 0 {
-                let (ia, ib) = if IDEAL { (u.ia_ref, u.ib_ref) } else { (x[IA], x[IB]) };
+                let (ia, ib) = if IDEAL {
+                    (u.ia_ref, u.ib_ref)
+                } else {
+                    (x[IA], x[IB])
+                };
                 trace.push(TraceRow {
                     t,
                     commanded_deg: (count as f64 * micro).to_degrees(),
@@ -187,7 +220,9 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
         if next.is_none() {
             let since = t - last_edge_t;
             let amplitude = meas.deviation(err).hypot(x[OM] / wn);
-            if since >= settle_max || (since >= 1e-3 && amplitude < 0.05 * full_step) {
+            if since >= settle_max
+                || (since >= 1e-3 && amplitude < cfg.settle_tolerance * full_step)
+            {
                 break;
             }
         }

@@ -15,6 +15,7 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod analysis;
 pub mod driver;
 pub mod error;
 pub mod experiments;
@@ -43,8 +44,10 @@ pub struct SimConfig {
     /// RK4 step (s).
     pub dt: f64,
     /// Longest settling after the last edge (s); default 8/(ζ·ω_n) within 5 ms…0.5 s. The run
-    /// ends earlier once the rotor rests within 1/20 full step of an equilibrium.
+    /// ends earlier once the rotor rests within `settle_tolerance` of an equilibrium.
     pub settle_max: Option<f64>,
+    /// Settled: within this fraction of a full step of an equilibrium, at rest (default 0.05).
+    pub settle_tolerance: f64,
     /// End the run at the first lost step (for searches that only need yes or no).
     pub stop_at_first_loss: bool,
     /// Record a trace row every this many seconds (rounded to whole dt).
@@ -59,6 +62,7 @@ impl SimConfig {
             driver: DriverConfig::for_motor(m),
             dt: DEFAULT_DT,
             settle_max: None,
+            settle_tolerance: 0.05,
             stop_at_first_loss: false,
             trace_interval: None,
             peak_speed_hint: None,

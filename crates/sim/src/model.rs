@@ -39,6 +39,8 @@ pub struct Plant {
     pub r: f64,
     pub l: f64,
     pub j: f64,
+    inv_j: f64,
+    inv_l: f64,
     pub td: f64,
     /// Viscous B plus eddy iron loss: linear drag (N·m·s/rad).
     pub b_lin: f64,
@@ -61,6 +63,8 @@ impl Plant {
             r: m.resistance,
             l: m.inductance,
             j: m.inertia(),
+            inv_j: 1.0 / m.inertia(),
+            inv_l: 1.0 / m.inductance,
             td: m.detent_torque,
             b_lin: m.viscous_friction + m.iron_loss_eddy,
             t_dry: m.coulomb_friction + m.iron_loss_hysteresis,
@@ -100,8 +104,18 @@ impl Plant {
     #[inline(always)]
     pub fn rhs<const IDEAL: bool>(&self, x: &State, u: &Command) -> State {
         let (s, c) = (self.nr * x[TH]).sin_cos();
+        self.rhs_at::<IDEAL>(x, u, s, c)
+    }
+
+    /// dx/dt given sin and cos of the electrical angle N_r·θ of `x`.
+    #[inline(always)]
+    pub fn rhs_at<const IDEAL: bool>(&self, x: &State, u: &Command, s: f64, c: f64) -> State {
         let w = x[OM];
-        let (ia, ib) = if IDEAL { (u.ia_ref, u.ib_ref) } else { (x[IA], x[IB]) };
+        let (ia, ib) = if IDEAL {
+            (u.ia_ref, u.ib_ref)
+        } else {
+            (x[IA], x[IB])
+        };
         // sin(4φ) = 2·sin(2φ)·cos(2φ) from sin φ, cos φ: no second transcendental call.
         let sin4 = 4.0 * s * c * (c * c - s * s);
         let te = self.km * (ib * c - ia * s) - self.td * sin4;
@@ -109,15 +123,14 @@ impl Plant {
         let damp = self.ds * (w - u.omega_ref);
         let mut dx = [0.0; NSTATE];
         dx[TH] = w;
-        dx[OM] = (te - drag - damp - self.tl) / self.j;
+        dx[OM] = (te - drag - damp - self.tl) * self.inv_j;
         dx[E_MECH] = (drag + damp + self.tl) * w;
         if !IDEAL {
             // back-EMF e_A = −K_m·ω·sin(N_r θ), e_B = K_m·ω·cos(N_r θ)
             let (ea, eb) = (-self.km * w * s, self.km * w * c);
             let (va, vb, dza, dzb) = self.voltages(x, u);
-            let inv_l = 1.0 / self.l;
-            dx[IA] = (va - self.r * ia - ea) * inv_l;
-            dx[IB] = (vb - self.r * ib - eb) * inv_l;
+            dx[IA] = (va - self.r * ia - ea) * self.inv_l;
+            dx[IB] = (vb - self.r * ib - eb) * self.inv_l;
             dx[ZA] = dza;
             dx[ZB] = dzb;
             dx[E_IN] = va * ia + vb * ib;
@@ -129,8 +142,41 @@ impl Plant {
     /// Energy held in the state: ½L·i² + ½J·ω² + detent potential (J). The detent torque
     /// −T_d·sin(4N_r θ) is −dU/dθ with U = −T_d·cos(4N_r θ)/(4N_r).
     pub fn stored_energy(&self, x: &State) -> f64 {
-        0.5 * self.l * (x[IA] * x[IA] + x[IB] * x[IB])
-            + 0.5 * self.j * x[OM] * x[OM]
+        0.5 * self.l * (x[IA] * x[IA] + x[IB] * x[IB]) + 0.5 * self.j * x[OM] * x[OM]
             - self.td * (4.0 * self.nr * x[TH]).cos() / (4.0 * self.nr)
+    }
+}
+
+/// sin and cos of φ + δ from those of φ. For |δ| < 0.02 the angle-addition formula with
+/// Taylor terms through δ⁷ is exact to f64 rounding (next term δ⁸/8! < 10⁻¹⁸) and avoids a
+/// transcendental call; RK4's inner stages move the electrical angle by far less than that.
+#[inline(always)]
+pub fn sin_cos_shifted(s: f64, c: f64, phi: f64, delta: f64) -> (f64, f64) {
+    if delta.abs() >= 0.02 {
+        return (phi + delta).sin_cos();
+    }
+    let d2 = delta * delta;
+    let cd = 1.0 - d2 * (0.5 - d2 * (1.0 / 24.0 - d2 * (1.0 / 720.0)));
+    let sd = delta * (1.0 - d2 * (1.0 / 6.0 - d2 * (1.0 / 120.0 - d2 * (1.0 / 5040.0))));
+    (s * cd + c * sd, c * cd - s * sd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sin_cos_shifted;
+
+    #[test]
+    fn shifted_sin_cos_matches_libm() {
+        for k in 0..2000 {
+            let phi = -50.0 + 0.0517 * k as f64;
+            let delta = -0.03 + 3e-5 * k as f64;
+            let (s, c) = phi.sin_cos();
+            let (s1, c1) = sin_cos_shifted(s, c, phi, delta);
+            let (s2, c2) = (phi + delta).sin_cos();
+            assert!(
+                (s1 - s2).abs() < 1e-14 && (c1 - c2).abs() < 1e-14,
+                "{phi} {delta}"
+            );
+        }
     }
 }

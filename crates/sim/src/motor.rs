@@ -224,16 +224,22 @@ mod tests {
     fn bad_files_name_the_field() {
         let base = LIBRARY[0].1;
         let missing = base.replace("resistance = 0.9\n", "");
-        let e = Motor::from_toml(&missing, "x.toml").unwrap_err().to_string();
+        let e = Motor::from_toml(&missing, "x.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("resistance"), "{e}");
         let negative = base.replace("inductance = 2.5e-3", "inductance = -1.0");
-        let e = Motor::from_toml(&negative, "x.toml").unwrap_err().to_string();
+        let e = Motor::from_toml(&negative, "x.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("`inductance`"), "{e}");
         let typo = base.replace("rotor_inertia", "rotor_inertai");
         let e = Motor::from_toml(&typo, "x.toml").unwrap_err().to_string();
         assert!(e.contains("rotor_inertai"), "{e}");
         let wrong_type = base.replace("rated_current = 2.8", "rated_current = \"2.8 A\"");
-        let e = Motor::from_toml(&wrong_type, "x.toml").unwrap_err().to_string();
+        let e = Motor::from_toml(&wrong_type, "x.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("rated_current"), "{e}");
         let e = Motor::load("no-such-motor").unwrap_err().to_string();
         assert!(e.contains("57mm"), "{e}");

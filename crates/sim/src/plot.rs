@@ -36,7 +36,10 @@ fn ensure_font() -> Result<(), String> {
 
 /// Writes the two-panel plot of `rows` to `path` (.svg or .png).
 pub fn plot_trace(path: &str, title: &str, rows: &[TraceRow]) -> Result<(), SimError> {
-    let err = |msg: String| SimError::Plot { file: path.to_string(), msg };
+    let err = |msg: String| SimError::Plot {
+        file: path.to_string(),
+        msg,
+    };
     if rows.len() < 2 {
         return Err(err("the trace has fewer than two samples".into()));
     }
@@ -46,7 +49,12 @@ pub fn plot_trace(path: &str, title: &str, rows: &[TraceRow]) -> Result<(), SimE
     if lower.ends_with(".svg") {
         draw(SVGBackend::new(path, size).into_drawing_area(), title, rows).map_err(err)
     } else if lower.ends_with(".png") {
-        draw(BitMapBackend::new(path, size).into_drawing_area(), title, rows).map_err(err)
+        draw(
+            BitMapBackend::new(path, size).into_drawing_area(),
+            title,
+            rows,
+        )
+        .map_err(err)
     } else {
         Err(err("the file name must end in .svg or .png".into()))
     }
@@ -66,7 +74,9 @@ fn draw<DB: DrawingBackend>(
         let (lo, hi) = rows
             .iter()
             .map(f)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
         let pad = ((hi - lo) * 0.05).max(1e-9);
         (lo - pad)..(hi + pad)
     };

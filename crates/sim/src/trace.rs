@@ -19,7 +19,10 @@ pub fn fill_commanded_speed(rows: &mut [TraceRow]) {
 }
 
 pub fn write_csv(path: &str, rows: &[TraceRow]) -> Result<(), SimError> {
-    let io = |source| SimError::Io { file: path.to_string(), source };
+    let io = |source| SimError::Io {
+        file: path.to_string(),
+        source,
+    };
     let f = std::fs::File::create(path).map_err(io)?;
     let mut w = std::io::BufWriter::new(f);
     writeln!(
