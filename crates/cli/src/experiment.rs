@@ -81,60 +81,64 @@ fn print_curve_limits(
     )?;
     writeln!(
         out,
-        "calibrated: load inertia {:.4e} kg·m² (trapezoid {}° in {} ms is the limit); damping ratio ζ = {:.3} (not fitted), rotor oscillation {:.1} Hz",
+        "calibrated: load inertia {:.4e} kg·m² (trapezoid {}° in {} ms is the limit); damping ratio ζ = {:.3} (chosen, not fitted), rotor oscillation {:.1} Hz",
         r.load_inertia, r.calibration_angle_deg, s.period_s * 1e3, r.damping_ratio, r.natural_frequency_hz
     )?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "(a) largest angle without loss in 100 ms (40/20/40 ms)"
-    )?;
-    writeln!(
-        out,
-        "{:<12} {:>8} {:>8} {:>8}   {}",
-        "family", "ours °", "paper °", "dev", "following error at the limit (°)"
-    )?;
-    for (fam, v) in &r.max_angle_deg {
-        let paper = r.paper_max_angle_deg.get(fam).copied();
-        let e = &r.error_at_max_angle[fam];
-        let note = if fam == "trapezoid" {
-            " (calibration cell)"
-        } else {
-            ""
-        };
+    let tables = [
+        (
+            "(a) largest angle without loss in 100 ms (40/20/40 ms)",
+            "°",
+            &r.max_angle_deg,
+            &r.paper_max_angle_deg,
+            &r.cells_max_angle,
+        ),
+        (
+            "(b) shortest time for 360° (phases 40:20:40 of the time)",
+            "ms",
+            &r.min_time_360_ms,
+            &r.paper_min_time_360_ms,
+            &r.cells_min_time,
+        ),
+    ];
+    for (title, unit, values, paper, cells) in tables {
+        writeln!(out)?;
+        writeln!(out, "{title}")?;
         writeln!(
             out,
-            "{:<12} {:>8.0} {}   {:+.2} … {:+.2}{}",
-            fam,
-            v,
-            deviation(*v, paper),
-            e.min_deg,
-            e.max_deg,
-            note
+            "{:<12} {:>8} {:>8} {:>8}  {:>16}  {:>10}  {}",
+            "family",
+            format!("ours {unit}"),
+            format!("paper {unit}"),
+            "dev",
+            "error at limit °",
+            "peak °/s",
+            "first loss just past the limit"
         )?;
-    }
-    writeln!(out)?;
-    writeln!(
-        out,
-        "(b) shortest time for 360° (phases 40:20:40 of the time)"
-    )?;
-    writeln!(
-        out,
-        "{:<12} {:>8} {:>8} {:>8}   {}",
-        "family", "ours ms", "paper ms", "dev", "following error at the limit (°)"
-    )?;
-    for (fam, v) in &r.min_time_360_ms {
-        let paper = r.paper_min_time_360_ms.get(fam).copied();
-        let e = &r.error_at_min_time[fam];
-        writeln!(
-            out,
-            "{:<12} {:>8.1} {}   {:+.2} … {:+.2}",
-            fam,
-            v,
-            deviation(*v, paper),
-            e.min_deg,
-            e.max_deg
-        )?;
+        for fam in &s.families {
+            let Some(v) = values.get(fam) else { continue };
+            let c = &cells[fam];
+            let loss = match (c.loss_past_limit_ms, c.loss_phase) {
+                (Some(t), Some(ph)) => format!("{t:.1} ms ({ph})"),
+                _ => "—".to_string(),
+            };
+            let note = if fam == "trapezoid" && unit == "°" {
+                " [calibration cell]"
+            } else {
+                ""
+            };
+            writeln!(
+                out,
+                "{:<12} {:>8.1} {}  {:>+7.2} … {:>+5.2}  {:>10.0}  {}{}",
+                fam,
+                v,
+                deviation(*v, paper.get(fam).copied()),
+                c.error_min_deg,
+                c.error_max_deg,
+                c.peak_speed_deg_s,
+                loss,
+                note
+            )?;
+        }
     }
     Ok(())
 }

@@ -199,11 +199,22 @@ impl CurveLimitsSetup {
     }
 }
 
-/// Following-error range of a family at its limit (°), as in seed 001's tables.
+/// One cell of a table: the limit found, how the rotor behaves at it, and where the move just
+/// past it first loses a step (the mechanism that sets the limit).
 #[derive(Clone, Copy, Debug, Serialize)]
-pub struct ErrorRange {
-    pub min_deg: f64,
-    pub max_deg: f64,
+pub struct Cell {
+    /// Degrees (table a) or milliseconds (table b).
+    pub value: f64,
+    /// Following-error range at the limit (°), as in seed 001's tables.
+    pub error_min_deg: f64,
+    pub error_max_deg: f64,
+    /// Commanded peak speed (°/s) and the acceleration at the end of the accel phase (°/s²).
+    pub peak_speed_deg_s: f64,
+    pub accel_at_peak_speed_deg_s2: f64,
+    /// First loss of the move one resolution step past the limit (ms from the start), and the
+    /// phase it falls in: accel, cruise, decel or settle.
+    pub loss_past_limit_ms: Option<f64>,
+    pub loss_phase: Option<&'static str>,
 }
 
 /// Result of `experiment curve-limits`.
@@ -222,10 +233,8 @@ pub struct CurveLimits {
     pub min_time_360_ms: BTreeMap<String, f64>,
     pub paper_max_angle_deg: BTreeMap<String, f64>,
     pub paper_min_time_360_ms: BTreeMap<String, f64>,
-    /// Following error at each family's limit, Table 1 and Table 2 cells.
-    pub error_at_max_angle: BTreeMap<String, ErrorRange>,
-    pub error_at_min_time: BTreeMap<String, ErrorRange>,
-    pub simulations: u64,
+    pub cells_max_angle: BTreeMap<String, Cell>,
+    pub cells_min_time: BTreeMap<String, Cell>,
 }
 
 fn progress(len: u64) -> ProgressBar {
@@ -235,16 +244,65 @@ fn progress(len: u64) -> ProgressBar {
         ProgressDrawTarget::hidden()
     };
     let bar = ProgressBar::with_draw_target(Some(len), target);
-    if let Ok(style) = ProgressStyle::with_template("{msg:>28} [{bar:30}] {pos}/{len} {elapsed}") {
+    if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:30}] {pos}/{len} {elapsed}") {
         bar.set_style(style.progress_chars("=> "));
     }
     bar
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, PartialEq)]
 enum Table {
     MaxAngle,
     MinTime,
+}
+
+impl CurveLimitsSetup {
+    /// Describes the cell at (`angle`, `period`) and the failing move `past` (angle, period).
+    fn cell(
+        &self,
+        m: &Motor,
+        fam: &str,
+        value: f64,
+        at: (f64, f64),
+        past: (f64, f64),
+    ) -> Result<Cell, SimError> {
+        let r = self.run(m, fam, at.0, at.1, false)?;
+        let fail = self.run(m, fam, past.0, past.1, true)?;
+        let [fa, fb, fc] = self.fractions;
+        let p = past.1;
+        let loss_phase = fail.first_loss_s.map(|t| {
+            if t < fa * p {
+                "accel"
+            } else if t < (fa + fb) * p {
+                "cruise"
+            } else if t < (fa + fb + fc) * p {
+                "decel"
+            } else {
+                "settle"
+            }
+        });
+        let profile = MoveSpec {
+            profile: Some(fam),
+            steps: Some(self.steps_for(at.0)),
+            accel_time: Some(fa * at.1),
+            cruise_time: Some(fb * at.1),
+            decel_time: Some(fc * at.1),
+            ..Default::default()
+        }
+        .plan()?;
+        let deg_per_step = 1.8 / self.cfg.driver.microsteps as f64;
+        // Just before the end of the accel phase: the acceleration at the peak speed.
+        let t_top = fa * at.1 * (1.0 - 1e-9);
+        Ok(Cell {
+            value,
+            error_min_deg: r.min_following_error_deg,
+            error_max_deg: r.max_following_error_deg,
+            peak_speed_deg_s: profile.peaks().0 * deg_per_step,
+            accel_at_peak_speed_deg_s2: profile.acceleration(t_top) * deg_per_step,
+            loss_past_limit_ms: fail.first_loss_s.map(|t| t * 1e3),
+            loss_phase,
+        })
+    }
 }
 
 /// Runs the whole experiment: calibration, then every (family, table) cell in parallel.
@@ -261,28 +319,27 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
     let mut motor = setup.motor.clone();
     motor.load_inertia = jl;
     bar.set_message("curve limits");
-    let results: Vec<(String, Table, f64, ErrorRange)> = cells
+    let results: Vec<(String, Table, Cell)> = cells
         .par_iter()
         .map(|(fam, table)| {
-            let (value, run) = match table {
+            let cell = match table {
                 Table::MaxAngle => {
                     let a = setup.max_angle(&motor, fam)?;
-                    (a, setup.run(&motor, fam, a, setup.period_s, false)?)
+                    let p = setup.period_s;
+                    setup.cell(&motor, fam, a, (a, p), (a + setup.angle_tol_deg, p))?
                 }
                 Table::MinTime => {
                     let t = setup.min_time_360(&motor, fam)?;
-                    (t * 1e3, setup.run(&motor, fam, 360.0, t, false)?)
+                    let past = (t - setup.time_tol_s).max(t / 2.0);
+                    setup.cell(&motor, fam, t * 1e3, (360.0, t), (360.0, past))?
                 }
             };
             bar.inc(1);
-            let range = ErrorRange {
-                min_deg: run.min_following_error_deg,
-                max_deg: run.max_following_error_deg,
-            };
-            Ok((fam.clone(), *table, value, range))
+            Ok((fam.clone(), *table, cell))
         })
         .collect::<Result<_, SimError>>()?;
     bar.finish_and_clear();
+    let named = |t: &[(&str, f64)]| t.iter().map(|(k, v)| (k.to_string(), *v)).collect();
     let mut out = CurveLimits {
         motor: motor.name.clone(),
         supply_voltage: setup.cfg.driver.supply_voltage,
@@ -295,29 +352,18 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
             / std::f64::consts::TAU,
         max_angle_deg: BTreeMap::new(),
         min_time_360_ms: BTreeMap::new(),
-        paper_max_angle_deg: PAPER_MAX_ANGLE_DEG
-            .iter()
-            .map(|(k, v)| (k.to_string(), *v))
-            .collect(),
-        paper_min_time_360_ms: PAPER_MIN_TIME_360_MS
-            .iter()
-            .map(|(k, v)| (k.to_string(), *v))
-            .collect(),
-        error_at_max_angle: BTreeMap::new(),
-        error_at_min_time: BTreeMap::new(),
-        simulations: 0,
+        paper_max_angle_deg: named(&PAPER_MAX_ANGLE_DEG),
+        paper_min_time_360_ms: named(&PAPER_MIN_TIME_360_MS),
+        cells_max_angle: BTreeMap::new(),
+        cells_min_time: BTreeMap::new(),
     };
-    for (fam, table, value, range) in results {
-        match table {
-            Table::MaxAngle => {
-                out.max_angle_deg.insert(fam.clone(), value);
-                out.error_at_max_angle.insert(fam, range);
-            }
-            Table::MinTime => {
-                out.min_time_360_ms.insert(fam.clone(), value);
-                out.error_at_min_time.insert(fam, range);
-            }
-        }
+    for (fam, table, cell) in results {
+        let (values, cells) = match table {
+            Table::MaxAngle => (&mut out.max_angle_deg, &mut out.cells_max_angle),
+            Table::MinTime => (&mut out.min_time_360_ms, &mut out.cells_min_time),
+        };
+        values.insert(fam.clone(), cell.value);
+        cells.insert(fam, cell);
     }
     Ok(out)
 }
