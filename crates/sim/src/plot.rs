@@ -94,7 +94,10 @@ fn draw<DB: DrawingBackend>(
         .y_desc("speed (°/s)")
         .draw()
         .map_err(|x| e(&x))?;
-    let line = |f: fn(&TraceRow) -> f64| rows.iter().map(move |r| (r.t * 1e3, f(r)));
+    // At most ~2000 points a line: twice the plot's width in pixels keeps every feature.
+    let stride = rows.len().div_ceil(2000).max(1);
+    let line =
+        |f: fn(&TraceRow) -> f64| rows.iter().step_by(stride).map(move |r| (r.t * 1e3, f(r)));
     c.draw_series(LineSeries::new(line(|r| r.commanded_speed_deg_s), &BLUE))
         .map_err(|x| e(&x))?
         .label("commanded")
