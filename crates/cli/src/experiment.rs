@@ -140,6 +140,8 @@ fn print_curve_limits(
             )?;
         }
     }
+    writeln!(out)?;
+    writeln!(out, "{} simulations", r.simulations)?;
     Ok(())
 }
 

@@ -8,6 +8,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::IsTerminal;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 /// Seed 001 Table 1: largest angle without lost steps in 100 ms (40 ms accel, 40 ms decel).
 pub const PAPER_MAX_ANGLE_DEG: [(&str, f64); 3] = [
@@ -46,6 +48,8 @@ pub struct CurveLimitsSetup {
     /// Calibration cell: trapezoid at this angle is the largest without loss.
     pub calibration_angle_deg: f64,
     pub families: Vec<String>,
+    /// Simulations run so far (all threads).
+    pub simulations: Arc<AtomicU64>,
 }
 
 impl CurveLimitsSetup {
@@ -65,6 +69,7 @@ impl CurveLimitsSetup {
             time_tol_s: 0.5e-3,
             calibration_angle_deg: 810.0,
             families: FAMILIES.iter().map(|s| s.to_string()).collect(),
+            simulations: Arc::new(AtomicU64::new(0)),
         })
     }
 
@@ -93,6 +98,7 @@ impl CurveLimitsSetup {
         .plan()?;
         let mut cfg = self.cfg.clone();
         cfg.stop_at_first_loss = stop_at_loss;
+        self.simulations.fetch_add(1, Ordering::Relaxed);
         simulate_profile(motor, &cfg, profile, self.clock_hz, 1.0)
     }
 
@@ -235,6 +241,8 @@ pub struct CurveLimits {
     pub paper_min_time_360_ms: BTreeMap<String, f64>,
     pub cells_max_angle: BTreeMap<String, Cell>,
     pub cells_min_time: BTreeMap<String, Cell>,
+    /// Simulations the whole experiment ran (calibration included).
+    pub simulations: u64,
 }
 
 fn progress(len: u64) -> ProgressBar {
@@ -356,6 +364,7 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
         paper_min_time_360_ms: named(&PAPER_MIN_TIME_360_MS),
         cells_max_angle: BTreeMap::new(),
         cells_min_time: BTreeMap::new(),
+        simulations: 0,
     };
     for (fam, table, cell) in results {
         let (values, cells) = match table {
@@ -365,6 +374,7 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
         values.insert(fam.clone(), cell.value);
         cells.insert(fam, cell);
     }
+    out.simulations = setup.simulations.load(Ordering::Relaxed);
     Ok(out)
 }
 
