@@ -1,7 +1,8 @@
 //! The TDM engine against the plan's edges and against a tick-by-tick reference model.
 
 use multistep_core::tdm::{
-    k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report, StepPulse, TdmConfig, TdmError,
+    k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report,
+    StepPulse, TdmConfig, TdmError,
 };
 use multistep_core::{EdgeGenerator, Family, MoveSpec, PhaseMove, Profile, Segment};
 use proptest::prelude::*;
@@ -28,7 +29,9 @@ fn seed000_axes() -> Vec<Axis> {
 /// Runs a board and keeps every pulse per axis.
 fn run(cfg: TdmConfig, axes: &mut [Axis]) -> (Report, Vec<Vec<StepPulse>>) {
     let mut pulses = vec![Vec::new(); axes.len()];
-    let r = Board::new(cfg, axes).unwrap().run(|p| pulses[p.axis].push(p));
+    let r = Board::new(cfg, axes)
+        .unwrap()
+        .run(|p| pulses[p.axis].push(p));
     (r, pulses)
 }
 
@@ -47,7 +50,11 @@ fn check_against_plan(r: &Report, axes: &[Axis], pulses: &[Vec<StepPulse>], cloc
         for (j, (p, e)) in got.iter().zip(&plan).enumerate() {
             assert_eq!(p.step, j as u64 + 1);
             let off = p.rise - r.start_tick - e;
-            assert!(off >= late, "axis {m} step {}: an edge moved earlier", j + 1);
+            assert!(
+                off >= late,
+                "axis {m} step {}: an edge moved earlier",
+                j + 1
+            );
             if off > late {
                 jumps += 1;
                 late = off;
@@ -55,7 +62,10 @@ fn check_against_plan(r: &Report, axes: &[Axis], pulses: &[Vec<StepPulse>], cloc
             assert!(p.fall > p.rise);
         }
         let s = a.stats();
-        assert_eq!(late, s.late_ticks, "axis {m}: the delay is the reported one");
+        assert_eq!(
+            late, s.late_ticks,
+            "axis {m}: the delay is the reported one"
+        );
         assert_eq!(jumps, s.underruns, "axis {m}: one delay per underrun");
         assert_eq!(s.steps, plan.len() as u64);
         assert_eq!(s.start_tick, r.start_tick);
@@ -149,7 +159,10 @@ fn bad_configurations_are_typed_errors() {
         fifo_depth: 0,
         ..TdmConfig::default()
     };
-    assert!(matches!(err(d0, &mut axes), Some(TdmError::FifoDepth { .. })));
+    assert!(matches!(
+        err(d0, &mut axes),
+        Some(TdmError::FifoDepth { .. })
+    ));
     let zero = TdmConfig {
         latencies: Latencies {
             mul: 0,
@@ -164,14 +177,20 @@ fn bad_configurations_are_typed_errors() {
         clock_hz: 1e6,
         ..TdmConfig::default()
     };
-    assert!(matches!(err(clk, &mut axes), Some(TdmError::ClockMismatch { axis: 0, .. })));
+    assert!(matches!(
+        err(clk, &mut axes),
+        Some(TdmError::ClockMismatch { axis: 0, .. })
+    ));
     let w0 = TdmConfig {
         pulse: PulseShape::Fixed { ticks: 0 },
         ..TdmConfig::default()
     };
     assert_eq!(err(w0, &mut axes), Some(TdmError::ZeroPulseWidth));
     let mut many: Vec<Axis> = (0..65).map(|_| axes[0].clone()).collect();
-    assert!(matches!(err(TdmConfig::default(), &mut many), Some(TdmError::TooManyAxes { .. })));
+    assert!(matches!(
+        err(TdmConfig::default(), &mut many),
+        Some(TdmError::TooManyAxes { .. })
+    ));
 }
 
 #[test]
@@ -189,9 +208,14 @@ fn k_max_at_100k_steps_per_s_matches_eq12_for_aligned_identical_moves() {
 }
 
 fn arb_profile(max_steps: u64, max_time: f64) -> impl Strategy<Value = Profile> {
-    let phase = (1..=max_steps, 0.0..1.0f64, 0.0..1.0f64, 0.0..1.0f64, 0usize..6).prop_filter_map(
-        "feasible phase move",
-        move |(steps, a, b, c, fam)| {
+    let phase = (
+        1..=max_steps,
+        0.0..1.0f64,
+        0.0..1.0f64,
+        0.0..1.0f64,
+        0usize..6,
+    )
+        .prop_filter_map("feasible phase move", move |(steps, a, b, c, fam)| {
             let family = Family::parse(Family::NAMES[fam], None, None, None).ok()?;
             Profile::phase(&PhaseMove {
                 steps,
@@ -203,8 +227,7 @@ fn arb_profile(max_steps: u64, max_time: f64) -> impl Strategy<Value = Profile> 
                 family,
             })
             .ok()
-        },
-    );
+        });
     let segs = (1..=max_steps, 0.1..1.0f64, 0.0..1.0f64).prop_filter_map(
         "feasible segments",
         move |(n, t, v)| {
@@ -213,8 +236,16 @@ fn arb_profile(max_steps: u64, max_time: f64) -> impl Strategy<Value = Profile> 
             let v0 = v * n as f64 / t;
             let v1 = 2.0 * n as f64 / t - v0;
             let segs = [
-                Segment { v0, duration: t, steps: n },
-                Segment { v0: v1, duration: 2.0 * n as f64 / v1.max(1e-9), steps: n },
+                Segment {
+                    v0,
+                    duration: t,
+                    steps: n,
+                },
+                Segment {
+                    v0: v1,
+                    duration: 2.0 * n as f64 / v1.max(1e-9),
+                    steps: n,
+                },
             ];
             Profile::segments(&segs).ok()
         },

@@ -35,7 +35,10 @@ pub struct KMax {
 
 /// Shortest period (ticks) of a move at a clock.
 pub fn min_period_ticks(profile: &Profile, clock_hz: f64) -> Result<u64, TdmError> {
-    Ok(EdgeGenerator::new(profile.clone(), clock_hz)?.periods().min().unwrap_or(0))
+    Ok(EdgeGenerator::new(profile.clone(), clock_hz)?
+        .periods()
+        .min()
+        .unwrap_or(0))
 }
 
 /// Seed 000 eq. (12): `k = Δt_min / t_calc`, rounded down.
@@ -87,7 +90,12 @@ pub fn k_max(cfg: &TdmConfig, moves: &[Profile], storage: &mut [Axis]) -> Result
 
 /// A seed-000-shaped trapezoid (accel, cruise, decel times) whose cruise speed is
 /// `rate` steps/s (rounded to whole steps).
-pub fn rate_move(rate: f64, accel_time: f64, cruise_time: f64, decel_time: f64) -> Result<Profile, TdmError> {
+pub fn rate_move(
+    rate: f64,
+    accel_time: f64,
+    cruise_time: f64,
+    decel_time: f64,
+) -> Result<Profile, TdmError> {
     let span = 0.5 * accel_time + cruise_time + 0.5 * decel_time;
     let steps = libm::round(rate * span).max(1.0) as u64;
     Ok(Profile::phase(&PhaseMove {

@@ -66,7 +66,13 @@ impl PulseUnit {
     /// Loads the next period at tick `load`; returns the tick STEP rises. Closes the
     /// previous pulse, whose fall depends on this one, and hands it to `sink`.
     #[inline]
-    pub fn load<F: FnMut(StepPulse)>(&mut self, axis: usize, load: u64, period: u64, sink: &mut F) -> u64 {
+    pub fn load<F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        load: u64,
+        period: u64,
+        sink: &mut F,
+    ) -> u64 {
         let rise = load + period;
         if self.steps == 0 {
             self.start = load;
@@ -135,7 +141,10 @@ mod tests {
         let want = [(1, 110, 140), (2, 170, 190), (3, 211, 231)];
         assert_eq!(p.len(), 3);
         for (got, (step, rise, fall)) in p.iter().zip(want) {
-            assert_eq!((got.axis, got.step, got.rise, got.fall), (3, step, rise, fall));
+            assert_eq!(
+                (got.axis, got.step, got.rise, got.fall),
+                (3, step, rise, fall)
+            );
         }
         assert_eq!(merged, 0);
     }
@@ -150,7 +159,10 @@ mod tests {
 
     #[test]
     fn fixed_width_and_merged_pulses() {
-        let (p, merged) = play(PulseShape::Fixed { ticks: 5 }, &[(0, 100), (100, 4), (104, 50)]);
+        let (p, merged) = play(
+            PulseShape::Fixed { ticks: 5 },
+            &[(0, 100), (100, 4), (104, 50)],
+        );
         assert_eq!((p[0].rise, p[0].fall), (100, 105));
         assert_eq!((p[1].rise, p[1].fall), (104, 109));
         assert_eq!(merged, 1, "pulse 1 is still high when pulse 2 rises");

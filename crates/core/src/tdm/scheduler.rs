@@ -1,7 +1,7 @@
 //! Which axis the calculator serves next.
 //!
 //! An axis is eligible at tick `t` when steps remain to compute and its FIFO has room
-//! (`room[m] <= t`). Both policies only choose among eligible axes; when none is eligible
+//! (`room[m] <= t`; a finished axis has `room[m] = u64::MAX`). Both policies only choose among eligible axes; when none is eligible
 //! the calculator idles until the earliest room tick.
 
 use super::TdmError;
@@ -33,34 +33,60 @@ impl Policy {
         }
     }
 
-    /// Picks the axis to serve at tick `t`. `room[m]`: first tick axis m's FIFO has room;
-    /// `need[m]`: tick its next period is needed; `left[m]`: periods still to compute;
-    /// `next`: the round-robin pointer, moved past the chosen axis.
+    /// The next computation at or after tick `t`: `(start tick, axis)`, or `None` when every
+    /// axis is done. `room[m]`: first tick axis m's FIFO has room (`u64::MAX` once all its
+    /// periods are computed); `need[m]`: tick its next period is needed; `next`: the
+    /// round-robin pointer, moved past the chosen axis. When no axis is eligible at `t`
+    /// the calculator idles until the earliest room tick. At most 64 axes.
     #[inline]
-    pub fn pick(&self, t: u64, room: &[u64], need: &[u64], left: &[u64], next: &mut usize) -> Option<usize> {
+    pub fn pick(
+        &self,
+        t: u64,
+        room: &[u64],
+        need: &[u64],
+        next: &mut usize,
+    ) -> Option<(u64, usize)> {
         let k = room.len();
         match self {
             Policy::RoundRobin => {
+                // one pass in round-robin order: the first eligible axis, else the first
+                // to get room (the earliest wake-up, ties in round-robin order)
+                let (mut wake, mut first) = (u64::MAX, 0);
                 let mut m = *next;
                 for _ in 0..k {
-                    if left[m] > 0 && room[m] <= t {
+                    let r = room[m];
+                    if r <= t {
                         *next = if m + 1 == k { 0 } else { m + 1 };
-                        return Some(m);
+                        return Some((t, m));
+                    }
+                    if r < wake {
+                        wake = r;
+                        first = m;
                     }
                     m = if m + 1 == k { 0 } else { m + 1 };
                 }
-                None
+                if wake == u64::MAX {
+                    return None;
+                }
+                *next = if first + 1 == k { 0 } else { first + 1 };
+                Some((wake, first))
             }
             Policy::EarliestDeadline => {
-                let mut best = None;
-                let mut best_need = u64::MAX;
-                for m in 0..k {
-                    if left[m] > 0 && room[m] <= t && (best.is_none() || need[m] < best_need) {
-                        best = Some(m);
-                        best_need = need[m];
-                    }
+                let t = t.max(room.iter().copied().min()?);
+                if t == u64::MAX {
+                    return None;
                 }
-                best
+                // (need, axis) packed in one key: the smallest is the earliest, then lowest m
+                let mut best = u64::MAX;
+                for (m, (&r, &d)) in room.iter().zip(need).enumerate() {
+                    let key = if r <= t {
+                        (d << 6) | m as u64
+                    } else {
+                        u64::MAX
+                    };
+                    best = best.min(key);
+                }
+                Some((t, (best & 63) as usize))
             }
         }
     }
@@ -79,27 +105,47 @@ mod tests {
 
     #[test]
     fn round_robin_goes_on_from_the_axis_after_the_last_served() {
-        let room = [0, 50, 0, 0];
+        let room = [0, 50, u64::MAX, 0];
         let need = [9, 1, 5, 7];
-        let left = [1, 1, 0, 1];
+        let rr = Policy::RoundRobin;
         let mut next = 1;
         // axis 1 has no room until 50, axis 2 is done: axis 3
-        assert_eq!(Policy::RoundRobin.pick(10, &room, &need, &left, &mut next), Some(3));
+        assert_eq!(rr.pick(10, &room, &need, &mut next), Some((10, 3)));
         assert_eq!(next, 0);
-        assert_eq!(Policy::RoundRobin.pick(10, &room, &need, &left, &mut next), Some(0));
-        assert_eq!(Policy::RoundRobin.pick(60, &room, &need, &left, &mut next), Some(1));
-        assert_eq!(Policy::RoundRobin.pick(10, &room, &need, &[0, 0, 0, 0], &mut next), None);
+        assert_eq!(rr.pick(10, &room, &need, &mut next), Some((10, 0)));
+        assert_eq!(rr.pick(60, &room, &need, &mut next), Some((60, 1)));
+        assert_eq!(next, 2);
+        assert_eq!(
+            rr.pick(60, &room, &need, &mut next),
+            Some((60, 3)),
+            "2 is done"
+        );
+        // nobody has room at 10: idle until 50, the first in round-robin order from 2
+        let mut next = 2;
+        assert_eq!(
+            rr.pick(10, &[70, 50, 90, 50], &need, &mut next),
+            Some((50, 3))
+        );
+        assert_eq!(rr.pick(10, &[u64::MAX; 4], &need, &mut next), None);
     }
 
     #[test]
     fn earliest_deadline_serves_the_axis_that_runs_dry_first() {
         let room = [0, 50, 0, 0];
         let need = [9, 1, 5, 5];
-        let left = [1, 1, 1, 1];
         let mut next = 0;
         let edf = Policy::EarliestDeadline;
-        assert_eq!(edf.pick(10, &room, &need, &left, &mut next), Some(2), "1 has no room, 2 ties 3");
-        assert_eq!(edf.pick(50, &room, &need, &left, &mut next), Some(1));
+        assert_eq!(
+            edf.pick(10, &room, &need, &mut next),
+            Some((10, 2)),
+            "1 has no room, 2 ties 3"
+        );
+        assert_eq!(edf.pick(50, &room, &need, &mut next), Some((50, 1)));
+        assert_eq!(
+            edf.pick(10, &[70, 50, 90, 50], &need, &mut next),
+            Some((50, 1))
+        );
+        assert_eq!(edf.pick(50, &[u64::MAX; 4], &need, &mut next), None);
         assert_eq!(Policy::parse("earliest-deadline"), Ok(edf));
         assert_eq!(Policy::parse("fifo"), Err(TdmError::UnknownPolicy));
     }
