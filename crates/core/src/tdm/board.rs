@@ -221,23 +221,28 @@ impl<'a> Board<'a> {
         Ok(Board { cfg, axes })
     }
 
+    /// The group's start: every FIFO filled and the DIR setup time over,
+    /// `max(dir_setup, t_calc · Σ_m min(depth, steps_m))`.
+    pub fn start_tick(&self) -> u64 {
+        let depth = self.cfg.fifo_depth as u64;
+        let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
+        let c = self.cfg.latencies.cycles_per_period();
+        self.cfg.dir_setup_ticks.max(prefill.saturating_mul(c))
+    }
+
     /// Runs every axis to its last step, handing each pulse to `sink`.
     pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
         let k = self.axes.len();
         let c = self.cfg.latencies.cycles_per_period();
-        let depth = self.cfg.fifo_depth as u64;
         // Hot scheduling state, contiguous so the policy's scans stay in cache.
         let mut room = [u64::MAX; MAX_AXES];
         let mut need = [0u64; MAX_AXES];
-        let mut prefill = 0u64;
         for (m, a) in self.axes.iter().enumerate() {
-            let steps = a.remaining();
-            if steps > 0 {
+            if a.remaining() > 0 {
                 room[m] = 0;
             }
-            prefill += steps.min(depth);
         }
-        let start = self.cfg.dir_setup_ticks.max(prefill * c);
+        let start = self.start_tick();
         need[..k].fill(start);
         let (room, need) = (&mut room[..k], &mut need[..k]);
 
