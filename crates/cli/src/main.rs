@@ -7,6 +7,7 @@ use std::process::ExitCode;
 mod moveargs;
 mod output;
 mod plan;
+mod tdm;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -23,6 +24,8 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
     };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
