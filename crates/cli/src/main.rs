@@ -9,7 +9,11 @@ mod output;
 mod plan;
 
 #[derive(Parser, Debug)]
-#[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
+#[command(
+    name = "multistep",
+    version,
+    about = "Exact step timing for multi-axis stepper motors"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
