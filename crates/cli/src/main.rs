@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod moveargs;
 mod output;
 mod plan;
@@ -23,6 +24,8 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
     };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
