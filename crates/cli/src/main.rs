@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod moveargs;
 mod output;
 mod plan;
@@ -26,6 +27,8 @@ enum Cmd {
     Plan(plan::PlanArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
     Tdm(tdm::TdmArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
