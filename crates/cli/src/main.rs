@@ -4,11 +4,13 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod experiment;
 mod moveargs;
 mod output;
 mod plan;
 mod simulate;
+mod tdm;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -25,6 +27,10 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
     /// Simulate one move on a motor and driver: lost steps and following error
     Simulate(Box<simulate::SimulateArgs>),
     /// Reproduce the seed papers' experiments on the simulator
@@ -32,9 +38,24 @@ enum Cmd {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => match e.kind() {
+            clap::error::ErrorKind::DisplayHelp
+            | clap::error::ErrorKind::DisplayVersion
+            | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
+            _ => {
+                // One line, as scripts expect: clap's first line already starts with "error:".
+                let text = e.render().to_string();
+                eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
+                return ExitCode::from(2);
+            }
+        },
+    };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
         Cmd::Simulate(a) => simulate::run(a),
         Cmd::Experiment(a) => experiment::run(a),
     };
