@@ -99,7 +99,8 @@ fn rk4<const IDEAL: bool>(p: &Plant, x: &mut State, u: &Command, h: f64) {
     }
 }
 
-/// Runs one move: `edges` are the step edges in ticks of `clock_hz`, `direction` ±1.
+/// Runs one move: `edges` are the step edges in ticks of `clock_hz`; the move goes in the
+/// negative direction when `direction` < 0, else in the positive one.
 pub fn run<I: Iterator<Item = u64>>(
     m: &Motor,
     cfg: &SimConfig,
@@ -117,10 +118,11 @@ pub fn run<I: Iterator<Item = u64>>(
         });
     }
     check_step(m, cfg)?;
-    let p = Plant::new(m, &cfg.driver, direction);
+    let dir = if direction < 0.0 { -1.0 } else { 1.0 };
+    let p = Plant::new(m, &cfg.driver, dir);
     match cfg.driver.mode {
-        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, direction),
-        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, direction),
+        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, dir),
+        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, dir),
     }
 }
 
@@ -130,9 +132,8 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     cfg: &SimConfig,
     mut edges: I,
     clock: f64,
-    direction: f64,
+    dir: f64,
 ) -> Result<SimResult, SimError> {
-    let dir = if direction < 0.0 { -1.0 } else { 1.0 };
     let dt = cfg.dt;
     let micro = m.microstep_angle(cfg.driver.microsteps);
     let full_step = micro * cfg.driver.microsteps as f64;
