@@ -2,6 +2,7 @@
 //! that contains edges is split at each edge time: every RK4 sub-step sees a constant command
 //! and the result is exact to RK4 order however many microsteps fall in one dt.
 
+use crate::driver::SineTable;
 use crate::error::SimError;
 use crate::measures::{EnergyBalance, Measures};
 use crate::model::{
@@ -151,7 +152,17 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     let mut x: State = [0.0; NSTATE];
     let mut next = edges.next();
     let mut after = edges.next();
-    let mut u = p.references(0.0, omega_ref(0, next));
+    // i_A* = I·cos(N_r θ*), i_B* = I·sin(N_r θ*) (DESIGN.md §4), from the driver's table.
+    let table = SineTable::new(cfg.driver.current, cfg.driver.microsteps);
+    let command = |count: u64, omega_ref: f64| {
+        let (ia_ref, ib_ref) = table.at(count, dir);
+        Command {
+            ia_ref,
+            ib_ref,
+            omega_ref,
+        }
+    };
+    let mut u = command(0, omega_ref(0, next));
     x[IA] = u.ia_ref;
     x[IB] = u.ib_ref;
     // PI integrators start at the steady holding voltage R·i: no start-up transient.
@@ -188,7 +199,7 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
                     return Err(SimError::EdgesBackwards { prev: e, next: n });
                 }
             }
-            u = p.references(dir * count as f64 * micro, omega_ref(e, next));
+            u = command(count, omega_ref(e, next));
             last_edge_t = te;
         }
         rk4::<IDEAL>(p, &mut x, &u, t_grid - t);
