@@ -413,3 +413,41 @@ proptest! {
         }
     }
 }
+
+/// Moves whose radicand needs more than 126 bits (k > 0: the rounded-radicand path) are
+/// exact on every edge too.
+#[test]
+fn wide_radicand_moves_are_exact() {
+    let mut r = Rng(6);
+    let clock = IntClock {
+        clock_hz: 50_000_000,
+        speed_scale: 1000,
+    };
+    let (mut wide, mut moves, mut too_wide) = (0u64, 0u64, 0u64);
+    while moves < 3000 {
+        let m = IntPhaseMove {
+            steps: r.range(1, 200),
+            accel_ticks: r.range(1, 20_000_000),
+            cruise_ticks: r.range(0, 5_000_000),
+            decel_ticks: r.range(1, 20_000_000),
+            start_speed: r.range(1, 100_000_000),
+            end_speed: r.range(0, 100_000_000),
+        };
+        let p = match IntProfile::phase(&m, clock) {
+            Ok(p) => p,
+            Err(e) => {
+                too_wide += (e == IntError::TooWide) as u64;
+                continue;
+            }
+        };
+        moves += 1;
+        wide += p.pieces().iter().any(|q| q.k > 0) as u64;
+        let e = int_edges(p.clone());
+        assert_exact(&p, &e, &|| format!("{m:?}"));
+    }
+    std::println!("{moves} moves, {wide} on the wide path, {too_wide} rejected as too wide");
+    assert!(
+        wide > 1000,
+        "only {wide} of {moves} moves took the wide path"
+    );
+}
