@@ -8,6 +8,7 @@ mod bench;
 mod moveargs;
 mod output;
 mod plan;
+mod tdm;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -24,6 +25,8 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
 }
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
     };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
     };
     match result {
