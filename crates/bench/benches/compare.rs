@@ -2,13 +2,12 @@
 //! the edges of the same moves (throughput in edges).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use multistep_bench::compare::edges_into;
+use multistep_bench::compare::{drive, Fold};
 use multistep_bench::{Impl, Options, MOVES};
 use std::hint::black_box;
 
 fn compare(c: &mut Criterion) {
     let opts = Options::quick();
-    let mut buf = Vec::new();
     // seed 000's run and the triangle: short enough for criterion's sample counts
     for m in [MOVES[0], MOVES[4]] {
         let mut g = c.benchmark_group(format!("compare/{}", m.name));
@@ -16,8 +15,9 @@ fn compare(c: &mut Criterion) {
         for imp in Impl::ALL {
             g.bench_with_input(BenchmarkId::from_parameter(imp.name()), &m, |b, m| {
                 b.iter(|| {
-                    edges_into(imp, black_box(m), &opts, &mut buf);
-                    black_box(buf.last().copied())
+                    let mut f = Fold::default();
+                    drive(imp, black_box(m), &opts, &mut f);
+                    black_box(f.0)
                 })
             });
         }

@@ -109,25 +109,52 @@ pub fn seed000_segments(m: &BenchMove) -> Vec<Seed000Segment> {
     v
 }
 
-/// Writes the move's edges by one implementation into `out` (cleared first).
-pub fn edges_into(imp: Impl, m: &BenchMove, opts: &Options, out: &mut Vec<u64>) {
-    out.clear();
+/// What is done with an implementation's edge stream.
+pub trait Sink {
+    fn take(&mut self, edges: impl Iterator<Item = u64>);
+}
+
+/// Keeps the edges.
+impl Sink for Vec<u64> {
+    fn take(&mut self, edges: impl Iterator<Item = u64>) {
+        self.clear();
+        self.extend(edges);
+    }
+}
+
+/// Folds the edges into one number, so timing measures generation, not memory traffic.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fold(pub u64);
+
+impl Sink for Fold {
+    fn take(&mut self, edges: impl Iterator<Item = u64>) {
+        self.0 = edges.fold(self.0, |acc, e| acc.rotate_left(1) ^ e);
+    }
+}
+
+/// Runs one implementation on a move, handing its edge stream to `sink`.
+pub fn drive(imp: Impl, m: &BenchMove, opts: &Options, sink: &mut impl Sink) {
     match imp {
         Impl::Float => {
             let p = m.float_profile().expect("bench moves plan");
-            out.extend(EdgeGenerator::new(p, CLOCK_HZ as f64).expect("bench moves fit"));
+            sink.take(EdgeGenerator::new(p, CLOCK_HZ as f64).expect("bench moves fit"));
         }
-        Impl::Int => out.extend(IntEdgeGenerator::new(
+        Impl::Int => sink.take(IntEdgeGenerator::new(
             m.int_profile().expect("bench moves fit"),
         )),
         Impl::Seed000 => {
             let segs = seed000_segments(m);
-            out.extend(seed000::edges(&segs, CLOCK_HZ, opts.seed000_frac_bits));
+            sink.take(seed000::edges(&segs, CLOCK_HZ, opts.seed000_frac_bits));
         }
-        Impl::Austin => out.extend(austin::edges(m, CLOCK_HZ)),
-        Impl::Eiderman => out.extend(eiderman::edges(m, CLOCK_HZ)),
-        Impl::RampMaker => out.extend(rampmaker::edges(m, CLOCK_HZ)),
+        Impl::Austin => sink.take(austin::edges(m, CLOCK_HZ)),
+        Impl::Eiderman => sink.take(eiderman::edges(m, CLOCK_HZ)),
+        Impl::RampMaker => sink.take(rampmaker::edges(m, CLOCK_HZ)),
     }
+}
+
+/// Writes the move's edges by one implementation into `out` (cleared first).
+pub fn edges_into(imp: Impl, m: &BenchMove, opts: &Options, out: &mut Vec<u64>) {
+    drive(imp, m, opts, out);
 }
 
 /// Exact step times in ticks (f64) from the integer profile's pieces:
@@ -171,17 +198,65 @@ fn accuracy(edges: &[u64], exact: &[u64], times: &[f64]) -> (u64, i64, f64) {
     (max_err, last as i64 - exact[n - 1] as i64, max_pct)
 }
 
-/// Edges per second: repeat until `min_time` has passed, best of the runs.
-fn speed(imp: Impl, m: &BenchMove, opts: &Options, buf: &mut Vec<u64>) -> f64 {
-    let start = Instant::now();
-    let mut best = f64::INFINITY;
-    while start.elapsed() < opts.min_time || best.is_infinite() {
-        let t = Instant::now();
-        edges_into(imp, black_box(m), opts, buf);
-        black_box(&buf);
-        best = best.min(t.elapsed().as_secs_f64());
+/// Times an edge stream in chunks of [`ChunkTimer::CHUNK`] edges, keeping each chunk's best
+/// time over repeated runs: on a loaded machine a run is often preempted, a chunk rarely.
+#[derive(Clone, Debug, Default)]
+pub struct ChunkTimer {
+    best: Vec<f64>,
+    started: Option<Instant>,
+    pub fold: u64,
+}
+
+impl ChunkTimer {
+    pub const CHUNK: usize = 4096;
+
+    /// Marks the start of a run (before planning, which counts towards the first chunk).
+    pub fn start(&mut self) {
+        self.started = Some(Instant::now());
     }
-    m.steps as f64 / best
+
+    /// Sum of the best chunk times (s).
+    pub fn total(&self) -> f64 {
+        self.best.iter().sum()
+    }
+}
+
+impl Sink for ChunkTimer {
+    fn take(&mut self, mut edges: impl Iterator<Item = u64>) {
+        let mut t = self.started.take().unwrap_or_else(Instant::now);
+        for k in 0.. {
+            let mut n = 0;
+            for e in edges.by_ref().take(Self::CHUNK) {
+                self.fold = self.fold.rotate_left(1) ^ e;
+                n += 1;
+            }
+            if n == 0 {
+                break;
+            }
+            let now = Instant::now();
+            let dt = (now - t).as_secs_f64();
+            t = now;
+            match self.best.get_mut(k) {
+                Some(b) => *b = b.min(dt),
+                None => self.best.push(dt),
+            }
+        }
+    }
+}
+
+/// Edges per second (planning included, edges folded rather than stored), from the best
+/// time of every 4096-edge chunk over repeated runs lasting at least `min_time`.
+fn speed(imp: Impl, m: &BenchMove, opts: &Options) -> f64 {
+    let start = Instant::now();
+    let mut timer = ChunkTimer::default();
+    let mut runs = 0;
+    while start.elapsed() < opts.min_time || runs < 3 {
+        timer.start();
+        drive(imp, black_box(m), opts, &mut timer);
+        black_box(timer.fold);
+        runs += 1;
+    }
+    m.steps as f64 / timer.total()
 }
 
 /// Runs every implementation on every move.
@@ -199,7 +274,7 @@ pub fn run(moves: &[BenchMove], opts: &Options) -> Vec<Case> {
                 mv: m.name,
                 imp: imp.name(),
                 steps: m.steps,
-                edges_per_s: speed(imp, m, opts, &mut buf),
+                edges_per_s: speed(imp, m, opts),
                 max_edge_error_ticks: max_err,
                 drift_ticks: drift,
                 max_period_error_pct: pct,
