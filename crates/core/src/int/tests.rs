@@ -399,6 +399,34 @@ fn bad_moves_get_typed_errors() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Wild integers never panic: planning returns a move or a typed error, and a planned
+    /// move streams non-decreasing edges ending at its last tick.
+    #[test]
+    fn wild_inputs_never_panic(
+        x in proptest::collection::vec(any::<u64>(), 6),
+        shift in proptest::collection::vec(0u32..64, 6),
+        hz in any::<u64>(),
+        q in any::<u64>(),
+    ) {
+        let v: Vec<u64> = x.iter().zip(&shift).map(|(a, s)| a >> s).collect();
+        let clock = IntClock { clock_hz: hz >> (hz % 64), speed_scale: q >> (q % 64) };
+        let ph = IntPhaseMove {
+            steps: v[0], accel_ticks: v[1], cruise_ticks: v[2], decel_ticks: v[3],
+            start_speed: v[4], end_speed: v[5],
+        };
+        let lm = IntLimitsMove { steps: v[0], vmax: v[1], amax: v[2], start_speed: v[3], end_speed: v[4] };
+        let sg = [IntSegment { v0: v[0], ticks: v[1], steps: v[2] }, IntSegment { v0: v[3], ticks: v[4], steps: v[5] }];
+        for p in [IntProfile::phase(&ph, clock), IntProfile::limits(&lm, clock), IntProfile::segments(&sg, clock)]
+            .into_iter()
+            .flatten()
+        {
+            let e: Vec<u64> = IntEdgeGenerator::new(p.clone()).take(200).collect();
+            prop_assert!(e.windows(2).all(|w| w[0] <= w[1]));
+            prop_assert!(e.iter().all(|&t| t <= p.end_tick()));
+        }
+    }
+
     /// Any segment chain the planner accepts is exact on every edge (odd clocks too).
     #[test]
     fn segments_are_exact(
