@@ -1,13 +1,18 @@
 //! `multistep bench`: every implementation on every move, in the JSON shape the issue fixes.
 
-use std::process::Command;
+use std::process::{Command, Output};
+
+fn bench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .arg("bench")
+        .args(args)
+        .output()
+        .expect("run multistep")
+}
 
 #[test]
 fn quick_json_has_every_impl_and_multistep_is_exact() {
-    let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
-        .args(["bench", "--quick", "--format", "json"])
-        .output()
-        .expect("run multistep");
+    let out = bench(&["--quick", "--format", "json"]);
     assert!(
         out.status.success(),
         "{}",
@@ -42,10 +47,7 @@ fn quick_json_has_every_impl_and_multistep_is_exact() {
 
 #[test]
 fn csv_is_refused_with_one_line() {
-    let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
-        .args(["bench", "--quick", "--format", "csv"])
-        .output()
-        .expect("run multistep");
+    let out = bench(&["--quick", "--format", "csv"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");

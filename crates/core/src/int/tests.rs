@@ -204,14 +204,13 @@ fn phase_mode_matches_float_up_to_ties_at_50mhz() {
     let mut r = Rng(4);
     let (mut moves, mut edges, mut ties, mut exact_ties) = (0u64, 0u64, 0u64, 0u64);
     while moves < 150_000 {
-        let m = IntPhaseMove {
-            steps: r.range(1, 64),
-            accel_ticks: r.range(0, 3_000_000),
-            cruise_ticks: r.range(0, 2_000_000),
-            decel_ticks: r.range(0, 3_000_000),
-            start_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
-            end_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
-        };
+        let m = random_phase(
+            &mut r,
+            64,
+            [(0, 3_000_000), (0, 2_000_000), (0, 3_000_000)],
+            500,
+            true,
+        );
         let Ok(ip) = IntProfile::phase(&m, IntClock::hz(hz)) else {
             continue;
         };
@@ -247,6 +246,33 @@ fn exact_half_tick(p: &IntProfile, i: u64, mid: u128) -> bool {
     let q = &p.pieces()[k];
     q.target(i)
         .is_some_and(|m| q.cmp_at_half_ticks(mid - 2 * q.t0 as u128, m).is_eq())
+}
+
+/// A phase move with up to `steps` steps, phase ticks in the given ranges, and start and
+/// end speeds up to `speed` (each 0 half the time if `rests`).
+fn random_phase(
+    r: &mut Rng,
+    steps: u64,
+    ticks: [(u64, u64); 3],
+    speed: u64,
+    rests: bool,
+) -> IntPhaseMove {
+    let [a, b, c] = ticks.map(|(lo, hi)| r.range(lo, hi));
+    let v = |r: &mut Rng| {
+        if rests && r.below(2) == 0 {
+            0
+        } else {
+            r.range(1, speed)
+        }
+    };
+    IntPhaseMove {
+        steps: r.range(1, steps),
+        accel_ticks: a,
+        cruise_ticks: b,
+        decel_ticks: c,
+        start_speed: v(r),
+        end_speed: v(r),
+    }
 }
 
 /// Whether step i's exact time is within 1e-6 tick of the half tick `mid/2`: p at
@@ -453,14 +479,13 @@ fn wide_radicand_moves_are_exact() {
     };
     let (mut wide, mut moves, mut too_wide) = (0u64, 0u64, 0u64);
     while moves < 3000 {
-        let m = IntPhaseMove {
-            steps: r.range(1, 200),
-            accel_ticks: r.range(1, 20_000_000),
-            cruise_ticks: r.range(0, 5_000_000),
-            decel_ticks: r.range(1, 20_000_000),
-            start_speed: r.range(1, 100_000_000),
-            end_speed: r.range(0, 100_000_000),
-        };
+        let m = random_phase(
+            &mut r,
+            200,
+            [(1, 20_000_000), (0, 5_000_000), (1, 20_000_000)],
+            100_000_000,
+            false,
+        );
         let p = match IntProfile::phase(&m, clock) {
             Ok(p) => p,
             Err(e) => {
