@@ -5,9 +5,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod experiment;
 mod moveargs;
 mod output;
 mod plan;
+mod simulate;
 mod tdm;
 
 #[derive(Parser, Debug)]
@@ -29,6 +31,10 @@ enum Cmd {
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
+    /// Simulate one move on a motor and driver: lost steps and following error
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Reproduce the seed papers' experiments on the simulator
+    Experiment(experiment::ExperimentArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +56,8 @@ fn main() -> ExitCode {
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Experiment(a) => experiment::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
