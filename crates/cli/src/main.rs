@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod demo;
 mod experiment;
 mod moveargs;
 mod output;
@@ -25,6 +26,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
+    /// Seed 000's two-axis run end to end: plan, TDM engine, simulated motors, plots
+    Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         },
     };
     let result = match &cli.cmd {
+        Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
