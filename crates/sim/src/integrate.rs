@@ -218,7 +218,8 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
                     t,
                     commanded_deg: (count as f64 * micro).to_degrees(),
                     actual_deg: (dir * x[TH]).to_degrees(),
-                    commanded_speed_deg_s: 0.0,
+                    // the step rate of the edge interval in progress (one microstep per period)
+                    commanded_speed_deg_s: (dir * u.omega_ref).to_degrees(),
                     actual_speed_deg_s: (dir * x[OM]).to_degrees(),
                     error_deg: err.to_degrees(),
                     ia,
@@ -239,7 +240,6 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
             }
         }
     }
-    crate::trace::fill_commanded_speed(&mut trace);
     let final_error = err_of(count, &x);
     let energy = if IDEAL {
         None
