@@ -147,6 +147,7 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
         TdmFormat::Json => writeln!(w, "{}", serde_json::to_string_pretty(&out)?)?,
         TdmFormat::Table => print_table(&mut w, &out)?,
     }
+    w.flush()?;
     eprintln!("plot written to {}", sa.plot.display());
     Ok(())
 }
