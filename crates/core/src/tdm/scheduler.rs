@@ -49,47 +49,65 @@ impl Policy {
         let k = room.len();
         match self {
             Policy::RoundRobin => {
-                // one pass in round-robin order: the first eligible axis, else the first
-                // to get room (the earliest wake-up, ties in round-robin order)
-                let (mut wake, mut first) = (u64::MAX, 0);
-                let mut m = *next;
-                for _ in 0..k {
-                    let r = room[m];
-                    if r <= t {
-                        *next = if m + 1 == k { 0 } else { m + 1 };
-                        return Some((t, m));
+                // eligible axes as a bit mask, branch-free; when none, idle until the
+                // earliest room tick and take those eligible then
+                let (mut mask, wake) = eligible(t, room);
+                let mut t = t;
+                if mask == 0 {
+                    if wake == u64::MAX {
+                        return None;
                     }
-                    if r < wake {
-                        wake = r;
-                        first = m;
-                    }
-                    m = if m + 1 == k { 0 } else { m + 1 };
+                    t = wake;
+                    mask = eligible(t, room).0;
                 }
-                if wake == u64::MAX {
-                    return None;
-                }
-                *next = if first + 1 == k { 0 } else { first + 1 };
-                Some((wake, first))
+                // the first eligible axis at or after the pointer, wrapping around
+                let later = mask >> *next;
+                let m = if later != 0 {
+                    *next + later.trailing_zeros() as usize
+                } else {
+                    mask.trailing_zeros() as usize
+                };
+                *next = if m + 1 == k { 0 } else { m + 1 };
+                Some((t, m))
             }
             Policy::EarliestDeadline => {
-                let t = t.max(room.iter().copied().min()?);
-                if t == u64::MAX {
-                    return None;
-                }
-                // (need, axis) packed in one key: the smallest is the earliest, then lowest m
-                let mut best = u64::MAX;
-                for (m, (&r, &d)) in room.iter().zip(need).enumerate() {
-                    let key = if r <= t {
-                        (d << 6) | m as u64
-                    } else {
-                        u64::MAX
-                    };
-                    best = best.min(key);
+                let (mut best, wake) = earliest(t, room, need);
+                let mut t = t;
+                if best == u64::MAX {
+                    if wake == u64::MAX {
+                        return None;
+                    }
+                    t = wake;
+                    best = earliest(t, room, need).0;
                 }
                 Some((t, (best & 63) as usize))
             }
         }
     }
+}
+
+/// Bit m set iff axis m has room at `t`; and the earliest room tick of all axes.
+#[inline(always)]
+fn eligible(t: u64, room: &[u64]) -> (u64, u64) {
+    let (mut mask, mut wake) = (0u64, u64::MAX);
+    for (m, &r) in room.iter().enumerate() {
+        mask |= ((r <= t) as u64) << m;
+        wake = wake.min(r);
+    }
+    (mask, wake)
+}
+
+/// Smallest `(need << 6) | m` over axes with room at `t` (the earliest deadline, then the
+/// lowest axis), `u64::MAX` if none; and the earliest room tick of all axes.
+#[inline(always)]
+fn earliest(t: u64, room: &[u64], need: &[u64]) -> (u64, u64) {
+    let (mut best, mut wake) = (u64::MAX, u64::MAX);
+    for (m, (&r, &d)) in room.iter().zip(need).enumerate() {
+        let key = if r <= t { (d << 6) | m as u64 } else { u64::MAX };
+        best = best.min(key);
+        wake = wake.min(r);
+    }
+    (best, wake)
 }
 
 impl core::str::FromStr for Policy {
