@@ -16,7 +16,7 @@
 use super::calculator::Latencies;
 use super::fifo::Fifo;
 use super::pulse::{PulseShape, PulseUnit, StepPulse};
-use super::scheduler::Policy;
+use super::scheduler::{Policy, Queue};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::profile::Profile;
@@ -234,30 +234,26 @@ impl<'a> Board<'a> {
     pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
         let k = self.axes.len();
         let c = self.cfg.latencies.cycles_per_period();
-        // Hot scheduling state, contiguous so the policy's scans stay in cache.
-        let mut room = [u64::MAX; MAX_AXES];
+        // Hot scheduling state, contiguous and outside the (large) axes.
         let mut need = [0u64; MAX_AXES];
+        let mut queue = Queue::default();
         for (m, a) in self.axes.iter().enumerate() {
             if a.remaining() > 0 {
-                room[m] = 0;
+                queue.insert(m, 0, 0);
             }
         }
         let start = self.start_tick();
         need[..k].fill(start);
-        let (room, need) = (&mut room[..k], &mut need[..k]);
+        let need = &mut need[..k];
 
         let policy = self.cfg.policy;
         let mut t = 0u64;
         let mut next = 0usize;
         let mut busy = 0u64;
-        loop {
-            let Some((now, m)) = policy.pick(t, room, need, &mut next) else {
-                break;
-            };
+        while let Some((now, m)) = queue.pick(policy, t, need, &mut next) {
             t = now;
             let a = &mut self.axes[m];
             let Some(edge) = a.next_edge() else {
-                room[m] = u64::MAX;
                 continue;
             };
             let period = edge - a.prev_edge;
@@ -281,13 +277,12 @@ impl<'a> Board<'a> {
             need[m] = rise;
             a.fifo.push(load);
             if a.remaining() == 0 {
-                room[m] = u64::MAX;
                 a.pulse.finish(m, &mut sink);
                 a.stats.last_rise = rise;
                 a.stats.start_tick = a.pulse.start_tick();
                 a.stats.merged_pulses = a.pulse.merged();
             } else {
-                room[m] = a.fifo.room_tick();
+                queue.insert(m, a.fifo.room_tick(), t);
             }
             busy += c;
             t = ready;
