@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod moveargs;
 mod output;
 mod plan;
@@ -26,13 +27,29 @@ enum Cmd {
     Plan(plan::PlanArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
     Tdm(tdm::TdmArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => match e.kind() {
+            clap::error::ErrorKind::DisplayHelp
+            | clap::error::ErrorKind::DisplayVersion
+            | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
+            _ => {
+                // One line, as scripts expect: clap's first line already starts with "error:".
+                let text = e.render().to_string();
+                eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
+                return ExitCode::from(2);
+            }
+        },
+    };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
