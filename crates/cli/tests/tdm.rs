@@ -134,7 +134,7 @@ fn sweep_prints_k_max_and_writes_an_svg() {
             assert_eq!(s["k_max"], r["k_eq12"]);
         }
     }
-    assert_eq!(rows[1]["k_eq12"], 500 / 54);
+    assert_eq!(rows[1]["k_eq12"], 500 / 68);
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.contains("eq. (12)"));
     std::fs::remove_file(&svg).ok();

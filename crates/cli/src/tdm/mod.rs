@@ -38,7 +38,7 @@ pub enum TdmFormat {
 #[derive(Args, Debug)]
 pub struct TdmArgs {
     /// Board and axes (TOML): clock, fifo_depth, *_cycles, [[axis]] tables
-    #[arg(long, value_name = "FILE", required_unless_present = "sweep")]
+    #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Scheduling policy (overrides the config's)
     #[arg(long, value_enum)]
@@ -73,7 +73,10 @@ struct RunSummary {
     policy: &'static str,
     clock_hz: f64,
     fifo_depth: usize,
-    cycles_per_period: u64,
+    /// Cycles between computation starts (t_calc of seed eq. (12)).
+    interval_cycles: u64,
+    /// Cycles from a computation's start to its FIFO write.
+    latency_cycles: u64,
     start_tick: u64,
     end_tick: u64,
     edges: u64,
@@ -96,7 +99,10 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     if args.sweep {
         return sweep::run(args);
     }
-    let path = args.config.as_ref().context("--config is required")?;
+    let path = args
+        .config
+        .as_ref()
+        .context("tdm needs --config FILE.toml (or --sweep)")?;
     let file = ConfigFile::load(path)?;
     let cfg = file.board(args.policy.map(Policy::from))?;
     let mut axes = file
@@ -173,14 +179,15 @@ fn summarize(
     min_periods: &[u64],
     file: &ConfigFile,
 ) -> RunSummary {
-    let c = r.cycles_per_period;
+    let c = r.interval_cycles;
     let slack = |s: i64| (s != i64::MAX).then_some(s);
     let dmin = min_periods.iter().copied().min().unwrap_or(0);
     RunSummary {
         policy: cfg.policy.name(),
         clock_hz: cfg.clock_hz,
         fifo_depth: cfg.fifo_depth,
-        cycles_per_period: c,
+        interval_cycles: c,
+        latency_cycles: r.latency_cycles,
         start_tick: r.start_tick,
         end_tick: r.end_tick,
         edges: r.edges,
@@ -223,8 +230,8 @@ fn print_table(out: &mut impl Write, s: &RunSummary) -> anyhow::Result<()> {
     writeln!(out, "fifo depth      {}", s.fifo_depth)?;
     writeln!(
         out,
-        "calculator      {} cycles per period",
-        s.cycles_per_period
+        "calculator      a period every {} cycles, each ready {} cycles after its start",
+        s.interval_cycles, s.latency_cycles
     )?;
     writeln!(out, "axes            {}", s.axes.len())?;
     writeln!(

@@ -58,7 +58,8 @@ struct Row {
 #[derive(Serialize, Debug)]
 struct SweepOut {
     clock_hz: f64,
-    cycles_per_period: u64,
+    interval_cycles: u64,
+    latency_cycles: u64,
     move_times_s: [f64; 3],
     rows: Vec<Row>,
 }
@@ -137,7 +138,8 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     }
     let out = SweepOut {
         clock_hz: base.clock_hz,
-        cycles_per_period: base.latencies.cycles_per_period(),
+        interval_cycles: base.latencies.interval(),
+        latency_cycles: base.latencies.latency(),
         move_times_s: times,
         rows,
     };
@@ -159,8 +161,8 @@ fn series_name(s: &Series) -> String {
 fn print_table(w: &mut impl Write, out: &SweepOut) -> anyhow::Result<()> {
     writeln!(
         w,
-        "clock {} Hz, t_calc {} cycles, trapezoid {:?} s, all axes started together",
-        out.clock_hz, out.cycles_per_period, out.move_times_s
+        "clock {} Hz, t_calc {} cycles (latency {}), trapezoid {:?} s, all axes started together",
+        out.clock_hz, out.interval_cycles, out.latency_cycles, out.move_times_s
     )?;
     write!(w, "{:>12} {:>8} {:>6}", "rate", "Δt_min", "eq.12")?;
     if let Some(r) = out.rows.first() {
@@ -207,8 +209,8 @@ fn plot(out: &SweepOut, path: &PathBuf) -> anyhow::Result<()> {
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!(
-                "axes served by one calculator ({} cycles/period)",
-                out.cycles_per_period
+                "axes served by one calculator (t_calc {} cycles, latency {})",
+                out.interval_cycles, out.latency_cycles
             ),
             ("sans-serif", 20),
         )

@@ -30,7 +30,8 @@ pub struct KMax {
     /// Largest k whose summed load `Σ t_calc / Δt_min,m` stays ≤ 1.
     pub k_load: usize,
     pub min_period_ticks: u64,
-    pub cycles_per_period: u64,
+    /// t_calc: cycles between computation starts.
+    pub interval_cycles: u64,
 }
 
 /// Shortest period (ticks) of a move at a clock.
@@ -42,8 +43,8 @@ pub fn min_period_ticks(profile: &Profile, clock_hz: f64) -> Result<u64, TdmErro
 }
 
 /// Seed 000 eq. (12): `k = Δt_min / t_calc`, rounded down.
-pub fn k_eq12(min_period_ticks: u64, cycles_per_period: u64) -> u64 {
-    min_period_ticks.checked_div(cycles_per_period).unwrap_or(0)
+pub fn k_eq12(min_period_ticks: u64, interval_cycles: u64) -> u64 {
+    min_period_ticks.checked_div(interval_cycles).unwrap_or(0)
 }
 
 /// Runs k = 1, 2, … axes (axis i runs `moves[i % moves.len()]`, all started together) until
@@ -52,7 +53,7 @@ pub fn k_max(cfg: &TdmConfig, moves: &[Profile], storage: &mut [Axis]) -> Result
     if moves.is_empty() || storage.is_empty() {
         return Err(TdmError::NoAxes);
     }
-    let c = cfg.latencies.cycles_per_period();
+    let c = cfg.latencies.interval();
     let mut min_period = u64::MAX;
     let mut k_load = 0;
     let mut load = 0.0;
@@ -71,7 +72,7 @@ pub fn k_max(cfg: &TdmConfig, moves: &[Profile], storage: &mut [Axis]) -> Result
         k_eq12: k_eq12(min_period, c),
         k_load,
         min_period_ticks: min_period,
-        cycles_per_period: c,
+        interval_cycles: c,
     };
     for k in 1..=storage.len() {
         for (i, slot) in storage[..k].iter_mut().enumerate() {

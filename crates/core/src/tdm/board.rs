@@ -166,8 +166,11 @@ pub struct Report {
     /// Largest delay of any axis's last edge.
     pub max_late_ticks: u64,
     pub min_slack_ticks: i64,
-    pub cycles_per_period: u64,
-    /// Cycles the calculator computed.
+    /// Cycles between computation starts (t_calc of seed eq. (12)).
+    pub interval_cycles: u64,
+    /// Cycles from a computation's start to its FIFO write.
+    pub latency_cycles: u64,
+    /// Issue cycles used: `interval_cycles` per period computed.
     pub busy_cycles: u64,
     /// Latest minus earliest axis start tick (a synchronous group must show 0).
     pub start_skew_ticks: u64,
@@ -175,7 +178,7 @@ pub struct Report {
 }
 
 impl Report {
-    /// Busy cycles over the run's span, tick 0 to the last edge.
+    /// Issue cycles used over the run's span, tick 0 to the last edge.
     pub fn calculator_utilization(&self) -> f64 {
         if self.end_tick == 0 {
             return 0.0;
@@ -202,7 +205,7 @@ impl<'a> Board<'a> {
                 max: MAX_AXES,
             });
         }
-        if cfg.latencies.cycles_per_period() == 0 {
+        if cfg.latencies.interval() == 0 {
             return Err(TdmError::ZeroCycles);
         }
         if cfg.pulse == (PulseShape::Fixed { ticks: 0 }) {
@@ -221,19 +224,24 @@ impl<'a> Board<'a> {
         Ok(Board { cfg, axes })
     }
 
-    /// The group's start: every FIFO filled and the DIR setup time over,
-    /// `max(dir_setup, t_calc · Σ_m min(depth, steps_m))`.
+    /// The group's start: every FIFO filled and the DIR setup time over. The P prefill
+    /// periods (`Σ_m min(depth, steps_m)`) start every interval; the last is ready one
+    /// latency after its start: `max(dir_setup, (P − 1)·interval + latency)`.
     pub fn start_tick(&self) -> u64 {
         let depth = self.cfg.fifo_depth as u64;
         let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
-        let c = self.cfg.latencies.cycles_per_period();
-        self.cfg.dir_setup_ticks.max(prefill.saturating_mul(c))
+        let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
+        let fill = match prefill {
+            0 => 0,
+            p => (p - 1).saturating_mul(ii).saturating_add(lat),
+        };
+        self.cfg.dir_setup_ticks.max(fill)
     }
 
     /// Runs every axis to its last step, handing each pulse to `sink`.
     pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
         let k = self.axes.len();
-        let c = self.cfg.latencies.cycles_per_period();
+        let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
         // Hot scheduling state, contiguous and outside the (large) axes.
         let mut need = [0u64; MAX_AXES];
         let mut queue = Queue::default();
@@ -258,7 +266,7 @@ impl<'a> Board<'a> {
             };
             let period = edge - a.prev_edge;
             a.prev_edge = edge;
-            let ready = t + c;
+            let ready = t + lat;
             let due = need[m];
             let load = if ready > due {
                 a.stats.underruns += 1;
@@ -284,13 +292,13 @@ impl<'a> Board<'a> {
             } else {
                 queue.insert(m, a.fifo.room_tick(), t);
             }
-            busy += c;
-            t = ready;
+            busy += ii;
+            t += ii;
         }
-        self.report(start, c, busy)
+        self.report(start, busy)
     }
 
-    fn report(&self, start_tick: u64, cycles_per_period: u64, busy_cycles: u64) -> Report {
+    fn report(&self, start_tick: u64, busy_cycles: u64) -> Report {
         let mut r = Report {
             axes: self.axes.len(),
             start_tick,
@@ -299,7 +307,8 @@ impl<'a> Board<'a> {
             underruns: 0,
             max_late_ticks: 0,
             min_slack_ticks: i64::MAX,
-            cycles_per_period,
+            interval_cycles: self.cfg.latencies.interval(),
+            latency_cycles: self.cfg.latencies.latency(),
             busy_cycles,
             start_skew_ticks: 0,
             merged_pulses: 0,
