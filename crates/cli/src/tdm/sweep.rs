@@ -19,7 +19,7 @@ pub struct SweepArgs {
     /// Sweep: maximum step rates MIN:MAX:POINTS (steps/s)
     #[arg(long, value_name = "MIN:MAX:N", default_value = "10000:200000:20")]
     pub rates: String,
-    /// Sweep: most axes to try (up to 64)
+    /// Sweep and --k-max: most axes to try (up to 64)
     #[arg(long, value_name = "K", default_value_t = MAX_AXES)]
     pub max_axes: usize,
     /// Sweep: FIFO depths to compare
