@@ -211,6 +211,18 @@ impl<'a> Board<'a> {
         if cfg.pulse == (PulseShape::Fixed { ticks: 0 }) {
             return Err(TdmError::ZeroPulseWidth);
         }
+        // Worst case: every period computed after the last edge of the longest move.
+        let work: u128 = axes.iter().map(|a| a.remaining() as u128).sum::<u128>()
+            * cfg.latencies.latency() as u128
+            + axes
+                .iter()
+                .map(|a| a.gen.last_edge_tick() as u128)
+                .max()
+                .unwrap_or(0)
+            + cfg.dir_setup_ticks as u128;
+        if work >= 1 << 57 {
+            return Err(TdmError::TooLong);
+        }
         for (m, a) in axes.iter_mut().enumerate() {
             if a.gen.clock() != cfg.clock_hz {
                 return Err(TdmError::ClockMismatch {

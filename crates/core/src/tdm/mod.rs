@@ -45,6 +45,8 @@ pub enum TdmError {
         axis_hz: f64,
         board_hz: f64,
     },
+    #[error("the run could last past tick 2^57 (the scheduler's tick range)")]
+    TooLong,
     #[error("unknown policy (expected round-robin or earliest-deadline)")]
     UnknownPolicy,
     #[error(transparent)]

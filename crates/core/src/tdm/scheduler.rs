@@ -42,16 +42,20 @@ impl Policy {
 pub struct Queue {
     /// Bit m: axis m has room and periods left.
     eligible: u64,
-    /// `(room tick << 6) | m`, a binary min-heap.
-    heap: [u64; MAX_AXES],
+    /// `(room tick << 6) | m`, a 4-ary min-heap; free slots hold `u64::MAX`, so a node's
+    /// four children can be compared without checking which exist.
+    heap: [u64; HEAP_SLOTS],
     len: usize,
 }
+
+/// Children of node i < 64 are 4i+1 … 4i+4 ≤ 256.
+const HEAP_SLOTS: usize = 4 * MAX_AXES + 5;
 
 impl Default for Queue {
     fn default() -> Self {
         Queue {
             eligible: 0,
-            heap: [0; MAX_AXES],
+            heap: [u64::MAX; HEAP_SLOTS],
             len: 0,
         }
     }
@@ -65,11 +69,11 @@ impl Queue {
             self.eligible |= 1 << m;
             return;
         }
-        let mut i = self.len;
         let key = (room << 6) | m as u64;
+        let mut i = self.len & (MAX_AXES - 1);
         self.len += 1;
         while i > 0 {
-            let parent = (i - 1) / 2;
+            let parent = (i - 1) / 4;
             if self.heap[parent] <= key {
                 break;
             }
@@ -79,27 +83,29 @@ impl Queue {
         self.heap[i] = key;
     }
 
+    /// Removes the smallest key (the heap is not empty).
     #[inline]
     fn pop(&mut self) -> u64 {
         let top = self.heap[0];
         self.len -= 1;
         let last = self.heap[self.len];
-        let mut i = 0;
+        self.heap[self.len] = u64::MAX;
+        if self.len == 0 {
+            return top;
+        }
+        let mut i = 0usize;
         loop {
-            let l = 2 * i + 1;
-            if l >= self.len {
+            let base = 4 * (i & (MAX_AXES - 1)) + 1;
+            let (a, b) = (self.heap[base], self.heap[base + 1]);
+            let (c, d) = (self.heap[base + 2], self.heap[base + 3]);
+            let (ab, ia) = if b < a { (b, base + 1) } else { (a, base) };
+            let (cd, ic) = if d < c { (d, base + 3) } else { (c, base + 2) };
+            let (min, child) = if cd < ab { (cd, ic) } else { (ab, ia) };
+            if min >= last {
                 break;
             }
-            let c = if l + 1 < self.len && self.heap[l + 1] < self.heap[l] {
-                l + 1
-            } else {
-                l
-            };
-            if self.heap[c] >= last {
-                break;
-            }
-            self.heap[i] = self.heap[c];
-            i = c;
+            self.heap[i] = min;
+            i = child;
         }
         self.heap[i] = last;
         top
@@ -108,7 +114,8 @@ impl Queue {
     /// Moves every axis with room at `t` into the eligible mask.
     #[inline]
     fn release(&mut self, t: u64) {
-        while self.len > 0 && self.heap[0] >> 6 <= t {
+        // ticks stay below 2^57 (checked by the board), so an empty heap's MAX never passes
+        while self.heap[0] <= (t << 6) | 63 {
             let key = self.pop();
             self.eligible |= 1 << (key & 63);
         }
@@ -130,7 +137,7 @@ impl Queue {
         let mut t = t;
         self.release(t);
         if self.eligible == 0 {
-            if self.len == 0 {
+            if self.heap[0] == u64::MAX {
                 return None;
             }
             t = self.heap[0] >> 6;
