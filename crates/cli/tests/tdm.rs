@@ -54,19 +54,8 @@ fn seed000_example_runs_clean_and_its_edges_are_the_plans() {
     for (m, steps) in [(0, "2400"), (1, "1800")] {
         assert_eq!(axes[m]["steps"].as_u64().unwrap().to_string(), steps);
         assert_eq!(axes[m]["underruns"], 0);
-        let args = [
-            "plan",
-            "--steps",
-            steps,
-            "--accel-time",
-            "0.02",
-            "--cruise-time",
-            "0.01",
-            "--decel-time",
-            "0.02",
-            "--format",
-            "csv",
-        ];
+        let cmd = format!("plan --steps {steps} --accel-time 0.02 --cruise-time 0.01 --decel-time 0.02 --format csv");
+        let args: Vec<&str> = cmd.split_whitespace().collect();
         let (ok, plan, _) = multistep(&args);
         assert!(ok);
         let got = std::fs::read_to_string(dir.join(format!("axis{m}.csv"))).unwrap();
@@ -153,4 +142,17 @@ fn bad_input_is_one_clear_error() {
     let (ok, _, err) = multistep(&["tdm", "--config", bad.to_str().unwrap()]);
     assert!(!ok && err.contains("fifo_depth"), "{err}");
     std::fs::remove_file(&bad).ok();
+}
+
+#[test]
+fn k_max_of_a_config_against_eq12() {
+    // seed 000's two moves alternating over k axes: eq. (12) from the 625-tick cruise
+    let v = tdm_json("seed000-two-axis.toml", &["--k-max", "--max-axes", "16"]);
+    assert_eq!(v["k_eq12"], 625 / 68);
+    assert_eq!(v["k_max"], v["k_eq12"]);
+    assert!(v["first_failure_underruns"].as_u64().unwrap() > 0);
+    // mixed rates: round-robin at depth 1 holds exactly eq. (12), below the load bound
+    let rr = tdm_json("stress.toml", &["--k-max", "--policy", "round-robin"]);
+    assert_eq!(rr["k_max"], rr["k_eq12"]);
+    assert!(rr["k_load"].as_u64().unwrap() > rr["k_max"].as_u64().unwrap());
 }
