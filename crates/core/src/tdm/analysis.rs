@@ -1,15 +1,20 @@
 //! How many axes one calculator serves: simulation against seed 000's rule of thumb.
 //!
-//! Seed eq. (12): `k = Δt_min / t_calc`. It is a throughput bound for axes that all run at
-//! the fastest rate at once: every axis needs one period per Δt_min and each costs t_calc.
-//! The simulation ([`k_max`]) differs from it in three ways:
-//! - axes at different rates: a slow axis needs few periods, so the real load is
-//!   `Σ_m t_calc / Δt_min,m` ([`KMax::k_load`]), and mixed sets fit more axes than eq. (12);
-//! - the policy: round-robin serves axes in a fixed order whatever their deadline, so with a
-//!   shallow FIFO an urgent axis can wait behind k−1 others that were not urgent;
-//! - FIFO depth and phase: with depth D a burst of coinciding deadlines (a synchronous group
-//!   starts together, so their edges line up) can be absorbed by periods computed ahead; with
-//!   D = 1 nothing is ahead, and all k periods of a common edge must fit into one period.
+//! Seed eq. (12): `k = Δt_min / t_calc`. For axes that all run at the fastest rate at once
+//! it is the throughput bound: each needs one period per Δt_min and each costs t_calc.
+//! It is also what round-robin guarantees with any FIFO depth and any phases: a freed
+//! slot is refilled within k computations (the one running, then at most one per other
+//! axis). The simulation ([`k_max`]) departs from it when
+//! - the calculator is pipelined: a period arrives one latency after it starts, so with
+//!   depth 1 the last of k coinciding periods is ready `(k−1)·t_calc + latency` after the
+//!   edge; a second FIFO slot hides that;
+//! - axes run at different rates: the load is `Σ_m t_calc / Δt_min,m` ([`KMax::k_load`]);
+//!   earliest-deadline reaches that bound where round-robin stays at eq. (12), because it
+//!   serves an urgent axis first instead of after k−1 others;
+//! - the top rate lasts only a moment: a deep FIFO holds periods computed during the
+//!   slower stretches around it.
+//!
+//! Synchronous groups start together, so their edges coincide: the worst phase alignment.
 
 use super::board::{Axis, Board, Report, TdmConfig};
 use super::TdmError;

@@ -1,12 +1,13 @@
 //! The engine: k axes, one calculator, one synchronous start.
 //!
 //! Tick 0: the move is loaded and every DIR line is set. The calculator starts at once and
-//! fills every FIFO (round-robin over the axes, `min(depth, steps)` periods each); the
-//! group starts when that is done and the DIR setup time has passed:
-//! `start = max(dir_setup, prefill · t_calc)`. At `start` every pulse unit loads period 1.
+//! fills every FIFO (by the policy, `min(depth, steps)` periods each); the group starts
+//! when that is done and the DIR setup time has passed (see [`Board::start_tick`]). At
+//! `start` every pulse unit loads period 1.
 //!
 //! The simulation is event-driven: time jumps from one calculator decision to the next
-//! (idle stretches are skipped). When a period is computed the engine already knows when
+//! (idle stretches are skipped); a computation starts every `interval` cycles at most and
+//! its period is in the FIFO `latency` cycles after it starts ([`Latencies`]). When a period is computed the engine already knows when
 //! its pulse unit needs it (the previous edge), so it knows at once whether it is in time
 //! (slack = needed − ready ≥ 0) or an underrun (ready later than needed: the edge and
 //! every later one of that axis are late by the difference). Each pulse goes to the sink
