@@ -505,3 +505,26 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
     let under = axes.iter().map(|a| a.underruns).collect();
     (start, axes.into_iter().map(|a| a.rises).collect(), under)
 }
+
+#[test]
+fn a_run_that_could_pass_tick_2_pow_57_is_refused() {
+    // 2^40 steps of ~2^17-cycle periods: more calculator work than the tick range holds
+    let p = MoveSpec {
+        steps: Some(1 << 40),
+        vmax: Some(1e9),
+        amax: Some(1e12),
+        ..MoveSpec::default()
+    }
+    .plan()
+    .unwrap();
+    let mut axes = vec![Axis::new(p, F).unwrap()];
+    let slow = TdmConfig {
+        latencies: Latencies {
+            div: 1 << 17,
+            ..Latencies::default()
+        },
+        ..TdmConfig::default()
+    };
+    assert_eq!(Board::new(slow, &mut axes).err(), Some(TdmError::TooLong));
+    assert!(Board::new(TdmConfig::default(), &mut axes).is_ok());
+}

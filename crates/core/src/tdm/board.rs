@@ -213,7 +213,10 @@ impl<'a> Board<'a> {
             return Err(TdmError::ZeroPulseWidth);
         }
         // Worst case: every period computed after the last edge of the longest move.
-        let work: u128 = axes.iter().map(|a| a.remaining() as u128).sum::<u128>()
+        let work: u128 = axes
+            .iter()
+            .map(|a| a.profile().steps() as u128)
+            .sum::<u128>()
             * cfg.latencies.latency() as u128
             + axes
                 .iter()
