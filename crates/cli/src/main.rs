@@ -5,9 +5,12 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod demo;
+mod experiment;
 mod moveargs;
 mod output;
 mod plan;
+mod simulate;
 mod tdm;
 
 #[derive(Parser, Debug)]
@@ -23,12 +26,18 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
+    /// Seed 000's two-axis run end to end: plan, TDM engine, simulated motors, plots
+    Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
+    /// Simulate one move on a motor and driver: lost steps and following error
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Reproduce the seed papers' experiments on the simulator
+    Experiment(experiment::ExperimentArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,9 +56,12 @@ fn main() -> ExitCode {
         },
     };
     let result = match &cli.cmd {
+        Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Experiment(a) => experiment::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
