@@ -204,6 +204,7 @@ fn plot(out: &SweepOut, path: &PathBuf) -> anyhow::Result<()> {
         .max()
         .unwrap_or(1)
         .min(MAX_AXES as u64 + 4) as f64;
+    multistep_sim::plot::ensure_font().map_err(anyhow::Error::msg)?;
     let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
