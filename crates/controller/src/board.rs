@@ -234,9 +234,9 @@ impl Board {
                     }
                     ax.drift = Some(d);
                     ax.drift_checks += 1;
-                    // A confirmed edge is late by at most the distance covered during one
-                    // disturbance, which is shorter than the debounce time.
-                    let tol = 1 + (speed * ax.settings.debounce).ceil() as i64;
+                    // A confirmed edge is early by at most what the axis covers in two
+                    // debounce times (see hall.rs).
+                    let tol = 1 + (2.0 * speed * ax.settings.debounce).ceil() as i64;
                     if ax.homed && d.abs() > tol {
                         ax.trusted = false;
                     }
@@ -542,7 +542,8 @@ impl Board {
                     ax.move_end = Some(start);
                 }
             }
-            out.push(self.axes[i].count + d);
+            let t = self.axes[i].count + d;
+            out.push(self.axes[i].period().map_or(t, |p| t.rem_euclid(p)));
         }
         Ok(out)
     }
