@@ -4,9 +4,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod ctl;
 mod moveargs;
 mod output;
 mod plan;
+mod serve;
 
 #[derive(Parser, Debug)]
 #[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
@@ -19,12 +21,18 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run a simulated controller board: line protocol on TCP (and a serial line)
+    Serve(serve::ServeArgs),
+    /// Talk to controller boards: move, home, stop, status, …
+    Ctl(ctl::CtlArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Serve(a) => serve::run(a),
+        Cmd::Ctl(a) => ctl::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
