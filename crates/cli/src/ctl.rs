@@ -80,9 +80,9 @@ impl Boards {
     fn connect(specs: &[String]) -> anyhow::Result<Boards> {
         let mut list: Vec<(String, Client)> = Vec::new();
         for s in specs {
-            let (name, ep) = s
-                .split_once('=')
-                .ok_or_else(|| anyhow!("--board '{s}' is not NAME=tcp://HOST:PORT or NAME=serial:DEVICE"))?;
+            let (name, ep) = s.split_once('=').ok_or_else(|| {
+                anyhow!("--board '{s}' is not NAME=tcp://HOST:PORT or NAME=serial:DEVICE")
+            })?;
             if name.is_empty() || name.contains(':') || list.iter().any(|b| b.0 == name) {
                 bail!("board name '{name}' is empty, has ':' or is given twice");
             }
@@ -107,7 +107,11 @@ impl Boards {
 
     fn board(&self, name: Option<&str>) -> anyhow::Result<usize> {
         match name {
-            Some(b) => self.list.iter().position(|x| x.0 == b).ok_or_else(|| anyhow!("no board named '{b}'")),
+            Some(b) => self
+                .list
+                .iter()
+                .position(|x| x.0 == b)
+                .ok_or_else(|| anyhow!("no board named '{b}'")),
             None if self.list.len() == 1 => Ok(0),
             None => bail!("with several boards, say which one (--to NAME)"),
         }
@@ -115,7 +119,8 @@ impl Boards {
 
     fn send(&mut self, i: usize, line: &str) -> anyhow::Result<Vec<String>> {
         let (name, c) = &mut self.list[i];
-        c.request(line).with_context(|| format!("board {name}: '{line}'"))
+        c.request(line)
+            .with_context(|| format!("board {name}: '{line}'"))
     }
 }
 
@@ -156,8 +161,23 @@ fn print_lines(lines: &[String]) {
 pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
     let mut boards = Boards::connect(&a.boards)?;
     match &a.cmd {
-        CtlCmd::Move { axis, distance: steps, m, preset } | CtlCmd::Moveto { axis, position: steps, m, preset } => {
-            let verb = if matches!(a.cmd, CtlCmd::Move { .. }) { "move" } else { "moveto" };
+        CtlCmd::Move {
+            axis,
+            distance: steps,
+            m,
+            preset,
+        }
+        | CtlCmd::Moveto {
+            axis,
+            position: steps,
+            m,
+            preset,
+        } => {
+            let verb = if matches!(a.cmd, CtlCmd::Move { .. }) {
+                "move"
+            } else {
+                "moveto"
+            };
             let (i, ax) = boards.axis(axis)?;
             let line = format!("{verb} {ax} {steps} {}", move_words(m, preset)?);
             print_lines(&boards.send(i, line.trim_end())?);
@@ -190,7 +210,10 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
         }
         CtlCmd::Wait { axes, timeout } => {
             let deadline = Instant::now() + Duration::from_secs_f64(timeout.max(0.0));
-            let want: Vec<(usize, String)> = axes.iter().map(|x| boards.axis(x)).collect::<Result<_, _>>()?;
+            let want: Vec<(usize, String)> = axes
+                .iter()
+                .map(|x| boards.axis(x))
+                .collect::<Result<_, _>>()?;
             for (i, ax) in want {
                 loop {
                     let line = boards.send(i, &format!("status json {ax}"))?;
@@ -199,7 +222,10 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
                     let s = st.first().ok_or_else(|| anyhow!("no status for {ax}"))?;
                     match s.state {
                         AxisState::Idle => break,
-                        AxisState::Fault => bail!("axis {ax} is in fault: {}", s.fault.as_deref().unwrap_or("?")),
+                        AxisState::Fault => bail!(
+                            "axis {ax} is in fault: {}",
+                            s.fault.as_deref().unwrap_or("?")
+                        ),
                         _ if Instant::now() > deadline => bail!("timed out waiting for {ax}"),
                         _ => std::thread::sleep(Duration::from_millis(20)),
                     }
@@ -210,7 +236,10 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             let mut all = Vec::new();
             for i in 0..boards.list.len() {
                 let name = boards.list[i].0.clone();
-                let st = boards.list[i].1.status().with_context(|| format!("board {name}"))?;
+                let st = boards.list[i]
+                    .1
+                    .status()
+                    .with_context(|| format!("board {name}"))?;
                 all.extend(st.into_iter().map(|mut s| {
                     s.axis = format!("{name}:{}", s.axis);
                     s
@@ -219,7 +248,10 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             if *json {
                 println!("{}", serde_json::to_string_pretty(&all)?);
             } else {
-                println!("{:<16} {:>12} {:>8} {:>6} {:>7} {:>10}", "axis", "position", "state", "homed", "trusted", "speed");
+                println!(
+                    "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10}",
+                    "axis", "position", "state", "homed", "trusted", "speed"
+                );
                 for s in &all {
                     println!(
                         "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10.1}",

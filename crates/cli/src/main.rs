@@ -11,7 +11,11 @@ mod plan;
 mod serve;
 
 #[derive(Parser, Debug)]
-#[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
+#[command(
+    name = "multistep",
+    version,
+    about = "Exact step timing for multi-axis stepper motors"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,

@@ -115,7 +115,9 @@ impl AxisSettings {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(CtlError::Setting(format!("{name} must be a positive number (got {v})")))
+                Err(CtlError::Setting(format!(
+                    "{name} must be a positive number (got {v})"
+                )))
             }
         };
         pos("steps_per_unit", self.steps_per_unit)?;
@@ -198,8 +200,8 @@ impl AxisSettings {
                 CtlError::Setting(format!("'{value}' is not a valid value for {key}"))
             })?,
         };
-        let new: AxisSettings = serde_json::from_value(v)
-            .map_err(|e| CtlError::Setting(format!("{key}: {e}")))?;
+        let new: AxisSettings =
+            serde_json::from_value(v).map_err(|e| CtlError::Setting(format!("{key}: {e}")))?;
         new.validate()?;
         *self = new;
         Ok(())
@@ -211,7 +213,8 @@ fn unknown_key(key: &str) -> CtlError {
 }
 
 fn lookup<'v>(v: &'v serde_json::Value, key: &str) -> Option<&'v serde_json::Value> {
-    key.split('.').try_fold(v, |node, part| node.as_object()?.get(part))
+    key.split('.')
+        .try_fold(v, |node, part| node.as_object()?.get(part))
 }
 
 fn lookup_mut<'v>(v: &'v mut serde_json::Value, key: &str) -> Option<&'v mut serde_json::Value> {
@@ -223,7 +226,11 @@ fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<String>) {
     match v {
         serde_json::Value::Object(m) => {
             for (k, x) in m {
-                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
                 flatten(&key, x, out);
             }
         }
@@ -310,7 +317,9 @@ impl AxisStatus {
 pub fn valid_axis_name(name: &str) -> bool {
     !name.is_empty()
         && name.len() <= 32
-        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         && !name.eq_ignore_ascii_case("ok")
         && !name.eq_ignore_ascii_case("all")
 }

@@ -31,7 +31,10 @@ pub struct BoardSection {
 
 impl Default for BoardSection {
     fn default() -> Self {
-        BoardSection { name: "board".into(), clock_hz: multistep_core::DEFAULT_CLOCK_HZ }
+        BoardSection {
+            name: "board".into(),
+            clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
+        }
     }
 }
 
@@ -65,7 +68,10 @@ impl Default for BoardConfig {
             board: BoardSection::default(),
             axes: ["X", "Y", "Z", "A"]
                 .iter()
-                .map(|n| AxisConfig { name: n.to_string(), settings: AxisSettings::default() })
+                .map(|n| AxisConfig {
+                    name: n.to_string(),
+                    settings: AxisSettings::default(),
+                })
                 .collect(),
         }
     }
@@ -94,14 +100,22 @@ impl BoardConfig {
             )));
         }
         if !(self.board.clock_hz.is_finite() && self.board.clock_hz >= 1e3) {
-            return Err(CtlError::Setting("board.clock_hz must be at least 1000".into()));
+            return Err(CtlError::Setting(
+                "board.clock_hz must be at least 1000".into(),
+            ));
         }
         for (i, a) in self.axes.iter().enumerate() {
             if !valid_axis_name(&a.name) {
-                return Err(CtlError::Setting(format!("'{}' is not a valid axis name", a.name)));
+                return Err(CtlError::Setting(format!(
+                    "'{}' is not a valid axis name",
+                    a.name
+                )));
             }
             if self.axes[..i].iter().any(|b| b.name == a.name) {
-                return Err(CtlError::Setting(format!("axis '{}' is named twice", a.name)));
+                return Err(CtlError::Setting(format!(
+                    "axis '{}' is named twice",
+                    a.name
+                )));
             }
             a.settings
                 .validate()

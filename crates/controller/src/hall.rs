@@ -128,7 +128,11 @@ impl HallSim {
     }
 
     fn next_noise_event(&self) -> u64 {
-        let g = if self.flips_glitch_active() { self.glitch.1 } else { self.glitch.0 };
+        let g = if self.flips_glitch_active() {
+            self.glitch.1
+        } else {
+            self.glitch.0
+        };
         g.min(self.bounces.front().copied().unwrap_or(u64::MAX))
     }
 
@@ -153,7 +157,12 @@ impl HallSim {
         }
         self.filtered = self.raw;
         let (c, t) = self.candidate.take().unwrap_or((0, 0));
-        Some(FilteredEdge { tick: held, active: self.raw, count_at_start: c, true_at_start: t })
+        Some(FilteredEdge {
+            tick: held,
+            active: self.raw,
+            count_at_start: c,
+            true_at_start: t,
+        })
     }
 
     fn apply_level(&mut self, tick: u64, count: i64, true_pos: i64) -> Option<FilteredEdge> {
@@ -229,7 +238,11 @@ mod tests {
     use super::*;
 
     fn sim() -> SimSettings {
-        SimSettings { sensor_at: 100, sensor_width: 50, ..SimSettings::default() }
+        SimSettings {
+            sensor_at: 100,
+            sensor_width: 50,
+            ..SimSettings::default()
+        }
     }
 
     #[test]

@@ -9,8 +9,17 @@ const CLOCK: f64 = 1e6;
 
 fn config(axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
     BoardConfig {
-        board: BoardSection { name: "t".into(), clock_hz: CLOCK },
-        axes: axes.into_iter().map(|(n, s)| AxisConfig { name: n.into(), settings: s }).collect(),
+        board: BoardSection {
+            name: "t".into(),
+            clock_hz: CLOCK,
+        },
+        axes: axes
+            .into_iter()
+            .map(|(n, s)| AxisConfig {
+                name: n.into(),
+                settings: s,
+            })
+            .collect(),
     }
 }
 
@@ -79,7 +88,10 @@ fn homing_finds_the_edge_within_one_microstep_under_glitches_over_many_seeds() {
         assert_eq!(s.position, 1000, "seed {seed}: parks on home_offset");
         // The count now maps the sensor edge to home_offset: the mechanics sit on the edge.
         let err = s.sim_position - sensor_at;
-        assert!(err.abs() <= 1, "seed {seed}: edge found {err} microsteps off");
+        assert!(
+            err.abs() <= 1,
+            "seed {seed}: edge found {err} microsteps off"
+        );
         worst = worst.max(err.abs());
     }
     eprintln!("worst homing error over 120 seeds: {worst} microsteps");
@@ -103,15 +115,24 @@ fn homing_without_a_sensor_in_reach_faults_and_stays_unhomed() {
 #[test]
 fn periodic_axes_take_the_shortest_way() {
     let dir = tempfile::tempdir().unwrap();
-    let wp = AxisSettings { period: Some(1000), ..AxisSettings::default() };
+    let wp = AxisSettings {
+        period: Some(1000),
+        ..AxisSettings::default()
+    };
     let mut b = open(dir.path(), &config(vec![("W", wp)]));
     let o = MoveOpts::default();
-    assert_eq!(b.move_axis("W", Amount::Steps(900), true, &o, 0).unwrap(), 900);
+    assert_eq!(
+        b.move_axis("W", Amount::Steps(900), true, &o, 0).unwrap(),
+        900
+    );
     let t = run_idle(&mut b);
     assert_eq!(st(&mut b, "W").position, 900);
     // 900 → 100 is +200 the short way round, not −800.
     let before = st(&mut b, "W").sim_position;
-    assert_eq!(b.move_axis("W", Amount::Steps(2100), true, &o, t).unwrap(), 100);
+    assert_eq!(
+        b.move_axis("W", Amount::Steps(2100), true, &o, t).unwrap(),
+        100
+    );
     assert_eq!(st(&mut b, "W").target, Some(1100));
     run_idle(&mut b);
     let s = st(&mut b, "W");
@@ -132,24 +153,48 @@ fn periodic_axes_take_the_shortest_way() {
 #[test]
 fn group_moves_start_on_one_tick_and_sync_finishes_on_one_tick() {
     let dir = tempfile::tempdir().unwrap();
-    let slow = AxisSettings { vmax: 1000.0, amax: 3000.0, ..AxisSettings::default() };
-    let c = config(vec![("A", AxisSettings::default()), ("B", slow), ("C", AxisSettings::default())]);
+    let slow = AxisSettings {
+        vmax: 1000.0,
+        amax: 3000.0,
+        ..AxisSettings::default()
+    };
+    let c = config(vec![
+        ("A", AxisSettings::default()),
+        ("B", slow),
+        ("C", AxisSettings::default()),
+    ]);
     let mut b = open(dir.path(), &c);
-    let t = vec![("A".to_string(), Amount::Steps(5000)), ("B".into(), Amount::Steps(-3000)), ("C".into(), Amount::Steps(7))];
+    let t = vec![
+        ("A".to_string(), Amount::Steps(5000)),
+        ("B".into(), Amount::Steps(-3000)),
+        ("C".into(), Amount::Steps(7)),
+    ];
     b.advance(12_345);
-    b.group_move(&t, false, true, &MoveOpts::default(), 12_345).unwrap();
+    b.group_move(&t, false, true, &MoveOpts::default(), 12_345)
+        .unwrap();
     let all = b.status(&[], 12_345).unwrap();
     let starts: Vec<_> = all.iter().map(|s| s.move_start).collect();
     let ends: Vec<_> = all.iter().map(|s| s.move_end).collect();
     assert!(starts.iter().all(|&s| s == Some(12_345)), "{starts:?}");
-    assert!(ends.iter().all(|&e| e == ends[0] && e > Some(12_345)), "{ends:?}");
+    assert!(
+        ends.iter().all(|&e| e == ends[0] && e > Some(12_345)),
+        "{ends:?}"
+    );
     run_idle(&mut b);
     let all = b.status(&[], b.now()).unwrap();
-    assert_eq!(all.iter().map(|s| s.position).collect::<Vec<_>>(), vec![5000, -3000, 7]);
+    assert_eq!(
+        all.iter().map(|s| s.position).collect::<Vec<_>>(),
+        vec![5000, -3000, 7]
+    );
     // Without sync: same start, each at its own pace.
-    let t2 = vec![("A".to_string(), Amount::Steps(0)), ("B".into(), Amount::Steps(3000)), ("C".into(), Amount::Steps(100))];
+    let t2 = vec![
+        ("A".to_string(), Amount::Steps(0)),
+        ("B".into(), Amount::Steps(3000)),
+        ("C".into(), Amount::Steps(100)),
+    ];
     let now = b.now();
-    b.group_move(&t2, true, false, &MoveOpts::default(), now).unwrap();
+    b.group_move(&t2, true, false, &MoveOpts::default(), now)
+        .unwrap();
     let all = b.status(&[], now).unwrap();
     assert!(all.iter().all(|s| s.move_start == Some(now)));
     assert_ne!(all[1].move_end, all[2].move_end);
@@ -158,9 +203,14 @@ fn group_moves_start_on_one_tick_and_sync_finishes_on_one_tick() {
 #[test]
 fn a_controlled_stop_decelerates_at_amax() {
     let dir = tempfile::tempdir().unwrap();
-    let s = AxisSettings { vmax: 4000.0, amax: 10_000.0, ..AxisSettings::default() };
+    let s = AxisSettings {
+        vmax: 4000.0,
+        amax: 10_000.0,
+        ..AxisSettings::default()
+    };
     let mut b = open(dir.path(), &config(vec![("X", s)]));
-    b.move_axis("X", Amount::Steps(100_000), false, &MoveOpts::default(), 0).unwrap();
+    b.move_axis("X", Amount::Steps(100_000), false, &MoveOpts::default(), 0)
+        .unwrap();
     // Cruising at 4000 steps/s after 0.4 s of acceleration; stop at 1 s.
     b.advance(1_000_000);
     let at = st(&mut b, "X");
@@ -171,59 +221,122 @@ fn a_controlled_stop_decelerates_at_amax() {
     // v²/2a = 800 steps of braking, never more.
     assert_eq!(end.position - at.position, 800);
     assert_eq!(end.state, AxisState::Idle);
-    assert!(end.move_end.unwrap() - 1_000_000 <= 400_001, "0.4 s to stop");
+    assert!(
+        end.move_end.unwrap() - 1_000_000 <= 400_001,
+        "0.4 s to stop"
+    );
 }
 
 #[test]
 fn estop_halts_marks_moving_axes_untrusted_and_latches_until_reset() {
     let dir = tempfile::tempdir().unwrap();
-    let mut b = open(dir.path(), &config(vec![("X", AxisSettings::default()), ("Y", AxisSettings::default())]));
+    let mut b = open(
+        dir.path(),
+        &config(vec![
+            ("X", AxisSettings::default()),
+            ("Y", AxisSettings::default()),
+        ]),
+    );
     b.home("X", 0).unwrap();
     b.home("Y", 0).unwrap();
     let t = run_idle(&mut b);
-    b.move_axis("X", Amount::Steps(50_000), false, &MoveOpts::default(), t).unwrap();
+    b.move_axis("X", Amount::Steps(50_000), false, &MoveOpts::default(), t)
+        .unwrap();
     b.estop(t + 500_000);
     let x = st(&mut b, "X");
     let y = st(&mut b, "Y");
     assert_eq!(x.state, AxisState::Fault);
     assert!(!x.trusted && y.trusted);
-    assert!(matches!(b.move_axis("Y", Amount::Steps(1), false, &MoveOpts::default(), t + 600_000), Err(CtlError::EStopped)));
+    assert!(matches!(
+        b.move_axis(
+            "Y",
+            Amount::Steps(1),
+            false,
+            &MoveOpts::default(),
+            t + 600_000
+        ),
+        Err(CtlError::EStopped)
+    ));
     b.reset(t + 700_000);
     assert_eq!(st(&mut b, "X").state, AxisState::Idle);
-    b.move_axis("Y", Amount::Steps(1), false, &MoveOpts::default(), t + 800_000).unwrap();
+    b.move_axis(
+        "Y",
+        Amount::Steps(1),
+        false,
+        &MoveOpts::default(),
+        t + 800_000,
+    )
+    .unwrap();
 }
 
 #[test]
 fn bad_targets_and_busy_axes_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let s = AxisSettings { soft_min: Some(-100), soft_max: Some(100), ..AxisSettings::default() };
+    let s = AxisSettings {
+        soft_min: Some(-100),
+        soft_max: Some(100),
+        ..AxisSettings::default()
+    };
     let mut b = open(dir.path(), &config(vec![("X", s)]));
     let o = MoveOpts::default();
-    assert!(matches!(b.move_axis("X", Amount::Steps(101), true, &o, 0), Err(CtlError::OutOfLimits { .. })));
-    assert!(matches!(b.move_axis("Q", Amount::Steps(1), true, &o, 0), Err(CtlError::UnknownAxis(_))));
-    assert!(matches!(b.move_axis("X", Amount::Steps(100), false, &MoveOpts { vmax: Some(1e9), amax: Some(1e9), ..o.clone() }, 0), Err(CtlError::TooFast(_))));
+    assert!(matches!(
+        b.move_axis("X", Amount::Steps(101), true, &o, 0),
+        Err(CtlError::OutOfLimits { .. })
+    ));
+    assert!(matches!(
+        b.move_axis("Q", Amount::Steps(1), true, &o, 0),
+        Err(CtlError::UnknownAxis(_))
+    ));
+    assert!(matches!(
+        b.move_axis(
+            "X",
+            Amount::Steps(100),
+            false,
+            &MoveOpts {
+                vmax: Some(1e9),
+                amax: Some(1e9),
+                ..o.clone()
+            },
+            0
+        ),
+        Err(CtlError::TooFast(_))
+    ));
     b.move_axis("X", Amount::Steps(100), true, &o, 0).unwrap();
-    assert!(matches!(b.move_axis("X", Amount::Steps(1), false, &o, 10), Err(CtlError::Busy { .. })));
+    assert!(matches!(
+        b.move_axis("X", Amount::Steps(1), false, &o, 10),
+        Err(CtlError::Busy { .. })
+    ));
     b.stop(None, 20).unwrap();
     run_idle(&mut b);
     b.set("X", "soft_max", "5", b.now()).unwrap();
     assert_eq!(b.settings("X").unwrap().soft_max, Some(5));
     b.home("X", b.now()).unwrap();
-    assert!(matches!(b.move_axis("X", Amount::Steps(1), false, &o, b.now()), Err(CtlError::Busy { state: "homing", .. })));
+    assert!(matches!(
+        b.move_axis("X", Amount::Steps(1), false, &o, b.now()),
+        Err(CtlError::Busy {
+            state: "homing",
+            ..
+        })
+    ));
 }
 
 #[test]
 fn a_board_that_dies_mid_move_restores_idle_axes_exactly_and_distrusts_the_moving_one() {
     let dir = tempfile::tempdir().unwrap();
-    let c = config(vec![("X", AxisSettings::default()), ("Y", AxisSettings::default())]);
+    let c = config(vec![
+        ("X", AxisSettings::default()),
+        ("Y", AxisSettings::default()),
+    ]);
     {
         let mut b = open(dir.path(), &c);
         b.home("X", 0).unwrap();
         b.home("Y", 0).unwrap();
         let t = run_idle(&mut b);
-        b.move_axis("Y", Amount::Steps(-1234), false, &MoveOpts::default(), t).unwrap();
+        b.move_axis("Y", Amount::Steps(-1234), false, &MoveOpts::default(), t)
+            .unwrap();
         let t = run_idle(&mut b);
-        b.move_axis("X", Amount::Steps(40_000), false, &MoveOpts::default(), t).unwrap();
+        b.move_axis("X", Amount::Steps(40_000), false, &MoveOpts::default(), t)
+            .unwrap();
         b.advance(t + 1_000_000);
         assert_eq!(st(&mut b, "X").state, AxisState::Moving);
         // Dropped without finishing: what a kill leaves in the store.
@@ -243,11 +356,22 @@ fn a_board_that_dies_mid_move_restores_idle_axes_exactly_and_distrusts_the_movin
 #[test]
 fn passing_the_sensor_checks_the_count_and_catches_lost_steps() {
     let dir = tempfile::tempdir().unwrap();
-    let s = AxisSettings { home_offset: 0, sim: SimSettings { sensor_at: 0, sensor_width: 100, ..SimSettings::default() }, ..AxisSettings::default() };
+    let s = AxisSettings {
+        home_offset: 0,
+        sim: SimSettings {
+            sensor_at: 0,
+            sensor_width: 100,
+            ..SimSettings::default()
+        },
+        ..AxisSettings::default()
+    };
     let mut b = open(dir.path(), &config(vec![("X", s)]));
     b.home("X", 0).unwrap();
     let t = run_idle(&mut b);
-    let o = MoveOpts { vmax: Some(500.0), ..MoveOpts::default() };
+    let o = MoveOpts {
+        vmax: Some(500.0),
+        ..MoveOpts::default()
+    };
     // Out and back over the sensor in the homing (negative) direction: no drift.
     b.move_axis("X", Amount::Steps(2000), true, &o, t).unwrap();
     let t = run_idle(&mut b);

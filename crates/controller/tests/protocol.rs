@@ -1,13 +1,17 @@
 //! The line protocol under random input: nothing panics, every line gets exactly one
 //! answer, and well-formed commands read back as what was written.
 
-use multistep_controller::protocol::{self, parse, parse_bytes, read_line, Amount, Command, Line, MoveOpts, MAX_LINE};
+use multistep_controller::protocol::{
+    self, parse, parse_bytes, read_line, Amount, Command, Line, MoveOpts, MAX_LINE,
+};
 use multistep_controller::{service, BoardConfig, Controller};
 use proptest::prelude::*;
 use std::io::BufReader;
 
 fn count_status_lines(out: &str) -> usize {
-    out.lines().filter(|l| protocol::parse_status_line(l).is_some()).count()
+    out.lines()
+        .filter(|l| protocol::parse_status_line(l).is_some())
+        .count()
 }
 
 proptest! {
@@ -63,10 +67,16 @@ proptest! {
 fn a_connection_answers_every_random_line_exactly_once() {
     let dir = tempfile::tempdir().unwrap();
     let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: 300, ..ProptestConfig::default() });
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 300,
+        ..ProptestConfig::default()
+    });
     let lines = proptest::collection::vec(
         prop_oneof![
-            proptest::collection::vec(any::<u8>().prop_filter("no newline", |b| *b != b'\n'), 0..200),
+            proptest::collection::vec(
+                any::<u8>().prop_filter("no newline", |b| *b != b'\n'),
+                0..200
+            ),
             proptest::collection::vec(Just(b'x'), 4000..4200),
             Just(b"status X".to_vec()),
             Just(b"get Y vmax".to_vec()),

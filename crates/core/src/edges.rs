@@ -116,7 +116,11 @@ impl EdgeGenerator {
             let tau = (2.0 * n / den).min(p.dur);
             // relative error of τ from the radicand and the root, then n's own error
             let rel = EPS * (4.0 + (0.75 * (c1 * c1 + 4.0 * c2.abs() * n) / s + s) / den);
-            let err = if s > 0.0 { tau * rel + n_err / s } else { f64::INFINITY };
+            let err = if s > 0.0 {
+                tau * rel + n_err / s
+            } else {
+                f64::INFINITY
+            };
             self.v_prev = s;
             return (tau, err);
         }
@@ -158,13 +162,20 @@ impl EdgeGenerator {
             }
             last_step = (next - tau).abs();
             tau = next;
-            if last_step * self.clock <= 1e-7 || last_step <= 4.0 * EPS * tau || hi - lo <= 4.0 * EPS * hi {
+            if last_step * self.clock <= 1e-7
+                || last_step <= 4.0 * EPS * tau
+                || hi - lo <= 4.0 * EPS * hi
+            {
                 break;
             }
         }
         self.v_prev = v;
         let eval_err = 8.0 * EPS * (p.term_scale(tau) + n.abs()) + n_err;
-        let err = if v > 0.0 { eval_err / v + last_step } else { f64::INFINITY };
+        let err = if v > 0.0 {
+            eval_err / v + last_step
+        } else {
+            f64::INFINITY
+        };
         (tau, err)
     }
 

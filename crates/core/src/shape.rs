@@ -168,7 +168,11 @@ mod tests {
                     }
                     let quad = acc * h / 3.0;
                     let closed = s.integral(u, mirrored);
-                    let tol = if matches!(s, Shape::Parabolic) && !mirrored { 1e-9 } else { 1e-12 };
+                    let tol = if matches!(s, Shape::Parabolic) && !mirrored {
+                        1e-9
+                    } else {
+                        1e-12
+                    };
                     assert!(
                         (quad - closed).abs() <= tol * u.max(1e-3),
                         "{s:?} m={mirrored} u={u}: {quad} vs {closed}"
@@ -189,7 +193,10 @@ mod tests {
                 for &u in &[1e-9, 0.001, 0.49, 0.51, 0.999, 1.0] {
                     let a = s.integral(u, mirrored);
                     let b = s.integral(Dd::new(u), mirrored).to_f64();
-                    assert!((a - b).abs() <= 4e-16 * b.abs().max(1e-300), "{s:?} {mirrored} {u}: {a} {b}");
+                    assert!(
+                        (a - b).abs() <= 4e-16 * b.abs().max(1e-300),
+                        "{s:?} {mirrored} {u}: {a} {b}"
+                    );
                 }
             }
         }
