@@ -9,6 +9,7 @@ mod moveargs;
 mod output;
 mod plan;
 mod serve;
+mod tdm;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -29,6 +30,8 @@ enum Cmd {
     Serve(serve::ServeArgs),
     /// Talk to controller boards: move, home, stop, status, …
     Ctl(ctl::CtlArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Cmd::Plan(a) => plan::run(a),
         Cmd::Serve(a) => serve::run(a),
         Cmd::Ctl(a) => ctl::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
