@@ -6,9 +6,10 @@ use crate::axis::{AxisSettings, AxisState, AxisStatus};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_move, stop_profile, StepSource};
+use crate::motion::{start_group, start_move, stop_profile, StepSource};
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
+use multistep_core::tdm::TdmConfig;
 use multistep_core::{Family, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
@@ -92,6 +93,7 @@ fn shortest(x: i64, p: i64) -> i64 {
 pub struct Board {
     name: String,
     clock_hz: f64,
+    tdm: TdmConfig,
     axes: Vec<Axis>,
     store: Store,
     estopped: bool,
@@ -143,6 +145,7 @@ impl Board {
         Ok(Board {
             name: config.board.name.clone(),
             clock_hz,
+            tdm: config.board.tdm(),
             axes,
             store,
             estopped: false,
@@ -419,6 +422,17 @@ impl Board {
         start: u64,
     ) -> Result<(), CtlError> {
         let src = start_move(p, self.clock_hz, start)?;
+        self.launch_source(i, src, dir, purpose, start)
+    }
+
+    fn launch_source(
+        &mut self,
+        i: usize,
+        src: Box<dyn StepSource>,
+        dir: i64,
+        purpose: Purpose,
+        start: u64,
+    ) -> Result<(), CtlError> {
         let ax = &mut self.axes[i];
         let target = ax.count + dir * src.steps_left() as i64;
         if purpose == Purpose::Move {
@@ -629,11 +643,21 @@ impl Board {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
-        let start = self.now;
+        // One TDM run times the whole group: one start tick for every axis.
+        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
+        let (start, mut sources) = if moving.is_empty() {
+            (self.now, Vec::new())
+        } else {
+            start_group(&moving, &self.tdm, self.now)?
+        };
+        sources.reverse();
         let mut out = Vec::new();
         for (&(i, d), p) in plan.iter().zip(profiles) {
             match p {
-                Some(p) => self.launch(i, p, d.signum(), Purpose::Move, start)?,
+                Some(_) => {
+                    let src = sources.pop().expect("one source per moving axis");
+                    self.launch_source(i, src, d.signum(), Purpose::Move, start)?
+                }
                 None => {
                     let ax = &mut self.axes[i];
                     ax.move_start = Some(start);
