@@ -58,6 +58,8 @@ struct Axis {
     drift_checks: u64,
     move_start: Option<u64>,
     move_end: Option<u64>,
+    /// A moving marker is on disk.
+    marked: bool,
 }
 
 impl Axis {
@@ -130,6 +132,7 @@ impl Board {
                 drift_checks: 0,
                 move_start: None,
                 move_end: None,
+                marked: false,
             };
             if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`, the mechanics are somewhere on the
@@ -302,12 +305,18 @@ impl Board {
         self.persist(i);
     }
 
+    /// Writes the axis record. While a sequence of moves runs (homing phases, the park
+    /// after homing) the marker written at its start stays on disk, untouched.
     fn persist(&mut self, i: usize) {
-        let ax = &self.axes[i];
+        let ax = &mut self.axes[i];
+        if ax.motion.is_some() && ax.marked {
+            return;
+        }
         let marker = ax.motion.as_ref().map(|m| MovingMarker {
             from: ax.count,
             target: m.target,
         });
+        ax.marked = marker.is_some();
         if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
         }
@@ -452,12 +461,17 @@ impl Board {
         ax.fault = None;
         ax.move_start = Some(start);
         ax.move_end = None;
-        // The marker is durable before the first step.
+        // The marker is durable before the first step (once per sequence of moves).
+        if ax.marked {
+            return Ok(());
+        }
         let rec = ax.record(Some(MovingMarker {
             from: ax.count,
             target,
         }));
+        ax.marked = true;
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
+            ax.marked = false;
             ax.motion = None;
             ax.state = AxisState::Idle;
             return Err(e);
