@@ -60,6 +60,8 @@ struct Axis {
     move_end: Option<u64>,
     /// A moving marker is on disk.
     marked: bool,
+    /// Direction of the last move (+1/-1), for the DIR line level.
+    last_dir: i64,
 }
 
 impl Axis {
@@ -133,6 +135,7 @@ impl Board {
                 move_start: None,
                 move_end: None,
                 marked: false,
+                last_dir: 1,
             };
             if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`, the mechanics are somewhere on the
@@ -461,6 +464,7 @@ impl Board {
         ax.fault = None;
         ax.move_start = Some(start);
         ax.move_end = None;
+        ax.last_dir = dir;
         // The marker is durable before the first step (once per sequence of moves).
         if ax.marked {
             return Ok(());
@@ -522,19 +526,19 @@ impl Board {
             ax.count.checked_add(n)
         };
         let s = &ax.settings;
-        let show = |o: Option<i64>| o.map_or("-inf/inf".to_string(), |x| x.to_string());
+        let show = |o: Option<i64>, none: &str| o.map_or(none.to_string(), |x| x.to_string());
         match target {
             Some(t)
-                if s.soft_min.map_or(true, |lo| t >= lo)
-                    && s.soft_max.map_or(true, |hi| t <= hi) =>
+                if !matches!(s.soft_min, Some(lo) if t < lo)
+                    && !matches!(s.soft_max, Some(hi) if t > hi) =>
             {
                 Ok(t - ax.count)
             }
             _ => Err(CtlError::OutOfLimits {
                 axis: ax.name.clone(),
                 target: target.unwrap_or(i64::MAX),
-                min: show(s.soft_min),
-                max: show(s.soft_max),
+                min: show(s.soft_min, "-inf"),
+                max: show(s.soft_max, "inf"),
             }),
         }
     }
@@ -836,6 +840,7 @@ impl Board {
                         .map_or(ax.move_end, |m| Some(m.src.end_tick())),
                     fault: ax.fault.clone(),
                     sim_position: ax.sim_pos,
+                    dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                 }
             })
             .collect())

@@ -128,6 +128,17 @@ impl BoardConfig {
     }
 }
 
+impl BoardSection {
+    /// The TDM engine that times this board's moves (seed 000's calculator latencies).
+    pub fn tdm(&self) -> multistep_core::tdm::TdmConfig {
+        multistep_core::tdm::TdmConfig {
+            clock_hz: self.clock_hz,
+            fifo_depth: self.fifo_depth,
+            ..multistep_core::tdm::TdmConfig::default()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,16 +161,5 @@ mod tests {
         assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\n[[axis]]\nname = \"X\"\n").is_err());
         let c = BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = 3.0\n").unwrap();
         assert_eq!(c.axes[0].settings.vmax, 3.0);
-    }
-}
-
-impl BoardSection {
-    /// The TDM engine that times this board's moves (seed 000's calculator latencies).
-    pub fn tdm(&self) -> multistep_core::tdm::TdmConfig {
-        multistep_core::tdm::TdmConfig {
-            clock_hz: self.clock_hz,
-            fifo_depth: self.fifo_depth,
-            ..multistep_core::tdm::TdmConfig::default()
-        }
     }
 }

@@ -113,7 +113,7 @@ pub fn tdm_report(profiles: &[Profile], cfg: &TdmConfig) -> Result<tdm::Report, 
 /// the axis is slow enough to stop on the spot (less than half a step to go).
 pub fn stop_profile(speed: f64, amax: f64) -> Option<Profile> {
     let dist = speed * speed / (2.0 * amax);
-    if !(speed > 0.0) || dist < 0.5 {
+    if speed.is_nan() || speed <= 0.0 || dist < 0.5 {
         return None;
     }
     let steps = dist.ceil() as u64;

@@ -316,6 +316,12 @@ fn bad_targets_and_busy_axes_are_refused() {
     b.stop(None, 20).unwrap();
     run_idle(&mut b);
     b.set("X", "soft_max", "5", b.now()).unwrap();
+    assert!(st(&mut b, "X").dir_level, "last move was positive");
+    b.set("X", "invert_dir", "true", b.now()).unwrap();
+    assert!(
+        !st(&mut b, "X").dir_level,
+        "inverted wiring flips the DIR level"
+    );
     assert_eq!(b.settings("X").unwrap().soft_max, Some(5));
     b.home("X", b.now()).unwrap();
     assert!(matches!(
