@@ -40,6 +40,22 @@ pub enum CtlCmd {
         #[arg(long)]
         preset: Option<String>,
     },
+    /// Move axes of one board together: same start tick (--sync: same finish tick too)
+    Group {
+        /// AXIS=N targets (BOARD:AXIS=N with several boards; all on one board)
+        #[arg(required = true, allow_hyphen_values = true)]
+        targets: Vec<String>,
+        /// Targets are absolute positions (default: relative distances)
+        #[arg(long)]
+        absolute: bool,
+        /// Finish on the same tick as well
+        #[arg(long)]
+        sync: bool,
+        #[command(flatten)]
+        m: MoveArgs,
+        #[arg(long)]
+        preset: Option<String>,
+    },
     /// Home an axis on its Hall sensor
     Home { axis: String },
     /// Controlled stop of an axis (all axes of all boards without one)
@@ -176,6 +192,34 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             let (i, ax) = boards.axis(axis)?;
             let line = format!("{verb} {ax} {steps} {}", move_words(m, preset)?);
             print_lines(&boards.send(i, line.trim_end())?);
+        }
+        CtlCmd::Group {
+            targets,
+            absolute,
+            sync,
+            m,
+            preset,
+        } => {
+            let mut board = None;
+            let mut words = Vec::new();
+            for t in targets {
+                let (a, n) = t
+                    .rsplit_once('=')
+                    .ok_or_else(|| anyhow!("'{t}' is not AXIS=N"))?;
+                let (i, ax) = boards.axis(a)?;
+                if *board.get_or_insert(i) != i {
+                    bail!("a group moves axes of one board (boards start on their own clocks)");
+                }
+                words.push(format!("{ax}={n}"));
+            }
+            let verb = if *absolute { "moveto" } else { "move" };
+            let sync = if *sync { " sync" } else { "" };
+            let line = format!(
+                "group {verb} {}{sync} {}",
+                words.join(" "),
+                move_words(m, preset)?
+            );
+            print_lines(&boards.send(board.unwrap_or(0), line.trim_end())?);
         }
         CtlCmd::Home { axis } => {
             let (i, ax) = boards.axis(axis)?;

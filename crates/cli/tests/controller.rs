@@ -333,6 +333,30 @@ fn ctl_drives_two_boards_of_the_telescope_example() {
     let (code, _, err) = ctl(&["move", "a:nope", "5"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("error:4"), "{err}");
+    // Homing a wave plate of the example (its sensor is noisy) and a synchronous group.
+    assert_eq!(ctl(&["home", "a:wp3"]).0, Some(0));
+    let (code, out, err) = ctl(&["group", "--sync", "a:wp1=1000", "a:wp2=-500", "a:slit=3200"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(out, "wp1 target=1000\nwp2 target=3500\nslit target=3200\n");
+    let (code, _, err) = ctl(&["group", "a:wp1=1", "b:wp11=1"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("one board"), "{err}");
+    assert_eq!(
+        ctl(&["wait", "a:wp3", "a:wp1", "a:wp2", "a:slit"]).0,
+        Some(0)
+    );
+    let (_, out, _) = ctl(&["status", "--json"]);
+    let all: Vec<serde_json::Value> = serde_json::from_str(&out).unwrap();
+    let find = |n: &str| all.iter().find(|s| s["axis"] == n).unwrap().clone();
+    assert_eq!(
+        (
+            find("a:wp3")["homed"].clone(),
+            find("a:wp3")["position"].clone()
+        ),
+        (true.into(), 0.into())
+    );
+    assert_eq!(find("a:wp1")["move_end"], find("a:slit")["move_end"]);
+    assert_eq!(find("a:wp2")["position"], 3500);
     assert_eq!(ctl(&["estop"]).0, Some(0));
     let (code, _, err) = ctl(&["move", "a:slit", "5"]);
     assert_eq!(code, Some(2));
