@@ -83,6 +83,21 @@ fn wait_idle(c: &mut Client, axis: &str) -> AxisStatus {
     }
 }
 
+/// Runs `multistep ctl --board B… ARGS`: (exit code, stdout, stderr).
+fn run_ctl(boards: &[String], args: &[&str]) -> (Option<i32>, String, String) {
+    let mut cmd = Command::new(BIN);
+    cmd.arg("ctl");
+    for b in boards {
+        cmd.args(["--board", b]);
+    }
+    let out = cmd.args(args).output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
 fn write_config(dir: &Path, text: &str) -> std::path::PathBuf {
     let p = dir.join("board.toml");
     std::fs::write(&p, text).unwrap();
@@ -284,24 +299,8 @@ fn ctl_drives_two_boards_of_the_telescope_example() {
         50.0,
         &[],
     );
-    let ctl = |args: &[&str]| {
-        let out = Command::new(BIN)
-            .args([
-                "ctl",
-                "--board",
-                &format!("a=tcp://{}", a.addr),
-                "--board",
-                &format!("b=tcp://{}", b.addr),
-            ])
-            .args(args)
-            .output()
-            .unwrap();
-        (
-            out.status.code(),
-            String::from_utf8(out.stdout).unwrap(),
-            String::from_utf8(out.stderr).unwrap(),
-        )
-    };
+    let boards = [format!("a=tcp://{}", a.addr), format!("b=tcp://{}", b.addr)];
+    let ctl = |args: &[&str]| run_ctl(&boards, args);
     // A wave plate (period 90° = 4000 microsteps): 350° is 80° (3556), 10° back from 1000.
     assert_eq!(ctl(&["moveto", "b:wp11", "1000"]).0, Some(0));
     assert_eq!(ctl(&["wait", "b:wp11"]).0, Some(0));
@@ -470,18 +469,8 @@ fn ctl_talks_to_a_board_over_a_serial_line() {
     let dir = tempfile::tempdir().unwrap();
     let _srv = Server::start(dir.path(), None, 20.0, &["--serial", &board_dev]);
     std::thread::sleep(Duration::from_millis(300));
-    let ctl = |args: &[&str]| {
-        let out = Command::new(BIN)
-            .args(["ctl", "--board", &format!("s=serial:{host_dev}")])
-            .args(args)
-            .output()
-            .unwrap();
-        (
-            out.status.code(),
-            String::from_utf8(out.stdout).unwrap(),
-            String::from_utf8(out.stderr).unwrap(),
-        )
-    };
+    let boards = [format!("s=serial:{host_dev}")];
+    let ctl = |args: &[&str]| run_ctl(&boards, args);
     let (code, out, err) = ctl(&["move", "Y", "-250"]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(out, "Y target=-250\n");
