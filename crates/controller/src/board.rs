@@ -12,6 +12,9 @@ use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::{Family, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
+mod preview;
+pub use preview::PlannedAxis;
+
 /// Phases of homing (seed 002 §2.3, with the usual back-off and slow re-approach).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum HomePhase {

@@ -1,0 +1,268 @@
+// End-to-end scenarios of the operator page in the system's headless Chromium, against the
+// real service process. Run by `cargo test -p multistep --test web_browser`, which passes:
+//   SERVICE_ARGV  JSON array: the service command; "{http}" is replaced by HOST:PORT
+//   SCREENSHOT    where to write the screenshot taken during a two-axis move
+//   CHROMIUM      browser executable (default /usr/bin/chromium)
+// The service must print "web page on http://HOST:PORT/" on stderr.
+// Prints one line per scenario and then "N passed, M failed"; exits 1 on any failure.
+import { spawn } from 'node:child_process';
+import { existsSync } from 'node:fs';
+import { chromium } from 'playwright-core';
+
+const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
+const ARGV = JSON.parse(process.env.SERVICE_ARGV || 'null');
+const SCREENSHOT = process.env.SCREENSHOT;
+const T = 20000; // longest wait for anything (ms); the scenarios take a few seconds each
+
+if (!existsSync(CHROMIUM)) {
+  console.error(`error: no browser at ${CHROMIUM}: install it with 'apt-get install -y chromium chromium-driver'`);
+  process.exit(1);
+}
+if (!Array.isArray(ARGV)) {
+  console.error('error: SERVICE_ARGV (a JSON array) must give the service command');
+  process.exit(1);
+}
+
+// Starts the service; resolves with its process and the page's address.
+function startService(http) {
+  return new Promise((resolve, reject) => {
+    const argv = ARGV.map((a) => a.replace('{http}', http));
+    const p = spawn(argv[0], argv.slice(1), { stdio: ['ignore', 'pipe', 'pipe'] });
+    let err = '';
+    const timer = setTimeout(() => reject(new Error('service did not start: ' + err)), T);
+    p.stdout.on('data', () => {});
+    p.stderr.on('data', (d) => {
+      err += d;
+      const m = err.match(/web page on (http:\/\/\S+?)\/?\s/);
+      if (m) { clearTimeout(timer); resolve({ proc: p, url: m[1] }); }
+    });
+    p.on('exit', (code) => { clearTimeout(timer); reject(new Error(`service exited (${code}): ${err}`)); });
+  });
+}
+
+function stopService(s) {
+  return new Promise((resolve) => {
+    s.proc.removeAllListeners('exit');
+    s.proc.on('exit', resolve);
+    s.proc.kill('SIGKILL');
+  });
+}
+
+const card = (axis) => `#axis-0-${axis}`;
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+async function text(page, sel) {
+  return (await page.locator(sel).textContent()).trim();
+}
+
+// The state an axis card shows.
+function readCard(page, axis) {
+  return page.evaluate((sel) => {
+    const el = document.querySelector(sel);
+    if (!el) return null;
+    return {
+      pos: Number(el.querySelector('.pos').textContent),
+      state: el.dataset.state,
+      homed: el.querySelector('.homed').textContent,
+      err: el.querySelector('.axis-err').textContent,
+      text: el.innerText.replace(/\s+/g, ' '),
+    };
+  }, card(axis));
+}
+
+// Polls an axis card from here (the page's CSP forbids eval, so no predicate is sent there)
+// until `pred` holds for what it shows.
+async function waitAxis(page, axis, pred, what) {
+  const until = Date.now() + T;
+  let s = null;
+  while (Date.now() < until) {
+    s = await readCard(page, axis);
+    if (s && pred(s)) return s;
+    await sleep(15);
+  }
+  throw new Error(`${axis}: waited for ${what}; card shows: ${s && s.text}`);
+}
+
+async function moveAxis(page, axis, amount, mode = 'move') {
+  await page.locator(`${card(axis)} .amount`).fill(String(amount));
+  await page.locator(`${card(axis)} .mode`).selectOption(mode);
+  await page.locator(`${card(axis)} .go`).click();
+}
+
+const scenarios = [];
+const scenario = (name, fn) => scenarios.push({ name, fn });
+
+scenario('page loads and shows every axis', async ({ page }) => {
+  await page.locator('#conn.up').waitFor({ timeout: T });
+  for (const a of ['X', 'Y', 'WP']) await page.locator(card(a)).waitFor({ timeout: T });
+  await waitAxis(page, 'X', (s) => s.state === 'idle', 'first status');
+});
+
+scenario('a move is followed live until its position arrives', async ({ page }) => {
+  await moveAxis(page, 'X', 3000);
+  await waitAxis(page, 'X', (s) => s.state === 'moving', 'moving');
+  // Count what the page itself shows while the axis moves.
+  const shown = await page.evaluate(async (sel) => {
+    const el = document.querySelector(sel);
+    const vals = [];
+    const t0 = performance.now();
+    while (el.dataset.state === 'moving' && performance.now() - t0 < 20000) {
+      vals.push(el.querySelector('.pos').textContent);
+      await new Promise((r) => setTimeout(r, 10));
+    }
+    return { vals, ms: performance.now() - t0 };
+  }, card('X'));
+  await waitAxis(page, 'X', (s) => s.pos === 3000 && s.state === 'idle', 'arrival at 3000');
+  const distinct = new Set(shown.vals).size;
+  console.log(`#   X: ${distinct} distinct positions shown during ${shown.ms.toFixed(0)} ms of motion (${(distinct / shown.ms * 1000).toFixed(1)}/s)`);
+  if (distinct < 5) throw new Error(`the position was not updated live (${distinct} values)`);
+});
+
+scenario('an out-of-limit target shows the service error next to the axis', async ({ page }) => {
+  await moveAxis(page, 'X', 50000, 'moveto');
+  await waitAxis(page, 'X', (s) => s.err.includes('outside the soft limits'), 'the soft-limit error');
+  const err = await text(page, `${card('X')} .axis-err`);
+  if (!err.startsWith('error 5:')) throw new Error('unexpected message: ' + err);
+});
+
+scenario('a preview is planned by the service and drawn', async ({ page }) => {
+  await page.locator(`${card('X')} .amount`).fill('-2000');
+  await page.locator(`${card('X')} .mode`).selectOption('move');
+  await page.locator(`${card('X')} .preview`).click();
+  await page.waitForFunction(() => document.querySelector('#preview-info').textContent.includes('3000 → 1000 (2000 steps)'), null, { timeout: T });
+  const inked = await page.evaluate(() => {
+    const c = document.querySelector('#preview-canvas');
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++;
+    return n;
+  });
+  if (inked < 500) throw new Error(`preview canvas is nearly empty (${inked} pixels)`);
+  const st = await text(page, `${card('X')} .pos`);
+  if (st !== '3000') throw new Error('a preview moved the axis to ' + st);
+});
+
+scenario('emergency stop during a move halts it and blocks new moves until reset', async ({ page }) => {
+  await moveAxis(page, 'Y', 40000);
+  await waitAxis(page, 'Y', (s) => s.state === 'moving' && s.pos > 200, 'moving');
+  await page.locator('#estop').click();
+  await page.locator('#estop-state').waitFor({ state: 'visible', timeout: T });
+  await waitAxis(page, 'Y', (s) => s.state !== 'moving', 'halt');
+  const at = Number(await text(page, `${card('Y')} .pos`));
+  await sleep(300);
+  const later = Number(await text(page, `${card('Y')} .pos`));
+  if (!(at < 40000 && later === at)) throw new Error(`Y kept moving after the emergency stop: ${at} then ${later}`);
+  await moveAxis(page, 'Y', 100);
+  await waitAxis(page, 'Y', (s) => s.err.includes('emergency stop is active'), 'the e-stop error');
+  await page.locator('#reset').click();
+  await page.locator('#estop-state').waitFor({ state: 'hidden', timeout: T });
+});
+
+scenario('homing finds the sensor and marks the axis homed', async ({ page }) => {
+  await page.locator(`${card('X')} .home`).click();
+  await waitAxis(page, 'X', (s) => s.state === 'homing', 'homing');
+  await waitAxis(page, 'X', (s) => s.state === 'idle' && s.homed === 'homed', 'homed');
+  const trusted = await text(page, `${card('X')} .trusted`);
+  if (trusted !== 'trusted') throw new Error('after homing the axis is ' + trusted);
+});
+
+scenario('a named position is saved and recalled', async ({ page }) => {
+  await moveAxis(page, 'X', 1234, 'moveto');
+  await waitAxis(page, 'X', (s) => s.pos === 1234 && s.state === 'idle', 'X at 1234');
+  await page.locator('#pos-name').fill('park');
+  await page.locator('#pos-save').click();
+  await page.locator('#pos-list li[data-name=park]').waitFor({ timeout: T });
+  await moveAxis(page, 'X', -800, 'moveto');
+  await waitAxis(page, 'X', (s) => s.pos === -800 && s.state === 'idle', 'X at -800');
+  await page.locator('#pos-list li[data-name=park] .goto').click();
+  await waitAxis(page, 'X', (s) => s.pos === 1234 && s.state === 'idle', 'X back at 1234');
+});
+
+scenario('a bad setting shows the validation message next to the field', async ({ page }) => {
+  await page.locator(`${card('X')} .gear`).click();
+  const vmax = page.locator('#settings-form input[name=vmax]');
+  await vmax.waitFor({ timeout: T });
+  await vmax.fill('-5');
+  await vmax.dispatchEvent('change');
+  await page.waitForFunction(
+    () => document.querySelector('#settings-form .err[data-for=vmax]').textContent.includes('vmax must be a positive number'),
+    null, { timeout: T });
+  await vmax.fill('5000');
+  await vmax.dispatchEvent('change');
+  await page.waitForFunction(
+    () => document.querySelector('#settings-form .err[data-for=vmax]').textContent === '' &&
+      document.querySelector('#settings-form input[name=vmax]').dataset.saved === '5000.0',
+    null, { timeout: T });
+});
+
+scenario('a synchronous group move runs both axes together (screenshot)', async ({ page }) => {
+  await page.locator('#group-axes input[data-axis=X]').fill('-3000');
+  await page.locator('#group-axes input[data-axis=Y]').fill('9000');
+  await page.locator('#group-sync').check();
+  await page.locator('#group-preview').click();
+  await page.waitForFunction(() => document.querySelector('#preview-info').textContent.includes('Y:'), null, { timeout: T });
+  await page.locator('#group-run').click();
+  await waitAxis(page, 'X', (s) => s.state === 'moving', 'X moving');
+  await waitAxis(page, 'Y', (s) => s.state === 'moving', 'Y moving');
+  await sleep(900);
+  if (SCREENSHOT) await page.screenshot({ path: SCREENSHOT, fullPage: true });
+  await waitAxis(page, 'X', (s) => s.pos === -3000 && s.state === 'idle', 'X at -3000');
+  await waitAxis(page, 'Y', (s) => s.pos === 9000 && s.state === 'idle', 'Y at 9000');
+});
+
+scenario('a lost connection is shown and the page reconnects by itself', async ({ page, restart }) => {
+  await restart(async () => {
+    await page.locator('#conn.down').waitFor({ timeout: T });
+    const t = await text(page, '#conn');
+    if (!t.includes('lost')) throw new Error('connection badge says ' + t);
+  });
+  await page.locator('#conn.up').waitFor({ timeout: T });
+  // Positions were persisted and restored by the restarted service.
+  await waitAxis(page, 'Y', (s) => s.pos === 9000, 'Y restored at 9000');
+  await moveAxis(page, 'X', 100);
+  await waitAxis(page, 'X', (s) => s.pos === -2900 && s.state === 'idle', 'a move after reconnecting');
+});
+
+async function main() {
+  let service = await startService('127.0.0.1:0');
+  const browser = await chromium.launch({
+    executablePath: CHROMIUM,
+    headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking',
+      '--disable-component-update', '--disable-sync'],
+  });
+  const page = await browser.newPage({ viewport: { width: 1400, height: 1000 } });
+  const pageErrors = [];
+  page.on('pageerror', (e) => pageErrors.push(String(e)));
+  if (process.env.E2E_DEBUG) {
+    const t0 = Date.now();
+    page.on('request', (r) => console.log('#', Date.now() - t0, 'request', r.method(), r.url(), r.postData() || ''));
+    page.on('requestfinished', (r) => console.log('#', Date.now() - t0, 'finished', r.url()));
+    page.on('console', (m) => console.log('# console', m.text()));
+  }
+  const restart = async (whileDown) => {
+    const port = new URL(service.url).host;
+    await stopService(service);
+    await whileDown();
+    service = await startService(port);
+  };
+  await page.goto(service.url + '/');
+  let passed = 0, failed = 0;
+  for (const s of scenarios) {
+    try {
+      await s.fn({ page, restart });
+      if (pageErrors.length) throw new Error('script error on the page: ' + pageErrors.splice(0).join('; '));
+      passed++;
+      console.log(`ok - ${s.name}`);
+    } catch (e) {
+      failed++;
+      console.log(`not ok - ${s.name}\n#   ${String(e.message).split('\n').join('\n#   ')}`);
+    }
+  }
+  await browser.close();
+  await stopService(service);
+  console.log(`${passed} passed, ${failed} failed`);
+  process.exit(failed ? 1 : 0);
+}
+
+main().catch((e) => { console.error('error:', e); process.exit(1); });

@@ -1,0 +1,43 @@
+//! The `--http…` flags, shared by every command that serves a board
+//! (`#[command(flatten)] http: HttpArgs`).
+
+use crate::{start, HttpOptions, WebError, WebServer};
+use multistep_controller::Controller;
+use std::sync::Arc;
+
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct HttpArgs {
+    /// Serve the operator web page and its API on HOST:PORT (loopback unless
+    /// --http-allow-remote; port 0 picks a free port)
+    #[arg(long, value_name = "HOST:PORT")]
+    pub http: Option<String>,
+    /// Allow --http on a non-loopback address (needs --http-token)
+    #[arg(long, requires = "http")]
+    pub http_allow_remote: bool,
+    /// Access token every HTTP request must carry (`?token=` or `Authorization: Bearer`);
+    /// falls back to the MULTISTEP_HTTP_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_HTTP_TOKEN",
+        hide_env_values = true
+    )]
+    pub http_token: Option<String>,
+}
+
+impl HttpArgs {
+    /// Starts the web side if `--http` was given, and says where it listens on stderr.
+    pub fn start(&self, boards: Vec<Arc<Controller>>) -> Result<Option<WebServer>, WebError> {
+        let Some(addr) = &self.http else {
+            return Ok(None);
+        };
+        let opts = HttpOptions {
+            addr: addr.clone(),
+            allow_remote: self.http_allow_remote,
+            token: self.http_token.clone(),
+        };
+        let server = start(boards, &opts)?;
+        eprintln!("web page on http://{}/", server.addr());
+        Ok(Some(server))
+    }
+}
