@@ -4,12 +4,19 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod ctl;
 mod moveargs;
 mod output;
 mod plan;
+mod serve;
+mod tdm;
 
 #[derive(Parser, Debug)]
-#[command(name = "multistep", version, about = "Exact step timing for multi-axis stepper motors")]
+#[command(
+    name = "multistep",
+    version,
+    about = "Exact step timing for multi-axis stepper motors"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -19,12 +26,34 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run a simulated controller board: line protocol on TCP (and a serial line)
+    Serve(serve::ServeArgs),
+    /// Talk to controller boards: move, home, stop, status, …
+    Ctl(ctl::CtlArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => match e.kind() {
+            clap::error::ErrorKind::DisplayHelp
+            | clap::error::ErrorKind::DisplayVersion
+            | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
+            _ => {
+                // One line, as scripts expect: clap's first line already starts with "error:".
+                let text = e.render().to_string();
+                eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
+                return ExitCode::from(2);
+            }
+        },
+    };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Serve(a) => serve::run(a),
+        Cmd::Ctl(a) => ctl::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

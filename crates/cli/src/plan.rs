@@ -81,19 +81,33 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
             writeln!(out, "duration      {:.9} s", s.duration_s)?;
             writeln!(out, "last edge     {} ticks", s.last_edge_tick)?;
             writeln!(out, "peak speed    {:.3} steps/s", s.peak_speed_steps_per_s)?;
-            writeln!(out, "peak accel    {:.3} steps/s²", s.peak_accel_steps_per_s2)?;
-            writeln!(out, "period        {} .. {} ticks", s.min_period_ticks, s.max_period_ticks)?;
+            writeln!(
+                out,
+                "peak accel    {:.3} steps/s²",
+                s.peak_accel_steps_per_s2
+            )?;
+            writeln!(
+                out,
+                "period        {} .. {} ticks",
+                s.min_period_ticks, s.max_period_ticks
+            )?;
         }
     }
     Ok(())
 }
 
-fn itoa_buf() -> Vec<u8> {
+pub(crate) fn itoa_buf() -> Vec<u8> {
     Vec::with_capacity(64)
 }
 
 /// One CSV row, formatted without going through `fmt` machinery per field.
-fn write_row(w: &mut impl Write, buf: &mut Vec<u8>, step: u64, edge: u64, period: u64) -> std::io::Result<()> {
+pub(crate) fn write_row(
+    w: &mut impl Write,
+    buf: &mut Vec<u8>,
+    step: u64,
+    edge: u64,
+    period: u64,
+) -> std::io::Result<()> {
     buf.clear();
     push_u64(buf, step);
     buf.push(b',');

@@ -32,7 +32,7 @@ pub struct AxisSettings {
     pub debounce: f64,
     /// Homing seek speed (steps/s).
     pub home_speed: f64,
-    /// Homing slow re-approach speed (steps/s); clamped to one microstep per debounce time.
+    /// Homing slow re-approach speed (steps/s); clamped to one microstep per 2 debounce times.
     pub home_slow_speed: f64,
     /// Homing back-off distance past the edge (microsteps).
     pub home_backoff: u64,
@@ -60,6 +60,8 @@ pub struct SimSettings {
     pub glitch_rate: f64,
     /// Longest glitch (s).
     pub glitch_max: f64,
+    /// Shortest quiet time between glitches (s).
+    pub glitch_gap: f64,
     /// Seed of the glitch and bounce generator.
     pub seed: u64,
 }
@@ -73,6 +75,7 @@ impl Default for SimSettings {
             bounce_time: 0.0002,
             glitch_rate: 0.0,
             glitch_max: 0.0005,
+            glitch_gap: 0.005,
             seed: 1,
         }
     }
@@ -112,7 +115,9 @@ impl AxisSettings {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(CtlError::Setting(format!("{name} must be a positive number (got {v})")))
+                Err(CtlError::Setting(format!(
+                    "{name} must be a positive number (got {v})"
+                )))
             }
         };
         pos("steps_per_unit", self.steps_per_unit)?;
@@ -149,6 +154,7 @@ impl AxisSettings {
             ("sim.bounce_time", s.bounce_time),
             ("sim.glitch_rate", s.glitch_rate),
             ("sim.glitch_max", s.glitch_max),
+            ("sim.glitch_gap", s.glitch_gap),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(format!("{name} must be a number ≥ 0 (got {v})"));
@@ -158,10 +164,11 @@ impl AxisSettings {
         Ok(())
     }
 
-    /// The slow re-approach speed actually used: at most one microstep per debounce time,
-    /// so a level change that the filter confirms late is at most one microstep late.
+    /// The slow re-approach speed actually used: at most one microstep per two debounce
+    /// times. The filter's edge is at most one glitch plus one debounce time (< 2 debounce)
+    /// early, so at this speed it is less than one microstep off.
     pub fn effective_slow_speed(&self) -> f64 {
-        self.home_slow_speed.min(1.0 / self.debounce)
+        self.home_slow_speed.min(0.5 / self.debounce)
     }
 
     /// Reads one setting as text (`get AXIS KEY`); keys are the field names, `sim.x` for sim.
@@ -193,8 +200,8 @@ impl AxisSettings {
                 CtlError::Setting(format!("'{value}' is not a valid value for {key}"))
             })?,
         };
-        let new: AxisSettings = serde_json::from_value(v)
-            .map_err(|e| CtlError::Setting(format!("{key}: {e}")))?;
+        let new: AxisSettings =
+            serde_json::from_value(v).map_err(|e| CtlError::Setting(format!("{key}: {e}")))?;
         new.validate()?;
         *self = new;
         Ok(())
@@ -206,7 +213,8 @@ fn unknown_key(key: &str) -> CtlError {
 }
 
 fn lookup<'v>(v: &'v serde_json::Value, key: &str) -> Option<&'v serde_json::Value> {
-    key.split('.').try_fold(v, |node, part| node.as_object()?.get(part))
+    key.split('.')
+        .try_fold(v, |node, part| node.as_object()?.get(part))
 }
 
 fn lookup_mut<'v>(v: &'v mut serde_json::Value, key: &str) -> Option<&'v mut serde_json::Value> {
@@ -218,7 +226,11 @@ fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<String>) {
     match v {
         serde_json::Value::Object(m) => {
             for (k, x) in m {
-                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
                 flatten(&key, x, out);
             }
         }
@@ -305,7 +317,9 @@ impl AxisStatus {
 pub fn valid_axis_name(name: &str) -> bool {
     !name.is_empty()
         && name.len() <= 32
-        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         && !name.eq_ignore_ascii_case("ok")
         && !name.eq_ignore_ascii_case("all")
 }

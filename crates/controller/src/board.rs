@@ -143,7 +143,15 @@ impl Board {
             }
             axes.push(axis);
         }
-        Ok(Board { name: config.board.name.clone(), clock_hz, axes, store, estopped: false, now: 0, warnings: Vec::new() })
+        Ok(Board {
+            name: config.board.name.clone(),
+            clock_hz,
+            axes,
+            store,
+            estopped: false,
+            now: 0,
+            warnings: Vec::new(),
+        })
     }
 
     pub fn name(&self) -> &str {
@@ -237,9 +245,9 @@ impl Board {
                     }
                     ax.drift = Some(d);
                     ax.drift_checks += 1;
-                    // A confirmed edge is late by at most the distance covered during one
-                    // disturbance, which is shorter than the debounce time.
-                    let tol = 1 + (speed * ax.settings.debounce).ceil() as i64;
+                    // A confirmed edge is early by at most what the axis covers in two
+                    // debounce times (see hall.rs).
+                    let tol = 1 + (2.0 * speed * ax.settings.debounce).ceil() as i64;
                     if ax.homed && d.abs() > tol {
                         ax.trusted = false;
                     }
@@ -296,7 +304,10 @@ impl Board {
 
     fn persist(&mut self, i: usize) {
         let ax = &self.axes[i];
-        let marker = ax.motion.as_ref().map(|m| MovingMarker { from: ax.count, target: m.target });
+        let marker = ax.motion.as_ref().map(|m| MovingMarker {
+            from: ax.count,
+            target: m.target,
+        });
         if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
         }
@@ -315,18 +326,35 @@ impl Board {
         .plan()?)
     }
 
-    fn home_move(&mut self, i: usize, phase: HomePhase, dir: i64, steps: u64, speed: f64, start: u64) -> Result<(), CtlError> {
+    fn home_move(
+        &mut self,
+        i: usize,
+        phase: HomePhase,
+        dir: i64,
+        steps: u64,
+        speed: f64,
+        start: u64,
+    ) -> Result<(), CtlError> {
         let p = self.home_profile(i, steps.max(1), speed)?;
         self.launch(i, p, dir, Purpose::Home(phase), start)?;
         self.axes[i].state = AxisState::Homing;
         Ok(())
     }
 
-    fn next_home_phase(&mut self, i: usize, phase: HomePhase, m: &Motion, end: u64) -> Result<(), CtlError> {
+    fn next_home_phase(
+        &mut self,
+        i: usize,
+        phase: HomePhase,
+        m: &Motion,
+        end: u64,
+    ) -> Result<(), CtlError> {
         let ax = &self.axes[i];
         let s = ax.settings.clone();
         let h = s.home_dir as i64;
-        let fail = |why: &str| CtlError::Homing { axis: ax.name.clone(), why: why.to_string() };
+        let fail = |why: &str| CtlError::Homing {
+            axis: ax.name.clone(),
+            why: why.to_string(),
+        };
         match phase {
             HomePhase::Clear => {
                 if m.edge.is_none() || ax.hall.filtered() {
@@ -339,14 +367,28 @@ impl Board {
                     return Err(fail("sensor not found within home_search steps"));
                 };
                 let over = (ax.count - edge.count_at_start).unsigned_abs();
-                self.home_move(i, HomePhase::Backoff, -h, over + s.home_backoff, s.home_speed, end)
+                self.home_move(
+                    i,
+                    HomePhase::Backoff,
+                    -h,
+                    over + s.home_backoff,
+                    s.home_speed,
+                    end,
+                )
             }
             HomePhase::Backoff => {
                 if ax.hall.filtered() {
                     return Err(fail("sensor still active after backing off"));
                 }
                 let reach = 2 * s.home_backoff + 16;
-                self.home_move(i, HomePhase::Approach, h, reach, s.effective_slow_speed(), end)
+                self.home_move(
+                    i,
+                    HomePhase::Approach,
+                    h,
+                    reach,
+                    s.effective_slow_speed(),
+                    end,
+                )
             }
             HomePhase::Approach => {
                 let Some(edge) = m.edge else {
@@ -371,7 +413,14 @@ impl Board {
     // ---- starting motion -----------------------------------------------------------------
 
     /// Starts a planned move on axis `i` at tick `start`, marker first.
-    fn launch(&mut self, i: usize, p: Profile, dir: i64, purpose: Purpose, start: u64) -> Result<(), CtlError> {
+    fn launch(
+        &mut self,
+        i: usize,
+        p: Profile,
+        dir: i64,
+        purpose: Purpose,
+        start: u64,
+    ) -> Result<(), CtlError> {
         let src = start_move(p, self.clock_hz, start)?;
         let ax = &mut self.axes[i];
         let target = ax.count + dir * src.steps_left() as i64;
@@ -380,13 +429,23 @@ impl Board {
             // follow each other without a resync, so the sensor's history carries over.)
             ax.hall.resync(start, ax.count, ax.sim_pos);
         }
-        ax.motion = Some(Motion { src, dir, target, purpose, stopping: false, edge: None });
+        ax.motion = Some(Motion {
+            src,
+            dir,
+            target,
+            purpose,
+            stopping: false,
+            edge: None,
+        });
         ax.state = AxisState::Moving;
         ax.fault = None;
         ax.move_start = Some(start);
         ax.move_end = None;
         // The marker is durable before the first step.
-        let rec = ax.record(Some(MovingMarker { from: ax.count, target }));
+        let rec = ax.record(Some(MovingMarker {
+            from: ax.count,
+            target,
+        }));
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
             ax.motion = None;
             ax.state = AxisState::Idle;
@@ -401,7 +460,10 @@ impl Board {
         }
         let ax = &self.axes[i];
         match ax.state {
-            AxisState::Moving | AxisState::Homing => Err(CtlError::Busy { axis: ax.name.clone(), state: ax.state.name() }),
+            AxisState::Moving | AxisState::Homing => Err(CtlError::Busy {
+                axis: ax.name.clone(),
+                state: ax.state.name(),
+            }),
             _ => Ok(()),
         }
     }
@@ -429,11 +491,20 @@ impl Board {
         if let Some(p) = ax.period() {
             return Ok(shortest(if absolute { n - ax.count } else { n }, p));
         }
-        let target = if absolute { Some(n) } else { ax.count.checked_add(n) };
+        let target = if absolute {
+            Some(n)
+        } else {
+            ax.count.checked_add(n)
+        };
         let s = &ax.settings;
         let show = |o: Option<i64>| o.map_or("-inf/inf".to_string(), |x| x.to_string());
         match target {
-            Some(t) if s.soft_min.map_or(true, |lo| t >= lo) && s.soft_max.map_or(true, |hi| t <= hi) => Ok(t - ax.count),
+            Some(t)
+                if s.soft_min.map_or(true, |lo| t >= lo)
+                    && s.soft_max.map_or(true, |hi| t <= hi) =>
+            {
+                Ok(t - ax.count)
+            }
             _ => Err(CtlError::OutOfLimits {
                 axis: ax.name.clone(),
                 target: target.unwrap_or(i64::MAX),
@@ -450,7 +521,10 @@ impl Board {
                 let p = self
                     .store
                     .preset(name)?
-                    .ok_or_else(|| CtlError::UnknownName { what: "preset", name: name.clone() })?;
+                    .ok_or_else(|| CtlError::UnknownName {
+                        what: "preset",
+                        name: name.clone(),
+                    })?;
                 Ok(opts.over(&p))
             }
         }
@@ -497,7 +571,9 @@ impl Board {
     }
 
     fn family_name<'a>(&'a self, i: usize, o: &'a MoveOpts) -> &'a str {
-        o.profile.as_deref().unwrap_or(&self.axes[i].settings.profile)
+        o.profile
+            .as_deref()
+            .unwrap_or(&self.axes[i].settings.profile)
     }
 
     fn plan(&self, i: usize, steps: u64, opts: &MoveOpts) -> Result<Profile, CtlError> {
@@ -511,14 +587,28 @@ impl Board {
     // ---- commands ------------------------------------------------------------------------
 
     /// Relative (`absolute == false`) or absolute move of one axis, started at `now`.
-    pub fn move_axis(&mut self, axis: &str, amount: Amount, absolute: bool, opts: &MoveOpts, now: u64) -> Result<i64, CtlError> {
+    pub fn move_axis(
+        &mut self,
+        axis: &str,
+        amount: Amount,
+        absolute: bool,
+        opts: &MoveOpts,
+        now: u64,
+    ) -> Result<i64, CtlError> {
         self.group_move(&[(axis.to_string(), amount)], absolute, false, opts, now)
             .map(|t| t[0])
     }
 
     /// Moves several axes starting on the same tick; with `sync` they also finish on the
     /// same tick. Returns the targets. Nothing starts unless every axis can.
-    pub fn group_move(&mut self, targets: &[(String, Amount)], absolute: bool, sync: bool, opts: &MoveOpts, now: u64) -> Result<Vec<i64>, CtlError> {
+    pub fn group_move(
+        &mut self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+        now: u64,
+    ) -> Result<Vec<i64>, CtlError> {
         self.advance(now);
         let mut plan = Vec::new();
         for (name, amount) in targets {
@@ -529,9 +619,17 @@ impl Board {
             self.check_can_move(i)?;
             plan.push((i, self.delta(i, *amount, absolute)?));
         }
-        let profiles = if sync { self.plan_sync(&plan, opts)? } else {
+        let profiles = if sync {
+            self.plan_sync(&plan, opts)?
+        } else {
             plan.iter()
-                .map(|&(i, d)| if d == 0 { Ok(None) } else { self.plan(i, d.unsigned_abs(), opts).map(Some) })
+                .map(|&(i, d)| {
+                    if d == 0 {
+                        Ok(None)
+                    } else {
+                        self.plan(i, d.unsigned_abs(), opts).map(Some)
+                    }
+                })
                 .collect::<Result<Vec<_>, _>>()?
         };
         let start = self.now;
@@ -545,7 +643,8 @@ impl Board {
                     ax.move_end = Some(start);
                 }
             }
-            out.push(self.axes[i].count + d);
+            let t = self.axes[i].count + d;
+            out.push(self.axes[i].period().map_or(t, |p| t.rem_euclid(p)));
         }
         Ok(out)
     }
@@ -553,10 +652,18 @@ impl Board {
     /// Same start and finish: every axis gets the same phase times (a quarter accelerating,
     /// half cruising, a quarter decelerating unless given), stretched until every axis is
     /// within its vmax and amax. Peaks scale as 1/s and 1/s² with the time scale s.
-    fn plan_sync(&self, plan: &[(usize, i64)], opts: &MoveOpts) -> Result<Vec<Option<Profile>>, CtlError> {
+    fn plan_sync(
+        &self,
+        plan: &[(usize, i64)],
+        opts: &MoveOpts,
+    ) -> Result<Vec<Option<Profile>>, CtlError> {
         let opts = self.resolve_opts(opts)?;
         let (ta, tb, tc) = if opts.has_phase_times() {
-            (opts.accel_time.unwrap_or(0.0), opts.cruise_time.unwrap_or(0.0), opts.decel_time.unwrap_or(0.0))
+            (
+                opts.accel_time.unwrap_or(0.0),
+                opts.cruise_time.unwrap_or(0.0),
+                opts.decel_time.unwrap_or(0.0),
+            )
         } else {
             (0.25, 0.5, 0.25)
         };
@@ -601,7 +708,11 @@ impl Board {
             ax.hall.resync(self.now, ax.count, ax.sim_pos);
         }
         let start = self.now;
-        let (phase, dir) = if self.axes[i].hall.filtered() { (HomePhase::Clear, -h) } else { (HomePhase::Seek, h) };
+        let (phase, dir) = if self.axes[i].hall.filtered() {
+            (HomePhase::Clear, -h)
+        } else {
+            (HomePhase::Seek, h)
+        };
         self.home_move(i, phase, dir, s.home_search, s.home_speed, start)
     }
 
@@ -659,13 +770,18 @@ impl Board {
         let idx: Vec<usize> = if axes.is_empty() {
             (0..self.axes.len()).collect()
         } else {
-            axes.iter().map(|a| self.index(a)).collect::<Result<_, _>>()?
+            axes.iter()
+                .map(|a| self.index(a))
+                .collect::<Result<_, _>>()?
         };
         Ok(idx
             .into_iter()
             .map(|i| {
                 let ax = &self.axes[i];
-                let speed = ax.motion.as_ref().map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
+                let speed = ax
+                    .motion
+                    .as_ref()
+                    .map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
                 AxisStatus {
                     axis: ax.name.clone(),
                     position: ax.count,
@@ -679,7 +795,10 @@ impl Board {
                     drift: ax.drift,
                     drift_checks: ax.drift_checks,
                     move_start: ax.move_start,
-                    move_end: ax.motion.as_ref().map_or(ax.move_end, |m| Some(m.src.end_tick())),
+                    move_end: ax
+                        .motion
+                        .as_ref()
+                        .map_or(ax.move_end, |m| Some(m.src.end_tick())),
                     fault: ax.fault.clone(),
                     sim_position: ax.sim_pos,
                 }
@@ -697,7 +816,10 @@ impl Board {
         let i = self.index(axis)?;
         if self.axes[i].motion.is_some() {
             let ax = &self.axes[i];
-            return Err(CtlError::Busy { axis: ax.name.clone(), state: ax.state.name() });
+            return Err(CtlError::Busy {
+                axis: ax.name.clone(),
+                state: ax.state.name(),
+            });
         }
         let mut s = self.axes[i].settings.clone();
         s.set(key, value)?;
@@ -710,18 +832,28 @@ impl Board {
     }
 
     /// Saves the current positions of `axes` (all when empty) under `name`.
-    pub fn save_position(&mut self, name: &str, axes: &[String], now: u64) -> Result<NamedPosition, CtlError> {
+    pub fn save_position(
+        &mut self,
+        name: &str,
+        axes: &[String],
+        now: u64,
+    ) -> Result<NamedPosition, CtlError> {
         self.advance(now);
         let idx: Vec<usize> = if axes.is_empty() {
             (0..self.axes.len()).collect()
         } else {
-            axes.iter().map(|a| self.index(a)).collect::<Result<_, _>>()?
+            axes.iter()
+                .map(|a| self.index(a))
+                .collect::<Result<_, _>>()?
         };
         let mut pos = NamedPosition::new();
         for i in idx {
             let ax = &self.axes[i];
             if ax.motion.is_some() {
-                return Err(CtlError::Busy { axis: ax.name.clone(), state: ax.state.name() });
+                return Err(CtlError::Busy {
+                    axis: ax.name.clone(),
+                    state: ax.state.name(),
+                });
             }
             pos.insert(ax.name.clone(), ax.count);
         }
@@ -734,8 +866,14 @@ impl Board {
         let pos = self
             .store
             .named_position(name)?
-            .ok_or_else(|| CtlError::UnknownName { what: "position", name: name.to_string() })?;
-        let targets: Vec<(String, Amount)> = pos.into_iter().map(|(a, p)| (a, Amount::Steps(p))).collect();
+            .ok_or_else(|| CtlError::UnknownName {
+                what: "position",
+                name: name.to_string(),
+            })?;
+        let targets: Vec<(String, Amount)> = pos
+            .into_iter()
+            .map(|(a, p)| (a, Amount::Steps(p)))
+            .collect();
         self.group_move(&targets, true, false, opts, now)
     }
 
@@ -747,7 +885,10 @@ impl Board {
         if self.store.forget_named(name)? {
             Ok(())
         } else {
-            Err(CtlError::UnknownName { what: "position", name: name.to_string() })
+            Err(CtlError::UnknownName {
+                what: "position",
+                name: name.to_string(),
+            })
         }
     }
 
@@ -794,4 +935,3 @@ impl StepSource for Stopped {
         0
     }
 }
-

@@ -22,7 +22,9 @@ impl std::str::FromStr for Endpoint {
         } else if let Some(d) = s.strip_prefix("serial:") {
             Ok(Endpoint::Serial(d.to_string()))
         } else {
-            Err(CtlError::syntax(format!("'{s}' is neither tcp://HOST:PORT nor serial:DEVICE")))
+            Err(CtlError::syntax(format!(
+                "'{s}' is neither tcp://HOST:PORT nor serial:DEVICE"
+            )))
         }
     }
 }
@@ -55,15 +57,23 @@ impl Client {
         match ep {
             Endpoint::Tcp(addr) => {
                 let s = crate::service::connect(addr)?;
-                Ok(Client { reader: BufReader::new(Box::new(s.try_clone()?)), writer: Box::new(s) })
+                Ok(Client {
+                    reader: BufReader::new(Box::new(s.try_clone()?)),
+                    writer: Box::new(s),
+                })
             }
             Endpoint::Serial(dev) => {
                 let port = serialport::new(dev, 115_200)
                     .timeout(Duration::from_secs(30))
                     .open()
                     .map_err(|e| ClientError::Other(format!("cannot open {dev}: {e}")))?;
-                let w = port.try_clone().map_err(|e| ClientError::Other(e.to_string()))?;
-                Ok(Client { reader: BufReader::new(Box::new(port)), writer: Box::new(w) })
+                let w = port
+                    .try_clone()
+                    .map_err(|e| ClientError::Other(e.to_string()))?;
+                Ok(Client {
+                    reader: BufReader::new(Box::new(port)),
+                    writer: Box::new(w),
+                })
             }
         }
     }
@@ -97,7 +107,9 @@ impl Client {
     /// `status json`, parsed.
     pub fn status(&mut self) -> Result<Vec<AxisStatus>, ClientError> {
         let data = self.request("status json")?;
-        let line = data.first().ok_or_else(|| ClientError::Other("status json gave no data".into()))?;
+        let line = data
+            .first()
+            .ok_or_else(|| ClientError::Other("status json gave no data".into()))?;
         serde_json::from_str(line).map_err(|e| ClientError::Other(format!("bad status json: {e}")))
     }
 }

@@ -31,15 +31,34 @@ pub struct BoardSection {
 
 impl Default for BoardSection {
     fn default() -> Self {
-        BoardSection { name: "board".into(), clock_hz: multistep_core::DEFAULT_CLOCK_HZ }
+        BoardSection {
+            name: "board".into(),
+            clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
+        }
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct AxisConfig {
     pub name: String,
     #[serde(flatten)]
     pub settings: AxisSettings,
+}
+
+// By hand: serde's `flatten` would let misspelt setting names through silently.
+impl<'de> Deserialize<'de> for AxisConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut t = toml::Table::deserialize(d)?;
+        let name = match t.remove("name") {
+            Some(toml::Value::String(s)) => s,
+            _ => return Err(D::Error::custom("every [[axis]] needs name = \"…\"")),
+        };
+        let settings = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e| D::Error::custom(format!("axis {name}: {e}")))?;
+        Ok(AxisConfig { name, settings })
+    }
 }
 
 impl Default for BoardConfig {
@@ -49,7 +68,10 @@ impl Default for BoardConfig {
             board: BoardSection::default(),
             axes: ["X", "Y", "Z", "A"]
                 .iter()
-                .map(|n| AxisConfig { name: n.to_string(), settings: AxisSettings::default() })
+                .map(|n| AxisConfig {
+                    name: n.to_string(),
+                    settings: AxisSettings::default(),
+                })
                 .collect(),
         }
     }
@@ -78,19 +100,52 @@ impl BoardConfig {
             )));
         }
         if !(self.board.clock_hz.is_finite() && self.board.clock_hz >= 1e3) {
-            return Err(CtlError::Setting("board.clock_hz must be at least 1000".into()));
+            return Err(CtlError::Setting(
+                "board.clock_hz must be at least 1000".into(),
+            ));
         }
         for (i, a) in self.axes.iter().enumerate() {
             if !valid_axis_name(&a.name) {
-                return Err(CtlError::Setting(format!("'{}' is not a valid axis name", a.name)));
+                return Err(CtlError::Setting(format!(
+                    "'{}' is not a valid axis name",
+                    a.name
+                )));
             }
             if self.axes[..i].iter().any(|b| b.name == a.name) {
-                return Err(CtlError::Setting(format!("axis '{}' is named twice", a.name)));
+                return Err(CtlError::Setting(format!(
+                    "axis '{}' is named twice",
+                    a.name
+                )));
             }
             a.settings
                 .validate()
                 .map_err(|e| CtlError::Setting(format!("axis {}: {e}", a.name)))?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_two_board_telescope_example_has_17_axes() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/telescope");
+        let a = BoardConfig::load(&std::path::Path::new(dir).join("board-a.toml")).unwrap();
+        let b = BoardConfig::load(&std::path::Path::new(dir).join("board-b.toml")).unwrap();
+        assert_eq!((a.axes.len(), b.axes.len()), (12, 5));
+        assert_eq!(a.axes[0].settings.period, Some(4000));
+        assert_eq!(a.axes[0].settings.sim.seed, 1);
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_refused() {
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmaxx = 3.0\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = -3.0\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X:1\"\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\n[[axis]]\nname = \"X\"\n").is_err());
+        let c = BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = 3.0\n").unwrap();
+        assert_eq!(c.axes[0].settings.vmax, 3.0);
     }
 }

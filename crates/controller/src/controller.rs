@@ -37,12 +37,21 @@ pub struct Controller {
 
 impl Controller {
     /// Opens the board's store in `data` and starts its clock.
-    pub fn open(config: &BoardConfig, data: &Path, time_scale: f64) -> Result<Controller, CtlError> {
+    pub fn open(
+        config: &BoardConfig,
+        data: &Path,
+        time_scale: f64,
+    ) -> Result<Controller, CtlError> {
         if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
-            return Err(CtlError::Setting(format!("time scale must be in (0, 10000] (got {time_scale})")));
+            return Err(CtlError::Setting(format!(
+                "time scale must be in (0, 10000] (got {time_scale})"
+            )));
         }
         let board = Board::open(config, Store::open(data)?)?;
-        let clock = SimClock { t0: Instant::now(), ticks_per_s: board.clock_hz() * time_scale };
+        let clock = SimClock {
+            t0: Instant::now(),
+            ticks_per_s: board.clock_hz() * time_scale,
+        };
         let board = Arc::new(Mutex::new(board));
         let quit = Arc::new(AtomicBool::new(false));
         let ticker = {
@@ -60,7 +69,13 @@ impl Controller {
                 })
                 .map_err(|e| CtlError::Io(e.to_string()))?
         };
-        Ok(Controller { board, clock, time_scale, quit, ticker: Some(ticker) })
+        Ok(Controller {
+            board,
+            clock,
+            time_scale,
+            quit,
+            ticker: Some(ticker),
+        })
     }
 
     /// Board tick now.
@@ -78,10 +93,22 @@ impl Controller {
     pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
         self.with_board(|b, now| b.status(axes, now))
     }
-    pub fn move_axis(&self, axis: &str, amount: Amount, absolute: bool, opts: &MoveOpts) -> Result<i64, CtlError> {
+    pub fn move_axis(
+        &self,
+        axis: &str,
+        amount: Amount,
+        absolute: bool,
+        opts: &MoveOpts,
+    ) -> Result<i64, CtlError> {
         self.with_board(|b, now| b.move_axis(axis, amount, absolute, opts, now))
     }
-    pub fn group_move(&self, targets: &[(String, Amount)], absolute: bool, sync: bool, opts: &MoveOpts) -> Result<Vec<i64>, CtlError> {
+    pub fn group_move(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<i64>, CtlError> {
         self.with_board(|b, now| b.group_move(targets, absolute, sync, opts, now))
     }
     pub fn home(&self, axis: &str) -> Result<(), CtlError> {
@@ -112,12 +139,18 @@ impl Controller {
 
     fn run(&self, cmd: &Command) -> Result<Vec<String>, CtlError> {
         let target_line = |axes: &[String], t: &[i64]| -> Vec<String> {
-            axes.iter().zip(t).map(|(a, t)| format!("{a} target={t}")).collect()
+            axes.iter()
+                .zip(t)
+                .map(|(a, t)| format!("{a} target={t}"))
+                .collect()
         };
         Ok(match cmd {
             Command::Nop => vec![],
             Command::Help => protocol::HELP.iter().map(|s| s.to_string()).collect(),
-            Command::Version => vec![format!("multistep-controller {}", env!("CARGO_PKG_VERSION"))],
+            Command::Version => vec![format!(
+                "multistep-controller {}",
+                env!("CARGO_PKG_VERSION")
+            )],
             Command::Info => self.with_board(|b, now| {
                 let mut v = vec![
                     format!("board={}", b.name()),
@@ -147,7 +180,12 @@ impl Controller {
                 let t = self.move_axis(axis, *to, true, opts)?;
                 target_line(std::slice::from_ref(axis), &[t])
             }
-            Command::Group { absolute, targets, sync, opts } => {
+            Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts,
+            } => {
                 let t = self.group_move(targets, *absolute, *sync, opts)?;
                 let names: Vec<String> = targets.iter().map(|x| x.0.clone()).collect();
                 target_line(&names, &t)
@@ -201,7 +239,9 @@ impl Controller {
             }
             Command::Presets => {
                 let all = self.with_board(|b, _| b.presets())?;
-                all.iter().map(|(n, o)| format!("{n} {}", o.words().join(" "))).collect()
+                all.iter()
+                    .map(|(n, o)| format!("{n} {}", o.words().join(" ")))
+                    .collect()
             }
             Command::SimSlip { axis, steps } => {
                 self.with_board(|b, now| b.sim_slip(axis, *steps, now))?;

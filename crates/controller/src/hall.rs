@@ -2,10 +2,12 @@
 //! sensor marks the mechanical zero; software filtering rejects short interference).
 //!
 //! The raw level is `magnet present XOR noise glitch XOR contact bounce`. The filter
-//! accepts a new level only after it held for `debounce` ticks, and remembers the position
-//! at which that stable level began: that is the edge homing uses, so a confirmed edge is
-//! never earlier than the real one and is late only by what the axis moved during the last
-//! (shorter than debounce) disturbance.
+//! accepts a new level only after it held for `debounce` ticks without a break (so pulses
+//! shorter than that are rejected). The edge it reports is where the new level *first*
+//! appeared, unless the old level came back for a whole debounce time since (then that
+//! first appearance was a glitch). With every disturbance shorter than the debounce time
+//! and disturbances at least a debounce time apart, the reported edge is the real edge or
+//! up to one glitch plus one debounce time early — and never late, whatever the bounce.
 
 use crate::axis::SimSettings;
 use rand::rngs::StdRng;
@@ -35,6 +37,7 @@ pub struct HallSim {
     bounce_ticks: u64,
     glitch_mean_gap: Option<f64>,
     glitch_max_ticks: u64,
+    glitch_gap_ticks: u64,
     rng: StdRng,
     // Noise: the glitch in progress or next to come, as [start, end) ticks.
     glitch: (u64, u64),
@@ -44,8 +47,8 @@ pub struct HallSim {
     // Filter state.
     raw: bool,
     raw_since: u64,
-    since_count: i64,
-    since_true: i64,
+    /// Where the new level first appeared (count, true position), while unconfirmed.
+    candidate: Option<(i64, i64)>,
     filtered: bool,
     debounce_ticks: u64,
     now: u64,
@@ -69,6 +72,7 @@ impl HallSim {
             bounce_ticks: ticks(sim.bounce_time),
             glitch_mean_gap: (sim.glitch_rate > 0.0).then(|| clock_hz / sim.glitch_rate),
             glitch_max_ticks: ticks(sim.glitch_max).max(1),
+            glitch_gap_ticks: ticks(sim.glitch_gap),
             rng: StdRng::seed_from_u64(sim.seed),
             glitch: (u64::MAX, u64::MAX),
             bounces: VecDeque::new(),
@@ -76,8 +80,7 @@ impl HallSim {
             flips: false,
             raw: false,
             raw_since: 0,
-            since_count: 0,
-            since_true: 0,
+            candidate: None,
             filtered: false,
             debounce_ticks: ticks(debounce_s).max(1),
             now: 0,
@@ -103,8 +106,8 @@ impl HallSim {
         self.raw = self.present;
         self.filtered = self.present;
         self.raw_since = tick;
-        self.since_count = count;
-        self.since_true = true_pos;
+        self.candidate = None;
+        let _ = count;
         self.glitch = (u64::MAX, u64::MAX);
         self.schedule_glitch(tick);
     }
@@ -117,14 +120,19 @@ impl HallSim {
         if let Some(gap) = self.glitch_mean_gap {
             // Exponential gaps (a Poisson process of glitches); lengths up to glitch_max.
             let u: f64 = self.rng.gen_range(f64::EPSILON..1.0);
-            let start = after.saturating_add((-u.ln() * gap) as u64 + 1);
+            let quiet = self.glitch_gap_ticks + (-u.ln() * gap) as u64 + 1;
+            let start = after.saturating_add(quiet);
             let len = self.rng.gen_range(1..=self.glitch_max_ticks);
             self.glitch = (start, start.saturating_add(len));
         }
     }
 
     fn next_noise_event(&self) -> u64 {
-        let g = if self.flips_glitch_active() { self.glitch.1 } else { self.glitch.0 };
+        let g = if self.flips_glitch_active() {
+            self.glitch.1
+        } else {
+            self.glitch.0
+        };
         g.min(self.bounces.front().copied().unwrap_or(u64::MAX))
     }
 
@@ -136,19 +144,25 @@ impl HallSim {
         self.present ^ self.flips_glitch_active() ^ self.flips
     }
 
-    /// Confirms the raw level if it has held long enough by `tick`.
+    /// Confirms the raw level if it has held long enough by `tick`, or drops the
+    /// candidate edge if the old level has.
     fn check_filter(&mut self, tick: u64) -> Option<FilteredEdge> {
-        let confirm = self.raw_since.saturating_add(self.debounce_ticks);
-        if self.raw != self.filtered && confirm <= tick {
-            self.filtered = self.raw;
-            return Some(FilteredEdge {
-                tick: confirm,
-                active: self.raw,
-                count_at_start: self.since_count,
-                true_at_start: self.since_true,
-            });
+        let held = self.raw_since.saturating_add(self.debounce_ticks);
+        if held > tick {
+            return None;
         }
-        None
+        if self.raw == self.filtered {
+            self.candidate = None;
+            return None;
+        }
+        self.filtered = self.raw;
+        let (c, t) = self.candidate.take().unwrap_or((0, 0));
+        Some(FilteredEdge {
+            tick: held,
+            active: self.raw,
+            count_at_start: c,
+            true_at_start: t,
+        })
     }
 
     fn apply_level(&mut self, tick: u64, count: i64, true_pos: i64) -> Option<FilteredEdge> {
@@ -157,8 +171,9 @@ impl HallSim {
         if lvl != self.raw {
             self.raw = lvl;
             self.raw_since = tick;
-            self.since_count = count;
-            self.since_true = true_pos;
+            if lvl != self.filtered && self.candidate.is_none() {
+                self.candidate = Some((count, true_pos));
+            }
         }
         ev
     }
@@ -223,7 +238,11 @@ mod tests {
     use super::*;
 
     fn sim() -> SimSettings {
-        SimSettings { sensor_at: 100, sensor_width: 50, ..SimSettings::default() }
+        SimSettings {
+            sensor_at: 100,
+            sensor_width: 50,
+            ..SimSettings::default()
+        }
     }
 
     #[test]
@@ -251,5 +270,18 @@ mod tests {
         let ev = h.advance(7000, 100, 100).expect("confirmed");
         assert_eq!((ev.tick, ev.active, ev.count_at_start), (6000, true, 100));
         assert!(h.filtered());
+        // A dropout shorter than debounce neither confirms nor moves the edge back.
+        assert_eq!(h.step(7000, 99, 99), None);
+        assert_eq!(h.advance(7500, 99, 99), None);
+        assert_eq!(h.step(7500, 100, 100), None);
+        assert_eq!(h.advance(20_000, 100, 100), None);
+        // Leaving with a bounce back in: the edge is the first leaving step.
+        assert_eq!(h.step(20_000, 99, 99), None);
+        assert_eq!(h.advance(20_100, 99, 99), None);
+        assert_eq!(h.step(20_100, 100, 100), None);
+        assert_eq!(h.advance(20_200, 100, 100), None);
+        assert_eq!(h.step(20_200, 99, 99), None);
+        let ev = h.advance(30_000, 99, 99).expect("confirmed");
+        assert_eq!((ev.tick, ev.active, ev.count_at_start), (21_200, false, 99));
     }
 }

@@ -26,7 +26,11 @@ pub struct EdgeSource {
 
 impl EdgeSource {
     pub fn new(profile: Profile, clock_hz: f64, start: u64) -> Result<EdgeSource, PlanError> {
-        Ok(EdgeSource { gen: EdgeGenerator::new(profile, clock_hz)?, start, next: None })
+        Ok(EdgeSource {
+            gen: EdgeGenerator::new(profile, clock_hz)?,
+            start,
+            next: None,
+        })
     }
 }
 
@@ -42,7 +46,9 @@ impl StepSource for EdgeSource {
     }
     fn speed_at(&self, tick: u64) -> f64 {
         let t = tick.saturating_sub(self.start) as f64 / self.gen.clock();
-        self.gen.profile().velocity(t.min(self.gen.profile().duration()))
+        self.gen
+            .profile()
+            .velocity(t.min(self.gen.profile().duration()))
     }
     fn end_tick(&self) -> u64 {
         self.start + self.gen.last_edge_tick()
@@ -53,7 +59,11 @@ impl StepSource for EdgeSource {
 }
 
 /// Makes the step source of a planned move; the one place to swap in another engine.
-pub fn start_move(profile: Profile, clock_hz: f64, start: u64) -> Result<Box<dyn StepSource>, PlanError> {
+pub fn start_move(
+    profile: Profile,
+    clock_hz: f64,
+    start: u64,
+) -> Result<Box<dyn StepSource>, PlanError> {
     Ok(Box::new(EdgeSource::new(profile, clock_hz, start)?))
 }
 
@@ -91,16 +101,24 @@ mod tests {
             assert!((p.velocity(0.0) - v).abs() < 1e-6 * v);
             assert!(p.velocity(p.duration()).abs() < 1e-6 * v);
             let (vp, ap) = p.peaks();
-            assert!(vp <= v * (1.0 + 1e-9) && ap <= a * (1.0 + 1e-9), "{vp} {ap}");
+            assert!(
+                vp <= v * (1.0 + 1e-9) && ap <= a * (1.0 + 1e-9),
+                "{vp} {ap}"
+            );
         }
         assert!(stop_profile(10.0, 1e6).is_none());
     }
 
     #[test]
     fn edge_source_is_the_generator_shifted() {
-        let p = MoveSpec { steps: Some(500), vmax: Some(1000.0), amax: Some(5000.0), ..Default::default() }
-            .plan()
-            .unwrap();
+        let p = MoveSpec {
+            steps: Some(500),
+            vmax: Some(1000.0),
+            amax: Some(5000.0),
+            ..Default::default()
+        }
+        .plan()
+        .unwrap();
         let direct: Vec<u64> = EdgeGenerator::new(p.clone(), 1e6).unwrap().collect();
         let mut s = EdgeSource::new(p, 1e6, 777).unwrap();
         assert_eq!(s.steps_left(), 500);

@@ -131,27 +131,68 @@ pub enum Command {
     Help,
     Version,
     Info,
-    Status { axes: Vec<String>, json: bool },
-    Move { axis: String, by: Amount, opts: MoveOpts },
-    MoveTo { axis: String, to: Amount, opts: MoveOpts },
+    Status {
+        axes: Vec<String>,
+        json: bool,
+    },
+    Move {
+        axis: String,
+        by: Amount,
+        opts: MoveOpts,
+    },
+    MoveTo {
+        axis: String,
+        to: Amount,
+        opts: MoveOpts,
+    },
     /// Synchronous group move: same start tick; `sync` also gives the same finish time.
-    Group { absolute: bool, targets: Vec<(String, Amount)>, sync: bool, opts: MoveOpts },
+    Group {
+        absolute: bool,
+        targets: Vec<(String, Amount)>,
+        sync: bool,
+        opts: MoveOpts,
+    },
     /// Controlled stop of one axis, or all.
-    Stop { axis: Option<String> },
+    Stop {
+        axis: Option<String>,
+    },
     EStop,
     Reset,
-    Home { axis: String },
-    Get { axis: String, key: Option<String> },
-    Set { axis: String, key: String, value: String },
+    Home {
+        axis: String,
+    },
+    Get {
+        axis: String,
+        key: Option<String>,
+    },
+    Set {
+        axis: String,
+        key: String,
+        value: String,
+    },
     /// Save the current positions of some (default all) axes under a name.
-    Save { name: String, axes: Vec<String> },
-    Goto { name: String, opts: MoveOpts },
+    Save {
+        name: String,
+        axes: Vec<String>,
+    },
+    Goto {
+        name: String,
+        opts: MoveOpts,
+    },
     Positions,
-    Forget { name: String },
-    Preset { name: String, opts: MoveOpts },
+    Forget {
+        name: String,
+    },
+    Preset {
+        name: String,
+        opts: MoveOpts,
+    },
     Presets,
     /// Simulation only: lose `steps` steps on an axis (the count does not see it).
-    SimSlip { axis: String, steps: i64 },
+    SimSlip {
+        axis: String,
+        steps: i64,
+    },
 }
 
 /// The answer to one command.
@@ -163,10 +204,16 @@ pub struct Reply {
 
 impl Reply {
     pub fn ok(data: Vec<String>) -> Reply {
-        Reply { data, result: Ok(()) }
+        Reply {
+            data,
+            result: Ok(()),
+        }
     }
     pub fn err(e: CtlError) -> Reply {
-        Reply { data: Vec::new(), result: Err(e) }
+        Reply {
+            data: Vec::new(),
+            result: Err(e),
+        }
     }
     pub fn from_result(r: Result<Vec<String>, CtlError>) -> Reply {
         match r {
@@ -244,7 +291,11 @@ pub fn read_line<R: BufRead>(r: &mut R) -> std::io::Result<Line> {
             if buf.last() == Some(&b'\r') {
                 buf.pop();
             }
-            return Ok(if too_long { Line::TooLong } else { Line::Text(buf) });
+            return Ok(if too_long {
+                Line::TooLong
+            } else {
+                Line::Text(buf)
+            });
         }
     }
 }
@@ -275,7 +326,10 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
     };
     let none_after = |n: usize, usage: &str| -> Result<(), CtlError> {
         if rest.len() > n {
-            Err(CtlError::syntax(format!("unexpected '{}'; usage: {usage}", rest[n])))
+            Err(CtlError::syntax(format!(
+                "unexpected '{}'; usage: {usage}",
+                rest[n]
+            )))
         } else {
             Ok(())
         }
@@ -286,7 +340,10 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
         "info" => Command::Info,
         "status" | "s" => {
             let json = rest.first().is_some_and(|w| w.eq_ignore_ascii_case("json"));
-            let axes = rest[json as usize..].iter().map(|a| axis_word(a)).collect::<Result<_, _>>()?;
+            let axes = rest[json as usize..]
+                .iter()
+                .map(|a| axis_word(a))
+                .collect::<Result<_, _>>()?;
             Command::Status { axes, json }
         }
         "move" | "moveto" => {
@@ -299,12 +356,22 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             let axis = axis_word(rest[0])?;
             let amount = parse_amount(rest[1])?;
             let opts = parse_opts(&rest[2..], &mut |w| {
-                Err(CtlError::syntax(format!("unexpected '{w}'; usage: {usage}")))
+                Err(CtlError::syntax(format!(
+                    "unexpected '{w}'; usage: {usage}"
+                )))
             })?;
             if head == "move" {
-                Command::Move { axis, by: amount, opts }
+                Command::Move {
+                    axis,
+                    by: amount,
+                    opts,
+                }
             } else {
-                Command::MoveTo { axis, to: amount, opts }
+                Command::MoveTo {
+                    axis,
+                    to: amount,
+                    opts,
+                }
             }
         }
         "group" => {
@@ -331,7 +398,12 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             if targets.is_empty() {
                 return Err(CtlError::syntax(format!("no axes given; {usage}")));
             }
-            Command::Group { absolute, targets, sync, opts }
+            Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts,
+            }
         }
         "stop" => {
             none_after(1, "stop [AXIS|all]")?;
@@ -353,12 +425,17 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
         "home" => {
             want(1, "home AXIS")?;
             none_after(1, "home AXIS")?;
-            Command::Home { axis: axis_word(rest[0])? }
+            Command::Home {
+                axis: axis_word(rest[0])?,
+            }
         }
         "get" => {
             want(1, "get AXIS [KEY]")?;
             none_after(2, "get AXIS [KEY]")?;
-            Command::Get { axis: axis_word(rest[0])?, key: rest.get(1).map(|s| s.to_string()) }
+            Command::Get {
+                axis: axis_word(rest[0])?,
+                key: rest.get(1).map(|s| s.to_string()),
+            }
         }
         "set" => {
             want(3, "set AXIS KEY VALUE")?;
@@ -373,30 +450,45 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             want(1, "save NAME [AXIS…]")?;
             Command::Save {
                 name: name_word(rest[0])?,
-                axes: rest[1..].iter().map(|a| axis_word(a)).collect::<Result<_, _>>()?,
+                axes: rest[1..]
+                    .iter()
+                    .map(|a| axis_word(a))
+                    .collect::<Result<_, _>>()?,
             }
         }
         "goto" => {
             want(1, "goto NAME [key=value…]")?;
             let opts = parse_opts(&rest[1..], &mut |w| {
-                Err(CtlError::syntax(format!("unexpected '{w}'; usage: goto NAME [key=value…]")))
+                Err(CtlError::syntax(format!(
+                    "unexpected '{w}'; usage: goto NAME [key=value…]"
+                )))
             })?;
-            Command::Goto { name: name_word(rest[0])?, opts }
+            Command::Goto {
+                name: name_word(rest[0])?,
+                opts,
+            }
         }
         "positions" => Command::Positions,
         "forget" => {
             want(1, "forget NAME")?;
-            Command::Forget { name: name_word(rest[0])? }
+            Command::Forget {
+                name: name_word(rest[0])?,
+            }
         }
         "preset" => {
             want(2, "preset NAME key=value…")?;
             let opts = parse_opts(&rest[1..], &mut |w| {
-                Err(CtlError::syntax(format!("unexpected '{w}'; usage: preset NAME key=value…")))
+                Err(CtlError::syntax(format!(
+                    "unexpected '{w}'; usage: preset NAME key=value…"
+                )))
             })?;
             if opts.preset.is_some() {
                 return Err(CtlError::syntax("a preset cannot refer to another preset"));
             }
-            Command::Preset { name: name_word(rest[0])?, opts }
+            Command::Preset {
+                name: name_word(rest[0])?,
+                opts,
+            }
         }
         "presets" => Command::Presets,
         "sim" => {
@@ -409,11 +501,16 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             let steps = rest[2]
                 .parse()
                 .map_err(|_| CtlError::syntax(format!("'{}' is not a whole number", rest[2])))?;
-            Command::SimSlip { axis: axis_word(rest[0])?, steps }
+            Command::SimSlip {
+                axis: axis_word(rest[0])?,
+                steps,
+            }
         }
         other => {
             let shown: String = other.chars().take(40).collect();
-            return Err(CtlError::syntax(format!("unknown command '{shown}' (try 'help')")));
+            return Err(CtlError::syntax(format!(
+                "unknown command '{shown}' (try 'help')"
+            )));
         }
     })
 }
@@ -446,13 +543,19 @@ fn name_word(w: &str) -> Result<String, CtlError> {
     if crate::axis::valid_axis_name(w) {
         Ok(w.to_string())
     } else {
-        Err(CtlError::syntax("names are letters, digits, '_' and '-' (at most 32)"))
+        Err(CtlError::syntax(
+            "names are letters, digits, '_' and '-' (at most 32)",
+        ))
     }
 }
 
 /// `123`, `-40` (microsteps) or `12.5u` (user units).
 pub fn parse_amount(w: &str) -> Result<Amount, CtlError> {
-    let bad = || CtlError::syntax(format!("'{w}' is not a whole number of steps or a number with 'u'"));
+    let bad = || {
+        CtlError::syntax(format!(
+            "'{w}' is not a whole number of steps or a number with 'u'"
+        ))
+    };
     if let Some(u) = w.strip_suffix(['u', 'U']) {
         let x: f64 = u.parse().map_err(|_| bad())?;
         if !x.is_finite() {

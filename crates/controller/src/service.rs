@@ -10,12 +10,20 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// Answers lines from `input` on `output` until end of input or a write error.
-pub fn serve_stream<R: Read, W: Write>(ctl: &Controller, input: R, mut output: W) -> std::io::Result<()> {
+pub fn serve_stream<R: Read, W: Write>(
+    ctl: &Controller,
+    input: R,
+    mut output: W,
+) -> std::io::Result<()> {
     let mut input = BufReader::with_capacity(MAX_LINE, input);
     serve_lines(ctl, &mut input, &mut output)
 }
 
-fn serve_lines(ctl: &Controller, input: &mut impl BufRead, output: &mut impl Write) -> std::io::Result<()> {
+fn serve_lines(
+    ctl: &Controller,
+    input: &mut impl BufRead,
+    output: &mut impl Write,
+) -> std::io::Result<()> {
     loop {
         let reply = match read_line(input)? {
             Line::Eof => return Ok(()),
@@ -56,10 +64,14 @@ impl Read for Patient {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         loop {
             match self.0.read(buf) {
-                Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => continue,
+                Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => {
+                    continue
+                }
                 // A pseudo-terminal whose other side is closed reads as an I/O error; wait
                 // for it to be opened again, as a board waits on an unplugged cable.
-                Err(e) if e.raw_os_error() == Some(5) => std::thread::sleep(Duration::from_millis(50)),
+                Err(e) if e.raw_os_error() == Some(5) => {
+                    std::thread::sleep(Duration::from_millis(50))
+                }
                 other => return other,
             }
         }
@@ -74,7 +86,8 @@ pub fn serve_serial(ctl: Arc<Controller>, device: &str) -> Result<(), CtlError> 
         .map_err(|e| CtlError::Io(format!("cannot open serial device {device}: {e}")))?;
     let out = port.try_clone().map_err(|e| CtlError::Io(e.to_string()))?;
     let mut out = Patient(out);
-    serve_stream(&ctl, Patient(port), WriteHalf(&mut out)).map_err(|e| CtlError::Io(format!("serial {device}: {e}")))
+    serve_stream(&ctl, Patient(port), WriteHalf(&mut out))
+        .map_err(|e| CtlError::Io(format!("serial {device}: {e}")))
 }
 
 struct WriteHalf<'a>(&'a mut Patient);

@@ -56,7 +56,11 @@ impl Store {
         Ok(Store { db })
     }
 
-    fn get<T: DeserializeOwned>(&self, t: TableDefinition<&str, &str>, key: &str) -> Result<Option<T>, CtlError> {
+    fn get<T: DeserializeOwned>(
+        &self,
+        t: TableDefinition<&str, &str>,
+        key: &str,
+    ) -> Result<Option<T>, CtlError> {
         let tx = self.db.begin_read()?;
         let table = tx.open_table(t)?;
         let v = table.get(key)?;
@@ -66,7 +70,10 @@ impl Store {
         })
     }
 
-    fn all<T: DeserializeOwned>(&self, t: TableDefinition<&str, &str>) -> Result<BTreeMap<String, T>, CtlError> {
+    fn all<T: DeserializeOwned>(
+        &self,
+        t: TableDefinition<&str, &str>,
+    ) -> Result<BTreeMap<String, T>, CtlError> {
         let tx = self.db.begin_read()?;
         let table = tx.open_table(t)?;
         let mut out = BTreeMap::new();
@@ -77,7 +84,12 @@ impl Store {
         Ok(out)
     }
 
-    fn put<T: Serialize>(&self, t: TableDefinition<&str, &str>, key: &str, v: &T) -> Result<(), CtlError> {
+    fn put<T: Serialize>(
+        &self,
+        t: TableDefinition<&str, &str>,
+        key: &str,
+        v: &T,
+    ) -> Result<(), CtlError> {
         let json = serde_json::to_string(v)?;
         let tx = self.db.begin_write()?;
         tx.open_table(t)?.insert(key, json.as_str())?;
@@ -147,8 +159,16 @@ mod tests {
             let mut set = AxisSettings::default();
             set.vmax = 1234.5;
             s.put_settings("X", &set).unwrap();
-            s.put_preset("fast", &MoveOpts { vmax: Some(9.0), ..Default::default() }).unwrap();
-            s.put_named("line", &NamedPosition::from([("X".to_string(), 7)])).unwrap();
+            s.put_preset(
+                "fast",
+                &MoveOpts {
+                    vmax: Some(9.0),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            s.put_named("line", &NamedPosition::from([("X".to_string(), 7)]))
+                .unwrap();
         }
         let s = Store::open(dir.path()).unwrap();
         assert_eq!(s.axis("X").unwrap(), Some(rec));

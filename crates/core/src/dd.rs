@@ -292,7 +292,10 @@ mod tests {
 
     #[test]
     fn round_half_up_uses_low_word() {
-        let x = Dd { hi: 2.5, lo: -1e-20 };
+        let x = Dd {
+            hi: 2.5,
+            lo: -1e-20,
+        };
         assert_eq!(x.round_half_up(), 2.0);
         let x = Dd { hi: 2.5, lo: 1e-20 };
         assert_eq!(x.round_half_up(), 3.0);

@@ -15,18 +15,46 @@ use crate::real::fm;
 
 const EPS: f64 = f64::EPSILON;
 /// Most ticks a move may span: half-tick decisions stay meaningful in f64 and u64.
-pub const MAX_TICKS: f64 = (1u64 << 52) as f64;
+pub const MAX_TICKS: f64 = (1u64 << 50) as f64;
+
+/// 1.5·2^52: adding it rounds a non-negative x < 2^51 to an integer held in the low
+/// mantissa bits (the classic magic-number rounding; SSE2 has no cheap floor).
+const MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// The nearest tick to x ≥ 0 and |frac(x) − ½|, the distance from the half tick where
+/// the choice of tick would flip.
+#[inline(always)]
+fn nearest_tick(x: f64) -> (u64, f64) {
+    let y = x + MAGIC;
+    let r = y - MAGIC;
+    let tick = (y.to_bits() & ((1u64 << 52) - 1)) - (1u64 << 51);
+    (tick, 0.5 - (x - r).abs())
+}
 
 /// Streams the edge tick of every step of a profile, in order.
 #[derive(Clone, Debug)]
 pub struct EdgeGenerator {
     profile: Profile,
     clock: f64,
-    /// Next step to produce (1-based).
+    /// Next step to produce (1-based), also as f64 (u64 → f64 is slow on baseline x86-64).
     next: u64,
-    /// Current piece and the local time of the previous step in it.
+    next_f: f64,
+    /// N as f64: the last step, whose edge is round(f·T) by definition.
+    last_f: f64,
+    /// Constants of the error bound: 2·f·ε and 8·ε.
+    k_err: f64,
+    /// Current piece, a copy of it, and where it ends.
     piece: usize,
-    tau_prev: f64,
+    cur: Piece,
+    cur_end: f64,
+    /// The current piece has constant acceleration: `advance = c1·τ + c2·τ²`.
+    quad: bool,
+    c1: f64,
+    c2: f64,
+    /// Local times of the last three steps in the current piece (newest first) and how
+    /// many of them are valid: the next step's Newton guess extrapolates them.
+    hist: [f64; 3],
+    nhist: u8,
     v_prev: f64,
     last_edge: u64,
     settled: u64,
@@ -43,12 +71,24 @@ impl EdgeGenerator {
                 max: MAX_TICKS,
             });
         }
+        let cur = *profile.piece(0);
+        let last_f = profile.steps() as f64;
+        let cur_end = profile.end_of(0);
         Ok(EdgeGenerator {
             profile,
             clock,
             next: 1,
+            next_f: 1.0,
+            last_f,
+            k_err: 2.0 * clock * EPS,
             piece: 0,
-            tau_prev: 0.0,
+            cur,
+            cur_end,
+            quad: cur.quadratic().is_some(),
+            c1: cur.quadratic().map_or(0.0, |q| q.0),
+            c2: cur.quadratic().map_or(0.0, |q| q.1),
+            hist: [0.0; 3],
+            nhist: 0,
             v_prev: 0.0,
             last_edge: 0,
             settled: 0,
@@ -78,6 +118,15 @@ impl EdgeGenerator {
         Dd::mul_f64(self.clock, self.profile.duration()).round_half_up() as u64
     }
 
+    /// Moves the generator so that its next item is the edge of `step` (1-based); steps
+    /// beyond the move end the stream. Costs O(pieces), not O(steps).
+    pub fn seek(&mut self, step: u64) {
+        self.next = step.clamp(1, self.profile.steps() + 1);
+        self.next_f = self.next as f64;
+        self.enter(0);
+        self.last_edge = 0;
+    }
+
     /// Turns this edge stream into a stream of periods `edge_i − edge_{i−1}`.
     pub fn periods(self) -> Periods {
         Periods {
@@ -101,48 +150,73 @@ impl EdgeGenerator {
         k
     }
 
-    /// Local time of step i inside piece k with an error bound (s) on the f64 result.
+    fn enter(&mut self, k: usize) {
+        self.piece = k;
+        self.cur = *self.profile.piece(k);
+        self.cur_end = self.profile.end_of(k);
+        let q = self.cur.quadratic();
+        self.quad = q.is_some();
+        (self.c1, self.c2) = q.unwrap_or((0.0, 0.0));
+        self.nhist = 0;
+        self.v_prev = 0.0;
+    }
+
+    /// Local time of step i in the current piece, its nearest tick, and whether `f·t_i` is
+    /// far enough from a half tick for f64 to decide that tick.
     #[inline(always)]
-    fn solve(&mut self, k: usize, i: f64) -> (f64, f64) {
-        let p = *self.profile.piece(k);
+    fn locate(&mut self, i: f64) -> (f64, u64, bool) {
+        let f = self.clock;
+        let p = &self.cur;
         let n = i - p.p0;
-        // rounding of n itself, as a position error
-        let n_err = EPS * i.abs();
-        if let Some((c1, c2)) = p.quadratic() {
-            // seed 000's merged formula t = 2n / (v0 + √(v0² + 2a·n)): no cancellation
+        if self.quad {
+            let (c1, c2) = (self.c1, self.c2);
             let r = c1 * c1 + 4.0 * c2 * n;
             let s = fm::sqrt(r.max(0.0));
             let den = c1 + s;
             let tau = (2.0 * n / den).min(p.dur);
-            // relative error of τ from the radicand and the root, then n's own error
-            let rel = EPS * (4.0 + (0.75 * (c1 * c1 + 4.0 * c2.abs() * n) / s + s) / den);
-            let err = if s > 0.0 { tau * rel + n_err / s } else { f64::INFINITY };
-            self.v_prev = s;
-            return (tau, err);
+            let x = (p.t0 + tau) * f;
+            let (tick, dist) = nearest_tick(x);
+            // Error bound (ticks) times s·den, so no division is needed: the radicand's
+            // rounding (R = c1² + 4|c2|n, over s), the root and quotient (≤ 5 ulp, using
+            // s ≤ den), n's own rounding (ε·i, over the speed s), and the final sum and
+            // product (4ε·x); doubled for safety.
+            let big_r = c1 * c1 + 4.0 * c2.abs() * n;
+            let sd = s * den;
+            let bound =
+                self.k_err * (tau * (5.0 * sd + big_r) + i * den) + (8.0 * EPS * x + 2e-9) * sd;
+            return (tau, tick, dist * sd > bound);
         }
-        self.newton(&p, n, n_err)
+        let p = self.cur;
+        let (tau, err) = self.newton(&p, n, EPS * i);
+        let x = (p.t0 + tau) * f;
+        let (tick, dist) = nearest_tick(x);
+        (tau, tick, dist > 2.0 * (err * f + 4.0 * EPS * x) + 1e-9)
     }
 
-    /// Safeguarded Newton on `advance(τ) = n` inside a piece (Numerical Recipes' rtsafe).
+    /// Safeguarded Newton on `advance(τ) = n` inside a piece (Numerical Recipes' rtsafe),
+    /// started from a cubic extrapolation of the previous steps' times. Returns τ and a
+    /// bound on its error (s).
     #[inline(always)]
     fn newton(&mut self, p: &Piece, n: f64, n_err: f64) -> (f64, f64) {
-        let same_piece = self.tau_prev > 0.0;
-        let mut lo = if same_piece { self.tau_prev } else { 0.0 };
+        let h = self.hist;
+        let mut lo = if self.nhist > 0 { h[0] } else { 0.0 };
         let mut hi = p.dur;
-        let mut tau = if same_piece && self.v_prev > 0.0 {
-            lo + 1.0 / self.v_prev
-        } else {
-            let v0 = p.velocity(0.0);
-            if v0 > 0.0 {
-                n / v0
-            } else {
-                0.5 * (lo + hi)
+        let mut tau = match self.nhist {
+            3 => 3.0 * (h[0] - h[1]) + h[2],
+            1 | 2 if self.v_prev > 0.0 => h[0] + 1.0 / self.v_prev,
+            _ => {
+                let v0 = p.velocity(0.0);
+                if v0 > 0.0 {
+                    n / v0
+                } else {
+                    0.5 * (lo + hi)
+                }
             }
         };
         if !(tau > lo && tau < hi) {
             tau = 0.5 * (lo + hi);
         }
-        let mut last_step = hi - lo;
+        let mut err_newton = hi - lo;
         let mut v = 0.0;
         for _ in 0..200 {
             let f = p.advance(tau) - n;
@@ -152,19 +226,34 @@ impl EdgeGenerator {
             } else {
                 lo = tau;
             }
-            let mut next = tau - f / v;
+            let corr = f / v;
+            let next = tau - corr;
             if !(next > lo && next < hi) {
-                next = 0.5 * (lo + hi);
+                tau = 0.5 * (lo + hi);
+                err_newton = hi - lo;
+                if hi - lo <= 4.0 * EPS * hi {
+                    break;
+                }
+                continue;
             }
-            last_step = (next - tau).abs();
             tau = next;
-            if last_step * self.clock <= 1e-7 || last_step <= 4.0 * EPS * tau || hi - lo <= 4.0 * EPS * hi {
+            if corr.abs() * self.clock <= 1e-3 {
+                // Newton's error after this step is |a|/(2v)·corr² (quadratic convergence).
+                let a = p.acceleration(tau).abs();
+                err_newton = 4.0 * a / (2.0 * v) * corr * corr + 4.0 * EPS * tau;
                 break;
             }
+            err_newton = corr.abs();
         }
         self.v_prev = v;
+        self.hist = [tau, h[0], h[1]];
+        self.nhist = (self.nhist + 1).min(3);
         let eval_err = 8.0 * EPS * (p.term_scale(tau) + n.abs()) + n_err;
-        let err = if v > 0.0 { eval_err / v + last_step } else { f64::INFINITY };
+        let err = if v > 0.0 {
+            eval_err / v + err_newton
+        } else {
+            f64::INFINITY
+        };
         (tau, err)
     }
 
@@ -212,42 +301,32 @@ impl Iterator for EdgeGenerator {
 
     #[inline]
     fn next(&mut self) -> Option<u64> {
-        let steps = self.profile.steps();
-        let i_u = self.next;
-        if i_u > steps {
-            return None;
-        }
-        self.next += 1;
-        if i_u == steps {
+        let i = self.next_f;
+        if i >= self.last_f {
+            if i > self.last_f {
+                return None;
+            }
+            self.next += 1;
+            self.next_f += 1.0;
             let e = self.last_edge_tick().max(self.last_edge);
             self.last_edge = e;
             return Some(e);
         }
-        let i = i_u as f64;
-        let mut k = self.piece;
-        while self.profile.end_of(k) < i && k + 1 < self.profile.len() {
-            k += 1;
-        }
-        if k != self.piece {
-            self.piece = k;
-            self.tau_prev = 0.0;
-        }
-        let (tau, err) = self.solve(k, i);
-        let t0 = self.profile.piece(k).t0;
-        let x = (t0 + tau) * self.clock;
-        let fl = fm::floor(x);
-        let dist = (x - fl - 0.5).abs();
-        let guard = 2.0 * (err * self.clock + 4.0 * EPS * x) + 1e-9;
-        let e = if dist > guard {
-            if x - fl >= 0.5 {
-                fl as u64 + 1
-            } else {
-                fl as u64
+        self.next += 1;
+        self.next_f += 1.0;
+        if self.cur_end < i {
+            let mut k = self.piece;
+            while self.profile.end_of(k) < i && k + 1 < self.profile.len() {
+                k += 1;
             }
+            self.enter(k);
+        }
+        let (tau, tick, decided) = self.locate(i);
+        let e = if decided {
+            tick
         } else {
-            self.settle(k, i, tau)
+            self.settle(self.piece, i, tau)
         };
-        self.tau_prev = tau;
         // Edges never go backwards, even where two steps share a tick.
         let e = e.max(self.last_edge);
         self.last_edge = e;

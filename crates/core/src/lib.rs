@@ -21,6 +21,7 @@ pub mod profile;
 pub mod real;
 pub mod shape;
 pub mod spec;
+pub mod tdm;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
 pub use error::PlanError;

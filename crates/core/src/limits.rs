@@ -123,7 +123,11 @@ fn check_limit(name: &'static str, v: Option<f64>, family: &'static str) -> Resu
         Some(x) => positive(name, x),
         None => Err(PlanError::MissingLimit {
             family,
-            missing: if name == "jmax" { "--jmax" } else { "--jmax and --smax" },
+            missing: if name == "jmax" {
+                "--jmax"
+            } else {
+                "--jmax and --smax"
+            },
         }),
     }
 }

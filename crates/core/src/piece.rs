@@ -82,20 +82,17 @@ impl Piece {
         }
     }
 
-    /// Acceleration (steps/s²) at local time τ (shaped pieces: by a central difference).
+    /// Acceleration (steps/s²) at local time τ.
+    #[inline(always)]
     pub fn acceleration(&self, tau: f64) -> f64 {
         match self.law {
             Law::Poly { c2, c3, c4, .. } => 2.0 * c2 + tau * (6.0 * c3 + tau * 12.0 * c4),
-            Law::Shaped { .. } => {
-                let h = self.dur * 1e-6;
-                let a = (tau - h).max(0.0);
-                let b = (tau + h).min(self.dur);
-                if b > a {
-                    (self.velocity(b) - self.velocity(a)) / (b - a)
-                } else {
-                    0.0
-                }
-            }
+            Law::Shaped {
+                shape,
+                mirrored,
+                span,
+                ..
+            } => span / (self.dur * self.dur) * shape.slope(tau / self.dur, mirrored),
         }
     }
 

@@ -178,7 +178,12 @@ impl Builder {
     }
 
     /// Adds a piece; the next one starts where this one ends (or at `exact_end` if given).
-    pub(crate) fn push(&mut self, dur: f64, law: Law, exact_end: Option<f64>) -> Result<(), PlanError> {
+    pub(crate) fn push(
+        &mut self,
+        dur: f64,
+        law: Law,
+        exact_end: Option<f64>,
+    ) -> Result<(), PlanError> {
         if dur <= 0.0 {
             return Ok(());
         }
@@ -297,8 +302,20 @@ fn scurve_phase(family: Family, dv: f64, t: f64) -> ([(f64, f64); 7], usize, u8)
         Family::SCurve4 { phi, psi } => {
             // a_max = 1/(1−φ) reached after a jerk ramp with snap S: a_max = Sψφ²(1−ψ)
             let s = dv / ((1.0 - phi) * psi * phi * phi * (1.0 - psi) * t * t * t);
-            let (r, c, m) = (psi * phi * t, (1.0 - 2.0 * psi) * phi * t, (1.0 - 2.0 * phi) * t);
-            e = [(r, s), (c, 0.0), (r, -s), (m, 0.0), (r, -s), (c, 0.0), (r, s)];
+            let (r, c, m) = (
+                psi * phi * t,
+                (1.0 - 2.0 * psi) * phi * t,
+                (1.0 - 2.0 * phi) * t,
+            );
+            e = [
+                (r, s),
+                (c, 0.0),
+                (r, -s),
+                (m, 0.0),
+                (r, -s),
+                (c, 0.0),
+                (r, s),
+            ];
             (e, 7, 4)
         }
         _ => {

@@ -93,6 +93,26 @@ impl Shape {
         }
     }
 
+    /// `g'(u)` (accel) or `h'(u) = −g'(1−u)` (mirrored decel), in f64.
+    pub fn slope(self, u: f64, mirrored: bool) -> f64 {
+        let w = if mirrored { 1.0 - u } else { u };
+        let d = match self {
+            Shape::Parabolic => 0.5 / crate::real::fm::sqrt(w),
+            Shape::Sine => {
+                0.5 * core::f64::consts::PI * crate::real::fm::sin(core::f64::consts::PI * w)
+            }
+            Shape::Exponential { rho } => {
+                let den = -crate::real::fm::exp_m1(-1.0 / rho);
+                crate::real::fm::exp(-w / rho) / (rho * den)
+            }
+        };
+        if mirrored {
+            -d
+        } else {
+            d
+        }
+    }
+
     /// `G(u)` (accel) or `H(u)` (mirrored decel).
     #[inline]
     pub fn integral<R: Real>(self, u: R, mirrored: bool) -> R {
@@ -168,9 +188,14 @@ mod tests {
                     }
                     let quad = acc * h / 3.0;
                     let closed = s.integral(u, mirrored);
-                    let tol = if matches!(s, Shape::Parabolic) && !mirrored { 1e-9 } else { 1e-12 };
+                    // √u is singular at an end, where Simpson's rule converges slowly
+                    let tol = if matches!(s, Shape::Parabolic) {
+                        1e-7
+                    } else {
+                        1e-11
+                    };
                     assert!(
-                        (quad - closed).abs() <= tol * u.max(1e-3),
+                        (quad - closed).abs() <= tol * closed.abs().max(1e-12),
                         "{s:?} m={mirrored} u={u}: {quad} vs {closed}"
                     );
                 }
@@ -189,7 +214,10 @@ mod tests {
                 for &u in &[1e-9, 0.001, 0.49, 0.51, 0.999, 1.0] {
                     let a = s.integral(u, mirrored);
                     let b = s.integral(Dd::new(u), mirrored).to_f64();
-                    assert!((a - b).abs() <= 4e-16 * b.abs().max(1e-300), "{s:?} {mirrored} {u}: {a} {b}");
+                    assert!(
+                        (a - b).abs() <= 2e-15 * b.abs().max(1e-300),
+                        "{s:?} {mirrored} {u}: {a} {b}"
+                    );
                 }
             }
         }

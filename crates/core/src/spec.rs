@@ -38,7 +38,9 @@ impl<'a> MoveSpec<'a> {
             }
             return Ok(Move::Segments(self.segments));
         }
-        let steps = self.steps.ok_or(PlanError::Missing("the number of steps"))?;
+        let steps = self
+            .steps
+            .ok_or(PlanError::Missing("the number of steps"))?;
         let name = self.profile.unwrap_or("trapezoid");
         let family = Family::parse(name, self.rho, self.phi, self.psi)?;
         let start_speed = self.start_speed.unwrap_or(0.0);
@@ -51,7 +53,11 @@ impl<'a> MoveSpec<'a> {
                 Family::Trapezoid => Order::Trapezoid,
                 Family::SCurve { .. } => Order::SCurve,
                 Family::SCurve4 { .. } => Order::SCurve4,
-                other => return Err(PlanError::NoLimitsMode { family: other.name() }),
+                other => {
+                    return Err(PlanError::NoLimitsMode {
+                        family: other.name(),
+                    })
+                }
             };
             return Ok(Move::Limits(LimitsMove {
                 steps,

@@ -1,0 +1,223 @@
+//! `multistep plan` as users script it: CSV rows, JSON summary, and errors (exit 2, one line).
+
+use std::process::{Command, Output};
+
+fn plan(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .arg("plan")
+        .args(args)
+        .output()
+        .expect("run multistep")
+}
+
+const SEED: [&str; 10] = [
+    "--profile",
+    "trapezoid",
+    "--steps",
+    "2400",
+    "--accel-time",
+    "0.02",
+    "--cruise-time",
+    "0.01",
+    "--decel-time",
+    "0.02",
+];
+
+fn csv_rows(out: &Output) -> Vec<(u64, u64, u64)> {
+    let text = String::from_utf8(out.stdout.clone()).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("step,edge_tick,period_ticks"));
+    lines
+        .map(|l| {
+            let v: Vec<u64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect()
+}
+
+#[test]
+fn csv_has_one_row_per_step_and_periods_sum_to_edges() {
+    let mut args = SEED.to_vec();
+    args.extend(["--format", "csv"]);
+    let out = plan(&args);
+    assert!(out.status.success());
+    let rows = csv_rows(&out);
+    assert_eq!(rows.len(), 2400);
+    let mut sum = 0;
+    for (k, &(step, edge, period)) in rows.iter().enumerate() {
+        assert_eq!(step, k as u64 + 1);
+        sum += period;
+        assert_eq!(sum, edge);
+    }
+    // 50 ms at 50 MHz
+    assert_eq!(rows.last().unwrap().1, 2_500_000);
+}
+
+#[test]
+fn segments_reproduce_the_phase_trapezoid() {
+    let mut args = SEED.to_vec();
+    args.extend(["--format", "csv"]);
+    let phase = csv_rows(&plan(&args));
+    let seg = plan(&[
+        "--segment",
+        "0:0.02:800",
+        "--segment",
+        "80000:0.01:800",
+        "--segment",
+        "80000:0.02:800",
+        "--format",
+        "csv",
+    ]);
+    assert!(seg.status.success());
+    assert_eq!(csv_rows(&seg), phase);
+}
+
+#[test]
+fn json_summary_runs_the_whole_generator() {
+    let out = plan(&[
+        "--profile",
+        "scurve4",
+        "--steps",
+        "5000000",
+        "--vmax",
+        "200000",
+        "--amax",
+        "1e6",
+        "--jmax",
+        "1e8",
+        "--smax",
+        "1e11",
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["steps"], 5_000_000);
+    let dur = v["duration_s"].as_f64().unwrap();
+    let last = v["last_edge_tick"].as_u64().unwrap();
+    assert_eq!(last, (dur * 50e6).round() as u64);
+    assert!(v["peak_speed_steps_per_s"].as_f64().unwrap() <= 200000.0 * (1.0 + 1e-9));
+    assert!(v["peak_accel_steps_per_s2"].as_f64().unwrap() <= 1e6 * (1.0 + 1e-9));
+    // at 200 k steps/s and 50 MHz the shortest period is 250 ticks
+    assert_eq!(v["min_period_ticks"], 250);
+}
+
+#[test]
+fn every_family_plans_in_phase_mode() {
+    for fam in [
+        "trapezoid",
+        "parabolic",
+        "exponential",
+        "sine",
+        "scurve",
+        "scurve4",
+    ] {
+        let mut args = SEED.to_vec();
+        args[1] = fam;
+        args.extend([
+            "--format",
+            "json",
+            "--start-speed",
+            "1000",
+            "--end-speed",
+            "500",
+        ]);
+        let out = plan(&args);
+        assert!(out.status.success(), "{fam}");
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["last_edge_tick"], 2_500_000, "{fam}");
+    }
+}
+
+#[test]
+fn bad_input_gets_one_error_line_and_status_2() {
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["--profile", "cubic", "--steps", "10", "--accel-time", "1"],
+        vec!["--steps", "10", "--accel-time", "-1", "--decel-time", "1"],
+        vec!["--steps", "10", "--accel-time", "NaN"],
+        vec!["--steps", "10", "--cruise-time", "inf"],
+        vec!["--steps", "10", "--accel-time", "0", "--cruise-time", "0"],
+        vec!["--segment", "1000:0.1:10"],
+        vec!["--segment", "1000:0.1"],
+        vec![
+            "--profile",
+            "scurve",
+            "--steps",
+            "10",
+            "--vmax",
+            "100",
+            "--amax",
+            "100",
+        ],
+        vec![
+            "--profile",
+            "scurve4",
+            "--steps",
+            "10",
+            "--vmax",
+            "100",
+            "--amax",
+            "100",
+            "--jmax",
+            "5",
+        ],
+        vec![
+            "--profile",
+            "sine",
+            "--steps",
+            "10",
+            "--vmax",
+            "100",
+            "--amax",
+            "100",
+        ],
+        vec![
+            "--profile",
+            "scurve",
+            "--phi",
+            "0.7",
+            "--steps",
+            "10",
+            "--accel-time",
+            "1",
+        ],
+        vec![
+            "--profile",
+            "scurve4",
+            "--psi",
+            "0",
+            "--steps",
+            "10",
+            "--accel-time",
+            "1",
+        ],
+        vec!["--steps", "10", "--accel-time", "1", "--clock", "0"],
+        vec!["--steps", "10", "--accel-time", "1", "--start-speed", "1e6"],
+        vec![
+            "--steps",
+            "10",
+            "--accel-time",
+            "1",
+            "--vmax",
+            "5",
+            "--amax",
+            "5",
+        ],
+        vec!["--steps", "0", "--accel-time", "1"],
+        vec!["--accel-time", "1"],
+        vec!["--steps", "ten", "--accel-time", "1"],
+        vec!["--no-such-flag"],
+    ];
+    for args in cases {
+        let out = plan(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(out.stdout.is_empty(), "{args:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert!(err.starts_with("error:"), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    }
+}
