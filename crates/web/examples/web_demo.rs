@@ -14,23 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .display()
             .to_string()
     });
-    let config = BoardConfig::parse(
-        r#"
-        [board]
-        name = "demo"
-        [[axis]]
-        name = "X"
-        soft_min = -20000
-        soft_max = 20000
-        sim = { sensor_at = -1500 }
-        [[axis]]
-        name = "Y"
-        steps_per_unit = 100.0
-        [[axis]]
-        name = "WP"
-        period = 14400
-        "#,
-    )?;
+    let config = BoardConfig::parse(include_str!("../e2e/board.toml"))?;
     let ctl = Arc::new(Controller::open(&config, std::path::Path::new(&data), 1.0)?);
     let web = start(
         vec![ctl],

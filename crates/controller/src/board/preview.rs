@@ -22,7 +22,13 @@ impl Board {
     /// What `group_move(targets, absolute, sync, opts)` would plan from the counted
     /// positions now, without starting anything; busy axes are planned from where they
     /// are, so only the errors of the plan itself show.
-    pub fn preview(&self, targets: &[(String, Amount)], absolute: bool, sync: bool, opts: &MoveOpts) -> Result<Vec<PlannedAxis>, CtlError> {
+    pub fn preview(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<PlannedAxis>, CtlError> {
         let mut plan = Vec::new();
         for (name, amount) in targets {
             let i = self.index(name)?;
@@ -35,7 +41,13 @@ impl Board {
             self.plan_sync(&plan, opts)?
         } else {
             plan.iter()
-                .map(|&(i, d)| if d == 0 { Ok(None) } else { self.plan(i, d.unsigned_abs(), opts).map(Some) })
+                .map(|&(i, d)| {
+                    if d == 0 {
+                        Ok(None)
+                    } else {
+                        self.plan(i, d.unsigned_abs(), opts).map(Some)
+                    }
+                })
                 .collect::<Result<Vec<_>, _>>()?
         };
         Ok(plan
@@ -44,7 +56,12 @@ impl Board {
             .map(|(&(i, delta), profile)| {
                 let ax = &self.axes[i];
                 let t = ax.count + delta;
-                PlannedAxis { axis: ax.name.clone(), delta, target: ax.period().map_or(t, |p| t.rem_euclid(p)), profile }
+                PlannedAxis {
+                    axis: ax.name.clone(),
+                    delta,
+                    target: ax.period().map_or(t, |p| t.rem_euclid(p)),
+                    profile,
+                }
             })
             .collect())
     }
