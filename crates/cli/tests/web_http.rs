@@ -28,16 +28,19 @@ impl Service {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let mut line = String::new();
-        BufReader::new(child.stderr.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        let http = line
-            .trim()
-            .strip_prefix("web page on http://")
-            .expect(&line)
-            .trim_end_matches('/')
-            .to_string();
+        // Only a service with --http says where its page is (first line on stderr).
+        let mut http = String::new();
+        if http_args.contains(&"--http") {
+            let mut line = String::new();
+            BufReader::new(child.stderr.take().unwrap())
+                .read_line(&mut line)
+                .unwrap();
+            let addr = line
+                .trim()
+                .strip_prefix("web page on http://")
+                .expect(&line);
+            http = addr.trim_end_matches('/').to_string();
+        }
         let mut first = String::new();
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut first)
@@ -84,7 +87,11 @@ fn post(addr: &str, path: &str, body: &str, ctype: &str, extra: &str) -> (u16, V
 }
 
 fn cmd(addr: &str, line: &str) -> Value {
-    let body = serde_json::json!({ "board": 0, "line": line }).to_string();
+    cmd_on(addr, 0, line)
+}
+
+fn cmd_on(addr: &str, board: usize, line: &str) -> Value {
+    let body = serde_json::json!({ "board": board, "line": line }).to_string();
     let (code, v) = post(addr, "/api/cmd", &body, "application/json", "");
     assert_eq!(code, 200, "{v}");
     v
@@ -305,4 +312,72 @@ fn the_event_stream_follows_a_move() {
         "the stream did not follow the move: {positions:?}"
     );
     assert!(positions.windows(2).all(|w| w[0] <= w[1]), "{positions:?}");
+}
+
+#[test]
+fn another_board_is_shown_and_driven_over_its_line_protocol() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut other = Service::start(&tmp.path().join("a"), &[]);
+    let svc = Service::start(
+        &tmp.path().join("b"),
+        &["--http", "127.0.0.1:0", "--http-board", &other.tcp],
+    );
+    let (code, body) = get(&svc.http, "/api/boards", &svc.http, "");
+    assert_eq!(code, 200);
+    let v: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(v["boards"].as_array().unwrap().len(), 2, "{v}");
+    assert_eq!(v["boards"][1]["remote"], other.tcp.as_str());
+    assert_eq!(
+        v["boards"][1]["axes"],
+        serde_json::json!(["X", "Y", "Z", "A"])
+    );
+
+    let r = cmd_on(&svc.http, 1, "move Y 500");
+    assert_eq!(r["data"], serde_json::json!(["Y target=500"]), "{r}");
+    let mut direct = Client::connect(&Endpoint::Tcp(other.tcp.clone())).unwrap();
+    let t0 = std::time::Instant::now();
+    let y = loop {
+        let y = direct
+            .status()
+            .unwrap()
+            .into_iter()
+            .find(|s| s.axis == "Y")
+            .unwrap();
+        if y.state == multistep_controller::AxisState::Idle {
+            break y;
+        }
+        assert!(t0.elapsed().as_secs() < 30, "Y never stopped: {y:?}");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert_eq!(y.position, 500);
+    // The local board did not move.
+    assert!(cmd(&svc.http, "status Y")["data"][0]
+        .as_str()
+        .unwrap()
+        .contains("pos=0 "));
+    let (_, body) = get(&svc.http, "/api/status", &svc.http, "");
+    let snap: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(snap["boards"][1]["axes"][1]["position"], 500, "{snap}");
+    let e = cmd_on(&svc.http, 1, "move Q 1");
+    assert_eq!(e["error"]["code"], 4, "{e}");
+
+    other.child.kill().unwrap();
+    other.child.wait().unwrap();
+    let e = cmd_on(&svc.http, 1, "status");
+    assert_eq!(e["ok"], false);
+    assert_eq!(e["error"]["code"], 13, "{e}");
+    let (_, body) = get(&svc.http, "/api/status", &svc.http, "");
+    let snap: Value = serde_json::from_str(&body).unwrap();
+    assert!(
+        snap["boards"][1]["error"]
+            .as_str()
+            .unwrap()
+            .contains("unreachable"),
+        "{snap}"
+    );
+    assert_eq!(
+        snap["boards"][0]["axes"].as_array().unwrap().len(),
+        4,
+        "the local board is still served"
+    );
 }

@@ -93,7 +93,7 @@ function buildBoards() {
     sec.className = 'board';
     sec.id = 'board-' + b.board;
     const h = document.createElement('h2');
-    h.textContent = `Board ${b.name}`;
+    h.textContent = `Board ${b.name}` + (b.remote ? ` (line protocol at ${b.remote})` : '');
     const warn = document.createElement('div');
     warn.className = 'err board-warnings';
     const grid = document.createElement('div');
@@ -195,14 +195,21 @@ function drawTrace(cv, tr, now) {
 function onSnapshot(s) {
   const now = performance.now() / 1000;
   let estop = false;
+  let unknown = false;
   for (const b of s.boards) {
     estop = estop || b.estop;
     const w = document.querySelector(`#board-${b.board} .board-warnings`);
-    if (w) w.textContent = b.warnings.join(' · ');
+    if (w) w.textContent = (b.error ? [b.error] : b.warnings).join(' · ');
     for (const a of b.axes) {
       const card = state.cards.get(`${b.board}/${a.axis}`);
       if (card) updateCard(card, a, now);
+      else unknown = true;
     }
+  }
+  // A board that was unreachable when the page loaded has come up: rebuild the grid.
+  if (unknown && !state.reloading) {
+    state.reloading = true;
+    loadBoards().catch(() => {}).finally(() => { state.reloading = false; });
   }
   $('estop-state').hidden = !estop;
   document.body.dataset.estop = estop ? '1' : '0';
@@ -258,7 +265,10 @@ async function allBoards(line) {
   return rs.every((r) => r);
 }
 $('estop').onclick = () => allBoards('estop');
-$('reset').onclick = () => allBoards('reset');
+$('reset').onclick = async () => {
+  // The errors that the emergency stop caused are over.
+  if (await allBoards('reset')) for (const e of document.querySelectorAll('.axis-err')) showErr(e, '');
+};
 $('stop-all').onclick = () => allBoards('stop all');
 
 // ---- presets and named positions -----------------------------------------------------
@@ -440,7 +450,10 @@ async function loadSettings(board, axis) {
         if (back) { const s = back.data[0].slice(key.length + 1); input.value = s; input.dataset.saved = s; }
       }
     };
-    form.append(label, input, err);
+    const field = document.createElement('div');
+    field.className = 'field';
+    field.append(label, input, err);
+    form.append(field);
   }
 }
 

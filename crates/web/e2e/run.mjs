@@ -1,6 +1,9 @@
 // End-to-end scenarios of the operator page in the system's headless Chromium, against the
 // real service process. Run by `cargo test -p multistep --test web_browser`, which passes:
-//   SERVICE_ARGV  JSON array: the service command; "{http}" is replaced by HOST:PORT
+//   SERVICE_ARGV  JSON array: the service command; "{http}" is replaced by HOST:PORT and
+//                 "{other}" by the TCP address of the second board
+//   OTHER_ARGV    JSON array: a second board's service (line protocol only), shown on the
+//                 same page; it prints "board NAME listening on tcp://HOST:PORT" on stdout
 //   SCREENSHOT    where to write the screenshot taken during a two-axis move
 //   CHROMIUM      browser executable (default /usr/bin/chromium)
 // The service must print "web page on http://HOST:PORT/" on stderr.
@@ -11,6 +14,7 @@ import { chromium } from 'playwright-core';
 
 const CHROMIUM = process.env.CHROMIUM || '/usr/bin/chromium';
 const ARGV = JSON.parse(process.env.SERVICE_ARGV || 'null');
+const OTHER_ARGV = JSON.parse(process.env.OTHER_ARGV || 'null');
 const SCREENSHOT = process.env.SCREENSHOT;
 const T = 20000; // longest wait for anything (ms); the scenarios take a few seconds each
 
@@ -18,27 +22,33 @@ if (!existsSync(CHROMIUM)) {
   console.error(`error: no browser at ${CHROMIUM}: install it with 'apt-get install -y chromium chromium-driver'`);
   process.exit(1);
 }
-if (!Array.isArray(ARGV)) {
-  console.error('error: SERVICE_ARGV (a JSON array) must give the service command');
+if (!Array.isArray(ARGV) || !Array.isArray(OTHER_ARGV)) {
+  console.error('error: SERVICE_ARGV and OTHER_ARGV (JSON arrays) must give the service commands');
   process.exit(1);
 }
 
-// Starts the service; resolves with its process and the page's address.
-function startService(http) {
+// Starts a service and resolves once it has printed a line matching `ready` (on stderr
+// for the page's address, on stdout for a board's TCP address).
+function spawnService(argv, stream, ready) {
   return new Promise((resolve, reject) => {
-    const argv = ARGV.map((a) => a.replace('{http}', http));
     const p = spawn(argv[0], argv.slice(1), { stdio: ['ignore', 'pipe', 'pipe'] });
-    let err = '';
-    const timer = setTimeout(() => reject(new Error('service did not start: ' + err)), T);
-    p.stdout.on('data', () => {});
-    p.stderr.on('data', (d) => {
-      err += d;
-      const m = err.match(/web page on (http:\/\/\S+?)\/?\s/);
+    let out = '';
+    const timer = setTimeout(() => reject(new Error('service did not start: ' + out)), T);
+    p.stdout.on('data', (d) => { if (stream === 'stdout') check(d); });
+    p.stderr.on('data', (d) => { if (stream === 'stderr') check(d); else out += d; });
+    function check(d) {
+      out += d;
+      const m = out.match(ready);
       if (m) { clearTimeout(timer); resolve({ proc: p, url: m[1] }); }
-    });
-    p.on('exit', (code) => { clearTimeout(timer); reject(new Error(`service exited (${code}): ${err}`)); });
+    }
+    p.on('exit', (code) => { clearTimeout(timer); reject(new Error(`service exited (${code}): ${out}`)); });
   });
 }
+
+let otherAddr = null;
+const startService = (http) =>
+  spawnService(ARGV.map((a) => a.replace('{http}', http).replace('{other}', otherAddr)), 'stderr', /web page on (http:\/\/\S+?)\/?\s/);
+const startOther = () => spawnService(OTHER_ARGV, 'stdout', /listening on tcp:\/\/(\S+)\s/);
 
 function stopService(s) {
   return new Promise((resolve) => {
@@ -48,7 +58,7 @@ function stopService(s) {
   });
 }
 
-const card = (axis) => `#axis-0-${axis}`;
+const card = (axis, board = 0) => `#axis-${board}-${axis}`;
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 async function text(page, sel) {
@@ -56,7 +66,7 @@ async function text(page, sel) {
 }
 
 // The state an axis card shows.
-function readCard(page, axis) {
+function readCard(page, axis, board = 0) {
   return page.evaluate((sel) => {
     const el = document.querySelector(sel);
     if (!el) return null;
@@ -67,39 +77,40 @@ function readCard(page, axis) {
       err: el.querySelector('.axis-err').textContent,
       text: el.innerText.replace(/\s+/g, ' '),
     };
-  }, card(axis));
+  }, card(axis, board));
 }
 
 // Polls an axis card from here (the page's CSP forbids eval, so no predicate is sent there)
 // until `pred` holds for what it shows.
-async function waitAxis(page, axis, pred, what) {
+async function waitAxis(page, axis, pred, what, board = 0) {
   const until = Date.now() + T;
   let s = null;
   while (Date.now() < until) {
-    s = await readCard(page, axis);
+    s = await readCard(page, axis, board);
     if (s && pred(s)) return s;
     await sleep(15);
   }
   throw new Error(`${axis}: waited for ${what}; card shows: ${s && s.text}`);
 }
 
-async function moveAxis(page, axis, amount, mode = 'move') {
-  await page.locator(`${card(axis)} .amount`).fill(String(amount));
-  await page.locator(`${card(axis)} .mode`).selectOption(mode);
-  await page.locator(`${card(axis)} .go`).click();
+async function moveAxis(page, axis, amount, mode = 'move', board = 0) {
+  await page.locator(`${card(axis, board)} .amount`).fill(String(amount));
+  await page.locator(`${card(axis, board)} .mode`).selectOption(mode);
+  await page.locator(`${card(axis, board)} .go`).click();
 }
 
 const scenarios = [];
 const scenario = (name, fn) => scenarios.push({ name, fn });
 
-scenario('page loads and shows every axis', async ({ page }) => {
+scenario('page loads and shows every axis of both boards', async ({ page }) => {
   await page.locator('#conn.up').waitFor({ timeout: T });
   for (const a of ['X', 'Y', 'WP']) await page.locator(card(a)).waitFor({ timeout: T });
+  for (const a of ['F1', 'F2']) await page.locator(card(a, 1)).waitFor({ timeout: T });
   await waitAxis(page, 'X', (s) => s.state === 'idle', 'first status');
 });
 
 scenario('a move is followed live until its position arrives', async ({ page }) => {
-  await moveAxis(page, 'X', 3000);
+  await moveAxis(page, 'X', 6000);
   await waitAxis(page, 'X', (s) => s.state === 'moving', 'moving');
   // Count what the page itself shows while the axis moves.
   const shown = await page.evaluate(async (sel) => {
@@ -112,7 +123,7 @@ scenario('a move is followed live until its position arrives', async ({ page }) 
     }
     return { vals, ms: performance.now() - t0 };
   }, card('X'));
-  await waitAxis(page, 'X', (s) => s.pos === 3000 && s.state === 'idle', 'arrival at 3000');
+  await waitAxis(page, 'X', (s) => s.pos === 6000 && s.state === 'idle', 'arrival at 6000');
   const distinct = new Set(shown.vals).size;
   console.log(`#   X: ${distinct} distinct positions shown during ${shown.ms.toFixed(0)} ms of motion (${(distinct / shown.ms * 1000).toFixed(1)}/s)`);
   if (distinct < 5) throw new Error(`the position was not updated live (${distinct} values)`);
@@ -129,7 +140,7 @@ scenario('a preview is planned by the service and drawn', async ({ page }) => {
   await page.locator(`${card('X')} .amount`).fill('-2000');
   await page.locator(`${card('X')} .mode`).selectOption('move');
   await page.locator(`${card('X')} .preview`).click();
-  await page.waitForFunction(() => document.querySelector('#preview-info').textContent.includes('3000 → 1000 (2000 steps)'), null, { timeout: T });
+  await page.waitForFunction(() => document.querySelector('#preview-info').textContent.includes('6000 → 4000 (2000 steps)'), null, { timeout: T });
   const inked = await page.evaluate(() => {
     const c = document.querySelector('#preview-canvas');
     const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
@@ -139,7 +150,7 @@ scenario('a preview is planned by the service and drawn', async ({ page }) => {
   });
   if (inked < 500) throw new Error(`preview canvas is nearly empty (${inked} pixels)`);
   const st = await text(page, `${card('X')} .pos`);
-  if (st !== '3000') throw new Error('a preview moved the axis to ' + st);
+  if (st !== '6000') throw new Error('a preview moved the axis to ' + st);
 });
 
 scenario('emergency stop during a move halts it and blocks new moves until reset', async ({ page }) => {
@@ -195,6 +206,13 @@ scenario('a bad setting shows the validation message next to the field', async (
     null, { timeout: T });
 });
 
+scenario("the other board's axis moves through its own line protocol", async ({ page }) => {
+  // 90 degrees on a periodic axis given in user units.
+  await moveAxis(page, 'F1', '90u', 'moveto', 1);
+  await waitAxis(page, 'F1', (s) => s.state === 'moving', 'F1 moving', 1);
+  await waitAxis(page, 'F1', (s) => s.pos === 3600 && s.state === 'idle', 'F1 at 3600', 1);
+});
+
 scenario('a synchronous group move runs both axes together (screenshot)', async ({ page }) => {
   await page.locator('#group-axes input[data-axis=X]').fill('-3000');
   await page.locator('#group-axes input[data-axis=Y]').fill('9000');
@@ -204,6 +222,8 @@ scenario('a synchronous group move runs both axes together (screenshot)', async 
   await page.locator('#group-run').click();
   await waitAxis(page, 'X', (s) => s.state === 'moving', 'X moving');
   await waitAxis(page, 'Y', (s) => s.state === 'moving', 'Y moving');
+  // Scrolled to the top, so the sticky header is where it belongs in a full-page shot.
+  await page.evaluate(() => window.scrollTo(0, 0));
   await sleep(900);
   if (SCREENSHOT) await page.screenshot({ path: SCREENSHOT, fullPage: true });
   await waitAxis(page, 'X', (s) => s.pos === -3000 && s.state === 'idle', 'X at -3000');
@@ -224,6 +244,8 @@ scenario('a lost connection is shown and the page reconnects by itself', async (
 });
 
 async function main() {
+  const other = await startOther();
+  otherAddr = other.url;
   let service = await startService('127.0.0.1:0');
   const browser = await chromium.launch({
     executablePath: CHROMIUM,
@@ -261,6 +283,7 @@ async function main() {
   }
   await browser.close();
   await stopService(service);
+  await stopService(other);
   console.log(`${passed} passed, ${failed} failed`);
   process.exit(failed ? 1 : 0);
 }

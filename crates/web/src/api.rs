@@ -2,14 +2,14 @@
 //! the controller's protocol dispatcher; nothing here interprets a command itself.
 
 use crate::access::Access;
+use crate::boards::{error_json, BoardLink};
 use crate::{assets, events, preview};
-use multistep_controller::protocol::{self, Command, Reply};
+use multistep_controller::protocol::{self, Command};
 use multistep_controller::{Controller, CtlError};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::Read;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
 use tiny_http::{Header, Method, Request, Response};
 
 /// Largest request body accepted (a protocol line is at most 4 KiB).
@@ -18,13 +18,13 @@ const MAX_BODY: u64 = 16 * 1024;
 const MAX_STREAMS: usize = 32;
 
 pub struct Ctx {
-    boards: Vec<Arc<Controller>>,
+    boards: Vec<BoardLink>,
     access: Access,
     streams: AtomicUsize,
 }
 
 impl Ctx {
-    pub fn new(boards: Vec<Arc<Controller>>, access: Access) -> Ctx {
+    pub fn new(boards: Vec<BoardLink>, access: Access) -> Ctx {
         Ctx {
             boards,
             access,
@@ -67,18 +67,6 @@ fn fail(status: u16, msg: &str) -> Resp {
         status,
         &json!({ "ok": false, "error": { "code": 0, "message": msg } }),
     )
-}
-
-/// A protocol reply as JSON: `{ok, data, error: {code, message}}`.
-pub fn reply_json(r: &Reply) -> Value {
-    match &r.result {
-        Ok(()) => json!({ "ok": true, "data": r.data }),
-        Err(e) => json!({ "ok": false, "data": r.data, "error": error_json(e) }),
-    }
-}
-
-fn error_json(e: &CtlError) -> Value {
-    json!({ "code": e.code(), "message": e.to_string() })
 }
 
 fn split_url(url: &str) -> (&str, &str) {
@@ -143,11 +131,17 @@ pub fn handle(mut req: Request, ctx: &Ctx) {
             &serde_json::to_value(events::snapshot(&ctx.boards)).unwrap_or_default(),
         ),
         (Method::Post, "/api/cmd") => match read_line_request(&mut req, ctx) {
-            Ok((c, line)) => json_resp(200, &reply_json(&c.execute_bytes(line.as_bytes()))),
+            Ok((b, line)) => json_resp(200, &b.run(&line)),
             Err(r) => r,
         },
         (Method::Post, "/api/preview") => match read_line_request(&mut req, ctx) {
-            Ok((c, line)) => json_resp(200, &preview_json(c, &line)),
+            Ok((BoardLink::Local(c), line)) => json_resp(200, &preview_json(c, &line)),
+            Ok((BoardLink::Remote(_), _)) => json_resp(
+                200,
+                &error_json(&CtlError::syntax(
+                    "previews are planned by the board's own service: open its page",
+                )),
+            ),
             Err(r) => r,
         },
         (Method::Get, p) => match assets::find(p) {
@@ -171,17 +165,14 @@ fn boards(ctx: &Ctx) -> Value {
         .boards
         .iter()
         .enumerate()
-        .map(|(k, c)| c.with_board(|b, _| json!({ "board": k, "name": b.name(), "axes": b.axis_names(), "clock_hz": b.clock_hz() })))
+        .map(|(k, b)| b.describe(k))
         .collect();
     json!({ "boards": list, "version": env!("CARGO_PKG_VERSION") })
 }
 
 /// The body of a POST: JSON only, so a foreign page cannot post a plain form to
 /// 127.0.0.1 without the browser's CORS preflight stopping it.
-fn read_line_request<'c>(
-    req: &mut Request,
-    ctx: &'c Ctx,
-) -> Result<(&'c Controller, String), Resp> {
+fn read_line_request<'c>(req: &mut Request, ctx: &'c Ctx) -> Result<(&'c BoardLink, String), Resp> {
     let is_json = header_value(req, "Content-Type")
         .is_some_and(|v| v.trim_start().starts_with("application/json"));
     if !is_json {
@@ -206,7 +197,7 @@ fn read_line_request<'c>(
 
 /// Plans a `move`, `moveto` or `group` line exactly as running it would, without running it.
 fn preview_json(c: &Controller, line: &str) -> Value {
-    let err = |e: CtlError| json!({ "ok": false, "error": error_json(&e) });
+    let err = |e: CtlError| error_json(&e);
     let cmd = match protocol::parse(line) {
         Ok(c) => c,
         Err(e) => return err(e),

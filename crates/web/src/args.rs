@@ -1,7 +1,8 @@
 //! The `--http…` flags, shared by every command that serves a board
 //! (`#[command(flatten)] http: HttpArgs`).
 
-use crate::{start, HttpOptions, WebError, WebServer};
+use crate::boards::{BoardLink, Remote};
+use crate::{start_links, HttpOptions, WebError, WebServer};
 use multistep_controller::Controller;
 use std::sync::Arc;
 
@@ -23,6 +24,10 @@ pub struct HttpArgs {
         hide_env_values = true
     )]
     pub http_token: Option<String>,
+    /// Also show another board on the page, reached over its line protocol at HOST:PORT
+    /// (repeat for more boards)
+    #[arg(long, value_name = "HOST:PORT", requires = "http")]
+    pub http_board: Vec<String>,
 }
 
 impl HttpArgs {
@@ -36,7 +41,16 @@ impl HttpArgs {
             allow_remote: self.http_allow_remote,
             token: self.http_token.clone(),
         };
-        let server = start(boards, &opts)?;
+        let links = boards
+            .into_iter()
+            .map(BoardLink::Local)
+            .chain(
+                self.http_board
+                    .iter()
+                    .map(|a| BoardLink::Remote(Remote::new(a))),
+            )
+            .collect();
+        let server = start_links(links, &opts)?;
         eprintln!("web page on http://{}/", server.addr());
         Ok(Some(server))
     }

@@ -1,9 +1,9 @@
 //! Snapshots of every board, and the server-sent-events stream that repeats them.
 
-use multistep_controller::{AxisState, AxisStatus, Controller};
+use crate::boards::BoardLink;
+use multistep_controller::{AxisState, AxisStatus};
 use serde::Serialize;
 use std::io::Write;
-use std::sync::Arc;
 use std::time::Duration;
 
 /// Period of updates while any axis moves or homes (20 Hz), and at rest.
@@ -19,6 +19,8 @@ pub struct BoardSnapshot {
     pub estop: bool,
     pub warnings: Vec<String>,
     pub axes: Vec<AxisStatus>,
+    /// Why a remote board could not be read.
+    pub error: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -28,22 +30,12 @@ pub struct Snapshot {
     pub busy: bool,
 }
 
-/// Every axis of every board, each board read under one lock so its axes agree in time.
-pub fn snapshot(boards: &[Arc<Controller>]) -> Snapshot {
+/// Every axis of every board, each board read at one moment so its axes agree in time.
+pub fn snapshot(boards: &[BoardLink]) -> Snapshot {
     let boards: Vec<BoardSnapshot> = boards
         .iter()
         .enumerate()
-        .map(|(k, c)| {
-            c.with_board(|b, now| BoardSnapshot {
-                board: k,
-                name: b.name().to_string(),
-                tick: now,
-                clock_hz: b.clock_hz(),
-                estop: b.is_estopped(),
-                warnings: b.warnings().to_vec(),
-                axes: b.status(&[], now).unwrap_or_default(),
-            })
-        })
+        .map(|(k, b)| b.snapshot(k))
         .collect();
     let busy = boards
         .iter()
@@ -53,7 +45,7 @@ pub fn snapshot(boards: &[Arc<Controller>]) -> Snapshot {
 }
 
 /// Writes snapshots as SSE until the client goes away.
-pub fn stream(boards: &[Arc<Controller>], out: &mut dyn Write) -> std::io::Result<()> {
+pub fn stream(boards: &[BoardLink], out: &mut dyn Write) -> std::io::Result<()> {
     out.write_all(
         b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
           Connection: close\r\nX-Content-Type-Options: nosniff\r\n\r\nretry: 1000\n\n",

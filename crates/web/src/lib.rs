@@ -18,11 +18,13 @@ pub mod access;
 mod api;
 mod args;
 mod assets;
+pub mod boards;
 mod events;
 pub mod preview;
 
 pub use access::{HttpOptions, WebError};
 pub use args::HttpArgs;
+pub use boards::BoardLink;
 
 use multistep_controller::Controller;
 use std::net::SocketAddr;
@@ -56,9 +58,14 @@ impl Drop for WebServer {
     }
 }
 
+/// Serves the page for boards run by this process.
+pub fn start(boards: Vec<Arc<Controller>>, opts: &HttpOptions) -> Result<WebServer, WebError> {
+    start_links(boards.into_iter().map(BoardLink::Local).collect(), opts)
+}
+
 /// Checks `opts` (loopback unless remote access is allowed with a token), binds, and
 /// serves `boards` on a background thread, one thread per request.
-pub fn start(boards: Vec<Arc<Controller>>, opts: &HttpOptions) -> Result<WebServer, WebError> {
+pub fn start_links(boards: Vec<BoardLink>, opts: &HttpOptions) -> Result<WebServer, WebError> {
     if boards.is_empty() {
         return Err(WebError::NoBoards);
     }
