@@ -240,7 +240,7 @@ fn bad_input_gets_error_answers_and_the_connection_stays_usable() {
     let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
     let mut input = Vec::new();
     input.extend_from_slice(b"move NOPE 5\n\xff\xfe\xfd\n");
-    input.extend(std::iter::repeat(b'z').take(100_000));
+    input.extend(std::iter::repeat_n(b'z', 100_000));
     input.extend_from_slice(b"\nmoveto X 1 vmax=abc\nset X soft_max 10\nmoveto X 11\nhome X\nmove X 5\nstop X\nfrobnicate\nversion\n");
     s.write_all(&input).unwrap();
     s.shutdown(std::net::Shutdown::Write).unwrap();

@@ -290,6 +290,9 @@ pub struct AxisStatus {
     pub fault: Option<String>,
     /// The simulated mechanical position (simulation only; a real board cannot know it).
     pub sim_position: i64,
+    /// Level of the DIR line for the last move: high for positive counts, unless
+    /// `invert_dir` (wiring) flips it.
+    pub dir_level: bool,
 }
 
 impl AxisStatus {

@@ -6,9 +6,10 @@ use crate::axis::{AxisSettings, AxisState, AxisStatus};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_move, stop_profile, StepSource};
+use crate::motion::{start_group, start_move, stop_profile, StepSource};
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
+use multistep_core::tdm::TdmConfig;
 use multistep_core::{Family, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
@@ -60,6 +61,10 @@ struct Axis {
     drift_checks: u64,
     move_start: Option<u64>,
     move_end: Option<u64>,
+    /// A moving marker is on disk.
+    marked: bool,
+    /// Direction of the last move (+1/-1), for the DIR line level.
+    last_dir: i64,
 }
 
 impl Axis {
@@ -95,6 +100,7 @@ fn shortest(x: i64, p: i64) -> i64 {
 pub struct Board {
     name: String,
     clock_hz: f64,
+    tdm: TdmConfig,
     axes: Vec<Axis>,
     store: Store,
     estopped: bool,
@@ -131,6 +137,8 @@ impl Board {
                 drift_checks: 0,
                 move_start: None,
                 move_end: None,
+                marked: false,
+                last_dir: 1,
             };
             if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`, the mechanics are somewhere on the
@@ -146,6 +154,7 @@ impl Board {
         Ok(Board {
             name: config.board.name.clone(),
             clock_hz,
+            tdm: config.board.tdm(),
             axes,
             store,
             estopped: false,
@@ -302,12 +311,18 @@ impl Board {
         self.persist(i);
     }
 
+    /// Writes the axis record. While a sequence of moves runs (homing phases, the park
+    /// after homing) the marker written at its start stays on disk, untouched.
     fn persist(&mut self, i: usize) {
-        let ax = &self.axes[i];
+        let ax = &mut self.axes[i];
+        if ax.motion.is_some() && ax.marked {
+            return;
+        }
         let marker = ax.motion.as_ref().map(|m| MovingMarker {
             from: ax.count,
             target: m.target,
         });
+        ax.marked = marker.is_some();
         if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
         }
@@ -422,6 +437,17 @@ impl Board {
         start: u64,
     ) -> Result<(), CtlError> {
         let src = start_move(p, self.clock_hz, start)?;
+        self.launch_source(i, src, dir, purpose, start)
+    }
+
+    fn launch_source(
+        &mut self,
+        i: usize,
+        src: Box<dyn StepSource>,
+        dir: i64,
+        purpose: Purpose,
+        start: u64,
+    ) -> Result<(), CtlError> {
         let ax = &mut self.axes[i];
         let target = ax.count + dir * src.steps_left() as i64;
         if purpose == Purpose::Move {
@@ -441,12 +467,18 @@ impl Board {
         ax.fault = None;
         ax.move_start = Some(start);
         ax.move_end = None;
-        // The marker is durable before the first step.
+        ax.last_dir = dir;
+        // The marker is durable before the first step (once per sequence of moves).
+        if ax.marked {
+            return Ok(());
+        }
         let rec = ax.record(Some(MovingMarker {
             from: ax.count,
             target,
         }));
+        ax.marked = true;
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
+            ax.marked = false;
             ax.motion = None;
             ax.state = AxisState::Idle;
             return Err(e);
@@ -497,19 +529,19 @@ impl Board {
             ax.count.checked_add(n)
         };
         let s = &ax.settings;
-        let show = |o: Option<i64>| o.map_or("-inf/inf".to_string(), |x| x.to_string());
+        let show = |o: Option<i64>, none: &str| o.map_or(none.to_string(), |x| x.to_string());
         match target {
             Some(t)
-                if s.soft_min.map_or(true, |lo| t >= lo)
-                    && s.soft_max.map_or(true, |hi| t <= hi) =>
+                if !matches!(s.soft_min, Some(lo) if t < lo)
+                    && !matches!(s.soft_max, Some(hi) if t > hi) =>
             {
                 Ok(t - ax.count)
             }
             _ => Err(CtlError::OutOfLimits {
                 axis: ax.name.clone(),
                 target: target.unwrap_or(i64::MAX),
-                min: show(s.soft_min),
-                max: show(s.soft_max),
+                min: show(s.soft_min, "-inf"),
+                max: show(s.soft_max, "inf"),
             }),
         }
     }
@@ -632,11 +664,21 @@ impl Board {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
-        let start = self.now;
+        // One TDM run times the whole group: one start tick for every axis.
+        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
+        let (start, mut sources) = if moving.is_empty() {
+            (self.now, Vec::new())
+        } else {
+            start_group(&moving, &self.tdm, self.now)?
+        };
+        sources.reverse();
         let mut out = Vec::new();
         for (&(i, d), p) in plan.iter().zip(profiles) {
             match p {
-                Some(p) => self.launch(i, p, d.signum(), Purpose::Move, start)?,
+                Some(_) => {
+                    let src = sources.pop().expect("one source per moving axis");
+                    self.launch_source(i, src, d.signum(), Purpose::Move, start)?
+                }
                 None => {
                     let ax = &mut self.axes[i];
                     ax.move_start = Some(start);
@@ -801,6 +843,7 @@ impl Board {
                         .map_or(ax.move_end, |m| Some(m.src.end_tick())),
                     fault: ax.fault.clone(),
                     sim_position: ax.sim_pos,
+                    dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                 }
             })
             .collect())

@@ -27,6 +27,8 @@ pub struct BoardSection {
     pub name: String,
     /// Step clock of the board (Hz).
     pub clock_hz: f64,
+    /// Depth of each axis's period FIFO in the TDM engine.
+    pub fifo_depth: usize,
 }
 
 impl Default for BoardSection {
@@ -34,6 +36,7 @@ impl Default for BoardSection {
         BoardSection {
             name: "board".into(),
             clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
+            fifo_depth: 4,
         }
     }
 }
@@ -122,6 +125,17 @@ impl BoardConfig {
                 .map_err(|e| CtlError::Setting(format!("axis {}: {e}", a.name)))?;
         }
         Ok(())
+    }
+}
+
+impl BoardSection {
+    /// The TDM engine that times this board's moves (seed 000's calculator latencies).
+    pub fn tdm(&self) -> multistep_core::tdm::TdmConfig {
+        multistep_core::tdm::TdmConfig {
+            clock_hz: self.clock_hz,
+            fifo_depth: self.fifo_depth,
+            ..multistep_core::tdm::TdmConfig::default()
+        }
     }
 }
 

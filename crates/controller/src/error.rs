@@ -37,6 +37,8 @@ pub enum CtlError {
     Io(String),
     #[error("{0}")]
     TooFast(String),
+    #[error("timing: {0}")]
+    Timing(String),
 }
 
 impl CtlError {
@@ -57,6 +59,7 @@ impl CtlError {
             CtlError::Homing { .. } => 12,
             CtlError::Io(_) => 13,
             CtlError::TooFast(_) => 14,
+            CtlError::Timing(_) => 15,
         }
     }
 

@@ -1,7 +1,14 @@
 //! Where an axis's step edges come from. The board only sees [`StepSource`]: a stream of
-//! absolute edge ticks plus the commanded speed, so the exact edge generator used here
-//! and a TDM engine are interchangeable without touching the board.
+//! absolute edge ticks plus the commanded speed.
+//!
+//! Moves the host commands (single axes and synchronous groups) are timed by the TDM
+//! engine (DESIGN.md §3, seed 000 §1.2): one period calculator serves the whole group, the
+//! group starts on one tick once every FIFO is primed, and a move that would underrun is
+//! refused. With no underrun the engine's STEP rises are exactly `start + edge_i` of the
+//! edge generator (tested below), so the board streams those edges in O(1) memory.
 
+use crate::error::CtlError;
+use multistep_core::tdm::{self, TdmConfig};
 use multistep_core::{EdgeGenerator, MoveSpec, PlanError, Profile};
 
 /// The edges of one move, in absolute board ticks.
@@ -67,12 +74,46 @@ pub fn start_move(
     Ok(Box::new(EdgeSource::new(profile, clock_hz, start)?))
 }
 
+/// Times a group through the TDM engine and returns each axis's edges, all starting on
+/// the group's start tick (`now` + the engine's prefill and DIR setup time).
+pub fn start_group(
+    profiles: &[Profile],
+    cfg: &TdmConfig,
+    now: u64,
+) -> Result<(u64, Vec<Box<dyn StepSource>>), CtlError> {
+    let report = tdm_report(profiles, cfg)?;
+    if report.underruns > 0 {
+        return Err(CtlError::Timing(format!(
+            "the TDM calculator cannot keep up with this group: {} underruns, last edge {} ticks late",
+            report.underruns, report.max_late_ticks
+        )));
+    }
+    debug_assert_eq!(report.start_skew_ticks, 0);
+    let start = now + report.start_tick;
+    let sources = profiles
+        .iter()
+        .map(|p| start_move(p.clone(), cfg.clock_hz, start))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((start, sources))
+}
+
+/// Runs the TDM engine over a group (edges discarded) and reports its timing.
+pub fn tdm_report(profiles: &[Profile], cfg: &TdmConfig) -> Result<tdm::Report, CtlError> {
+    let mut axes = profiles
+        .iter()
+        .map(|p| tdm::Axis::new(p.clone(), cfg.clock_hz))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| CtlError::Timing(e.to_string()))?;
+    let board = tdm::Board::new(*cfg, &mut axes).map_err(|e| CtlError::Timing(e.to_string()))?;
+    Ok(board.run(|_| {}))
+}
+
 /// A constant-deceleration stop from `speed` (steps/s) at `amax`: limits mode with the
 /// start speed equal to the speed limit (DESIGN.md §2), so the core plans it. `None` when
 /// the axis is slow enough to stop on the spot (less than half a step to go).
 pub fn stop_profile(speed: f64, amax: f64) -> Option<Profile> {
     let dist = speed * speed / (2.0 * amax);
-    if !(speed > 0.0) || dist < 0.5 {
+    if speed.is_nan() || speed <= 0.0 || dist < 0.5 {
         return None;
     }
     let steps = dist.ceil() as u64;
@@ -107,6 +148,66 @@ mod tests {
             );
         }
         assert!(stop_profile(10.0, 1e6).is_none());
+    }
+
+    #[test]
+    fn tdm_group_edges_are_the_streamed_edges() {
+        let spec = |n: u64, v: f64| MoveSpec {
+            steps: Some(n),
+            vmax: Some(v),
+            amax: Some(4.0 * v),
+            ..Default::default()
+        };
+        let profiles: Vec<Profile> = [(3000, 4000.0), (10, 100.0), (777, 2500.0)]
+            .iter()
+            .map(|&(n, v)| spec(n, v).plan().unwrap())
+            .collect();
+        let cfg = TdmConfig {
+            clock_hz: 1e7,
+            fifo_depth: 4,
+            ..TdmConfig::default()
+        };
+        let mut axes: Vec<tdm::Axis> = profiles
+            .iter()
+            .map(|p| tdm::Axis::new(p.clone(), 1e7).unwrap())
+            .collect();
+        let mut rises = vec![Vec::new(); 3];
+        let report = tdm::Board::new(cfg, &mut axes)
+            .unwrap()
+            .run(|p| rises[p.axis].push(p.rise));
+        assert_eq!(report.underruns, 0);
+        let (start, mut sources) = start_group(&profiles, &cfg, 5000).unwrap();
+        assert_eq!(start, 5000 + report.start_tick);
+        for (m, src) in sources.iter_mut().enumerate() {
+            let mut got = Vec::new();
+            while let Some(t) = src.peek() {
+                got.push(t - 5000);
+                src.take();
+            }
+            assert_eq!(got, rises[m], "axis {m}");
+        }
+    }
+
+    #[test]
+    fn a_group_the_calculator_cannot_serve_is_refused() {
+        // 16 axes at 200 000 steps/s with a 1 MHz clock: 5 ticks per period, 54 cycles each.
+        let p = MoveSpec {
+            steps: Some(2000),
+            vmax: Some(2e5),
+            amax: Some(1e9),
+            ..Default::default()
+        }
+        .plan()
+        .unwrap();
+        let cfg = TdmConfig {
+            clock_hz: 1e6,
+            fifo_depth: 4,
+            ..TdmConfig::default()
+        };
+        assert!(matches!(
+            start_group(&vec![p; 16], &cfg, 0),
+            Err(CtlError::Timing(_))
+        ));
     }
 
     #[test]

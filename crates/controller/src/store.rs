@@ -156,8 +156,10 @@ mod tests {
         {
             let s = Store::open(dir.path()).unwrap();
             s.put_axis("X", &rec).unwrap();
-            let mut set = AxisSettings::default();
-            set.vmax = 1234.5;
+            let set = AxisSettings {
+                vmax: 1234.5,
+                ..AxisSettings::default()
+            };
             s.put_settings("X", &set).unwrap();
             s.put_preset(
                 "fast",
