@@ -642,28 +642,7 @@ impl Board {
         now: u64,
     ) -> Result<Vec<i64>, CtlError> {
         self.advance(now);
-        let mut plan = Vec::new();
-        for (name, amount) in targets {
-            let i = self.index(name)?;
-            if plan.iter().any(|&(j, _)| j == i) {
-                return Err(CtlError::syntax(format!("axis {name} is named twice")));
-            }
-            self.check_can_move(i)?;
-            plan.push((i, self.delta(i, *amount, absolute)?));
-        }
-        let profiles = if sync {
-            self.plan_sync(&plan, opts)?
-        } else {
-            plan.iter()
-                .map(|&(i, d)| {
-                    if d == 0 {
-                        Ok(None)
-                    } else {
-                        self.plan(i, d.unsigned_abs(), opts).map(Some)
-                    }
-                })
-                .collect::<Result<Vec<_>, _>>()?
-        };
+        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
         // One TDM run times the whole group: one start tick for every axis.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
         let (start, mut sources) = if moving.is_empty() {

@@ -1,6 +1,5 @@
-//! Planning a move without running it (the web page's preview): the same option
-//! resolution, limits and planner as [`Board::group_move`], so what is previewed is what
-//! would run.
+//! Planning a move without running it (the web page's preview). [`Board::group_move`]
+//! plans through [`Board::plan_group`] too, so what is previewed is what would run.
 
 use super::{Board, Profile};
 use crate::error::CtlError;
@@ -19,22 +18,23 @@ pub struct PlannedAxis {
 }
 
 impl Board {
-    /// What `group_move(targets, absolute, sync, opts)` would plan from the counted
-    /// positions now, without starting anything; busy axes are planned from where they
-    /// are, so only the errors of the plan itself show.
-    pub fn preview(
+    /// The planning half of [`Board::group_move`]: each named axis with its signed step
+    /// count and profile (`None`: it stays put). Refuses what a run would refuse before
+    /// timing: unknown or repeated axes, busy axes, e-stop, limits, plan errors.
+    pub(super) fn plan_group(
         &self,
         targets: &[(String, Amount)],
         absolute: bool,
         sync: bool,
         opts: &MoveOpts,
-    ) -> Result<Vec<PlannedAxis>, CtlError> {
+    ) -> Result<(Vec<(usize, i64)>, Vec<Option<Profile>>), CtlError> {
         let mut plan = Vec::new();
         for (name, amount) in targets {
             let i = self.index(name)?;
             if plan.iter().any(|&(j, _)| j == i) {
                 return Err(CtlError::syntax(format!("axis {name} is named twice")));
             }
+            self.check_can_move(i)?;
             plan.push((i, self.delta(i, *amount, absolute)?));
         }
         let profiles = if sync {
@@ -50,6 +50,25 @@ impl Board {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
+        Ok((plan, profiles))
+    }
+
+    /// What `group_move(targets, absolute, sync, opts)` would run from the counted
+    /// positions now, without starting anything.
+    pub fn preview(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<PlannedAxis>, CtlError> {
+        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        // The same timing check as a run: a group the TDM calculator cannot keep up with
+        // is refused here too.
+        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
+        if !moving.is_empty() {
+            crate::motion::start_group(&moving, &self.tdm, 0)?;
+        }
         Ok(plan
             .iter()
             .zip(profiles)
