@@ -100,7 +100,7 @@ function buildBoards() {
     grid.className = 'grid';
     sec.append(h, warn, grid);
     root.append(sec);
-    for (const name of b.axes) grid.append(buildCard(b.board, name));
+    for (const name of b.axes) grid.append(buildCard(b.board, name, b.remote));
     const o = document.createElement('option');
     o.value = b.board;
     o.textContent = b.name;
@@ -109,7 +109,7 @@ function buildBoards() {
   buildGroup();
 }
 
-function buildCard(board, axis) {
+function buildCard(board, axis, remote) {
   const el = $('axis-card').content.firstElementChild.cloneNode(true);
   el.id = `axis-${board}-${axis}`;
   el.dataset.axis = axis;
@@ -125,6 +125,8 @@ function buildCard(board, axis) {
     return `${q('.mode').value} ${axis} ${amount}${opts}`;
   };
   q('.go').onclick = () => { const l = moveLine(); if (l) cmd(board, l, err); };
+  // Another process's board is previewed on its own service's page.
+  q('.preview').hidden = Boolean(remote);
   q('.preview').onclick = () => { const l = moveLine(); if (l) preview(board, l, err); };
   const jog = (sign) => {
     const step = word($('jog-step').value, 'a jog step', err);
@@ -265,6 +267,8 @@ async function allBoards(line) {
   return rs.every((r) => r);
 }
 $('estop').onclick = () => allBoards('estop');
+// Escape anywhere on the page is an emergency stop too: the stop is never further than a key.
+document.addEventListener('keydown', (e) => { if (e.key === 'Escape') allBoards('estop'); });
 $('reset').onclick = async () => {
   // The errors that the emergency stop caused are over.
   if (await allBoards('reset')) for (const e of document.querySelectorAll('.axis-err')) showErr(e, '');

@@ -167,6 +167,15 @@ scenario('emergency stop during a move halts it and blocks new moves until reset
   await waitAxis(page, 'Y', (s) => s.err.includes('emergency stop is active'), 'the e-stop error');
   await page.locator('#reset').click();
   await page.locator('#estop-state').waitFor({ state: 'hidden', timeout: T });
+  await waitAxis(page, 'Y', (s) => s.err === '', 'the e-stop error cleared by reset');
+  // The Escape key stops too.
+  await moveAxis(page, 'Y', 4000);
+  await waitAxis(page, 'Y', (s) => s.state === 'moving', 'moving again');
+  await page.keyboard.press('Escape');
+  await page.locator('#estop-state').waitFor({ state: 'visible', timeout: T });
+  await waitAxis(page, 'Y', (s) => s.state !== 'moving', 'halt by Escape');
+  await page.locator('#reset').click();
+  await page.locator('#estop-state').waitFor({ state: 'hidden', timeout: T });
 });
 
 scenario('homing finds the sensor and marks the axis homed', async ({ page }) => {
