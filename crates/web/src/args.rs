@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct HttpArgs {
-    /// Serve the operator web page and its API on HOST:PORT (loopback unless
-    /// --http-allow-remote; port 0 picks a free port)
+    /// Serve the operator web page and its API on HOST:PORT, or on 127.0.0.1 with just a
+    /// PORT (loopback unless --http-allow-remote; port 0 picks a free port)
     #[arg(long, value_name = "HOST:PORT")]
     pub http: Option<String>,
     /// Allow --http on a non-loopback address (needs --http-token)
@@ -53,5 +53,29 @@ impl HttpArgs {
         let server = start_links(links, &opts)?;
         eprintln!("web page on http://{}/", server.addr());
         Ok(Some(server))
+    }
+}
+
+/// `8080` and `:8080` mean `127.0.0.1:8080`: loopback unless a host is named.
+fn with_host(addr: &str) -> String {
+    let port = addr.strip_prefix(':').unwrap_or(addr);
+    if port.parse::<u16>().is_ok() {
+        format!("127.0.0.1:{port}")
+    } else {
+        addr.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::with_host;
+
+    #[test]
+    fn a_bare_port_is_loopback() {
+        assert_eq!(with_host("8080"), "127.0.0.1:8080");
+        assert_eq!(with_host(":0"), "127.0.0.1:0");
+        assert_eq!(with_host("0.0.0.0:8080"), "0.0.0.0:8080");
+        assert_eq!(with_host("[::1]:80"), "[::1]:80");
+        assert_eq!(with_host("localhost:80"), "localhost:80");
     }
 }

@@ -17,6 +17,9 @@ pub struct PlannedAxis {
     pub profile: Option<Profile>,
 }
 
+/// Axis indices with signed step counts, and their profiles (`None`: stays put).
+type GroupPlan = (Vec<(usize, i64)>, Vec<Option<Profile>>);
+
 impl Board {
     /// The planning half of [`Board::group_move`]: each named axis with its signed step
     /// count and profile (`None`: it stays put). Refuses what a run would refuse before
@@ -27,7 +30,7 @@ impl Board {
         absolute: bool,
         sync: bool,
         opts: &MoveOpts,
-    ) -> Result<(Vec<(usize, i64)>, Vec<Option<Profile>>), CtlError> {
+    ) -> Result<GroupPlan, CtlError> {
         let mut plan = Vec::new();
         for (name, amount) in targets {
             let i = self.index(name)?;
