@@ -5,7 +5,7 @@ use crate::moveargs::MoveArgs;
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Subcommand};
 use multistep_controller::client::{Client, Endpoint};
-use multistep_controller::AxisState;
+use multistep_controller::{AxisState, MoveOpts};
 use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
@@ -35,6 +35,22 @@ pub enum CtlCmd {
         axis: String,
         #[arg(allow_hyphen_values = true)]
         position: String,
+        #[command(flatten)]
+        m: MoveArgs,
+        #[arg(long)]
+        preset: Option<String>,
+    },
+    /// Move axes of one board together: same start tick (--sync: same finish tick too)
+    Group {
+        /// AXIS=N targets (BOARD:AXIS=N with several boards; all on one board)
+        #[arg(required = true, allow_hyphen_values = true)]
+        targets: Vec<String>,
+        /// Targets are absolute positions (default: relative distances)
+        #[arg(long)]
+        absolute: bool,
+        /// Finish on the same tick as well
+        #[arg(long)]
+        sync: bool,
         #[command(flatten)]
         m: MoveArgs,
         #[arg(long)]
@@ -128,28 +144,23 @@ fn move_words(m: &MoveArgs, preset: &Option<String>) -> anyhow::Result<String> {
     if m.steps.is_some() || !m.segments.is_empty() {
         bail!("give the distance as the STEPS argument; --steps and --segment do not apply here");
     }
-    let mut w = Vec::new();
-    let mut push = |k: &str, v: Option<String>| {
-        if let Some(v) = v {
-            w.push(format!("{k}={v}"));
-        }
+    let opts = MoveOpts {
+        preset: preset.clone(),
+        profile: m.profile.clone(),
+        vmax: m.vmax,
+        amax: m.amax,
+        jmax: m.jmax,
+        smax: m.smax,
+        accel_time: m.accel_time,
+        cruise_time: m.cruise_time,
+        decel_time: m.decel_time,
+        start_speed: m.start_speed,
+        end_speed: m.end_speed,
+        rho: m.rho,
+        phi: m.phi,
+        psi: m.psi,
     };
-    push("preset", preset.clone());
-    push("profile", m.profile.clone());
-    let f = |x: Option<f64>| x.map(|v| v.to_string());
-    push("accel", f(m.accel_time));
-    push("cruise", f(m.cruise_time));
-    push("decel", f(m.decel_time));
-    push("vs", f(m.start_speed));
-    push("ve", f(m.end_speed));
-    push("rho", f(m.rho));
-    push("phi", f(m.phi));
-    push("psi", f(m.psi));
-    push("vmax", f(m.vmax));
-    push("amax", f(m.amax));
-    push("jmax", f(m.jmax));
-    push("smax", f(m.smax));
-    Ok(w.join(" "))
+    Ok(opts.words().join(" "))
 }
 
 fn print_lines(lines: &[String]) {
@@ -181,6 +192,34 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             let (i, ax) = boards.axis(axis)?;
             let line = format!("{verb} {ax} {steps} {}", move_words(m, preset)?);
             print_lines(&boards.send(i, line.trim_end())?);
+        }
+        CtlCmd::Group {
+            targets,
+            absolute,
+            sync,
+            m,
+            preset,
+        } => {
+            let mut board = None;
+            let mut words = Vec::new();
+            for t in targets {
+                let (a, n) = t
+                    .rsplit_once('=')
+                    .ok_or_else(|| anyhow!("'{t}' is not AXIS=N"))?;
+                let (i, ax) = boards.axis(a)?;
+                if *board.get_or_insert(i) != i {
+                    bail!("a group moves axes of one board (boards start on their own clocks)");
+                }
+                words.push(format!("{ax}={n}"));
+            }
+            let verb = if *absolute { "moveto" } else { "move" };
+            let sync = if *sync { " sync" } else { "" };
+            let line = format!(
+                "group {verb} {}{sync} {}",
+                words.join(" "),
+                move_words(m, preset)?
+            );
+            print_lines(&boards.send(board.unwrap_or(0), line.trim_end())?);
         }
         CtlCmd::Home { axis } => {
             let (i, ax) = boards.axis(axis)?;

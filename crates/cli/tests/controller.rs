@@ -165,6 +165,9 @@ fn kill_9_mid_move_restores_idle_axes_exactly_and_the_moving_axis_untrusted_unti
     c.request("move Y -1234").unwrap();
     let y = wait_idle(&mut c, "Y");
     assert!(y.homed && y.trusted && y.position == -1234);
+    c.request("set Y vmax 3000").unwrap();
+    c.request("preset gentle vmax=100 amax=1000").unwrap();
+    c.request("save spot Y").unwrap();
     // 400 000 steps at 4000 steps/s: 100 s simulated, 2 s of wall time at ×50.
     c.request("move X 400000").unwrap();
     std::thread::sleep(Duration::from_millis(300));
@@ -183,6 +186,9 @@ fn kill_9_mid_move_restores_idle_axes_exactly_and_the_moving_axis_untrusted_unti
     let x = status(&mut c, "X");
     assert_eq!(x.state, AxisState::Idle);
     assert!(!x.trusted && !x.homed, "{x:?}");
+    assert_eq!(c.request("get Y vmax").unwrap(), ["vmax=3000.0"]);
+    assert_eq!(c.request("presets").unwrap(), ["gentle vmax=100 amax=1000"]);
+    assert_eq!(c.request("positions").unwrap(), ["spot Y=-1234"]);
     c.request("home X").unwrap();
     let x = wait_idle(&mut c, "X");
     assert!(x.trusted && x.homed, "{x:?}");
@@ -327,6 +333,30 @@ fn ctl_drives_two_boards_of_the_telescope_example() {
     let (code, _, err) = ctl(&["move", "a:nope", "5"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("error:4"), "{err}");
+    // Homing a wave plate of the example (its sensor is noisy) and a synchronous group.
+    assert_eq!(ctl(&["home", "a:wp3"]).0, Some(0));
+    let (code, out, err) = ctl(&["group", "--sync", "a:wp1=1000", "a:wp2=-500", "a:slit=3200"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(out, "wp1 target=1000\nwp2 target=3500\nslit target=3200\n");
+    let (code, _, err) = ctl(&["group", "a:wp1=1", "b:wp11=1"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("one board"), "{err}");
+    assert_eq!(
+        ctl(&["wait", "a:wp3", "a:wp1", "a:wp2", "a:slit"]).0,
+        Some(0)
+    );
+    let (_, out, _) = ctl(&["status", "--json"]);
+    let all: Vec<serde_json::Value> = serde_json::from_str(&out).unwrap();
+    let find = |n: &str| all.iter().find(|s| s["axis"] == n).unwrap().clone();
+    assert_eq!(
+        (
+            find("a:wp3")["homed"].clone(),
+            find("a:wp3")["position"].clone()
+        ),
+        (true.into(), 0.into())
+    );
+    assert_eq!(find("a:wp1")["move_end"], find("a:slit")["move_end"]);
+    assert_eq!(find("a:wp2")["position"], 3500);
     assert_eq!(ctl(&["estop"]).0, Some(0));
     let (code, _, err) = ctl(&["move", "a:slit", "5"]);
     assert_eq!(code, Some(2));
@@ -401,4 +431,69 @@ fn the_protocol_runs_over_a_serial_pseudo_terminal() {
     let reply = read_until(&mut master, "error:");
     assert!(reply.starts_with("X target=100\nok\nerror:4 "), "{reply:?}");
     drop(slave);
+}
+
+/// Copies bytes both ways between two pseudo-terminal masters until `stop`: a null-modem
+/// cable between the board's serial line and the host's.
+fn null_modem(
+    a: serialport::TTYPort,
+    b: serialport::TTYPort,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Vec<std::thread::JoinHandle<()>> {
+    use serialport::SerialPort;
+    let pipe = |mut from: serialport::TTYPort,
+                mut to: serialport::TTYPort,
+                stop: std::sync::Arc<std::sync::atomic::AtomicBool>| {
+        std::thread::spawn(move || {
+            from.set_timeout(Duration::from_millis(50)).unwrap();
+            let mut buf = [0u8; 4096];
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                match from.read(&mut buf) {
+                    Ok(n) if n > 0 => to.write_all(&buf[..n]).unwrap(),
+                    _ => {}
+                }
+            }
+        })
+    };
+    let (a2, b2) = (a.try_clone_native().unwrap(), b.try_clone_native().unwrap());
+    vec![pipe(a, b2, stop.clone()), pipe(b, a2, stop)]
+}
+
+#[test]
+fn ctl_talks_to_a_board_over_a_serial_line() {
+    use serialport::SerialPort;
+    let (board_m, board_s) = serialport::TTYPort::pair().unwrap();
+    let (host_m, host_s) = serialport::TTYPort::pair().unwrap();
+    let (board_dev, host_dev) = (board_s.name().unwrap(), host_s.name().unwrap());
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let cable = null_modem(board_m, host_m, stop.clone());
+    let dir = tempfile::tempdir().unwrap();
+    let _srv = Server::start(dir.path(), None, 20.0, &["--serial", &board_dev]);
+    std::thread::sleep(Duration::from_millis(300));
+    let ctl = |args: &[&str]| {
+        let out = Command::new(BIN)
+            .args(["ctl", "--board", &format!("s=serial:{host_dev}")])
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8(out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    let (code, out, err) = ctl(&["move", "Y", "-250"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(out, "Y target=-250\n");
+    assert_eq!(ctl(&["wait", "Y"]).0, Some(0));
+    let (code, out, err) = ctl(&["status", "--json"]);
+    assert_eq!(code, Some(0), "{err}");
+    let all: Vec<serde_json::Value> = serde_json::from_str(&out).unwrap();
+    assert_eq!(all[1]["axis"], "s:Y");
+    assert_eq!(all[1]["position"], -250);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    for t in cable {
+        t.join().unwrap();
+    }
+    drop((board_s, host_s));
 }

@@ -183,6 +183,15 @@ impl Board {
         self.axes.iter().any(|a| a.motion.is_some())
     }
 
+    /// The named axes, or all of them when none are named.
+    fn indices(&self, axes: &[String]) -> Result<Vec<usize>, CtlError> {
+        if axes.is_empty() {
+            Ok((0..self.axes.len()).collect())
+        } else {
+            axes.iter().map(|a| self.index(a)).collect()
+        }
+    }
+
     fn index(&self, name: &str) -> Result<usize, CtlError> {
         self.axes
             .iter()
@@ -788,13 +797,7 @@ impl Board {
 
     pub fn status(&mut self, axes: &[String], now: u64) -> Result<Vec<AxisStatus>, CtlError> {
         self.advance(now);
-        let idx: Vec<usize> = if axes.is_empty() {
-            (0..self.axes.len()).collect()
-        } else {
-            axes.iter()
-                .map(|a| self.index(a))
-                .collect::<Result<_, _>>()?
-        };
+        let idx = self.indices(axes)?;
         Ok(idx
             .into_iter()
             .map(|i| {
@@ -861,13 +864,7 @@ impl Board {
         now: u64,
     ) -> Result<NamedPosition, CtlError> {
         self.advance(now);
-        let idx: Vec<usize> = if axes.is_empty() {
-            (0..self.axes.len()).collect()
-        } else {
-            axes.iter()
-                .map(|a| self.index(a))
-                .collect::<Result<_, _>>()?
-        };
+        let idx = self.indices(axes)?;
         let mut pos = NamedPosition::new();
         for i in idx {
             let ax = &self.axes[i];

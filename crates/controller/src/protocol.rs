@@ -355,11 +355,7 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             want(2, usage)?;
             let axis = axis_word(rest[0])?;
             let amount = parse_amount(rest[1])?;
-            let opts = parse_opts(&rest[2..], &mut |w| {
-                Err(CtlError::syntax(format!(
-                    "unexpected '{w}'; usage: {usage}"
-                )))
-            })?;
+            let opts = only_opts(&rest[2..], usage)?;
             if head == "move" {
                 Command::Move {
                     axis,
@@ -458,11 +454,7 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
         }
         "goto" => {
             want(1, "goto NAME [key=value…]")?;
-            let opts = parse_opts(&rest[1..], &mut |w| {
-                Err(CtlError::syntax(format!(
-                    "unexpected '{w}'; usage: goto NAME [key=value…]"
-                )))
-            })?;
+            let opts = only_opts(&rest[1..], "goto NAME [key=value…]")?;
             Command::Goto {
                 name: name_word(rest[0])?,
                 opts,
@@ -477,11 +469,7 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
         }
         "preset" => {
             want(2, "preset NAME key=value…")?;
-            let opts = parse_opts(&rest[1..], &mut |w| {
-                Err(CtlError::syntax(format!(
-                    "unexpected '{w}'; usage: preset NAME key=value…"
-                )))
-            })?;
+            let opts = only_opts(&rest[1..], "preset NAME key=value…")?;
             if opts.preset.is_some() {
                 return Err(CtlError::syntax("a preset cannot refer to another preset"));
             }
@@ -512,6 +500,15 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
                 "unknown command '{shown}' (try 'help')"
             )));
         }
+    })
+}
+
+/// Reads words that must all be move options.
+fn only_opts(words: &[&str], usage: &str) -> Result<MoveOpts, CtlError> {
+    parse_opts(words, &mut |w| {
+        Err(CtlError::syntax(format!(
+            "unexpected '{w}'; usage: {usage}"
+        )))
     })
 }
 

@@ -403,3 +403,24 @@ fn passing_the_sensor_checks_the_count_and_catches_lost_steps() {
     assert_eq!((x.drift, x.drift_checks), (Some(50), 2));
     assert!(!x.trusted, "a drifted count is not trusted");
 }
+
+/// The control experiment: the same glitches with a debounce time shorter than they last
+/// are taken for the sensor, and homing lands far from the edge.
+#[test]
+fn with_a_debounce_shorter_than_the_glitches_homing_goes_wrong() {
+    let mut wrong = 0;
+    for seed in 0..20u64 {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = glitchy(seed, 0, -1);
+        s.debounce = 0.0003; // glitches last up to 1.2 ms
+        let mut b = open(dir.path(), &config(vec![("X", s)]));
+        b.sim_slip("X", 8000, 0).unwrap();
+        b.home("X", 0).unwrap();
+        run_idle(&mut b);
+        let s = st(&mut b, "X");
+        if s.state != AxisState::Idle || s.sim_position.abs() > 1 {
+            wrong += 1;
+        }
+    }
+    assert!(wrong >= 10, "only {wrong} of 20 homings went wrong");
+}
