@@ -37,7 +37,7 @@ impl HttpArgs {
             return Ok(None);
         };
         let opts = HttpOptions {
-            addr: addr.clone(),
+            addr: with_host(addr),
             allow_remote: self.http_allow_remote,
             token: self.http_token.clone(),
         };
