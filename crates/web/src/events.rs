@@ -10,7 +10,7 @@ use std::time::Duration;
 pub const MOVING_PERIOD: Duration = Duration::from_millis(50);
 pub const IDLE_PERIOD: Duration = Duration::from_millis(250);
 
-#[derive(Serialize)]
+#[derive(Clone, Serialize)]
 pub struct BoardSnapshot {
     pub board: usize,
     pub name: String,
