@@ -4,11 +4,15 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod ctl;
+mod demo;
+mod experiment;
 mod moveargs;
 mod output;
 mod plan;
 mod serve;
+mod simulate;
 mod tdm;
 
 #[derive(Parser, Debug)]
@@ -24,6 +28,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
+    /// Seed 000's two-axis run end to end: plan, TDM engine, simulated motors, plots
+    Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
     /// Run a simulated controller board: line protocol on TCP (and a serial line)
@@ -32,6 +38,12 @@ enum Cmd {
     Ctl(ctl::CtlArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
     Tdm(tdm::TdmArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
+    /// Simulate one move on a motor and driver: lost steps and following error
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Reproduce the seed papers' experiments on the simulator
+    Experiment(experiment::ExperimentArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,10 +62,14 @@ fn main() -> ExitCode {
         },
     };
     let result = match &cli.cmd {
+        Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),
         Cmd::Serve(a) => serve::run(a),
         Cmd::Ctl(a) => ctl::run(a),
         Cmd::Tdm(a) => tdm::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Experiment(a) => experiment::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,6 +15,8 @@
 pub mod dd;
 pub mod edges;
 pub mod error;
+pub mod hal;
+pub mod int;
 mod limits;
 pub mod piece;
 pub mod profile;
