@@ -24,6 +24,8 @@ pub struct ServeArgs {
     /// Simulated time runs this many times faster than the wall clock
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub time_scale: f64,
+    #[command(flatten)]
+    pub http: multistep_web::HttpArgs,
 }
 
 pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
@@ -34,6 +36,7 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let ctl = Arc::new(Controller::open(&config, &a.data, a.time_scale)?);
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
+    let _web = a.http.start(vec![ctl.clone()])?;
     if let Some(dev) = &a.serial {
         let (ctl, dev) = (ctl.clone(), dev.clone());
         std::thread::spawn(move || {

@@ -13,6 +13,9 @@ use multistep_core::tdm::TdmConfig;
 use multistep_core::{Family, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
+mod preview;
+pub use preview::PlannedAxis;
+
 /// Phases of homing (seed 002 §2.3, with the usual back-off and slow re-approach).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum HomePhase {
@@ -648,28 +651,7 @@ impl Board {
         now: u64,
     ) -> Result<Vec<i64>, CtlError> {
         self.advance(now);
-        let mut plan = Vec::new();
-        for (name, amount) in targets {
-            let i = self.index(name)?;
-            if plan.iter().any(|&(j, _)| j == i) {
-                return Err(CtlError::syntax(format!("axis {name} is named twice")));
-            }
-            self.check_can_move(i)?;
-            plan.push((i, self.delta(i, *amount, absolute)?));
-        }
-        let profiles = if sync {
-            self.plan_sync(&plan, opts)?
-        } else {
-            plan.iter()
-                .map(|&(i, d)| {
-                    if d == 0 {
-                        Ok(None)
-                    } else {
-                        self.plan(i, d.unsigned_abs(), opts).map(Some)
-                    }
-                })
-                .collect::<Result<Vec<_>, _>>()?
-        };
+        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
         // One TDM run times the whole group: one start tick for every axis.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
         let (start, mut sources) = if moving.is_empty() {
