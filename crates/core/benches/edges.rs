@@ -32,6 +32,19 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     let cases: Vec<(&str, Profile)> = vec![
         ("trapezoid", phase(Family::Trapezoid)),
+        (
+            "trapezoid-no-cruise",
+            Profile::phase(&PhaseMove {
+                steps: STEPS,
+                accel_time: 5.0,
+                cruise_time: 0.0,
+                decel_time: 5.0,
+                start_speed: 0.0,
+                end_speed: 0.0,
+                family: Family::Trapezoid,
+            })
+            .unwrap(),
+        ),
         ("parabolic", phase(Family::Parabolic)),
         ("exponential", phase(Family::Exponential { rho: 0.25 })),
         ("sine", phase(Family::Sine)),
