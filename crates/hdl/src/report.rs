@@ -18,7 +18,7 @@ pub const PAPER_DSP_RATIO: f64 = 5.0 / 6.0;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Target {
-    /// Xilinx 7-series (`synth_xilinx`): LUT1-6, FD*, DSP48E1, LUTRAM/SRL, RAMB18/36.
+    /// Xilinx 7-series (`synth_xilinx`): LUT1-6 and INV, FD*, DSP48E1, LUTRAM/SRL, RAMB18/36.
     Xilinx,
     /// Lattice iCE40 UltraPlus (`synth_ice40 -dsp`): SB_LUT4, SB_DFF*, SB_MAC16, SB_RAM40_4K.
     Ice40,
@@ -41,7 +41,8 @@ impl Target {
         let is = |p: &[&str]| p.iter().any(|x| cell.starts_with(x));
         match self {
             Target::Xilinx => {
-                if is(&["LUT"]) {
+                // INV cells occupy LUT1s on the device
+                if is(&["LUT", "INV"]) {
                     r.lut += n
                 } else if is(&["FD"]) {
                     r.ff += n
@@ -93,6 +94,19 @@ pub struct Resources {
     pub lutram: u64,
     /// Block RAMs.
     pub bram: u64,
+}
+
+impl Resources {
+    /// K copies.
+    pub fn times(self, k: u64) -> Resources {
+        Resources {
+            lut: self.lut * k,
+            ff: self.ff * k,
+            dsp: self.dsp * k,
+            lutram: self.lutram * k,
+            bram: self.bram * k,
+        }
+    }
 }
 
 /// One row of the sweep: the TDM core and K independent cores for K axes.
@@ -161,35 +175,56 @@ pub fn synthesize(design: &Design, target: Target, dir: &Path) -> Result<Resourc
     parse_stat(&text, target)
 }
 
+/// How the baseline of K independent cores is measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Baseline {
+    /// Synthesize one single-axis core and multiply by K: the cores share nothing, so
+    /// this leaves out only the bus decode and the group-start AND (a few LUTs).
+    Scaled,
+    /// Synthesize the whole `ms_indep_top` of K cores (slow: K times the work).
+    Full,
+}
+
 /// The sweep over `axes`: for each K, the TDM core and K independent cores, synthesized
-/// under `workdir/{tdm,indep}-K`. Every parameter set is checked before any Verilog is written.
+/// under `workdir`. Every parameter set is checked before any Verilog is written.
 pub fn sweep(
     base: &CoreParams,
     axes: &[u32],
     target: Target,
+    baseline: Baseline,
     workdir: &Path,
 ) -> Result<Vec<Row>, HdlError> {
+    let with_axes = |k: u32| CoreParams {
+        axes: k,
+        ..base.clone()
+    };
     let designs = axes
         .iter()
         .map(|&k| {
-            let p = CoreParams {
-                axes: k,
-                ..base.clone()
-            };
-            Ok((
-                k,
-                Design::new(&p, Arch::Tdm)?,
-                Design::new(&p, Arch::Independent)?,
-            ))
+            let p = with_axes(k);
+            Ok((k, Design::new(&p, Arch::Tdm)?, Design::new(&p, Arch::Independent)?))
         })
         .collect::<Result<Vec<_>, HdlError>>()?;
+    let single = match baseline {
+        Baseline::Scaled => Some(synthesize(
+            &Design::new(&with_axes(1), Arch::Independent)?,
+            target,
+            &workdir.join("indep-1"),
+        )?),
+        Baseline::Full => None,
+    };
     designs
         .iter()
         .map(|(k, tdm, ind)| {
+            let independent = match single {
+                Some(one) => one.times(u64::from(*k)),
+                None => synthesize(ind, target, &workdir.join(format!("indep-{k}")))?,
+            };
             Ok(Row {
                 axes: *k,
                 tdm: synthesize(tdm, target, &workdir.join(format!("tdm-{k}")))?,
-                independent: synthesize(ind, target, &workdir.join(format!("indep-{k}")))?,
+                independent,
             })
         })
         .collect()
