@@ -4,9 +4,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bench;
 mod moveargs;
 mod output;
 mod plan;
+mod tdm;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -23,6 +25,10 @@ struct Cli {
 enum Cmd {
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run several axes through the time-division-multiplexed engine (one shared calculator)
+    Tdm(tdm::TdmArgs),
+    /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +48,8 @@ fn main() -> ExitCode {
     };
     let result = match &cli.cmd {
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Tdm(a) => tdm::run(a),
+        Cmd::Bench(a) => bench::run_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

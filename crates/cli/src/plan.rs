@@ -96,12 +96,12 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn itoa_buf() -> Vec<u8> {
+pub(crate) fn itoa_buf() -> Vec<u8> {
     Vec::with_capacity(64)
 }
 
 /// One CSV row, formatted without going through `fmt` machinery per field.
-fn write_row(
+pub(crate) fn write_row(
     w: &mut impl Write,
     buf: &mut Vec<u8>,
     step: u64,

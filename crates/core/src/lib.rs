@@ -15,12 +15,15 @@
 pub mod dd;
 pub mod edges;
 pub mod error;
+pub mod hal;
+pub mod int;
 mod limits;
 pub mod piece;
 pub mod profile;
 pub mod real;
 pub mod shape;
 pub mod spec;
+pub mod tdm;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
 pub use error::PlanError;

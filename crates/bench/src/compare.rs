@@ -1,0 +1,257 @@
+//! Runs every implementation on the same moves and measures speed and accuracy against
+//! the exact edges (the integer datapath, exact by construction and by the core's tests)
+//! and the exact real step times.
+
+use crate::moves::{BenchMove, CLOCK_HZ};
+use crate::seed000::Seed000Segment;
+use crate::{austin, eiderman, rampmaker, seed000};
+use multistep_core::int::{IntEdgeGenerator, IntProfile};
+use multistep_core::EdgeGenerator;
+use serde::Serialize;
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+/// The implementations, in report order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Impl {
+    Float,
+    Int,
+    Seed000,
+    Austin,
+    Eiderman,
+    RampMaker,
+}
+
+impl Impl {
+    pub const ALL: [Impl; 6] = [
+        Impl::Float,
+        Impl::Int,
+        Impl::Seed000,
+        Impl::Austin,
+        Impl::Eiderman,
+        Impl::RampMaker,
+    ];
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Impl::Float => "multistep-float",
+            Impl::Int => "multistep-int",
+            Impl::Seed000 => "seed000",
+            Impl::Austin => "austin",
+            Impl::Eiderman => "eiderman",
+            Impl::RampMaker => "ramp-maker",
+        }
+    }
+}
+
+/// Knobs of one comparison run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Options {
+    /// Least time spent timing each (move, impl).
+    pub min_time: Duration,
+    /// Fractional bits of the seed 000 replica's fixed-point registers.
+    pub seed000_frac_bits: u32,
+}
+
+impl Options {
+    pub fn quick() -> Self {
+        Options {
+            min_time: Duration::from_millis(30),
+            seed000_frac_bits: 32,
+        }
+    }
+    pub fn full() -> Self {
+        Options {
+            min_time: Duration::from_millis(500),
+            seed000_frac_bits: 32,
+        }
+    }
+}
+
+/// One (move, implementation) result, as `multistep bench --format json` prints it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Case {
+    #[serde(rename = "move")]
+    pub mv: &'static str,
+    #[serde(rename = "impl")]
+    pub imp: &'static str,
+    pub steps: u64,
+    pub edges_per_s: f64,
+    /// Largest |edge − exact nearest-tick edge| over all steps.
+    pub max_edge_error_ticks: u64,
+    /// Last edge minus the exact last edge (signed).
+    pub drift_ticks: i64,
+    /// Largest |period − f·(t_i − t_{i−1})| / (f·(t_i − t_{i−1})), in %.
+    pub max_period_error_pct: f64,
+}
+
+/// Seed 000's register model of a trapezoid: accel, cruise and decel segments.
+pub fn seed000_segments(m: &BenchMove) -> Vec<Seed000Segment> {
+    let f = CLOCK_HZ as f64;
+    let ramp = Seed000Segment {
+        v0: 0.0,
+        duration: m.ramp_ticks() as f64 / f,
+        steps: m.ramp_steps(),
+    };
+    let (cn, ct) = m.cruise();
+    let mut v = vec![ramp];
+    if cn > 0 {
+        v.push(Seed000Segment {
+            v0: m.vmax as f64,
+            duration: ct as f64 / f,
+            steps: cn,
+        });
+    }
+    v.push(Seed000Segment {
+        v0: m.vmax as f64,
+        ..ramp
+    });
+    v
+}
+
+/// Writes the move's edges by one implementation into `out` (cleared first).
+pub fn edges_into(imp: Impl, m: &BenchMove, opts: &Options, out: &mut Vec<u64>) {
+    out.clear();
+    match imp {
+        Impl::Float => {
+            let p = m.float_profile().expect("bench moves plan");
+            out.extend(EdgeGenerator::new(p, CLOCK_HZ as f64).expect("bench moves fit"));
+        }
+        Impl::Int => out.extend(IntEdgeGenerator::new(
+            m.int_profile().expect("bench moves fit"),
+        )),
+        Impl::Seed000 => {
+            let segs = seed000_segments(m);
+            out.extend(seed000::edges(&segs, CLOCK_HZ, opts.seed000_frac_bits));
+        }
+        Impl::Austin => out.extend(austin::edges(m, CLOCK_HZ)),
+        Impl::Eiderman => out.extend(eiderman::edges(m, CLOCK_HZ)),
+        Impl::RampMaker => out.extend(rampmaker::edges(m, CLOCK_HZ)),
+    }
+}
+
+/// Exact step times in ticks (f64) from the integer profile's pieces:
+/// `t0 + 2M/(A + √(A² + 4BM))`.
+pub fn exact_times(p: &IntProfile) -> Vec<f64> {
+    let mut out = Vec::with_capacity(p.steps() as usize);
+    let mut k = 0;
+    for i in 1..=p.steps() {
+        let pieces = p.pieces();
+        while pieces[k].target(i).map_or(true, |m| m > pieces[k].m_end) && k + 1 < pieces.len() {
+            k += 1;
+        }
+        let q = &pieces[k];
+        let m = q.target(i).unwrap_or(0) as f64;
+        let (a, b) = (q.a as f64, q.b as f64);
+        let tau = 2.0 * m / (a + (a * a + 4.0 * b * m).max(0.0).sqrt());
+        out.push(q.t0 as f64 + tau.min(q.dur as f64));
+    }
+    out
+}
+
+/// Accuracy of `edges` against the exact edges and times.
+fn accuracy(edges: &[u64], exact: &[u64], times: &[f64]) -> (u64, i64, f64) {
+    let n = exact.len();
+    let mut max_err = 0u64;
+    let mut max_pct = 0.0f64;
+    let (mut prev_e, mut prev_t) = (0u64, 0.0f64);
+    for i in 0..n {
+        // a missing edge counts as never happening: error up to the move's end
+        let e = edges.get(i).copied().unwrap_or(u64::MAX / 4);
+        max_err = max_err.max(e.abs_diff(exact[i]));
+        let ideal = times[i] - prev_t;
+        if ideal > 0.0 {
+            let pct = ((e as f64 - prev_e as f64) - ideal).abs() / ideal * 100.0;
+            max_pct = max_pct.max(pct);
+        }
+        prev_e = e;
+        prev_t = times[i];
+    }
+    let last = edges.get(n - 1).copied().unwrap_or(0);
+    (max_err, last as i64 - exact[n - 1] as i64, max_pct)
+}
+
+/// Edges per second: repeat until `min_time` has passed, best of the runs.
+fn speed(imp: Impl, m: &BenchMove, opts: &Options, buf: &mut Vec<u64>) -> f64 {
+    let start = Instant::now();
+    let mut best = f64::INFINITY;
+    while start.elapsed() < opts.min_time || best.is_infinite() {
+        let t = Instant::now();
+        edges_into(imp, black_box(m), opts, buf);
+        black_box(&buf);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    m.steps as f64 / best
+}
+
+/// Runs every implementation on every move.
+pub fn run(moves: &[BenchMove], opts: &Options) -> Vec<Case> {
+    let mut cases = Vec::new();
+    let mut buf = Vec::new();
+    for m in moves {
+        let p = m.int_profile().expect("bench moves fit");
+        let exact: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
+        let times = exact_times(&p);
+        for imp in Impl::ALL {
+            edges_into(imp, m, opts, &mut buf);
+            let (max_err, drift, pct) = accuracy(&buf, &exact, &times);
+            cases.push(Case {
+                mv: m.name,
+                imp: imp.name(),
+                steps: m.steps,
+                edges_per_s: speed(imp, m, opts, &mut buf),
+                max_edge_error_ticks: max_err,
+                drift_ticks: drift,
+                max_period_error_pct: pct,
+            });
+        }
+    }
+    cases
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::moves::MOVES;
+
+    #[test]
+    fn exact_times_round_to_the_exact_edges() {
+        for m in MOVES {
+            let p = m.int_profile().unwrap();
+            let exact: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
+            for (t, e) in exact_times(&p).iter().zip(&exact) {
+                assert!((t - *e as f64).abs() <= 0.5 + 1e-6, "{m:?}: {t} vs {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn multistep_is_exact_and_baselines_are_close() {
+        let opts = Options::quick();
+        let mut buf = Vec::new();
+        for m in &MOVES[..2] {
+            let p = m.int_profile().unwrap();
+            let exact: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
+            let times = exact_times(&p);
+            for imp in Impl::ALL {
+                edges_into(imp, m, &opts, &mut buf);
+                assert_eq!(buf.len() as u64, m.steps, "{imp:?} {m:?}");
+                let (err, drift, pct) = accuracy(&buf, &exact, &times);
+                match imp {
+                    Impl::Float | Impl::Int => {
+                        assert_eq!((err, drift), (0, 0), "{imp:?} {m:?}");
+                    }
+                    // the baselines run the same move, ending within 10 % of its time
+                    _ => {
+                        let end = exact[exact.len() - 1] as f64;
+                        assert!(
+                            err > 0 && (drift.unsigned_abs() as f64) < 0.1 * end,
+                            "{imp:?} {m:?}: {err} {drift} {pct}"
+                        );
+                        assert!(buf.windows(2).all(|w| w[0] <= w[1]), "{imp:?}");
+                    }
+                }
+            }
+        }
+    }
+}

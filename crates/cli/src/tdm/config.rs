@@ -1,0 +1,205 @@
+//! The `multistep tdm` config file (TOML): the board, then one `[[axis]]` table per axis
+//! whose keys are the plan flags in snake_case. Every axis resolves through
+//! `multistep_core::MoveSpec`, the one reading of move values.
+
+use anyhow::{bail, Context};
+use multistep_core::tdm::{Latencies, Policy, PulseShape, TdmConfig};
+use multistep_core::{MoveSpec, Profile, Segment, DEFAULT_CLOCK_HZ};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ConfigFile {
+    /// Clock (Hz) of calculator, pulse units and edge ticks (default 50 MHz).
+    pub clock: Option<f64>,
+    /// Periods each axis's FIFO holds (default 1).
+    pub fifo_depth: Option<usize>,
+    /// round-robin (default) or earliest-deadline; `--policy` overrides it.
+    pub policy: Option<String>,
+    /// Calculator latencies in cycles (defaults: the radix-4 datapath, 54 cycles/period).
+    pub mul_cycles: Option<u32>,
+    pub div_cycles: Option<u32>,
+    pub sqrt_cycles: Option<u32>,
+    pub overhead_cycles: Option<u32>,
+    /// Least ticks from DIR set (tick 0) to the group's start (default 0).
+    pub dir_setup_ticks: Option<u64>,
+    /// Fixed STEP high time in ticks; absent: half of the interval to the next edge.
+    pub pulse_width_ticks: Option<u64>,
+    #[serde(default)]
+    pub axis: Vec<AxisEntry>,
+}
+
+/// One axis: a move by the plan's flag names, in snake_case.
+#[derive(Deserialize, Debug, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct AxisEntry {
+    /// Optional label for reports.
+    pub name: Option<String>,
+    pub profile: Option<String>,
+    pub steps: Option<u64>,
+    pub accel_time: Option<f64>,
+    pub cruise_time: Option<f64>,
+    pub decel_time: Option<f64>,
+    pub start_speed: Option<f64>,
+    pub end_speed: Option<f64>,
+    pub vmax: Option<f64>,
+    pub amax: Option<f64>,
+    pub jmax: Option<f64>,
+    pub smax: Option<f64>,
+    pub rho: Option<f64>,
+    pub phi: Option<f64>,
+    pub psi: Option<f64>,
+    /// `[[v0, t, n], ...]`: steps/s, s, steps.
+    pub segments: Option<Vec<(f64, f64, u64)>>,
+}
+
+impl AxisEntry {
+    pub fn plan(&self) -> Result<Profile, multistep_core::PlanError> {
+        let segments: Vec<Segment> = self
+            .segments
+            .iter()
+            .flatten()
+            .map(|&(v0, duration, steps)| Segment {
+                v0,
+                duration,
+                steps,
+            })
+            .collect();
+        MoveSpec {
+            profile: self.profile.as_deref(),
+            steps: self.steps,
+            accel_time: self.accel_time,
+            cruise_time: self.cruise_time,
+            decel_time: self.decel_time,
+            start_speed: self.start_speed,
+            end_speed: self.end_speed,
+            vmax: self.vmax,
+            amax: self.amax,
+            jmax: self.jmax,
+            smax: self.smax,
+            rho: self.rho,
+            phi: self.phi,
+            psi: self.psi,
+            segments: &segments,
+        }
+        .plan()
+    }
+}
+
+impl ConfigFile {
+    pub fn load(path: &Path) -> anyhow::Result<ConfigFile> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        Self::parse(&text).with_context(|| format!("in {}", path.display()))
+    }
+
+    pub fn parse(text: &str) -> anyhow::Result<ConfigFile> {
+        Ok(toml::from_str(text)?)
+    }
+
+    /// The board settings; `policy` (from the command line) wins over the file's.
+    pub fn board(&self, policy: Option<Policy>) -> anyhow::Result<TdmConfig> {
+        let d = Latencies::default();
+        let policy = match (policy, &self.policy) {
+            (Some(p), _) => p,
+            (None, Some(name)) => {
+                Policy::parse(name).with_context(|| format!("policy '{name}'"))?
+            }
+            (None, None) => Policy::RoundRobin,
+        };
+        Ok(TdmConfig {
+            clock_hz: self.clock.unwrap_or(DEFAULT_CLOCK_HZ),
+            fifo_depth: self.fifo_depth.unwrap_or(1),
+            latencies: Latencies {
+                mul: self.mul_cycles.unwrap_or(d.mul),
+                div: self.div_cycles.unwrap_or(d.div),
+                sqrt: self.sqrt_cycles.unwrap_or(d.sqrt),
+                overhead: self.overhead_cycles.unwrap_or(d.overhead),
+            },
+            policy,
+            pulse: match self.pulse_width_ticks {
+                Some(ticks) => PulseShape::Fixed { ticks },
+                None => PulseShape::HalfInterval,
+            },
+            dir_setup_ticks: self.dir_setup_ticks.unwrap_or(0),
+        })
+    }
+
+    /// Every axis's profile, errors named by axis.
+    pub fn profiles(&self) -> anyhow::Result<Vec<Profile>> {
+        if self.axis.is_empty() {
+            bail!("the config has no [[axis]] table");
+        }
+        self.axis
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                a.plan()
+                    .with_context(|| format!("axis {i}{}", label(&a.name)))
+            })
+            .collect()
+    }
+}
+
+fn label(name: &Option<String>) -> String {
+    name.as_ref().map(|n| format!(" ({n})")).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_board_and_every_move_mode() {
+        let cfg = ConfigFile::parse(
+            r#"
+            clock = 50e6
+            fifo_depth = 2
+            div_cycles = 40
+            pulse_width_ticks = 100
+            [[axis]]
+            steps = 2400
+            accel_time = 0.02
+            cruise_time = 0.01
+            decel_time = 0.02
+            [[axis]]
+            profile = "scurve"
+            steps = 1000
+            vmax = 5000
+            amax = 50000
+            jmax = 1e6
+            [[axis]]
+            segments = [[0, 0.02, 40], [4000, 0.01, 40], [4000, 0.02, 40]]
+            "#,
+        )
+        .unwrap();
+        let b = cfg.board(None).unwrap();
+        assert_eq!(b.fifo_depth, 2);
+        assert_eq!(b.latencies.div, 40);
+        assert_eq!(b.latencies.sqrt, Latencies::default().sqrt);
+        assert_eq!(b.pulse, PulseShape::Fixed { ticks: 100 });
+        assert_eq!(b.policy, Policy::RoundRobin);
+        let p = cfg.profiles().unwrap();
+        assert_eq!(
+            p.iter().map(|p| p.steps()).collect::<Vec<_>>(),
+            [2400, 1000, 120]
+        );
+        assert_eq!(
+            cfg.board(Some(Policy::EarliestDeadline)).unwrap().policy,
+            Policy::EarliestDeadline
+        );
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_moves_are_errors() {
+        assert!(ConfigFile::parse("fifo_dept = 2").is_err());
+        assert!(ConfigFile::parse("[[axis]]\nstep = 3").is_err());
+        let cfg = ConfigFile::parse("[[axis]]\nname = \"x\"\nsteps = 3").unwrap();
+        let e = format!("{:#}", cfg.profiles().unwrap_err());
+        assert!(e.contains("axis 0 (x)") && e.contains("phase times"), "{e}");
+        let cfg =
+            ConfigFile::parse("policy = \"lottery\"\n[[axis]]\nsteps = 3\naccel_time = 1").unwrap();
+        assert!(cfg.board(None).is_err());
+    }
+}

@@ -1,0 +1,280 @@
+//! `multistep tdm`: run a multi-axis config through the TDM engine, or sweep how many axes
+//! one calculator serves.
+
+mod config;
+mod sweep;
+
+use crate::plan::{itoa_buf, write_row};
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use config::ConfigFile;
+use multistep_core::tdm::{k_eq12, Axis, Board, Policy, Report, StepPulse, TdmConfig};
+use serde::Serialize;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PolicyArg {
+    RoundRobin,
+    EarliestDeadline,
+}
+
+impl From<PolicyArg> for Policy {
+    fn from(p: PolicyArg) -> Policy {
+        match p {
+            PolicyArg::RoundRobin => Policy::RoundRobin,
+            PolicyArg::EarliestDeadline => Policy::EarliestDeadline,
+        }
+    }
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TdmFormat {
+    Table,
+    Json,
+}
+
+#[derive(Args, Debug)]
+pub struct TdmArgs {
+    /// Board and axes (TOML): clock, fifo_depth, *_cycles, [[axis]] tables
+    #[arg(long, value_name = "FILE", required_unless_present = "sweep")]
+    pub config: Option<PathBuf>,
+    /// Scheduling policy (overrides the config's)
+    #[arg(long, value_enum)]
+    pub policy: Option<PolicyArg>,
+    /// Write each axis's edges as axis0.csv, axis1.csv, … (plan's CSV; ticks from the start)
+    #[arg(long, value_name = "DIR")]
+    pub edges_dir: Option<PathBuf>,
+    #[arg(long, value_enum, default_value_t = TdmFormat::Table)]
+    pub format: TdmFormat,
+    /// Sweep: the largest underrun-free number of axes against the maximum step rate
+    #[arg(long)]
+    pub sweep: bool,
+    #[command(flatten)]
+    pub sweep_args: sweep::SweepArgs,
+}
+
+#[derive(Serialize, Debug)]
+struct AxisSummary {
+    index: usize,
+    name: Option<String>,
+    steps: u64,
+    underruns: u64,
+    late_ticks: u64,
+    min_slack_ticks: Option<i64>,
+    min_period_ticks: u64,
+    last_edge_tick: u64,
+    merged_pulses: u64,
+}
+
+#[derive(Serialize, Debug)]
+struct RunSummary {
+    policy: &'static str,
+    clock_hz: f64,
+    fifo_depth: usize,
+    cycles_per_period: u64,
+    start_tick: u64,
+    end_tick: u64,
+    edges: u64,
+    underruns: u64,
+    max_late_ticks: u64,
+    /// Least (needed − ready) over all periods after the first; null with no such period.
+    min_slack_ticks: Option<i64>,
+    calculator_utilization: f64,
+    start_skew_ticks: u64,
+    merged_pulses: u64,
+    /// Seed eq. (12) for this set: shortest period over all axes / cycles per period.
+    k_eq12: u64,
+    /// Σ over axes of cycles / shortest period: the calculator's load at the peak rates.
+    peak_load: f64,
+    axes: Vec<AxisSummary>,
+}
+
+pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
+    check_mode(args)?;
+    if args.sweep {
+        return sweep::run(args);
+    }
+    let path = args.config.as_ref().context("--config is required")?;
+    let file = ConfigFile::load(path)?;
+    let cfg = file.board(args.policy.map(Policy::from))?;
+    let mut axes = file
+        .profiles()?
+        .into_iter()
+        .map(|p| Axis::new(p, cfg.clock_hz))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (report, min_periods) = run_board(cfg, &mut axes, args.edges_dir.as_deref())?;
+    let s = summarize(&cfg, &report, &axes, &min_periods, &file);
+    let mut out = std::io::stdout().lock();
+    match args.format {
+        TdmFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?,
+        TdmFormat::Table => print_table(&mut out, &s)?,
+    }
+    if s.underruns > 0 {
+        eprintln!(
+            "warning: {} underruns (timing faults); the last edge is up to {} ticks late",
+            s.underruns, s.max_late_ticks
+        );
+    }
+    Ok(())
+}
+
+/// Runs the board; writes per-axis CSVs when asked; returns each axis's shortest period.
+fn run_board(
+    cfg: TdmConfig,
+    axes: &mut [Axis],
+    edges_dir: Option<&Path>,
+) -> anyhow::Result<(Report, Vec<u64>)> {
+    let k = axes.len();
+    let board = Board::new(cfg, axes)?;
+    let start = board.start_tick();
+    let mut writers = match edges_dir {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+            (0..k)
+                .map(|m| {
+                    let path = dir.join(format!("axis{m}.csv"));
+                    let mut w = BufWriter::with_capacity(1 << 16, File::create(&path)?);
+                    writeln!(w, "step,edge_tick,period_ticks")?;
+                    Ok(w)
+                })
+                .collect::<std::io::Result<Vec<_>>>()?
+        }
+        None => Vec::new(),
+    };
+    let mut last = vec![start; k];
+    let mut min_period = vec![u64::MAX; k];
+    let mut err: Option<std::io::Error> = None;
+    let mut buf = itoa_buf();
+    let report = board.run(|p: StepPulse| {
+        let period = p.rise - last[p.axis];
+        last[p.axis] = p.rise;
+        min_period[p.axis] = min_period[p.axis].min(period);
+        if let (Some(w), None) = (writers.get_mut(p.axis), &err) {
+            if let Err(e) = write_row(w, &mut buf, p.step, p.rise - start, period) {
+                err = Some(e);
+            }
+        }
+    });
+    if let Some(e) = err {
+        return Err(e).context("writing edges");
+    }
+    for mut w in writers {
+        w.flush()?;
+    }
+    Ok((report, min_period))
+}
+
+fn summarize(
+    cfg: &TdmConfig,
+    r: &Report,
+    axes: &[Axis],
+    min_periods: &[u64],
+    file: &ConfigFile,
+) -> RunSummary {
+    let c = r.cycles_per_period;
+    let slack = |s: i64| (s != i64::MAX).then_some(s);
+    let dmin = min_periods.iter().copied().min().unwrap_or(0);
+    RunSummary {
+        policy: cfg.policy.name(),
+        clock_hz: cfg.clock_hz,
+        fifo_depth: cfg.fifo_depth,
+        cycles_per_period: c,
+        start_tick: r.start_tick,
+        end_tick: r.end_tick,
+        edges: r.edges,
+        underruns: r.underruns,
+        max_late_ticks: r.max_late_ticks,
+        min_slack_ticks: slack(r.min_slack_ticks),
+        calculator_utilization: r.calculator_utilization(),
+        start_skew_ticks: r.start_skew_ticks,
+        merged_pulses: r.merged_pulses,
+        k_eq12: k_eq12(dmin, c),
+        peak_load: min_periods
+            .iter()
+            .map(|&p| c as f64 / p.max(1) as f64)
+            .sum(),
+        axes: axes
+            .iter()
+            .enumerate()
+            .map(|(m, a)| {
+                let st = a.stats();
+                AxisSummary {
+                    index: m,
+                    name: file.axis.get(m).and_then(|e| e.name.clone()),
+                    steps: st.steps,
+                    underruns: st.underruns,
+                    late_ticks: st.late_ticks,
+                    min_slack_ticks: slack(st.min_slack_ticks),
+                    min_period_ticks: min_periods[m],
+                    last_edge_tick: st.last_rise - r.start_tick,
+                    merged_pulses: st.merged_pulses,
+                }
+            })
+            .collect(),
+    }
+}
+
+fn print_table(out: &mut impl Write, s: &RunSummary) -> anyhow::Result<()> {
+    let opt = |v: Option<i64>| v.map_or("-".to_string(), |v| v.to_string());
+    writeln!(out, "policy          {}", s.policy)?;
+    writeln!(out, "clock           {} Hz", s.clock_hz)?;
+    writeln!(out, "fifo depth      {}", s.fifo_depth)?;
+    writeln!(
+        out,
+        "calculator      {} cycles per period",
+        s.cycles_per_period
+    )?;
+    writeln!(out, "axes            {}", s.axes.len())?;
+    writeln!(
+        out,
+        "start           tick {} (skew {} ticks)",
+        s.start_tick, s.start_skew_ticks
+    )?;
+    writeln!(out, "end             tick {}", s.end_tick)?;
+    writeln!(out, "edges           {}", s.edges)?;
+    writeln!(out, "underruns       {}", s.underruns)?;
+    writeln!(out, "max late        {} ticks", s.max_late_ticks)?;
+    writeln!(out, "min slack       {} ticks", opt(s.min_slack_ticks))?;
+    writeln!(
+        out,
+        "utilization     {:.2} %",
+        100.0 * s.calculator_utilization
+    )?;
+    writeln!(
+        out,
+        "peak load       {:.3} (Σ t_calc / Δt_min per axis)",
+        s.peak_load
+    )?;
+    writeln!(out, "eq. (12) k      {}", s.k_eq12)?;
+    writeln!(out)?;
+    writeln!(
+        out,
+        "{:>4}  {:<16} {:>9} {:>10} {:>9} {:>10} {:>10} {:>14}",
+        "axis", "name", "steps", "min period", "underruns", "late", "min slack", "last edge"
+    )?;
+    for a in &s.axes {
+        writeln!(
+            out,
+            "{:>4}  {:<16} {:>9} {:>10} {:>9} {:>10} {:>10} {:>14}",
+            a.index,
+            a.name.as_deref().unwrap_or("-"),
+            a.steps,
+            a.min_period_ticks,
+            a.underruns,
+            a.late_ticks,
+            opt(a.min_slack_ticks),
+            a.last_edge_tick
+        )?;
+    }
+    Ok(())
+}
+
+/// Rejects flags that only make sense in the other mode.
+fn check_mode(args: &TdmArgs) -> anyhow::Result<()> {
+    if args.sweep && args.edges_dir.is_some() {
+        bail!("--edges-dir writes a single run's edges; it does not go with --sweep");
+    }
+    Ok(())
+}

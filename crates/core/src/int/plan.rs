@@ -1,0 +1,285 @@
+//! Integer moves: phase-mode trapezoids, seed 000 segments and limits-mode trapezoids,
+//! planned into exact [`IntPiece`]s. Every input is an integer (module docs).
+
+use super::piece::IntPiece;
+use super::IntError;
+use crate::profile::MAX_PIECES;
+
+/// Phase mode, trapezoid family: N steps in whole-tick accel, cruise and decel times.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IntPhaseMove {
+    pub steps: u64,
+    pub accel_ticks: u64,
+    pub cruise_ticks: u64,
+    pub decel_ticks: u64,
+    /// Start and end speed in 1/`speed_scale` steps/s.
+    pub start_speed: u64,
+    pub end_speed: u64,
+}
+
+/// One of seed 000's constant-acceleration segments `(v0, T, n)` with T in ticks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IntSegment {
+    /// Start speed in 1/`speed_scale` steps/s.
+    pub v0: u64,
+    pub ticks: u64,
+    pub steps: u64,
+}
+
+/// Limits mode, trapezoid: the fastest move under vmax and amax, phase times rounded up
+/// to whole ticks (so neither limit is ever exceeded).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IntLimitsMove {
+    pub steps: u64,
+    /// In 1/`speed_scale` steps/s and 1/`speed_scale` steps/s².
+    pub vmax: u64,
+    pub amax: u64,
+    pub start_speed: u64,
+    pub end_speed: u64,
+}
+
+/// The clock and the unit of speeds: `clock_hz` ticks per second, speeds in
+/// 1/`speed_scale` steps/s (1 = whole steps/s).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IntClock {
+    pub clock_hz: u64,
+    pub speed_scale: u64,
+}
+
+impl IntClock {
+    pub const fn hz(clock_hz: u64) -> Self {
+        IntClock {
+            clock_hz,
+            speed_scale: 1,
+        }
+    }
+
+    /// Speeds are `x / F` steps/tick with `F = clock_hz · speed_scale`.
+    fn f(&self) -> Result<u128, IntError> {
+        if self.clock_hz == 0 || self.speed_scale == 0 {
+            return Err(IntError::ZeroClock);
+        }
+        Ok(self.clock_hz as u128 * self.speed_scale as u128)
+    }
+}
+
+/// A planned integer move: pieces chained in time and position.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct IntProfile {
+    pieces: [IntPiece; MAX_PIECES],
+    len: usize,
+    steps: u64,
+    end_tick: u64,
+}
+
+const EMPTY: IntPiece = IntPiece {
+    t0: 0,
+    dur: 0,
+    den: 1,
+    a: 0,
+    b: 0,
+    c: 0,
+    m_end: 0,
+    k: 0,
+    a2k: 0,
+};
+
+fn checked(x: Option<u128>) -> Result<u128, IntError> {
+    x.ok_or(IntError::TooWide)
+}
+
+impl IntProfile {
+    fn empty(steps: u64) -> Result<Self, IntError> {
+        if steps == 0 {
+            return Err(IntError::NoSteps);
+        }
+        Ok(IntProfile {
+            pieces: [EMPTY; MAX_PIECES],
+            len: 0,
+            steps,
+            end_tick: 0,
+        })
+    }
+
+    fn push(&mut self, dur: u64, g: u128, u: u128, w: u128, s: u128) -> Result<(), IntError> {
+        if dur == 0 {
+            return Ok(());
+        }
+        if self.len == MAX_PIECES {
+            return Err(IntError::TooManyPieces);
+        }
+        let p = IntPiece::new(self.end_tick, dur, g, u, w, s)?;
+        self.pieces[self.len] = p;
+        self.len += 1;
+        self.end_tick = self.end_tick.checked_add(dur).ok_or(IntError::TooWide)?;
+        Ok(())
+    }
+
+    fn finish(self) -> Result<Self, IntError> {
+        if self.len == 0 {
+            return Err(IntError::ZeroDuration);
+        }
+        // every step must be reachable: the last piece ends exactly on step N
+        let last = &self.pieces[self.len - 1];
+        if last.target(self.steps).unwrap_or(0) != last.m_end {
+            return Err(IntError::TooWide);
+        }
+        // Den·i stays in range for every step of every piece
+        if self
+            .pieces()
+            .iter()
+            .any(|p| p.den.checked_mul(self.steps as u128).is_none())
+        {
+            return Err(IntError::TooWide);
+        }
+        Ok(self)
+    }
+
+    /// Phase mode: `vm = (2N·F − vs·Ta − ve·Tc) / (F·W)` steps/tick, `W = Ta + 2Tb + Tc`.
+    pub fn phase(m: &IntPhaseMove, clock: IntClock) -> Result<Self, IntError> {
+        let mut p = Self::empty(m.steps)?;
+        let f = clock.f()?;
+        let (ta, tb, tc) = (
+            m.accel_ticks as u128,
+            m.cruise_ticks as u128,
+            m.decel_ticks as u128,
+        );
+        let w = ta + 2 * tb + tc;
+        if w == 0 {
+            return Err(IntError::ZeroDuration);
+        }
+        // speeds in units of 1/G steps/tick, G = F·W
+        let g = checked(f.checked_mul(w))?;
+        let (vs, ve) = (m.start_speed as u128, m.end_speed as u128);
+        let shed = checked(vs.checked_mul(ta))? + checked(ve.checked_mul(tc))?;
+        let two_nf = checked(f.checked_mul(2 * m.steps as u128))?;
+        let vm = two_nf.checked_sub(shed).ok_or(IntError::CannotShed)?;
+        let (us, ue) = (checked(vs.checked_mul(w))?, checked(ve.checked_mul(w))?);
+        // positions in units of 1/(2G) steps: a piece adds (u + w)·D
+        let mut s = 0u128;
+        for (dur, u0, u1) in [(ta, us, vm), (tb, vm, vm), (tc, vm, ue)] {
+            p.push(dur as u64, g, u0, u1, s)?;
+            s = checked(checked((u0 + u1).checked_mul(dur))?.checked_add(s))?;
+        }
+        p.finish()
+    }
+
+    /// Segment mode (seed 000): `w = 2n/D − v0` ≥ 0, `a = 2(n − v0·D)/D²`.
+    pub fn segments(segs: &[IntSegment], clock: IntClock) -> Result<Self, IntError> {
+        let steps = segs
+            .iter()
+            .try_fold(0u64, |acc, s| acc.checked_add(s.steps));
+        let mut p = Self::empty(steps.ok_or(IntError::TooWide)?)?;
+        let f = clock.f()?;
+        let mut p0 = 0u128;
+        for (index, sg) in segs.iter().enumerate() {
+            if sg.ticks == 0 {
+                return Err(IntError::ZeroDuration);
+            }
+            let d = sg.ticks as u128;
+            // speeds in units of 1/(F·D) steps/tick
+            let g = checked(f.checked_mul(d))?;
+            let u = checked((sg.v0 as u128).checked_mul(d))?;
+            let two_nf = checked((2 * sg.steps as u128).checked_mul(f))?;
+            let w = two_nf
+                .checked_sub(u)
+                .ok_or(IntError::SegmentReverses { index })?;
+            let s = checked(checked(g.checked_mul(2))?.checked_mul(p0))?;
+            p.push(sg.ticks, g, u, w, s)?;
+            p0 += sg.steps as u128;
+        }
+        p.finish()
+    }
+
+    /// Limits mode, trapezoid: peak speed vmax or, if the move is too short,
+    /// `⌊√((2·amax·N + vs² + ve²)/2)⌋`; phase times rounded up to whole ticks and the
+    /// cruise time set so the cruise speed never exceeds the peak.
+    pub fn limits(m: &IntLimitsMove, clock: IntClock) -> Result<Self, IntError> {
+        Self::phase(&limits_to_phase(m, clock)?, clock)
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The tick of the last step.
+    pub fn end_tick(&self) -> u64 {
+        self.end_tick
+    }
+
+    pub fn pieces(&self) -> &[IntPiece] {
+        &self.pieces[..self.len]
+    }
+
+    /// Exact test of DESIGN.md §1: is `e` the nearest tick to step i, i.e.
+    /// `p((e − ½)) < i ≤ p((e + ½))` (times in ticks)?
+    pub fn is_nearest_tick(&self, i: u64, e: u64) -> bool {
+        let below = e == 0 || self.position_below(2 * e as u128 - 1, i);
+        below && !self.position_below(2 * e as u128 + 1, i)
+    }
+
+    /// Whether p(t2/2 ticks) < i, exactly.
+    fn position_below(&self, t2: u128, i: u64) -> bool {
+        if t2 >= 2 * self.end_tick as u128 {
+            return false; // p = N ≥ i past the end
+        }
+        let k = self.pieces().partition_point(|p| 2 * p.t0 as u128 <= t2) - 1;
+        let p = &self.pieces[k];
+        match p.target(i) {
+            // i at or before p0: p(t) ≥ p0 ≥ i
+            None => false,
+            Some(m) => p.cmp_at_half_ticks(t2 - 2 * p.t0 as u128, m).is_lt(),
+        }
+    }
+}
+
+/// Rounds a limits-mode trapezoid to whole-tick phase times (see [`IntProfile::limits`]).
+pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMove, IntError> {
+    let f = clock.f()?;
+    let q = clock.speed_scale as u128;
+    let hz = clock.clock_hz as u128;
+    let (n, vmax, amax) = (m.steps as u128, m.vmax as u128, m.amax as u128);
+    let (vs, ve) = (m.start_speed as u128, m.end_speed as u128);
+    if n == 0 {
+        return Err(IntError::NoSteps);
+    }
+    if vmax == 0 || amax == 0 {
+        return Err(IntError::ZeroLimit);
+    }
+    if vs > vmax || ve > vmax {
+        return Err(IntError::SpeedAboveLimit);
+    }
+    let sq = |v: u128| checked(v.checked_mul(v));
+    // distance to go vs → v → ve at amax, ×2·amax·Q: 2v² − vs² − ve²
+    let two_aqn = checked(checked((2 * amax).checked_mul(q))?.checked_mul(n))?;
+    let need = |v: u128| -> Result<u128, IntError> {
+        Ok(checked((2 * sq(v)?).checked_sub(sq(vs)? + sq(ve)?))?)
+    };
+    let vp = if need(vmax)? <= two_aqn {
+        vmax
+    } else {
+        let vp = super::isqrt::isqrt_u128((two_aqn + sq(vs)? + sq(ve)?) / 2);
+        if vp < vs.max(ve) || vp == 0 {
+            return Err(IntError::TooShortForLimits);
+        }
+        vp
+    };
+    let ceil_div = |x: u128, y: u128| x.div_ceil(y);
+    let ta = ceil_div(checked(hz.checked_mul(vp - vs))?, amax);
+    let tc = ceil_div(checked(hz.checked_mul(vp - ve))?, amax);
+    // cruise: vp·Tb ≥ 2N·F/2 − accel and decel distances (×2F)
+    let dist = checked(
+        checked((vs + vp).checked_mul(ta))?.checked_add(checked((vp + ve).checked_mul(tc))?),
+    )?;
+    let two_nf = checked((2 * n).checked_mul(f))?;
+    let tb = ceil_div(two_nf.saturating_sub(dist), 2 * vp);
+    let tick = |x: u128| u64::try_from(x).map_err(|_| IntError::TooWide);
+    Ok(IntPhaseMove {
+        steps: m.steps,
+        accel_ticks: tick(ta)?,
+        cruise_ticks: tick(tb)?,
+        decel_ticks: tick(tc)?,
+        start_speed: m.start_speed,
+        end_speed: m.end_speed,
+    })
+}

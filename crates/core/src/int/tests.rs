@@ -1,0 +1,415 @@
+//! The integer datapath against the float generator and against the exact test of
+//! DESIGN.md §1, on well over 10^6 random moves.
+
+use super::*;
+use crate::profile::{Family, LimitsMove, Order, PhaseMove, Profile, Segment};
+use crate::EdgeGenerator;
+use proptest::prelude::*;
+use std::vec::Vec;
+
+/// 2^24 Hz: every whole tick count is an exact f64 number of seconds.
+const F2: u64 = 1 << 24;
+
+/// SplitMix64: a seeded stream, so a failure names its move.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    fn range(&mut self, lo: u64, hi: u64) -> u64 {
+        lo + self.below(hi - lo + 1)
+    }
+}
+
+fn int_edges(p: IntProfile) -> Vec<u64> {
+    let e: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
+    assert_eq!(e.len() as u64, p.steps());
+    e
+}
+
+fn float_edges(p: Profile, hz: u64) -> Vec<u64> {
+    EdgeGenerator::new(p, hz as f64).unwrap().collect()
+}
+
+fn assert_exact(p: &IntProfile, edges: &[u64], what: &dyn Fn() -> String) {
+    for (k, &e) in edges.iter().enumerate() {
+        let i = k as u64 + 1;
+        // the last step is pinned to the end of the move by contract
+        if i < p.steps() {
+            assert!(
+                p.is_nearest_tick(i, e),
+                "step {i} edge {e} not nearest: {}",
+                what()
+            );
+        }
+    }
+}
+
+fn float_phase(m: &IntPhaseMove, hz: u64) -> Profile {
+    let s = hz as f64;
+    Profile::phase(&PhaseMove {
+        steps: m.steps,
+        accel_time: m.accel_ticks as f64 / s,
+        cruise_time: m.cruise_ticks as f64 / s,
+        decel_time: m.decel_ticks as f64 / s,
+        start_speed: m.start_speed as f64,
+        end_speed: m.end_speed as f64,
+        family: Family::Trapezoid,
+    })
+    .unwrap()
+}
+
+/// Phase moves whose f64 profile is exactly the rational one: power-of-two accel and
+/// decel times and `Ta + 2Tb + Tc` a power of two, at 2^24 Hz.
+fn exact_phase_move(r: &mut Rng) -> IntPhaseMove {
+    loop {
+        let ta = if r.below(6) == 0 {
+            0
+        } else {
+            1 << r.range(1, 22)
+        };
+        let tc = if r.below(6) == 0 {
+            0
+        } else {
+            1 << r.range(1, 22)
+        };
+        let lo = 64 - ((ta + tc) as u64).max(2).leading_zeros() as u64;
+        let w: u64 = 1 << r.range(lo.max(1), 24);
+        if w < ta + tc || (w - ta - tc) % 2 != 0 {
+            continue;
+        }
+        let m = IntPhaseMove {
+            steps: r.range(1, 48),
+            accel_ticks: ta,
+            cruise_ticks: (w - ta - tc) / 2,
+            decel_ticks: tc,
+            start_speed: if r.below(2) == 0 { 0 } else { r.range(1, 200) },
+            end_speed: if r.below(2) == 0 { 0 } else { r.range(1, 200) },
+        };
+        if IntProfile::phase(&m, IntClock::hz(F2)).is_ok() {
+            return m;
+        }
+    }
+}
+
+#[test]
+fn phase_mode_equals_float_on_exact_moves() {
+    let mut r = Rng(1);
+    for n in 0..400_000 {
+        let m = exact_phase_move(&mut r);
+        let ip = IntProfile::phase(&m, IntClock::hz(F2)).unwrap();
+        let ie = int_edges(ip.clone());
+        let fe = float_edges(float_phase(&m, F2), F2);
+        assert_eq!(ie, fe, "move {n}: {m:?}");
+        if n % 8 == 0 {
+            assert_exact(&ip, &ie, &|| format!("{m:?}"));
+        }
+    }
+}
+
+#[test]
+fn segment_mode_equals_float_on_exact_moves() {
+    let mut r = Rng(2);
+    let mut done = 0;
+    while done < 400_000 {
+        let k = r.range(1, 4) as usize;
+        let segs: Vec<IntSegment> = (0..k)
+            .map(|_| IntSegment {
+                v0: if r.below(3) == 0 { 0 } else { r.range(1, 3000) },
+                ticks: 1 << r.range(8, 22),
+                steps: r.range(0, 16),
+            })
+            .collect();
+        let fsegs: Vec<Segment> = segs
+            .iter()
+            .map(|s| Segment {
+                v0: s.v0 as f64,
+                duration: s.ticks as f64 / F2 as f64,
+                steps: s.steps,
+            })
+            .collect();
+        let ip = IntProfile::segments(&segs, IntClock::hz(F2));
+        let fp = Profile::segments(&fsegs);
+        // both accept and reject the same moves (reversing segments, no steps)
+        assert_eq!(ip.is_ok(), fp.is_ok(), "{segs:?}: {ip:?} {fp:?}");
+        let Ok(ip) = ip else { continue };
+        let ie = int_edges(ip.clone());
+        assert_eq!(ie, float_edges(fp.unwrap(), F2), "{segs:?}");
+        assert_exact(&ip, &ie, &|| format!("{segs:?}"));
+        done += 1;
+    }
+}
+
+/// Limits moves that reach vmax with whole-tick, f64-exact phase times: vmax = 2^b,
+/// amax = 2^e, vs and ve multiples of 2^c so the cruise time is whole ticks.
+#[test]
+fn limits_mode_equals_float_when_times_are_whole_ticks() {
+    let mut r = Rng(3);
+    for n in 0..250_000 {
+        let b = r.range(6, 13);
+        let e = r.range(b.max(10), 22);
+        let c = (b + e).saturating_sub(23).div_ceil(2);
+        let vmax = 1u64 << b;
+        let pick = |r: &mut Rng| {
+            if r.below(2) == 0 {
+                0
+            } else {
+                (r.below(vmax >> c) << c).min(vmax)
+            }
+        };
+        let (vs, ve) = (pick(&mut r), pick(&mut r));
+        // need = (2vmax² − vs² − ve²)/(2amax) steps to reach vmax
+        let need = (2 * vmax * vmax - vs * vs - ve * ve).div_ceil(2 << e);
+        let m = IntLimitsMove {
+            steps: need.max(1) + r.below(40),
+            vmax,
+            amax: 1 << e,
+            start_speed: vs,
+            end_speed: ve,
+        };
+        let ip = IntProfile::limits(&m, IntClock::hz(F2)).unwrap();
+        let fp = Profile::plan(&crate::Move::Limits(LimitsMove {
+            steps: m.steps,
+            order: Order::Trapezoid,
+            vmax: vmax as f64,
+            amax: m.amax as f64,
+            jmax: None,
+            smax: None,
+            start_speed: vs as f64,
+            end_speed: ve as f64,
+        }))
+        .unwrap();
+        assert_eq!(
+            ip.end_tick() as f64,
+            fp.duration() * F2 as f64,
+            "move {n}: {m:?}"
+        );
+        let ie = int_edges(ip);
+        assert_eq!(ie, float_edges(fp, F2), "move {n}: {m:?}");
+    }
+}
+
+/// Any whole-tick phase move at 50 MHz: the f64 profile rounds vm, so the two may differ
+/// where the exact time is within f64 noise of a half tick (a tie); nowhere else.
+#[test]
+fn phase_mode_matches_float_up_to_ties_at_50mhz() {
+    let hz = 50_000_000;
+    let mut r = Rng(4);
+    let (mut moves, mut edges, mut ties, mut exact_ties) = (0u64, 0u64, 0u64, 0u64);
+    while moves < 150_000 {
+        let m = IntPhaseMove {
+            steps: r.range(1, 64),
+            accel_ticks: r.range(0, 3_000_000),
+            cruise_ticks: r.range(0, 2_000_000),
+            decel_ticks: r.range(0, 3_000_000),
+            start_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
+            end_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
+        };
+        let Ok(ip) = IntProfile::phase(&m, IntClock::hz(hz)) else {
+            continue;
+        };
+        let ie = int_edges(ip.clone());
+        let fe = float_edges(float_phase(&m, hz), hz);
+        for (k, (&a, &b)) in ie.iter().zip(&fe).enumerate() {
+            if a != b {
+                // a tie: one tick apart and the exact step time a hair from the half tick
+                assert_eq!(a.abs_diff(b), 1, "{m:?} step {}", k + 1);
+                let mid = 2 * a.min(b) as u128 + 1;
+                assert!(
+                    near_half_tick(&ip, k as u64 + 1, mid),
+                    "{m:?} step {}: {a} vs {b}",
+                    k + 1
+                );
+                ties += 1;
+                exact_ties += exact_half_tick(&ip, k as u64 + 1, mid) as u64;
+            }
+        }
+        assert_exact(&ip, &ie, &|| format!("{m:?}"));
+        moves += 1;
+        edges += ie.len() as u64;
+    }
+    std::println!("{edges} edges, {ties} differ from the float: {exact_ties} exact half ticks");
+    // rational phase times put many steps exactly on a half tick, where the rounded f64
+    // profile falls either side: those are the only differences
+    assert_eq!(ties, exact_ties, "{edges} edges");
+}
+
+/// Whether step i happens exactly at the half tick `mid/2`.
+fn exact_half_tick(p: &IntProfile, i: u64, mid: u128) -> bool {
+    let k = p.pieces().partition_point(|q| 2 * q.t0 as u128 <= mid) - 1;
+    let q = &p.pieces()[k];
+    q.target(i)
+        .is_some_and(|m| q.cmp_at_half_ticks(mid - 2 * q.t0 as u128, m).is_eq())
+}
+
+/// Whether step i's exact time is within 1e-6 tick of the half tick `mid/2`: p at
+/// `mid/2 ± 1e-6` brackets i (checked at a 2^-20-tick grid, exactly).
+fn near_half_tick(p: &IntProfile, i: u64, mid: u128) -> bool {
+    let k = p.pieces().partition_point(|q| 2 * q.t0 as u128 <= mid) - 1;
+    let q = &p.pieces()[k];
+    let Some(m) = q.target(i) else { return false };
+    // Den·(p − p0) at τ = (mid − 2t0)/2 ± 2^-20, scaled by 4·2^40
+    let at = |num: i128| {
+        let tau = num; // τ·2^21
+        let lhs = q.a as i128 * tau * (1 << 19) + q.b * tau * tau / 4;
+        lhs.cmp(&((m as i128) << 40))
+    };
+    let c = (mid as i128 - 2 * q.t0 as i128) << 20;
+    at(c - 2).is_lt() && at(c + 2).is_ge()
+}
+
+#[test]
+fn seed000_run_and_long_moves_are_exact() {
+    // 2400 microsteps in 20/10/20 ms at 50 MHz (seed 000's run): identical to the float
+    let hz = 50_000_000;
+    let m = IntPhaseMove {
+        steps: 2400,
+        accel_ticks: 1_000_000,
+        cruise_ticks: 500_000,
+        decel_ticks: 1_000_000,
+        ..Default::default()
+    };
+    let ip = IntProfile::phase(&m, IntClock::hz(hz)).unwrap();
+    let ie = int_edges(ip.clone());
+    assert_eq!(ie, float_edges(float_phase(&m, hz), hz));
+    assert_eq!(*ie.last().unwrap(), 2_500_000);
+    assert_exact(&ip, &ie, &|| "seed000".into());
+    // a long limits move with fractional speeds (Q = 1000): every edge exact
+    let lm = IntLimitsMove {
+        steps: 300_000,
+        vmax: 123_456_789,
+        amax: 987_654_321,
+        start_speed: 1_500,
+        end_speed: 2_500_000,
+    };
+    let clock = IntClock {
+        clock_hz: hz,
+        speed_scale: 1000,
+    };
+    let ip = IntProfile::limits(&lm, clock).unwrap();
+    let ie = int_edges(ip.clone());
+    assert_exact(&ip, &ie, &|| "long limits".into());
+    assert!(ie.windows(2).all(|w| w[0] <= w[1]));
+}
+
+#[test]
+fn quantized_limits_never_exceed_the_limits() {
+    let mut r = Rng(5);
+    let hz = 50_000_000u128;
+    for _ in 0..20_000 {
+        let vmax = r.range(100, 400_000);
+        let m = IntLimitsMove {
+            steps: r.range(1, 100_000),
+            vmax,
+            amax: r.range(1_000, 50_000_000),
+            start_speed: r.below(vmax / 4),
+            end_speed: r.below(vmax / 4),
+        };
+        let Ok(p) = limits_to_phase(&m, IntClock::hz(hz as u64)) else {
+            continue;
+        };
+        let (ta, tb, tc) = (
+            p.accel_ticks as u128,
+            p.cruise_ticks as u128,
+            p.decel_ticks as u128,
+        );
+        let w = ta + 2 * tb + tc;
+        let (vs, ve) = (m.start_speed as u128, m.end_speed as u128);
+        // vm·W = 2N·f − vs·Ta − ve·Tc (steps/s × ticks)
+        let vmw = 2 * m.steps as u128 * hz - vs * ta - ve * tc;
+        assert!(vmw <= m.vmax as u128 * w, "{m:?} {p:?}");
+        // |vm − vs|·f ≤ amax·Ta, |vm − ve|·f ≤ amax·Tc (times W)
+        for (v, t) in [(vs, ta), (ve, tc)] {
+            if t > 0 {
+                assert!(
+                    vmw.abs_diff(v * w) * hz <= m.amax as u128 * t * w,
+                    "{m:?} {p:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_moves_get_typed_errors() {
+    let c = IntClock::hz(50_000_000);
+    let ph = |steps, ta, tb, tc, vs| IntPhaseMove {
+        steps,
+        accel_ticks: ta,
+        cruise_ticks: tb,
+        decel_ticks: tc,
+        start_speed: vs,
+        end_speed: 0,
+    };
+    assert_eq!(
+        IntProfile::phase(&ph(0, 1, 1, 1, 0), c),
+        Err(IntError::NoSteps)
+    );
+    assert_eq!(
+        IntProfile::phase(&ph(5, 0, 0, 0, 0), c),
+        Err(IntError::ZeroDuration)
+    );
+    // 1 step cannot shed 1000 steps/s over a 1 s accel phase
+    assert_eq!(
+        IntProfile::phase(&ph(1, 50_000_000, 0, 1, 1000), c),
+        Err(IntError::CannotShed)
+    );
+    assert_eq!(
+        IntProfile::phase(&ph(5, 1, 1, 1, 0), IntClock::hz(0)),
+        Err(IntError::ZeroClock)
+    );
+    // phases of 2^60 ticks need more than 128 bits
+    assert_eq!(
+        IntProfile::phase(&ph(1 << 40, 1 << 60, 0, 1 << 60, 3), c),
+        Err(IntError::TooWide)
+    );
+    let seg = [IntSegment {
+        v0: 1000,
+        ticks: 50_000_000,
+        steps: 100,
+    }];
+    assert_eq!(
+        IntProfile::segments(&seg, c),
+        Err(IntError::SegmentReverses { index: 0 })
+    );
+    let lm = IntLimitsMove {
+        steps: 10,
+        vmax: 100,
+        amax: 1,
+        start_speed: 200,
+        end_speed: 0,
+    };
+    assert_eq!(IntProfile::limits(&lm, c), Err(IntError::SpeedAboveLimit));
+    let lm = IntLimitsMove {
+        steps: 1,
+        vmax: 1000,
+        amax: 1,
+        start_speed: 900,
+        end_speed: 0,
+    };
+    assert_eq!(IntProfile::limits(&lm, c), Err(IntError::TooShortForLimits));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+    /// Any segment chain the planner accepts is exact on every edge (odd clocks too).
+    #[test]
+    fn segments_are_exact(
+        hz in 1_000u64..100_000_000,
+        segs in proptest::collection::vec((0u64..5000, 1u64..5_000_000, 0u64..300), 1..5),
+    ) {
+        let segs: Vec<IntSegment> =
+            segs.into_iter().map(|(v0, ticks, steps)| IntSegment { v0, ticks, steps }).collect();
+        if let Ok(p) = IntProfile::segments(&segs, IntClock::hz(hz)) {
+            let e = int_edges(p.clone());
+            assert_exact(&p, &e, &|| format!("{hz} {segs:?}"));
+        }
+    }
+}

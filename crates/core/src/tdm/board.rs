@@ -1,0 +1,327 @@
+//! The engine: k axes, one calculator, one synchronous start.
+//!
+//! Tick 0: the move is loaded and every DIR line is set. The calculator starts at once and
+//! fills every FIFO (round-robin over the axes, `min(depth, steps)` periods each); the
+//! group starts when that is done and the DIR setup time has passed:
+//! `start = max(dir_setup, prefill · t_calc)`. At `start` every pulse unit loads period 1.
+//!
+//! The simulation is event-driven: time jumps from one calculator decision to the next
+//! (idle stretches are skipped). When a period is computed the engine already knows when
+//! its pulse unit needs it (the previous edge), so it knows at once whether it is in time
+//! (slack = needed − ready ≥ 0) or an underrun (ready later than needed: the edge and
+//! every later one of that axis are late by the difference). Each pulse goes to the sink
+//! when its falling edge is known; per axis in step order, across axes in the order the
+//! calculator computed them.
+
+use super::calculator::Latencies;
+use super::fifo::Fifo;
+use super::pulse::{PulseShape, PulseUnit, StepPulse};
+use super::scheduler::Policy;
+use super::TdmError;
+use crate::edges::EdgeGenerator;
+use crate::profile::Profile;
+
+/// Most axes one board holds.
+pub const MAX_AXES: usize = 64;
+
+/// What a board is built from besides its axes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TdmConfig {
+    /// Clock (Hz) of the calculator, the pulse units and the edge ticks.
+    pub clock_hz: f64,
+    pub fifo_depth: usize,
+    pub latencies: Latencies,
+    pub policy: Policy,
+    pub pulse: PulseShape,
+    /// Least ticks between DIR being set (tick 0) and the group's start.
+    pub dir_setup_ticks: u64,
+}
+
+impl Default for TdmConfig {
+    fn default() -> Self {
+        TdmConfig {
+            clock_hz: crate::DEFAULT_CLOCK_HZ,
+            fifo_depth: 1,
+            latencies: Latencies::default(),
+            policy: Policy::RoundRobin,
+            pulse: PulseShape::HalfInterval,
+            dir_setup_ticks: 0,
+        }
+    }
+}
+
+/// Per-axis results of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisStats {
+    /// Steps emitted.
+    pub steps: u64,
+    /// Periods that were not in the FIFO when the pulse unit needed them.
+    pub underruns: u64,
+    /// Sum of the delays those underruns caused: how late the last edge is.
+    pub late_ticks: u64,
+    /// Least (needed − ready) over periods 2…N; negative iff there was an underrun.
+    pub min_slack_ticks: i64,
+    /// Tick the pulse unit loaded period 1.
+    pub start_tick: u64,
+    /// Tick of the last rising edge.
+    pub last_rise: u64,
+    /// Pulses with no low time before the next one.
+    pub merged_pulses: u64,
+}
+
+impl AxisStats {
+    const NEW: AxisStats = AxisStats {
+        steps: 0,
+        underruns: 0,
+        late_ticks: 0,
+        min_slack_ticks: i64::MAX,
+        start_tick: 0,
+        last_rise: 0,
+        merged_pulses: 0,
+    };
+}
+
+/// Edges pulled from the generator at a time: a tight batch lets the CPU overlap their
+/// independent square roots and divides (a simulation speed-up; the model is unchanged).
+const LOOKAHEAD: usize = 16;
+
+/// One axis: the source of its exact periods, its FIFO and its pulse unit.
+#[derive(Clone, Debug)]
+pub struct Axis {
+    gen: EdgeGenerator,
+    ahead: [u64; LOOKAHEAD],
+    ahead_pos: usize,
+    ahead_len: usize,
+    prev_edge: u64,
+    fifo: Fifo,
+    pulse: PulseUnit,
+    stats: AxisStats,
+}
+
+impl Axis {
+    pub fn new(profile: Profile, clock_hz: f64) -> Result<Axis, TdmError> {
+        Ok(Axis {
+            gen: EdgeGenerator::new(profile, clock_hz)?,
+            ahead: [0; LOOKAHEAD],
+            ahead_pos: 0,
+            ahead_len: 0,
+            prev_edge: 0,
+            fifo: Fifo::new(1)?,
+            pulse: PulseUnit::default(),
+            stats: AxisStats::NEW,
+        })
+    }
+
+    /// Back to step 0 with an empty FIFO, so the same axes can run again.
+    fn reset(&mut self, depth: usize, shape: PulseShape) -> Result<(), TdmError> {
+        self.gen = EdgeGenerator::new(self.gen.profile().clone(), self.gen.clock())?;
+        self.ahead_pos = 0;
+        self.ahead_len = 0;
+        self.prev_edge = 0;
+        self.fifo = Fifo::new(depth)?;
+        self.pulse = PulseUnit::new(shape);
+        self.stats = AxisStats::NEW;
+        Ok(())
+    }
+
+    /// The exact edge (ticks from the start) of the next step.
+    #[inline]
+    fn next_edge(&mut self) -> Option<u64> {
+        if self.ahead_pos == self.ahead_len {
+            self.ahead_len = self.gen.fill(&mut self.ahead);
+            self.ahead_pos = 0;
+            if self.ahead_len == 0 {
+                return None;
+            }
+        }
+        let e = self.ahead[self.ahead_pos];
+        self.ahead_pos += 1;
+        Some(e)
+    }
+
+    /// Periods not computed yet.
+    fn remaining(&self) -> u64 {
+        self.gen.remaining() + (self.ahead_len - self.ahead_pos) as u64
+    }
+
+    pub fn profile(&self) -> &Profile {
+        self.gen.profile()
+    }
+
+    pub fn stats(&self) -> &AxisStats {
+        &self.stats
+    }
+}
+
+/// Aggregate results of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Report {
+    pub axes: usize,
+    /// The group's start tick (period 1 loaded on every axis).
+    pub start_tick: u64,
+    /// Last rising edge of any axis.
+    pub end_tick: u64,
+    pub edges: u64,
+    pub underruns: u64,
+    /// Largest delay of any axis's last edge.
+    pub max_late_ticks: u64,
+    pub min_slack_ticks: i64,
+    pub cycles_per_period: u64,
+    /// Cycles the calculator computed.
+    pub busy_cycles: u64,
+    /// Latest minus earliest axis start tick (a synchronous group must show 0).
+    pub start_skew_ticks: u64,
+    pub merged_pulses: u64,
+}
+
+impl Report {
+    /// Busy cycles over the run's span, tick 0 to the last edge.
+    pub fn calculator_utilization(&self) -> f64 {
+        if self.end_tick == 0 {
+            return 0.0;
+        }
+        self.busy_cycles as f64 / self.end_tick as f64
+    }
+}
+
+/// The engine over caller-provided axes.
+pub struct Board<'a> {
+    cfg: TdmConfig,
+    axes: &'a mut [Axis],
+}
+
+impl<'a> Board<'a> {
+    /// Checks the configuration and resets every axis to step 0.
+    pub fn new(cfg: TdmConfig, axes: &'a mut [Axis]) -> Result<Board<'a>, TdmError> {
+        if axes.is_empty() {
+            return Err(TdmError::NoAxes);
+        }
+        if axes.len() > MAX_AXES {
+            return Err(TdmError::TooManyAxes {
+                axes: axes.len(),
+                max: MAX_AXES,
+            });
+        }
+        if cfg.latencies.cycles_per_period() == 0 {
+            return Err(TdmError::ZeroCycles);
+        }
+        if cfg.pulse == (PulseShape::Fixed { ticks: 0 }) {
+            return Err(TdmError::ZeroPulseWidth);
+        }
+        for (m, a) in axes.iter_mut().enumerate() {
+            if a.gen.clock() != cfg.clock_hz {
+                return Err(TdmError::ClockMismatch {
+                    axis: m,
+                    axis_hz: a.gen.clock(),
+                    board_hz: cfg.clock_hz,
+                });
+            }
+            a.reset(cfg.fifo_depth, cfg.pulse)?;
+        }
+        Ok(Board { cfg, axes })
+    }
+
+    /// The group's start: every FIFO filled and the DIR setup time over,
+    /// `max(dir_setup, t_calc · Σ_m min(depth, steps_m))`.
+    pub fn start_tick(&self) -> u64 {
+        let depth = self.cfg.fifo_depth as u64;
+        let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
+        let c = self.cfg.latencies.cycles_per_period();
+        self.cfg.dir_setup_ticks.max(prefill.saturating_mul(c))
+    }
+
+    /// Runs every axis to its last step, handing each pulse to `sink`.
+    pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
+        let k = self.axes.len();
+        let c = self.cfg.latencies.cycles_per_period();
+        // Hot scheduling state, contiguous so the policy's scans stay in cache.
+        let mut room = [u64::MAX; MAX_AXES];
+        let mut need = [0u64; MAX_AXES];
+        for (m, a) in self.axes.iter().enumerate() {
+            if a.remaining() > 0 {
+                room[m] = 0;
+            }
+        }
+        let start = self.start_tick();
+        need[..k].fill(start);
+        let (room, need) = (&mut room[..k], &mut need[..k]);
+
+        let policy = self.cfg.policy;
+        let mut t = 0u64;
+        let mut next = 0usize;
+        let mut busy = 0u64;
+        loop {
+            let Some((now, m)) = policy.pick(t, room, need, &mut next) else {
+                break;
+            };
+            t = now;
+            let a = &mut self.axes[m];
+            let Some(edge) = a.next_edge() else {
+                room[m] = u64::MAX;
+                continue;
+            };
+            let period = edge - a.prev_edge;
+            a.prev_edge = edge;
+            let ready = t + c;
+            let due = need[m];
+            let load = if ready > due {
+                a.stats.underruns += 1;
+                a.stats.late_ticks += ready - due;
+                ready
+            } else {
+                due
+            };
+            // period 1 fixes the start tick, so its slack is 0 by construction: not counted
+            let slack = due as i64 - ready as i64;
+            if a.stats.steps > 0 && slack < a.stats.min_slack_ticks {
+                a.stats.min_slack_ticks = slack;
+            }
+            let rise = a.pulse.load(m, load, period, &mut sink);
+            a.stats.steps += 1;
+            need[m] = rise;
+            a.fifo.push(load);
+            if a.remaining() == 0 {
+                room[m] = u64::MAX;
+                a.pulse.finish(m, &mut sink);
+                a.stats.last_rise = rise;
+                a.stats.start_tick = a.pulse.start_tick();
+                a.stats.merged_pulses = a.pulse.merged();
+            } else {
+                room[m] = a.fifo.room_tick();
+            }
+            busy += c;
+            t = ready;
+        }
+        self.report(start, c, busy)
+    }
+
+    fn report(&self, start_tick: u64, cycles_per_period: u64, busy_cycles: u64) -> Report {
+        let mut r = Report {
+            axes: self.axes.len(),
+            start_tick,
+            end_tick: 0,
+            edges: 0,
+            underruns: 0,
+            max_late_ticks: 0,
+            min_slack_ticks: i64::MAX,
+            cycles_per_period,
+            busy_cycles,
+            start_skew_ticks: 0,
+            merged_pulses: 0,
+        };
+        let (mut first, mut last) = (u64::MAX, 0);
+        for a in self.axes.iter() {
+            let s = &a.stats;
+            r.end_tick = r.end_tick.max(s.last_rise);
+            r.edges += s.steps;
+            r.underruns += s.underruns;
+            r.max_late_ticks = r.max_late_ticks.max(s.late_ticks);
+            r.min_slack_ticks = r.min_slack_ticks.min(s.min_slack_ticks);
+            r.merged_pulses += s.merged_pulses;
+            first = first.min(s.start_tick);
+            last = last.max(s.start_tick);
+        }
+        r.start_skew_ticks = last - first;
+        r
+    }
+}

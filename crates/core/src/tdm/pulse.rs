@@ -1,0 +1,170 @@
+//! The pulse unit of one axis: a down-counter loaded with one period at a time.
+//!
+//! Loading period j at tick `load` makes STEP rise at `load + period_j` (the step's edge
+//! tick). On time, `load` is the previous edge (or the group's start tick for step 1), so
+//! rises land exactly on the planned edges. After an underrun the period is loaded when it
+//! arrives, so that edge — and every later one of the axis — is late by the delay; the
+//! engine counts and reports it.
+//!
+//! Falling edge: by default STEP stays high for half of the interval to the next edge
+//! (seed 000's 50 % duty PWM), at least one tick; the last pulse of a move takes half of
+//! its own interval. While an underrun delays the next period, the line stays high until
+//! it arrives. With a fixed width the line is high for exactly that many ticks. A pulse
+//! whose fall is not before the next rise (no low time: a driver would see one step
+//! instead of two) is counted as merged.
+
+/// The high time of STEP pulses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PulseShape {
+    /// High for half of the interval to the next edge (50 % duty, seed 000).
+    #[default]
+    HalfInterval,
+    /// High for a fixed number of ticks.
+    Fixed { ticks: u64 },
+}
+
+/// One STEP pulse as it leaves the board; ticks count from the board's tick 0 (when the
+/// move is loaded and DIR is set).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepPulse {
+    pub axis: usize,
+    /// 1-based step number.
+    pub step: u64,
+    pub rise: u64,
+    pub fall: u64,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PulseUnit {
+    shape: PulseShape,
+    /// Pulses started so far; the last one is still open (its fall not yet known).
+    steps: u64,
+    start: u64,
+    prev_rise: u64,
+    last_rise: u64,
+    merged: u64,
+}
+
+impl PulseUnit {
+    pub fn new(shape: PulseShape) -> PulseUnit {
+        PulseUnit {
+            shape,
+            ..PulseUnit::default()
+        }
+    }
+
+    /// Tick at which period 1 was loaded (the axis's start).
+    pub fn start_tick(&self) -> u64 {
+        self.start
+    }
+
+    /// Pulses with no low time before the next rise.
+    pub fn merged(&self) -> u64 {
+        self.merged
+    }
+
+    /// Loads the next period at tick `load`; returns the tick STEP rises. Closes the
+    /// previous pulse, whose fall depends on this one, and hands it to `sink`.
+    #[inline]
+    pub fn load<F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        load: u64,
+        period: u64,
+        sink: &mut F,
+    ) -> u64 {
+        let rise = load + period;
+        if self.steps == 0 {
+            self.start = load;
+            self.last_rise = load;
+        } else {
+            let fall = match self.shape {
+                PulseShape::HalfInterval => {
+                    load.max(self.last_rise + ((rise - self.last_rise) / 2).max(1))
+                }
+                PulseShape::Fixed { ticks } => self.last_rise + ticks,
+            };
+            if fall >= rise {
+                self.merged += 1;
+            }
+            sink(StepPulse {
+                axis,
+                step: self.steps,
+                rise: self.last_rise,
+                fall,
+            });
+        }
+        self.steps += 1;
+        self.prev_rise = self.last_rise;
+        self.last_rise = rise;
+        rise
+    }
+
+    /// Closes the last pulse of the move.
+    pub fn finish<F: FnMut(StepPulse)>(&mut self, axis: usize, sink: &mut F) {
+        if self.steps == 0 {
+            return;
+        }
+        let high = match self.shape {
+            PulseShape::HalfInterval => ((self.last_rise - self.prev_rise) / 2).max(1),
+            PulseShape::Fixed { ticks } => ticks,
+        };
+        sink(StepPulse {
+            axis,
+            step: self.steps,
+            rise: self.last_rise,
+            fall: self.last_rise + high,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec::Vec;
+
+    fn play(shape: PulseShape, loads: &[(u64, u64)]) -> (Vec<StepPulse>, u64) {
+        let mut u = PulseUnit::new(shape);
+        let mut out = Vec::new();
+        let mut sink = |p| out.push(p);
+        for &(load, period) in loads {
+            u.load(3, load, period, &mut sink);
+        }
+        u.finish(3, &mut sink);
+        (out, u.merged())
+    }
+
+    #[test]
+    fn half_interval_duty_on_time() {
+        // start at 10; periods 100, 60, 41 loaded on time
+        let (p, merged) = play(PulseShape::HalfInterval, &[(10, 100), (110, 60), (170, 41)]);
+        let want = [(1, 110, 140), (2, 170, 190), (3, 211, 231)];
+        assert_eq!(p.len(), 3);
+        for (got, (step, rise, fall)) in p.iter().zip(want) {
+            assert_eq!(
+                (got.axis, got.step, got.rise, got.fall),
+                (3, step, rise, fall)
+            );
+        }
+        assert_eq!(merged, 0);
+    }
+
+    #[test]
+    fn late_period_shifts_the_next_edge_and_holds_the_line_high() {
+        // period 2 arrives 500 ticks after edge 1 (tick 110): edge 2 at 610 + 60
+        let (p, _) = play(PulseShape::HalfInterval, &[(10, 100), (610, 60)]);
+        assert_eq!((p[0].rise, p[0].fall), (110, 610));
+        assert_eq!(p[1].rise, 670);
+    }
+
+    #[test]
+    fn fixed_width_and_merged_pulses() {
+        let (p, merged) = play(
+            PulseShape::Fixed { ticks: 5 },
+            &[(0, 100), (100, 4), (104, 50)],
+        );
+        assert_eq!((p[0].rise, p[0].fall), (100, 105));
+        assert_eq!((p[1].rise, p[1].fall), (104, 109));
+        assert_eq!(merged, 1, "pulse 1 is still high when pulse 2 rises");
+    }
+}

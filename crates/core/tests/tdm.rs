@@ -1,0 +1,477 @@
+//! The TDM engine against the plan's edges and against a tick-by-tick reference model.
+
+use multistep_core::tdm::{
+    k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report,
+    StepPulse, TdmConfig, TdmError,
+};
+use multistep_core::{EdgeGenerator, Family, MoveSpec, PhaseMove, Profile, Segment};
+use proptest::prelude::*;
+use std::collections::VecDeque;
+
+const F: f64 = 50e6;
+
+fn seed000_axes() -> Vec<Axis> {
+    [2400u64, 1800]
+        .iter()
+        .map(|&n| {
+            let spec = MoveSpec {
+                steps: Some(n),
+                accel_time: Some(0.02),
+                cruise_time: Some(0.01),
+                decel_time: Some(0.02),
+                ..MoveSpec::default()
+            };
+            Axis::new(spec.plan().unwrap(), F).unwrap()
+        })
+        .collect()
+}
+
+/// Runs a board and keeps every pulse per axis.
+fn run(cfg: TdmConfig, axes: &mut [Axis]) -> (Report, Vec<Vec<StepPulse>>) {
+    let mut pulses = vec![Vec::new(); axes.len()];
+    let r = Board::new(cfg, axes)
+        .unwrap()
+        .run(|p| pulses[p.axis].push(p));
+    (r, pulses)
+}
+
+fn plan_edges(p: &Profile, clock: f64) -> Vec<u64> {
+    EdgeGenerator::new(p.clone(), clock).unwrap().collect()
+}
+
+/// Every axis: rises are the plan's edges shifted by the start tick plus a lateness that
+/// only grows, by exactly the reported delays; no lateness without a reported underrun.
+fn check_against_plan(r: &Report, axes: &[Axis], pulses: &[Vec<StepPulse>], clock: f64) {
+    for (m, a) in axes.iter().enumerate() {
+        let plan = plan_edges(a.profile(), clock);
+        let got = &pulses[m];
+        assert_eq!(got.len(), plan.len(), "axis {m}: every step emitted once");
+        let (mut late, mut jumps) = (0u64, 0u64);
+        for (j, (p, e)) in got.iter().zip(&plan).enumerate() {
+            assert_eq!(p.step, j as u64 + 1);
+            let off = p.rise - r.start_tick - e;
+            assert!(
+                off >= late,
+                "axis {m} step {}: an edge moved earlier",
+                j + 1
+            );
+            if off > late {
+                jumps += 1;
+                late = off;
+            }
+            assert!(p.fall > p.rise);
+        }
+        let s = a.stats();
+        assert_eq!(
+            late, s.late_ticks,
+            "axis {m}: the delay is the reported one"
+        );
+        assert_eq!(jumps, s.underruns, "axis {m}: one delay per underrun");
+        assert_eq!(s.steps, plan.len() as u64);
+        assert_eq!(s.start_tick, r.start_tick);
+        assert_eq!(s.min_slack_ticks < 0, s.underruns > 0);
+    }
+    assert_eq!(r.start_skew_ticks, 0);
+}
+
+#[test]
+fn seed000_two_axis_run_passes_with_fifo_depth_1() {
+    for policy in [Policy::RoundRobin, Policy::EarliestDeadline] {
+        let mut axes = seed000_axes();
+        let cfg = TdmConfig {
+            policy,
+            ..TdmConfig::default()
+        };
+        let (r, pulses) = run(cfg, &mut axes);
+        assert_eq!(r.underruns, 0, "{policy:?}");
+        assert!(r.min_slack_ticks > 0);
+        assert_eq!(r.edges, 4200);
+        assert_eq!(r.start_skew_ticks, 0);
+        // prefill: one period per axis, 54 cycles each
+        assert_eq!(r.start_tick, 2 * 54);
+        // both moves end at 50 ms: round(f·T) = 2.5 M ticks after the common start
+        assert_eq!(pulses[0].last().unwrap().rise, r.start_tick + 2_500_000);
+        assert_eq!(pulses[1].last().unwrap().rise, r.start_tick + 2_500_000);
+        check_against_plan(&r, &axes, &pulses, F);
+        let u = r.calculator_utilization();
+        assert!(u > 0.0 && u < 0.2, "{u}");
+        assert_eq!(r.busy_cycles, 4200 * 54);
+    }
+}
+
+#[test]
+fn overloaded_board_reports_underruns_and_the_exact_delay() {
+    // 32 axes at 100 k steps/s: 500-tick periods, 54 cycles each: about 3.5× overload
+    let p = rate_move(100e3, 0.02, 0.01, 0.02).unwrap();
+    let mut axes: Vec<Axis> = (0..32).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
+    for policy in [Policy::RoundRobin, Policy::EarliestDeadline] {
+        let cfg = TdmConfig {
+            policy,
+            fifo_depth: 4,
+            ..TdmConfig::default()
+        };
+        let (r, pulses) = run(cfg, &mut axes);
+        assert!(r.underruns > 0, "{policy:?}");
+        assert!(r.min_slack_ticks < 0);
+        assert!(r.max_late_ticks > 0);
+        check_against_plan(&r, &axes, &pulses, F);
+    }
+}
+
+#[test]
+fn start_waits_for_prefill_and_dir_setup() {
+    let mut axes = seed000_axes();
+    let cfg = TdmConfig {
+        fifo_depth: 3,
+        dir_setup_ticks: 10_000,
+        ..TdmConfig::default()
+    };
+    let (r, pulses) = run(cfg, &mut axes);
+    assert_eq!(r.start_tick, 10_000);
+    check_against_plan(&r, &axes, &pulses, F);
+    let cfg = TdmConfig {
+        fifo_depth: 3,
+        dir_setup_ticks: 5,
+        ..TdmConfig::default()
+    };
+    let (r, _) = run(cfg, &mut axes);
+    assert_eq!(r.start_tick, 6 * 54, "3 periods for each of 2 axes");
+}
+
+#[test]
+fn fixed_pulse_width() {
+    let mut axes = seed000_axes();
+    let cfg = TdmConfig {
+        pulse: PulseShape::Fixed { ticks: 100 },
+        ..TdmConfig::default()
+    };
+    let (r, pulses) = run(cfg, &mut axes);
+    assert!(pulses.iter().flatten().all(|p| p.fall == p.rise + 100));
+    assert_eq!(r.merged_pulses, 0);
+}
+
+#[test]
+fn bad_configurations_are_typed_errors() {
+    let mut axes = seed000_axes();
+    let err = |cfg: TdmConfig, axes: &mut [Axis]| Board::new(cfg, axes).err();
+    assert_eq!(err(TdmConfig::default(), &mut []), Some(TdmError::NoAxes));
+    let d0 = TdmConfig {
+        fifo_depth: 0,
+        ..TdmConfig::default()
+    };
+    assert!(matches!(
+        err(d0, &mut axes),
+        Some(TdmError::FifoDepth { .. })
+    ));
+    let zero = TdmConfig {
+        latencies: Latencies {
+            mul: 0,
+            div: 0,
+            sqrt: 0,
+            overhead: 0,
+        },
+        ..TdmConfig::default()
+    };
+    assert_eq!(err(zero, &mut axes), Some(TdmError::ZeroCycles));
+    let clk = TdmConfig {
+        clock_hz: 1e6,
+        ..TdmConfig::default()
+    };
+    assert!(matches!(
+        err(clk, &mut axes),
+        Some(TdmError::ClockMismatch { axis: 0, .. })
+    ));
+    let w0 = TdmConfig {
+        pulse: PulseShape::Fixed { ticks: 0 },
+        ..TdmConfig::default()
+    };
+    assert_eq!(err(w0, &mut axes), Some(TdmError::ZeroPulseWidth));
+    let mut many: Vec<Axis> = (0..65).map(|_| axes[0].clone()).collect();
+    assert!(matches!(
+        err(TdmConfig::default(), &mut many),
+        Some(TdmError::TooManyAxes { .. })
+    ));
+}
+
+#[test]
+fn k_max_at_100k_steps_per_s_matches_eq12_for_aligned_identical_moves() {
+    // identical, aligned moves and depth 1: all k periods of a common edge must fit into
+    // the shortest period, which is exactly eq. (12)
+    let p = rate_move(100e3, 0.02, 0.01, 0.02).unwrap();
+    let mut storage: Vec<Axis> = (0..16).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
+    let km = k_max(&TdmConfig::default(), &[p], &mut storage).unwrap();
+    assert_eq!(km.min_period_ticks, 500);
+    assert_eq!(km.k_eq12, 500 / 54);
+    assert_eq!(km.k_max as u64, km.k_eq12);
+    assert!(!km.capped);
+    assert!(km.first_failure.unwrap().underruns > 0);
+}
+
+fn arb_profile(max_steps: u64, max_time: f64) -> impl Strategy<Value = Profile> {
+    let phase = (
+        1..=max_steps,
+        0.0..1.0f64,
+        0.0..1.0f64,
+        0.0..1.0f64,
+        0usize..6,
+    )
+        .prop_filter_map("feasible phase move", move |(steps, a, b, c, fam)| {
+            let family = Family::parse(Family::NAMES[fam], None, None, None).ok()?;
+            Profile::phase(&PhaseMove {
+                steps,
+                accel_time: 0.05 * max_time + a * max_time,
+                cruise_time: b * max_time,
+                decel_time: 0.05 * max_time + c * max_time,
+                start_speed: 0.0,
+                end_speed: 0.0,
+                family,
+            })
+            .ok()
+        });
+    let segs = (1..=max_steps, 0.1..1.0f64, 0.0..1.0f64).prop_filter_map(
+        "feasible segments",
+        move |(n, t, v)| {
+            // accelerate from v0 over t, then brake to rest: v0·t ≤ n keeps both ends ≥ 0
+            let t = t * max_time * 0.5;
+            let v0 = v * n as f64 / t;
+            let v1 = 2.0 * n as f64 / t - v0;
+            let segs = [
+                Segment {
+                    v0,
+                    duration: t,
+                    steps: n,
+                },
+                Segment {
+                    v0: v1,
+                    duration: 2.0 * n as f64 / v1.max(1e-9),
+                    steps: n,
+                },
+            ];
+            Profile::segments(&segs).ok()
+        },
+    );
+    prop_oneof![3 => phase, 1 => segs]
+}
+
+fn arb_policy() -> impl Strategy<Value = Policy> {
+    prop_oneof![Just(Policy::RoundRobin), Just(Policy::EarliestDeadline)]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    /// Random moves, k up to 32, random depth and policy, a calculator fast enough that
+    /// (k+1)·t_calc ≤ Δt_min: a freed FIFO slot is refilled within k+1 computations (the
+    /// one running and one per other axis), before the shortest period ends, so there is
+    /// no underrun and every axis emits exactly the plan's edges after the common start.
+    #[test]
+    fn parity_with_plan_for_random_boards(
+        profiles in prop::collection::vec(arb_profile(3000, 0.3), 1..=32),
+        depth in 1usize..=8,
+        policy in arb_policy(),
+        frac in 0.05..1.0f64,
+    ) {
+        let k = profiles.len() as u64;
+        let dmin = profiles.iter().map(|p| min_period_ticks(p, F).unwrap()).min().unwrap();
+        let c = (frac * (dmin / (k + 1)) as f64) as u32;
+        prop_assume!(c >= 1);
+        let cfg = TdmConfig {
+            fifo_depth: depth,
+            policy,
+            latencies: Latencies { mul: 0, div: c, sqrt: 0, overhead: 0 },
+            ..TdmConfig::default()
+        };
+        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), F).unwrap()).collect();
+        let (r, pulses) = run(cfg, &mut axes);
+        prop_assert_eq!(r.underruns, 0);
+        prop_assert!(r.min_slack_ticks >= 0);
+        prop_assert_eq!(r.start_skew_ticks, 0);
+        for (a, got) in axes.iter().zip(&pulses) {
+            let plan = plan_edges(a.profile(), F);
+            prop_assert_eq!(got.len(), plan.len());
+            prop_assert!(got.iter().zip(&plan).all(|(p, e)| p.rise == r.start_tick + e));
+        }
+    }
+
+    /// Overloaded or not: every delay is reported as an underrun with its exact size, and
+    /// no edge moves otherwise.
+    #[test]
+    fn every_delay_is_a_reported_underrun(
+        profiles in prop::collection::vec(arb_profile(2000, 0.05), 1..=32),
+        depth in 1usize..=8,
+        policy in arb_policy(),
+        div in 1u32..400,
+    ) {
+        let cfg = TdmConfig {
+            fifo_depth: depth,
+            policy,
+            latencies: Latencies { div, ..Latencies::default() },
+            ..TdmConfig::default()
+        };
+        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), F).unwrap()).collect();
+        let (r, pulses) = run(cfg, &mut axes);
+        check_against_plan(&r, &axes, &pulses, F);
+    }
+
+    /// The event-driven engine against a tick-by-tick model on small boards, overloaded or not.
+    #[test]
+    fn engine_matches_tick_by_tick_reference(
+        profiles in prop::collection::vec(arb_profile(120, 0.02), 1..=6),
+        depth in 1usize..=4,
+        policy in arb_policy(),
+        cycles in 1u32..60,
+        dir_setup in 0u64..500,
+    ) {
+        let clock = 1e6;
+        let cfg = TdmConfig {
+            clock_hz: clock,
+            fifo_depth: depth,
+            policy,
+            latencies: Latencies { mul: 0, div: cycles, sqrt: 0, overhead: 0 },
+            dir_setup_ticks: dir_setup,
+            ..TdmConfig::default()
+        };
+        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), clock).unwrap()).collect();
+        let (r, pulses) = run(cfg, &mut axes);
+        let (start, rises, under) = reference(&cfg, &profiles);
+        prop_assert_eq!(r.start_tick, start);
+        for m in 0..axes.len() {
+            let got: Vec<u64> = pulses[m].iter().map(|p| p.rise).collect();
+            prop_assert_eq!(&got, &rises[m], "axis {}", m);
+            prop_assert_eq!(axes[m].stats().underruns, under[m], "axis {}", m);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// A tick-by-tick reference model: FIFOs hold real periods, pulse units act on every tick,
+// nothing is known ahead of time. Slow, so only for short moves at a slow clock.
+
+#[derive(Clone, Copy, PartialEq)]
+enum Unit {
+    NotStarted,
+    Counting { rise: u64 },
+    Waiting { since: u64 },
+    Done,
+}
+
+struct RefAxis {
+    periods: VecDeque<u64>,
+    fifo: VecDeque<u64>,
+    unit: Unit,
+    loaded: usize,
+    total: usize,
+    rises: Vec<u64>,
+    underruns: u64,
+}
+
+impl RefAxis {
+    /// The pulse unit needs a period at tick t.
+    fn try_load(&mut self, t: u64) {
+        loop {
+            if self.loaded == self.total {
+                self.unit = Unit::Done;
+                return;
+            }
+            match self.fifo.pop_front() {
+                None => {
+                    if !matches!(self.unit, Unit::Waiting { .. }) {
+                        self.underruns += 1;
+                        self.unit = Unit::Waiting { since: t };
+                    }
+                    return;
+                }
+                Some(p) => {
+                    self.loaded += 1;
+                    self.unit = Unit::Counting { rise: t + p };
+                    if p > 0 {
+                        return;
+                    }
+                    self.rises.push(t);
+                }
+            }
+        }
+    }
+}
+
+/// Start tick, every axis's rises and underrun count.
+fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<u64>) {
+    let c = cfg.latencies.cycles_per_period();
+    let d = cfg.fifo_depth;
+    let mut axes: Vec<RefAxis> = profiles
+        .iter()
+        .map(|p| {
+            let edges = plan_edges(p, cfg.clock_hz);
+            let periods: VecDeque<u64> = edges
+                .iter()
+                .scan(0, |last, &e| {
+                    let q = e - *last;
+                    *last = e;
+                    Some(q)
+                })
+                .collect();
+            RefAxis {
+                total: periods.len(),
+                periods,
+                fifo: VecDeque::new(),
+                unit: Unit::NotStarted,
+                loaded: 0,
+                rises: Vec::new(),
+                underruns: 0,
+            }
+        })
+        .collect();
+    let k = axes.len();
+    let prefill: u64 = axes.iter().map(|a| a.total.min(d) as u64).sum();
+    let start = cfg.dir_setup_ticks.max(prefill * c);
+    let mut calc: Option<(u64, usize, u64)> = None; // (done tick, axis, period)
+    let mut ptr = 0;
+    let mut t = 0u64;
+    while !axes.iter().all(|a| a.unit == Unit::Done) {
+        if let Some((done, m, p)) = calc {
+            if done == t {
+                axes[m].fifo.push_back(p);
+                calc = None;
+            }
+        }
+        for a in axes.iter_mut() {
+            match a.unit {
+                Unit::NotStarted if t == start => a.try_load(t),
+                Unit::Counting { rise } if rise == t => {
+                    a.rises.push(t);
+                    a.try_load(t);
+                }
+                Unit::Waiting { .. } => a.try_load(t),
+                _ => {}
+            }
+        }
+        if calc.is_none() {
+            let eligible = |a: &RefAxis| !a.periods.is_empty() && a.fifo.len() < d;
+            let deadline = |a: &RefAxis| {
+                let base = match a.unit {
+                    Unit::NotStarted => start,
+                    Unit::Counting { rise } => rise,
+                    Unit::Waiting { since } => since,
+                    Unit::Done => u64::MAX,
+                };
+                base + a.fifo.iter().sum::<u64>()
+            };
+            let pick = match cfg.policy {
+                Policy::RoundRobin => (0..k).map(|i| (ptr + i) % k).find(|&m| eligible(&axes[m])),
+                Policy::EarliestDeadline => (0..k)
+                    .filter(|&m| eligible(&axes[m]))
+                    .min_by_key(|&m| (deadline(&axes[m]), m)),
+            };
+            if let Some(m) = pick {
+                ptr = (m + 1) % k;
+                let p = axes[m].periods.pop_front().unwrap();
+                // the one calculator is busy until done, so nothing else can take the slot
+                calc = Some((t + c, m, p));
+            }
+        }
+        t += 1;
+        assert!(t < 1 << 32, "reference model did not finish");
+    }
+    let under = axes.iter().map(|a| a.underruns).collect();
+    (start, axes.into_iter().map(|a| a.rises).collect(), under)
+}
