@@ -1,12 +1,13 @@
 // ms_calc: the shared period calculator. For segment (n steps, d ticks, start speed s =
 // v0 * 2^F * d with v0 in steps/tick) and step index i (1..n) it returns the segment-local
-// edge q = floor(tau_i + 1/2), tau_i the exact root of
+// edge q (nearest tick to tau_i, below), tau_i the exact root of
 //     A*tau^2 + B*tau = C*i,  A = n*2^F - s,  B = s*d,  C = 2^F * d^2
-// i.e. t_i = 2i / (v0 + sqrt(v0^2 + 2 a i)) of DESIGN.md section 2 in ticks. Exact integer
-// rounding (no error at all, where seed 000 eq. (10)/(11) lose up to 0.2 %):
-//     A > 0: q = floor((isqrt(X) - B + A) / 2A)
-//     A < 0: q = floor((B + |A| - ceil(sqrt(X))) / 2|A|)
-//     A = 0: q = floor((2 d i + n) / 2n)                  X = B^2 + 4 A C i
+// i.e. t_i = 2i / (v0 + sqrt(v0^2 + 2 a i)) of DESIGN.md section 2 in ticks. The edge is
+// the nearest tick, an exact half tick going to the earlier one (the exactness test
+// p(e - 1/2) < i <= p(e + 1/2), as crates/core/src/int does): q = ceil(tau_i - 1/2), exact:
+//     A > 0: q = floor((ceil(sqrt(X)) - B + A - 1) / 2A)
+//     A < 0: q = floor((B + |A| - isqrt(X) - 1) / 2|A|)
+//     A = 0: q = floor((2 d i + n - 1) / 2n)                X = B^2 + 4 A C i
 // Operation sequence (the Rust reference model `multistep_hdl::model` does the same):
 // mul s*d, mul d*d, mul B*B, mul |A|*i, mul |A|i*d^2, mul d*i, isqrt X, div.
 module ms_calc #(
@@ -86,7 +87,9 @@ module ms_calc #(
     wire [WNU-1:0] a_x    = {{(WNU-WA-1){1'b0}}, amag};
     wire [WNU-1:0] ceil_x = root_x + {{(WNU-1){1'b0}}, (rrem != {(WX/2+2){1'b0}})};
     wire [WNU-1:0] lin_x  = {{(WNU-WD-WN-1){1'b0}}, di_r, 1'b0} + {{(WNU-WN){1'b0}}, n};
-    wire [WNU-1:0] num    = azero ? lin_x : (aneg ? b_x + a_x - ceil_x : root_x - b_x + a_x);
+    wire [WNU-1:0] one    = {{(WNU-1){1'b0}}, 1'b1};
+    wire [WNU-1:0] num    = azero ? lin_x - one
+                                  : (aneg ? b_x + a_x - root_x - one : ceil_x - b_x + a_x - one);
     wire [WDE-1:0] den    = azero ? {{(WDE-WN-1){1'b0}}, n, 1'b0}
                                   : {{(WDE-WA-2){1'b0}}, amag, 1'b0};
     wire dv_busy;

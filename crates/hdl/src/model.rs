@@ -5,8 +5,14 @@
 //! from the segment start its position is p(tau) = (B tau + A tau^2) / C with
 //! A = n 2^F - s, B = s d, C = 2^F d^2 (so p(d) = n), and step i happens at the root
 //! tau_i = 2 C i / (B + sqrt(B^2 + 4 A C i)) — DESIGN.md section 2's
-//! t_i = 2i / (v0 + sqrt(v0^2 + 2 a i)) in ticks. The edge is floor(tau_i + 1/2), found
-//! exactly with one integer square root and one division (see `ms_calc.v`).
+//! t_i = 2i / (v0 + sqrt(v0^2 + 2 a i)) in ticks. The edge is the nearest tick to tau_i, found
+//! exactly with one integer square root and one division (see `ms_calc.v`): the nearest
+//! tick, an exact half tick going to the earlier one, as `multistep_core::int` rounds.
+//!
+//! This is not `multistep_core::int`'s operation sequence (a 128 x 128 -> 256-bit multiply,
+//! a correction step): with integer segment registers (n, d, s) the radicand fits 114 bits
+//! and the rounding is exact without a correction. The tests prove both give the same
+//! edges (`tests/model.rs`).
 
 use crate::{CoreParams, HdlError};
 use multistep_core::Segment;
@@ -45,7 +51,8 @@ pub fn isqrt(x: u128) -> (u128, u128) {
 }
 
 impl SegRegs {
-    /// The segment-local edge of step `i` (1..=n): `ms_calc.v`'s sequence.
+    /// The segment-local edge of step `i` (1..=n): `ms_calc.v`'s sequence, the nearest
+    /// tick to the exact step time `ceil(tau_i - 1/2)`.
     pub fn local_edge(&self, i: u32, frac_bits: u32) -> u64 {
         let (n, d, s, i) = (self.n as u128, self.d as u128, self.s as u128, i as u128);
         let n_sh = n << frac_bits;
@@ -63,12 +70,13 @@ impl SegRegs {
         let acx = aidd << (frac_bits + 2); // 4 |A| C i
         let x = if aneg { bb - acx } else { bb + acx };
         let (root, rem) = isqrt(x);
+        let ceil = root + u128::from(rem != 0);
         let (num, den) = if amag == 0 {
-            (2 * di + n, 2 * n)
+            (2 * di + n - 1, 2 * n)
         } else if aneg {
-            (b + amag - root - u128::from(rem != 0), 2 * amag)
+            (b + amag - root - 1, 2 * amag)
         } else {
-            (root - b + amag, 2 * amag)
+            (ceil - b + amag - 1, 2 * amag)
         };
         (num / den) as u64
     }
