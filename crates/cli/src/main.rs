@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod hdl;
 mod moveargs;
 mod output;
 mod plan;
@@ -29,6 +30,8 @@ enum Cmd {
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
+    /// The TDM IP core as Verilog: emit it, and report its FPGA resource use (yosys)
+    Hdl(hdl::HdlArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
+        Cmd::Hdl(a) => hdl::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,11 +1,18 @@
 use multistep_hdl::*;
 fn main() {
-    let p = CoreParams { axes: 2, ..Default::default() };
+    let p = CoreParams {
+        axes: 2,
+        ..Default::default()
+    };
     let d = Design::new(&p, Arch::Tdm).unwrap();
     let dir = std::path::Path::new("/tmp/hdl-scratch");
-    if let Err(e) = tools::lint(&d, &dir.join("lint")) { println!("{e}"); }
+    if let Err(e) = tools::lint(&d, &dir.join("lint")) {
+        println!("{e}");
+    }
     let di = Design::new(&p, Arch::Independent).unwrap();
-    if let Err(e) = tools::lint(&di, &dir.join("linti")) { println!("{e}"); }
+    if let Err(e) = tools::lint(&di, &dir.join("linti")) {
+        println!("{e}");
+    }
     let f = p.frac_bits;
     let m0 = AxisMove::chained(false, 0, &[(40, 20000), (30, 10000), (40, 20000)], f);
     let m1 = AxisMove::chained(true, 0, &[(30, 20000), (20, 10000), (30, 20000)], f);

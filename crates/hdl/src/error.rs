@@ -13,7 +13,10 @@ pub enum HdlError {
     Segment { index: usize, reason: String },
     /// An external tool (iverilog, vvp, verilator, yosys) is not installed.
     #[error("{tool} not found on PATH: install it with `apt-get install -y {package}` (the HDL tests need it)")]
-    ToolMissing { tool: &'static str, package: &'static str },
+    ToolMissing {
+        tool: &'static str,
+        package: &'static str,
+    },
     /// An external tool ran and failed.
     #[error("{tool} failed: {detail}")]
     ToolFailed { tool: &'static str, detail: String },

@@ -89,7 +89,10 @@ impl CoreParams {
             }
         }
         if !(8..=32).contains(&self.tick_bits) {
-            return Err(bad(format!("tick bits must be 8..=32, got {}", self.tick_bits)));
+            return Err(bad(format!(
+                "tick bits must be 8..=32, got {}",
+                self.tick_bits
+            )));
         }
         if self.step_bits == 0 || self.step_bits > self.tick_bits {
             return Err(bad(format!(
@@ -182,12 +185,30 @@ mod tests {
     fn rejects_bad_parameters() {
         let p = CoreParams::default();
         for q in [
-            CoreParams { axes: 0, ..p.clone() },
-            CoreParams { fifo_depth: 0, ..p.clone() },
-            CoreParams { fifo_depth: 12, ..p.clone() },
-            CoreParams { tick_bits: 20, ..p.clone() }, // 0.3 s at 50 MHz = 15e6 ticks
-            CoreParams { step_bits: 10, ..p.clone() },
-            CoreParams { clock_hz: 1e5, ..p.clone() },
+            CoreParams {
+                axes: 0,
+                ..p.clone()
+            },
+            CoreParams {
+                fifo_depth: 0,
+                ..p.clone()
+            },
+            CoreParams {
+                fifo_depth: 12,
+                ..p.clone()
+            },
+            CoreParams {
+                tick_bits: 20,
+                ..p.clone()
+            }, // 0.3 s at 50 MHz = 15e6 ticks
+            CoreParams {
+                step_bits: 10,
+                ..p.clone()
+            },
+            CoreParams {
+                clock_hz: 1e5,
+                ..p.clone()
+            },
         ] {
             assert!(matches!(q.widths(), Err(HdlError::Param(_))), "{q:?}");
         }

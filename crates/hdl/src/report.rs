@@ -203,7 +203,11 @@ pub fn sweep(
         .iter()
         .map(|&k| {
             let p = with_axes(k);
-            Ok((k, Design::new(&p, Arch::Tdm)?, Design::new(&p, Arch::Independent)?))
+            Ok((
+                k,
+                Design::new(&p, Arch::Tdm)?,
+                Design::new(&p, Arch::Independent)?,
+            ))
         })
         .collect::<Result<Vec<_>, HdlError>>()?;
     let single = match baseline {

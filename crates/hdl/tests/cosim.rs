@@ -11,22 +11,42 @@ use multistep_hdl::{Arch, AxisMove, CoreParams, Design, SegRegs};
 fn cosim(arch: Arch, p: &CoreParams, moves: &[AxisMove], name: &str) {
     let d = Design::new(p, arch).expect("parameters");
     let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
-    let last: u64 = moves.iter().map(|m| m.segs.iter().map(|s| u64::from(s.d)).sum::<u64>()).max().unwrap();
+    let last: u64 = moves
+        .iter()
+        .map(|m| m.segs.iter().map(|s| u64::from(s.d)).sum::<u64>())
+        .max()
+        .unwrap();
     let out = simulate(&d, moves, dir.path(), last + 100_000).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.underrun, 0, "{name}: underrun");
-    let dirs: u32 = moves.iter().enumerate().map(|(a, m)| u32::from(m.dir) << a).sum();
+    let dirs: u32 = moves
+        .iter()
+        .enumerate()
+        .map(|(a, m)| u32::from(m.dir) << a)
+        .sum();
     assert_eq!(out.dir, dirs, "{name}: DIR lines");
     for (a, m) in moves.iter().enumerate() {
         let want = m.edges(p.frac_bits);
-        assert_eq!(out.edges[a].len(), want.len(), "{name}: axis {a} step count");
+        assert_eq!(
+            out.edges[a].len(),
+            want.len(),
+            "{name}: axis {a} step count"
+        );
         if let Some(k) = (0..want.len()).find(|&k| out.edges[a][k] != want[k]) {
-            panic!("{name}: axis {a} step {} at tick {} in RTL, {} in the model", k + 1, out.edges[a][k], want[k]);
+            panic!(
+                "{name}: axis {a} step {} at tick {} in RTL, {} in the model",
+                k + 1,
+                out.edges[a][k],
+                want[k]
+            );
         }
     }
 }
 
 fn params(axes: u32) -> CoreParams {
-    CoreParams { axes, ..Default::default() }
+    CoreParams {
+        axes,
+        ..Default::default()
+    }
 }
 
 /// All three cases of the calculator (A > 0, A = 0, A < 0), one-step segments and a
@@ -38,10 +58,26 @@ fn single_axis_every_calculator_case() {
     let m = AxisMove {
         dir: true,
         segs: vec![
-            SegRegs { n: 25, d: 10_000, s: 0 },         // accelerate from rest: A > 0
-            SegRegs { n: 40, d: 8_000, s: 40 * q },     // cruise: A = 0
-            SegRegs { n: 1, d: 1_000, s: 400 },         // one step, decelerating (A < 0)
-            SegRegs { n: 30, d: 12_001, s: 60 * q },    // decelerate to rest: A < 0
+            SegRegs {
+                n: 25,
+                d: 10_000,
+                s: 0,
+            }, // accelerate from rest: A > 0
+            SegRegs {
+                n: 40,
+                d: 8_000,
+                s: 40 * q,
+            }, // cruise: A = 0
+            SegRegs {
+                n: 1,
+                d: 1_000,
+                s: 400,
+            }, // one step, decelerating (A < 0)
+            SegRegs {
+                n: 30,
+                d: 12_001,
+                s: 60 * q,
+            }, // decelerate to rest: A < 0
         ],
     };
     m.check(&p).unwrap();
@@ -71,7 +107,9 @@ fn tdm_random_moves_k1_to_k4() {
 fn independent_cores_match_the_model_too() {
     let mut rng = Rng(0xba5e_11e5);
     let p = params(3);
-    let moves: Vec<AxisMove> = (0..3).map(|_| random_move(&mut rng, &p, 3, 1.0 / 300.0, true)).collect();
+    let moves: Vec<AxisMove> = (0..3)
+        .map(|_| random_move(&mut rng, &p, 3, 1.0 / 300.0, true))
+        .collect();
     cosim(Arch::Independent, &p, &moves, "indep-k3");
 }
 
@@ -83,9 +121,20 @@ fn fifo_absorbs_a_fast_burst() {
     let q = 1u32 << p.frac_bits;
     let burst = AxisMove {
         dir: false,
-        segs: vec![SegRegs { n: 12, d: 96, s: 12 * q }],
+        segs: vec![SegRegs {
+            n: 12,
+            d: 96,
+            s: 12 * q,
+        }],
     };
-    let slow = AxisMove { dir: true, segs: vec![SegRegs { n: 10, d: 20_000, s: 0 }] };
+    let slow = AxisMove {
+        dir: true,
+        segs: vec![SegRegs {
+            n: 10,
+            d: 20_000,
+            s: 0,
+        }],
+    };
     cosim(Arch::Tdm, &p, &[burst, slow], "burst");
 }
 
@@ -93,12 +142,24 @@ fn fifo_absorbs_a_fast_burst() {
 /// late, never early.
 #[test]
 fn underrun_is_flagged_and_edges_are_late() {
-    let p = CoreParams { axes: 2, fifo_depth: 2, ..Default::default() };
+    let p = CoreParams {
+        axes: 2,
+        fifo_depth: 2,
+        ..Default::default()
+    };
     let q = 1u32 << p.frac_bits;
-    let fast = AxisMove { dir: false, segs: vec![SegRegs { n: 200, d: 1_600, s: 200 * q }] };
+    let fast = AxisMove {
+        dir: false,
+        segs: vec![SegRegs {
+            n: 200,
+            d: 1_600,
+            s: 200 * q,
+        }],
+    };
     let d = Design::new(&p, Arch::Tdm).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let out = simulate(&d, &[fast.clone(), fast.clone()], dir.path(), 1_000_000).unwrap_or_else(|e| panic!("{e}"));
+    let out = simulate(&d, &[fast.clone(), fast.clone()], dir.path(), 1_000_000)
+        .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.underrun, 0b11);
     let want = fast.edges(p.frac_bits);
     for e in &out.edges {

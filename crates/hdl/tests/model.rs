@@ -18,8 +18,15 @@ fn scaled_position(seg: &SegRegs, f: u32, tau2: i128) -> i128 {
 /// The core's integer edges of one segment: speeds in 1/d steps/s at a 2^F Hz clock make
 /// its start speed register exactly `s`.
 fn core_int_edges(seg: &SegRegs, f: u32) -> Vec<u64> {
-    let clock = IntClock { clock_hz: 1 << f, speed_scale: u64::from(seg.d) };
-    let s = IntSegment { v0: u64::from(seg.s), ticks: u64::from(seg.d), steps: u64::from(seg.n) };
+    let clock = IntClock {
+        clock_hz: 1 << f,
+        speed_scale: u64::from(seg.d),
+    };
+    let s = IntSegment {
+        v0: u64::from(seg.s),
+        ticks: u64::from(seg.d),
+        steps: u64::from(seg.n),
+    };
     IntEdgeGenerator::new(IntProfile::segments(&[s], clock).expect("core plans it")).collect()
 }
 
@@ -33,7 +40,11 @@ fn segment() -> impl Strategy<Value = SegRegs> {
         let lo = (2 * n * q).saturating_sub(q * u64::from(d) / 4);
         let hi = (2 * n * q).min(q * u64::from(d) / 4);
         let s = lo + y % (hi - lo + 1);
-        SegRegs { n: n as u32, d, s: s as u32 }
+        SegRegs {
+            n: n as u32,
+            d,
+            s: s as u32,
+        }
     })
 }
 
@@ -92,14 +103,30 @@ fn random_moves_equal_core_integer_datapath() {
 #[test]
 fn half_tick_goes_down() {
     let f = 8;
-    let cruise = SegRegs { n: 2, d: 3, s: 2 << f };
+    let cruise = SegRegs {
+        n: 2,
+        d: 3,
+        s: 2 << f,
+    };
     assert_eq!(cruise.local_edge(1, f), 1);
     assert_eq!(cruise.local_edge(2, f), 3);
 }
 
 #[test]
 fn isqrt_is_floor_sqrt() {
-    for x in [0u128, 1, 2, 3, 4, 15, 16, 17, u64::MAX as u128, u128::MAX, (1u128 << 113) + 12345] {
+    for x in [
+        0u128,
+        1,
+        2,
+        3,
+        4,
+        15,
+        16,
+        17,
+        u64::MAX as u128,
+        u128::MAX,
+        (1u128 << 113) + 12345,
+    ] {
         let (q, r) = multistep_hdl::model::isqrt(x);
         assert!(q * q <= x && r == x - q * q);
         assert!((q + 1).checked_mul(q + 1).map_or(true, |s| s > x));

@@ -33,7 +33,11 @@ pub fn random_move(rng: &mut Rng, p: &CoreParams, segs: usize, vmax: f64, rest: 
             let d = rng.range(2_000, 30_000) as u32;
             let df = f64::from(d);
             let lo = (v0 * df / 2.0).ceil().max(1.0);
-            let hi = if rest && k == segs - 1 { lo } else { ((v0 + vmax) * df / 2.0).floor() };
+            let hi = if rest && k == segs - 1 {
+                lo
+            } else {
+                ((v0 + vmax) * df / 2.0).floor()
+            };
             if hi < lo {
                 break;
             }
@@ -47,7 +51,10 @@ pub fn random_move(rng: &mut Rng, p: &CoreParams, segs: usize, vmax: f64, rest: 
             out.push(seg);
         }
         if out.len() == segs {
-            return AxisMove { dir: rng.next() & 1 == 1, segs: out };
+            return AxisMove {
+                dir: rng.next() & 1 == 1,
+                segs: out,
+            };
         }
     }
 }
