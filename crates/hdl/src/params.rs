@@ -171,6 +171,33 @@ impl CoreParams {
     }
 }
 
+impl Widths {
+    /// Cycles of one multiply (`ms_mul.v`): launch, one per 16-bit digit, capture.
+    pub fn mul_cycles(&self) -> u32 {
+        self.wm.div_ceil(16) + 2
+    }
+
+    /// Cycles the calculator is busy for one period (`ms_calc.v`): 6 multiplies, the
+    /// square root (launch, WX/2 rounds, capture) and the divide (launch, WQ rounds,
+    /// capture). The scheduler adds 2 per period (start, FIFO write): one period every
+    /// `calc_busy_cycles() + 2` cycles.
+    pub fn calc_busy_cycles(&self) -> u32 {
+        6 * self.mul_cycles() + (self.wx / 2 + 2) + (self.wq + 2)
+    }
+
+    /// The RTL's latencies in the core's TDM model's terms (two multiplies per period
+    /// there, six here: each model multiply stands for three), with the scheduler's two
+    /// cycles per period (start, FIFO write) as overhead.
+    pub fn latencies(&self) -> multistep_core::tdm::Latencies {
+        multistep_core::tdm::Latencies {
+            mul: 3 * self.mul_cycles(),
+            sqrt: self.wx / 2 + 2,
+            div: self.wq + 2,
+            overhead: 2,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,6 +206,8 @@ mod tests {
     fn default_widths() {
         let w = CoreParams::default().widths().unwrap();
         assert_eq!((w.wm, w.wx, w.wq, w.wt, w.aw), (57, 114, 25, 27, 6));
+        assert_eq!(w.calc_busy_cycles(), 6 * 6 + 59 + 27);
+        assert_eq!(w.latencies().cycles_per_period(), 124);
     }
 
     #[test]

@@ -14,6 +14,25 @@ pub fn bus_addr(d: &Design, glob: bool, axis: u32, seg: u32, field: u32) -> u32 
     (u32::from(glob) << (w.aw - 1)) | (axis << (w.ls + 2)) | (seg << 2) | field
 }
 
+/// Counts the calculators' busy cycles and starts (hierarchical references into the DUT).
+fn calc_counters(d: &Design) -> String {
+    let cores: Vec<String> = match d.arch {
+        crate::Arch::Tdm => vec!["dut.u_core".into()],
+        crate::Arch::Independent => (0..d.params.axes)
+            .map(|a| format!("dut.u_core{a}"))
+            .collect(),
+    };
+    cores
+        .iter()
+        .map(|c| {
+            format!(
+                "        if ({c}.u_calc.busy) calc_busy = calc_busy + 1;\n\
+                 \x20       if ({c}.calc_go) calc_starts = calc_starts + 1;\n"
+            )
+        })
+        .collect()
+}
+
 /// The testbench for `moves` (one per axis, all started as one group), stopping after
 /// `timeout` cycles at the latest. Checks the moves against the core first.
 pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String, HdlError> {
@@ -43,6 +62,10 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20   {top} dut (.clk(clk), .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),\n\
          \x20       .go(go), .step(step), .dir(dir), .busy(busy), .underrun(underrun));\n\
          \x20   integer f, a, tick, cycles;\n\
+         \x20   integer calc_busy = 0, calc_starts = 0;\n\
+         \x20   always @(posedge clk) begin\n\
+         {calc_count}\
+         \x20   end\n\
          \x20   reg going = 1'b0;\n\
          \x20   reg [{k1}:0] prev = 0;\n\
          \x20   // DUT registers update after this block reads them (nonblocking), so `go` and\n\
@@ -65,6 +88,7 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
         aw1 = aw - 1,
         k1 = k - 1,
         top = d.arch.top(),
+        calc_count = calc_counters(d),
     );
     for (a, m) in moves.iter().enumerate() {
         let a = a as u32;
@@ -92,6 +116,7 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       if (cycles >= {timeout}) $fdisplay(f, \"timeout\");\n\
          \x20       $fdisplay(f, \"underrun %0d\", underrun);\n\
          \x20       $fdisplay(f, \"dir %0d\", dir);\n\
+         \x20       $fdisplay(f, \"calc %0d %0d\", calc_busy, calc_starts);\n\
          \x20       $fclose(f);\n\
          \x20       $finish;\n\
          \x20   end\n\

@@ -61,6 +61,9 @@ pub struct SimOutput {
     pub underrun: u32,
     /// DIR levels at the end.
     pub dir: u32,
+    /// Cycles any calculator was busy, and periods started (summed over calculators).
+    pub calc_busy_cycles: u64,
+    pub calc_starts: u64,
 }
 
 /// Simulates `moves` on the design in Icarus Verilog inside `dir`.
@@ -91,6 +94,8 @@ fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
         edges: vec![Vec::new(); axes],
         underrun: 0,
         dir: 0,
+        calc_busy_cycles: 0,
+        calc_starts: 0,
     };
     let bad = |line: &str| HdlError::Sim(format!("unexpected testbench line {line:?}"));
     for line in text.lines() {
@@ -99,6 +104,11 @@ fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
             (Some("timeout"), _) => return Err(HdlError::Sim("testbench timed out".into())),
             (Some("underrun"), Some(v)) => out.underrun = v.parse().map_err(|_| bad(line))?,
             (Some("dir"), Some(v)) => out.dir = v.parse().map_err(|_| bad(line))?,
+            (Some("calc"), Some(v)) => {
+                out.calc_busy_cycles = v.parse().map_err(|_| bad(line))?;
+                let starts = it.next().and_then(|s| s.parse().ok());
+                out.calc_starts = starts.ok_or_else(|| bad(line))?;
+            }
             (Some(t), Some(a)) => {
                 let t: u64 = t.parse().map_err(|_| bad(line))?;
                 let a: usize = a.parse().map_err(|_| bad(line))?;

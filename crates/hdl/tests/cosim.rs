@@ -4,6 +4,8 @@
 mod common;
 
 use common::{random_move, Rng};
+use multistep_core::tdm::{Axis, Board, TdmConfig};
+use multistep_core::Profile;
 use multistep_hdl::tools::simulate;
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design, SegRegs};
 
@@ -18,6 +20,18 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[AxisMove], name: &str) {
         .unwrap();
     let out = simulate(&d, moves, dir.path(), last + 100_000).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.underrun, 0, "{name}: underrun");
+    // one calculator start per step, each busy for the documented cycle count
+    let steps: u64 = moves
+        .iter()
+        .map(|m| m.segs.iter().map(|s| u64::from(s.n)).sum::<u64>())
+        .sum();
+    assert_eq!(out.calc_starts, steps, "{name}: calculator starts");
+    let busy = u64::from(d.widths.calc_busy_cycles());
+    assert_eq!(
+        out.calc_busy_cycles,
+        steps * busy,
+        "{name}: calculator busy cycles"
+    );
     let dirs: u32 = moves
         .iter()
         .enumerate()
@@ -166,5 +180,57 @@ fn underrun_is_flagged_and_edges_are_late() {
         assert_eq!(e.len(), want.len());
         assert!(e.iter().zip(&want).all(|(r, m)| r >= m));
         assert!(e.last() > want.last());
+    }
+}
+
+/// The core's cycle-accurate TDM model (float edge generator, the RTL's latencies) gives
+/// the same edges as the RTL on the same moves, from the group's start.
+#[test]
+fn rtl_equals_core_tdm_board() {
+    let mut rng = Rng(0x7d_0004);
+    for k in [2u32, 3] {
+        let p = params(k);
+        let moves: Vec<AxisMove> = (0..k)
+            .map(|_| random_move(&mut rng, &p, 3, 1.0 / 900.0, true))
+            .collect();
+        let w = p.widths().unwrap();
+        let mut axes: Vec<Axis> = moves
+            .iter()
+            .map(|m| {
+                let segs: Vec<_> = m
+                    .segs
+                    .iter()
+                    .map(|s| s.to_core(p.clock_hz, p.frac_bits))
+                    .collect();
+                Axis::new(Profile::segments(&segs).unwrap(), p.clock_hz).unwrap()
+            })
+            .collect();
+        let cfg = TdmConfig {
+            clock_hz: p.clock_hz,
+            fifo_depth: p.fifo_depth as usize,
+            latencies: w.latencies(),
+            ..Default::default()
+        };
+        let board = Board::new(cfg, &mut axes).unwrap();
+        let start = board.start_tick();
+        let mut model = vec![Vec::new(); k as usize];
+        let report = board.run(|sp| model[sp.axis].push(sp.rise - start));
+        assert_eq!(report.underruns, 0);
+        assert_eq!(
+            report.cycles_per_period,
+            u64::from(w.calc_busy_cycles()) + 2
+        );
+        let d = Design::new(&p, Arch::Tdm).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = simulate(&d, &moves, dir.path(), 400_000).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.underrun, 0);
+        for a in 0..k as usize {
+            assert_eq!(out.edges[a], model[a], "K = {k} axis {a}");
+            assert_eq!(
+                out.edges[a],
+                moves[a].edges(p.frac_bits),
+                "K = {k} axis {a}"
+            );
+        }
     }
 }
