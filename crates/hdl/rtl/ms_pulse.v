@@ -17,6 +17,7 @@ module ms_pulse #(
 );
     reg [WP-1:0] cnt;    // ticks left in the current period
     reg [WP-1:0] hcnt;   // ticks left of STEP high
+    reg [WP-1:0] half;   // half of the period in progress: the last pulse's high time
     reg          waiting;
     reg          last;   // the edge of the last step has been made
     wire edge_now = running && !waiting && !last && (cnt == {{(WP-1){1'b0}}, 1'b1});
@@ -33,6 +34,7 @@ module ms_pulse #(
     always @(posedge clk) begin
         if (start) begin
             cnt      <= din;
+            half     <= {1'b0, din[WP-1:1]};
             running  <= 1'b1;
             underrun <= 1'b0;
             waiting  <= 1'b0;
@@ -43,8 +45,10 @@ module ms_pulse #(
                 if (!empty) begin
                     cnt  <= din;
                     hcnt <= {1'b0, din[WP-1:1]};
+                    half <= {1'b0, din[WP-1:1]};
                 end else begin
-                    hcnt <= {1'b0, cnt[WP-1:1]} | {{(WP-1){1'b0}}, 1'b1};
+                    // no next edge known: high for half of the period just ended (>= 1)
+                    hcnt <= (half == {WP{1'b0}}) ? {{(WP-1){1'b0}}, 1'b1} : half;
                     if (more) begin
                         underrun <= 1'b1;
                         waiting  <= 1'b1;
@@ -56,6 +60,7 @@ module ms_pulse #(
                 if (!waiting && !last) cnt <= cnt - 1'b1;
                 if (refill) begin
                     cnt     <= din;
+                    half    <= {1'b0, din[WP-1:1]};
                     waiting <= 1'b0;
                 end else if (waiting && !more) begin
                     waiting <= 1'b0;   // cannot happen: `more` falls with the last push

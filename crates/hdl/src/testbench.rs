@@ -1,6 +1,6 @@
 //! Testbench generator: loads moves through the register bus, starts them as one group
-//! and writes every STEP rising edge as `tick axis` (tick 0 = the group's `go`), then
-//! `underrun MASK` and `dir MASK`.
+//! and writes every STEP edge as `rise|fall tick axis` (tick 0 = the group's `go`), then
+//! `underrun MASK`, `dir MASK` and `calc BUSY_CYCLES STARTS`.
 
 use crate::{AxisMove, Design, HdlError};
 use std::fmt::Write as _;
@@ -74,7 +74,8 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       if (going) tick = tick + 1;\n\
          \x20       if (go) begin going = 1'b1; tick = 0; end\n\
          \x20       for (a = 0; a < {k}; a = a + 1)\n\
-         \x20           if (step[a] && !prev[a]) $fdisplay(f, \"%0d %0d\", tick - 1, a);\n\
+         \x20           if (step[a] != prev[a])\n\
+         \x20               $fdisplay(f, \"%0s %0d %0d\", step[a] ? \"rise\" : \"fall\", tick - 1, a);\n\
          \x20       prev = step;\n\
          \x20   end\n\
          \x20   task wr(input [{aw1}:0] ad, input [31:0] da);\n\
@@ -113,6 +114,7 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       while ((!going || busy != 0) && cycles < {timeout}) begin\n\
          \x20           @(posedge clk); cycles = cycles + 1;\n\
          \x20       end\n\
+         \x20       @(posedge clk); @(posedge clk);  // record the last STEP fall\n\
          \x20       if (cycles >= {timeout}) $fdisplay(f, \"timeout\");\n\
          \x20       $fdisplay(f, \"underrun %0d\", underrun);\n\
          \x20       $fdisplay(f, \"dir %0d\", dir);\n\

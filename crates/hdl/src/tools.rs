@@ -55,8 +55,10 @@ pub(crate) fn file_names_of(paths: &[PathBuf]) -> Vec<String> {
 /// What one simulation produced.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SimOutput {
-    /// Edge ticks of each axis, in order (tick 0 = the group's go).
+    /// Edge ticks (STEP rises) of each axis, in order (tick 0 = the group's go).
     pub edges: Vec<Vec<u64>>,
+    /// STEP falls of each axis.
+    pub falls: Vec<Vec<u64>>,
     /// Axes whose pulse unit underran.
     pub underrun: u32,
     /// DIR levels at the end.
@@ -92,6 +94,7 @@ pub fn simulate(
 fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
     let mut out = SimOutput {
         edges: vec![Vec::new(); axes],
+        falls: vec![Vec::new(); axes],
         underrun: 0,
         dir: 0,
         calc_busy_cycles: 0,
@@ -109,10 +112,18 @@ fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
                 let starts = it.next().and_then(|s| s.parse().ok());
                 out.calc_starts = starts.ok_or_else(|| bad(line))?;
             }
-            (Some(t), Some(a)) => {
+            (Some(kind @ ("rise" | "fall")), Some(t)) => {
                 let t: u64 = t.parse().map_err(|_| bad(line))?;
-                let a: usize = a.parse().map_err(|_| bad(line))?;
-                out.edges.get_mut(a).ok_or_else(|| bad(line))?.push(t);
+                let a: usize = it
+                    .next()
+                    .and_then(|a| a.parse().ok())
+                    .ok_or_else(|| bad(line))?;
+                let list = if kind == "rise" {
+                    &mut out.edges
+                } else {
+                    &mut out.falls
+                };
+                list.get_mut(a).ok_or_else(|| bad(line))?.push(t);
             }
             _ => return Err(bad(line)),
         }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{random_move, Rng};
+use common::{params, random_move, Rng};
 use multistep_core::tdm::{Axis, Board, TdmConfig};
 use multistep_core::Profile;
 use multistep_hdl::tools::simulate;
@@ -41,6 +41,11 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[AxisMove], name: &str) {
     for (a, m) in moves.iter().enumerate() {
         let want = m.edges(p.frac_bits);
         assert_eq!(
+            out.falls[a],
+            half_interval_falls(&want),
+            "{name}: axis {a} STEP falls"
+        );
+        assert_eq!(
             out.edges[a].len(),
             want.len(),
             "{name}: axis {a} step count"
@@ -56,11 +61,19 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[AxisMove], name: &str) {
     }
 }
 
-fn params(axes: u32) -> CoreParams {
-    CoreParams {
-        axes,
-        ..Default::default()
-    }
+/// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
+/// tick), the last pulse for half of the last interval.
+fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
+    let mut prev = 0;
+    (0..rises.len())
+        .map(|k| {
+            let interval = rises
+                .get(k + 1)
+                .map_or(rises[k] - prev, |next| next - rises[k]);
+            prev = rises[k];
+            rises[k] + (interval / 2).max(1)
+        })
+        .collect()
 }
 
 /// All three cases of the calculator (A > 0, A = 0, A < 0), one-step segments and a
@@ -214,7 +227,11 @@ fn rtl_equals_core_tdm_board() {
         let board = Board::new(cfg, &mut axes).unwrap();
         let start = board.start_tick();
         let mut model = vec![Vec::new(); k as usize];
-        let report = board.run(|sp| model[sp.axis].push(sp.rise - start));
+        let mut falls = vec![Vec::new(); k as usize];
+        let report = board.run(|sp| {
+            model[sp.axis].push(sp.rise - start);
+            falls[sp.axis].push(sp.fall - start);
+        });
         assert_eq!(report.underruns, 0);
         assert_eq!(
             report.cycles_per_period,
@@ -226,6 +243,7 @@ fn rtl_equals_core_tdm_board() {
         assert_eq!(out.underrun, 0);
         for a in 0..k as usize {
             assert_eq!(out.edges[a], model[a], "K = {k} axis {a}");
+            assert_eq!(out.falls[a], falls[a], "K = {k} axis {a} falls");
             assert_eq!(
                 out.edges[a],
                 moves[a].edges(p.frac_bits),

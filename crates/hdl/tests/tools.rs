@@ -1,15 +1,11 @@
 //! Lint (Verilator -Wall), synthesis (yosys) and parameter errors. A missing tool fails.
 
+mod common;
+
+use common::params;
 use multistep_hdl::report::{parse_stat, sweep, Baseline, Target};
 use multistep_hdl::tools::{find, lint};
 use multistep_hdl::{Arch, CoreParams, Design, HdlError};
-
-fn params(axes: u32) -> CoreParams {
-    CoreParams {
-        axes,
-        ..Default::default()
-    }
-}
 
 #[test]
 fn verilator_lint_is_clean() {

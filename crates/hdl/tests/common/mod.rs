@@ -58,3 +58,11 @@ pub fn random_move(rng: &mut Rng, p: &CoreParams, segs: usize, vmax: f64, rest: 
         }
     }
 }
+
+/// The default core with `axes` axes.
+pub fn params(axes: u32) -> CoreParams {
+    CoreParams {
+        axes,
+        ..Default::default()
+    }
+}
