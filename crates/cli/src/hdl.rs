@@ -247,3 +247,64 @@ fn write_table(
         "paper (seed 000, K = 2, vendor tools): LUT ratio {PAPER_LUT_RATIO:.3}, FF ratio {PAPER_FF_RATIO:.3}, DSP ratio {PAPER_DSP_RATIO:.3}; absolute counts differ between tools, compare ratios"
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use multistep_hdl::report::Resources;
+
+    fn row() -> Row {
+        let one = Resources {
+            lut: 1000,
+            ff: 600,
+            dsp: 3,
+            lutram: 10,
+            bram: 0,
+        };
+        Row {
+            axes: 2,
+            tdm: Resources {
+                lut: 1200,
+                ff: 660,
+                ..one
+            },
+            independent: one.times(2),
+        }
+    }
+
+    #[test]
+    fn json_row_has_the_issue_fields() {
+        let v = row_json(&row(), "Yosys 0.23", Target::Xilinx, Baseline::Scaled);
+        assert_eq!(v["axes"], 2);
+        assert_eq!(v["tdm"]["lut"], 1200);
+        assert_eq!(v["independent"]["ff"], 1200);
+        assert_eq!(v["independent"]["dsp"], 6);
+        assert_eq!(v["ratio"]["lut"], 0.6);
+        assert_eq!(v["ratio"]["dsp"], 0.5);
+        assert_eq!(v["yosys"], "Yosys 0.23");
+        assert!((v["paper_ratio"]["lut"].as_f64().unwrap() - 0.663).abs() < 1e-3);
+    }
+
+    #[test]
+    fn table_shows_ratios_paper_and_version() {
+        let mut out = Vec::new();
+        write_table(
+            &mut out,
+            &[row()],
+            "Yosys 0.23",
+            Target::Xilinx,
+            Baseline::Scaled,
+        )
+        .unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.starts_with("Yosys 0.23; target Xilinx"), "{text}");
+        assert!(
+            text.contains("0.600") && text.contains("0.550") && text.contains("0.500"),
+            "{text}"
+        );
+        assert!(
+            text.contains("LUT ratio 0.663, FF ratio 0.713, DSP ratio 0.833"),
+            "{text}"
+        );
+    }
+}
