@@ -5,10 +5,13 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod demo;
+mod experiment;
 mod hdl;
 mod moveargs;
 mod output;
 mod plan;
+mod simulate;
 mod tdm;
 
 #[derive(Parser, Debug)]
@@ -24,6 +27,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
+    /// Seed 000's two-axis run end to end: plan, TDM engine, simulated motors, plots
+    Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
@@ -32,6 +37,10 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// The TDM IP core as Verilog: emit it, and report its FPGA resource use (yosys)
     Hdl(hdl::HdlArgs),
+    /// Simulate one move on a motor and driver: lost steps and following error
+    Simulate(Box<simulate::SimulateArgs>),
+    /// Reproduce the seed papers' experiments on the simulator
+    Experiment(experiment::ExperimentArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,10 +59,13 @@ fn main() -> ExitCode {
         },
     };
     let result = match &cli.cmd {
+        Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
         Cmd::Hdl(a) => hdl::run(a),
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Experiment(a) => experiment::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -6,3 +6,10 @@ pub enum Format {
     Csv,
     Json,
 }
+
+/// Output of commands that print one report: a readable table or JSON.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReportFormat {
+    Table,
+    Json,
+}

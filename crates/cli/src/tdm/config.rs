@@ -127,6 +127,15 @@ impl ConfigFile {
     }
 
     /// Every axis's profile, errors named by axis.
+    /// Each axis's label: its `name`, or its index.
+    pub fn axis_names(&self) -> Vec<String> {
+        self.axis
+            .iter()
+            .enumerate()
+            .map(|(k, a)| a.name.clone().unwrap_or_else(|| k.to_string()))
+            .collect()
+    }
+
     pub fn profiles(&self) -> anyhow::Result<Vec<Profile>> {
         if self.axis.is_empty() {
             bail!("the config has no [[axis]] table");

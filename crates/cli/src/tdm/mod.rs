@@ -1,7 +1,7 @@
 //! `multistep tdm`: run a multi-axis config through the TDM engine, or sweep how many axes
 //! one calculator serves.
 
-mod config;
+pub(crate) mod config;
 mod sweep;
 
 use crate::plan::{itoa_buf, write_row};

@@ -1,0 +1,114 @@
+//! `multistep simulate` and `multistep experiment two-axis` through the binary: flags, JSON
+//! shape and errors.
+
+use std::process::Command;
+
+fn multistep(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const MOVE: [&str; 8] = [
+    "--steps",
+    "3200",
+    "--accel-time",
+    "0.05",
+    "--cruise-time",
+    "0.05",
+    "--decel-time",
+    "0.05",
+];
+
+#[test]
+fn simulate_json_has_the_contract_fields() {
+    let mut args = vec!["simulate", "--motor", "42mm", "--format", "json"];
+    args.extend(MOVE);
+    let (code, out, err) = multistep(&args);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["steps"], 3200);
+    assert_eq!(v["lost_steps"], 0);
+    assert!(v["peak_following_error_deg"].as_f64().unwrap() > 0.0);
+    assert!(v["final_error_deg"].as_f64().unwrap().abs() < 0.5);
+    assert!(v["damping_ratio"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn simulate_writes_trace_and_plots() {
+    let dir = std::env::temp_dir().join(format!("multistep-sim-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, svg, png) = (dir.join("t.csv"), dir.join("p.svg"), dir.join("p.png"));
+    let mut args = vec![
+        "simulate",
+        "--motor",
+        "20mm",
+        "--profile",
+        "parabolic",
+        "--reverse",
+        "--mode",
+        "ideal",
+        "--trace",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ];
+    args.extend(MOVE);
+    let (code, out, err) = multistep(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("lost steps"), "{out}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("t_s,commanded_deg,actual_deg"));
+    assert!(text.lines().count() > 1000);
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    args[11] = png.to_str().unwrap();
+    let (code, _, err) = multistep(&args);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn simulate_errors_name_the_problem() {
+    let mut args = vec!["simulate", "--motor", "nosuch"];
+    args.extend(MOVE);
+    let (code, _, err) = multistep(&args);
+    assert_eq!(code, 2);
+    assert!(err.starts_with("error:") && err.contains("57mm"), "{err}");
+    let mut args = vec!["simulate", "--motor", "57mm", "--dt", "1e-3"];
+    args.extend(MOVE);
+    let (code, _, err) = multistep(&args);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("unstable") && err.contains("current loop"),
+        "{err}"
+    );
+    let dir = std::env::temp_dir().join(format!("multistep-badmotor-{}.toml", std::process::id()));
+    std::fs::write(&dir, "name = \"x\"\nholding_torque = 1\nrated_current = 1\nresistance = 1\ninductance = 0\nrotor_inertia = 1e-5\n").unwrap();
+    let mut args = vec!["simulate", "--motor", dir.to_str().unwrap()];
+    args.extend(MOVE);
+    let (code, _, err) = multistep(&args);
+    std::fs::remove_file(&dir).ok();
+    assert_eq!(code, 2);
+    assert!(err.contains("`inductance`"), "{err}");
+}
+
+#[test]
+fn two_axis_json_has_axes() {
+    let (code, out, err) = multistep(&["experiment", "two-axis", "--format", "json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let axes = v["axes"].as_array().unwrap();
+    assert_eq!(axes.len(), 2);
+    for (ax, n) in axes.iter().zip([2400, 1800]) {
+        assert_eq!(ax["steps"], n);
+        assert_eq!(ax["lost_steps"], 0);
+        assert!(ax["peak_following_error_steps"].as_f64().unwrap() <= 8.0);
+    }
+}

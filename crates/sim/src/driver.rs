@@ -1,0 +1,108 @@
+//! The microstepping current-controlled driver (DESIGN.md §4): sinusoidal current references
+//! from the commanded microstep angle, and a PI current loop per phase whose output voltage is
+//! clamped to the supply (`rl` mode) — or currents that follow the references (`ideal`).
+
+use crate::error::SimError;
+use serde::Serialize;
+
+/// How phase currents are produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DriverMode {
+    /// PI current loop through the phase R-L circuit, voltage clamped to ±supply.
+    Rl,
+    /// i = i*: seed 001 eq. (7), T_e = K_m·I·sin(N_r(θ* − θ)).
+    Ideal,
+}
+
+impl std::str::FromStr for DriverMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "rl" => Ok(DriverMode::Rl),
+            "ideal" => Ok(DriverMode::Ideal),
+            o => Err(format!("unknown driver mode '{o}' (rl or ideal)")),
+        }
+    }
+}
+
+/// Default current-loop bandwidth: a few kHz is what chopper drivers reach at 20–40 kHz PWM.
+pub const DEFAULT_BANDWIDTH_HZ: f64 = 5_000.0;
+
+/// Driver settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DriverConfig {
+    pub mode: DriverMode,
+    /// Supply voltage, the clamp of each phase voltage (V).
+    pub supply_voltage: f64,
+    /// Current amplitude I of the references (A).
+    pub current: f64,
+    /// Microsteps per full step.
+    pub microsteps: u32,
+    /// Closed-loop bandwidth of the PI current loop (Hz).
+    pub bandwidth_hz: f64,
+}
+
+impl DriverConfig {
+    /// The motor's defaults: rated current, its file's supply and microsteps, `rl` mode.
+    pub fn for_motor(m: &crate::Motor) -> DriverConfig {
+        DriverConfig {
+            mode: DriverMode::Rl,
+            supply_voltage: m.supply_voltage,
+            current: m.rated_current,
+            microsteps: m.microsteps,
+            bandwidth_hz: DEFAULT_BANDWIDTH_HZ,
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), SimError> {
+        let bad = |field, value, why| Err(SimError::BadSetting { field, value, why });
+        if !(self.supply_voltage.is_finite() && self.supply_voltage > 0.0) {
+            return bad("supply", self.supply_voltage, "must be > 0");
+        }
+        if !(self.current.is_finite() && self.current > 0.0) {
+            return bad("current", self.current, "must be > 0");
+        }
+        if self.microsteps == 0 || self.microsteps > 1 << 16 {
+            return bad("microsteps", self.microsteps as f64, "must be 1…65536");
+        }
+        if !(self.bandwidth_hz.is_finite() && self.bandwidth_hz > 0.0) {
+            return bad("bandwidth", self.bandwidth_hz, "must be > 0");
+        }
+        Ok(())
+    }
+}
+
+/// PI gains by pole-zero cancellation of the phase's R-L pole: K_p = L·ω_c, K_i = R·ω_c gives
+/// a first-order closed loop of bandwidth ω_c while the voltage is not clamped.
+#[derive(Clone, Copy, Debug)]
+pub struct PiLoop {
+    pub kp: f64,
+    pub ki: f64,
+    pub vmax: f64,
+}
+
+impl PiLoop {
+    pub fn new(resistance: f64, inductance: f64, cfg: &DriverConfig) -> PiLoop {
+        let wc = std::f64::consts::TAU * cfg.bandwidth_hz;
+        PiLoop {
+            kp: inductance * wc,
+            ki: resistance * wc,
+            vmax: cfg.supply_voltage,
+        }
+    }
+
+    /// Phase voltage and the integrator's rate for current error `err` and integrator `z` (V).
+    /// Anti-windup: the integrator holds while the clamp is active and the error pushes further.
+    #[inline(always)]
+    pub fn voltage(&self, err: f64, z: f64) -> (f64, f64) {
+        let v = self.kp * err + z;
+        if v > self.vmax {
+            (self.vmax, if err > 0.0 { 0.0 } else { self.ki * err })
+        } else if v < -self.vmax {
+            (-self.vmax, if err < 0.0 { 0.0 } else { self.ki * err })
+        } else {
+            (v, self.ki * err)
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! Fixed-step RK4 driven by the exact edge stream. θ* changes only at edge ticks, so a step
+//! that contains edges is split at each edge time: every RK4 sub-step sees a constant command
+//! and the result is exact to RK4 order however many microsteps fall in one dt.
+
+use crate::error::SimError;
+use crate::measures::{EnergyBalance, Measures};
+use crate::model::{
+    sin_cos_shifted, Command, Plant, State, COULOMB_SMOOTHING, E_CU, E_IN, E_MECH, IA, IB, NSTATE,
+    OM, TH, ZA, ZB,
+};
+use crate::motor::Motor;
+use crate::{DriverMode, SimConfig, SimResult, TraceRow};
+
+/// RK4's stability boundary is about 2.79 on the negative real axis and 2.83 on the imaginary
+/// axis; we keep a margin.
+pub const STABILITY_LIMIT: f64 = 2.5;
+
+/// The fastest rate of the linearised system, with its name, for the stability check.
+pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
+    let d = &cfg.driver;
+    let j = m.inertia();
+    let mut modes = vec![
+        (
+            "rotor oscillation ω_n = √(N_r·K_m·I/J)",
+            m.natural_frequency(d.current),
+        ),
+        (
+            "mechanical damping (B + D_s)/J",
+            (m.viscous_friction + m.iron_loss_eddy + m.oscillation_damping(d.current)) / j,
+        ),
+        (
+            "smoothed dry friction T_c/(ω_s·J)",
+            (m.coulomb_friction + m.iron_loss_hysteresis) / (COULOMB_SMOOTHING * j),
+        ),
+    ];
+    if d.mode == DriverMode::Rl {
+        modes.push((
+            "PI current loop ω_c + R/L",
+            std::f64::consts::TAU * d.bandwidth_hz + m.resistance / m.inductance,
+        ));
+    }
+    if let Some(w) = cfg.peak_speed_hint {
+        modes.push((
+            "electrical frequency N_r·ω at peak speed",
+            m.rotor_teeth as f64 * w.abs(),
+        ));
+    }
+    modes
+        .into_iter()
+        .fold(("", 0.0), |a, b| if b.1 > a.1 { b } else { a })
+}
+
+/// Refuses a dt outside RK4's stability region for this motor and driver.
+pub fn check_step(m: &Motor, cfg: &SimConfig) -> Result<(), SimError> {
+    let dt = cfg.dt;
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(SimError::BadSetting {
+            field: "dt",
+            value: dt,
+            why: "must be > 0",
+        });
+    }
+    let (mode, rate) = fastest_mode(m, cfg);
+    if dt * rate > STABILITY_LIMIT {
+        return Err(SimError::UnstableStep {
+            dt,
+            mode,
+            rate,
+            limit: STABILITY_LIMIT,
+            max_dt: STABILITY_LIMIT / rate,
+        });
+    }
+    Ok(())
+}
+
+#[inline(always)]
+fn rk4<const IDEAL: bool>(p: &Plant, x: &mut State, u: &Command, h: f64) {
+    let add = |x: &State, k: &State, s: f64| {
+        let mut y = *x;
+        for i in 0..NSTATE {
+            y[i] += s * k[i];
+        }
+        y
+    };
+    // One sin_cos per step: the stages' angles are shifted from θ by at most h·|ω|.
+    let phi = p.nr * x[TH];
+    let (s, c) = phi.sin_cos();
+    let stage = |k: &State, a: f64| {
+        let y = add(x, k, a);
+        let (sy, cy) = sin_cos_shifted(s, c, phi, p.nr * a * k[TH]);
+        p.rhs_at::<IDEAL>(&y, u, sy, cy)
+    };
+    let k1 = p.rhs_at::<IDEAL>(x, u, s, c);
+    let k2 = stage(&k1, 0.5 * h);
+    let k3 = stage(&k2, 0.5 * h);
+    let k4 = stage(&k3, h);
+    for i in 0..NSTATE {
+        x[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+    }
+}
+
+/// Runs one move: `edges` are the step edges in ticks of `clock_hz`, `direction` ±1.
+pub fn run<I: Iterator<Item = u64>>(
+    m: &Motor,
+    cfg: &SimConfig,
+    edges: I,
+    clock_hz: f64,
+    direction: f64,
+) -> Result<SimResult, SimError> {
+    cfg.driver.validate()?;
+    m.validate()?;
+    if !(clock_hz.is_finite() && clock_hz > 0.0) {
+        return Err(SimError::BadSetting {
+            field: "clock",
+            value: clock_hz,
+            why: "must be > 0",
+        });
+    }
+    check_step(m, cfg)?;
+    let p = Plant::new(m, &cfg.driver, direction);
+    match cfg.driver.mode {
+        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, direction),
+        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, direction),
+    }
+}
+
+fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
+    p: &Plant,
+    m: &Motor,
+    cfg: &SimConfig,
+    mut edges: I,
+    clock: f64,
+    direction: f64,
+) -> Result<SimResult, SimError> {
+    let dir = if direction < 0.0 { -1.0 } else { 1.0 };
+    let dt = cfg.dt;
+    let micro = m.microstep_angle(cfg.driver.microsteps);
+    let full_step = micro * cfg.driver.microsteps as f64;
+    let wn = m.natural_frequency(cfg.driver.current);
+    let zeta = m.effective_damping_ratio(cfg.driver.current);
+    let settle_max = cfg
+        .settle_max
+        .unwrap_or_else(|| (8.0 / (zeta.max(1e-3) * wn)).clamp(5e-3, 0.5));
+    // ω* over [e_prev, e_next): one microstep per period, as the field moves (0 after the end).
+    let omega_ref = |from: u64, to: Option<u64>| match to {
+        Some(e) => dir * micro * clock / (e.saturating_sub(from).max(1)) as f64,
+        None => 0.0,
+    };
+
+    let mut x: State = [0.0; NSTATE];
+    let mut next = edges.next();
+    let mut after = edges.next();
+    let mut u = p.references(0.0, omega_ref(0, next));
+    x[IA] = u.ia_ref;
+    x[IB] = u.ib_ref;
+    // PI integrators start at the steady holding voltage R·i: no start-up transient.
+    x[ZA] = p.r * u.ia_ref;
+    x[ZB] = p.r * u.ib_ref;
+    let stored0 = p.stored_energy(&x);
+
+    let mut meas = Measures::new(p.nr);
+    let mut count: u64 = 0;
+    let mut t = 0.0;
+    let mut k: u64 = 0;
+    let mut last_edge_t = 0.0;
+    let trace_every = cfg
+        .trace_interval
+        .map(|ti| ((ti / dt).round() as u64).max(1));
+    let mut trace = Vec::new();
+    let err_of = |count: u64, x: &State| count as f64 * micro - dir * x[TH];
+    loop {
+        let t_grid = (k + 1) as f64 * dt;
+        while let Some(e) = next {
+            let te = e as f64 / clock;
+            if te > t_grid {
+                break;
+            }
+            if te > t {
+                rk4::<IDEAL>(p, &mut x, &u, te - t);
+                t = te;
+            }
+            count += 1;
+            next = after;
+            after = edges.next();
+            if let Some(n) = next {
+                if n < e {
+                    return Err(SimError::EdgesBackwards { prev: e, next: n });
+                }
+            }
+            u = p.references(dir * count as f64 * micro, omega_ref(e, next));
+            last_edge_t = te;
+        }
+        rk4::<IDEAL>(p, &mut x, &u, t_grid - t);
+        t = t_grid;
+        k += 1;
+        let err = err_of(count, &x);
+        meas.observe(t, err, x[OM]);
+        if let Some(n) = trace_every {
+            if k % n == 0 {
+                let (ia, ib) = if IDEAL {
+                    (u.ia_ref, u.ib_ref)
+                } else {
+                    (x[IA], x[IB])
+                };
+                trace.push(TraceRow {
+                    t,
+                    commanded_deg: (count as f64 * micro).to_degrees(),
+                    actual_deg: (dir * x[TH]).to_degrees(),
+                    commanded_speed_deg_s: 0.0,
+                    actual_speed_deg_s: (dir * x[OM]).to_degrees(),
+                    error_deg: err.to_degrees(),
+                    ia,
+                    ib,
+                });
+            }
+        }
+        if cfg.stop_at_first_loss && meas.first_loss.is_some() {
+            break;
+        }
+        if next.is_none() {
+            let since = t - last_edge_t;
+            let amplitude = meas.deviation(err).hypot(x[OM] / wn);
+            if since >= settle_max
+                || (since >= 1e-3 && amplitude < cfg.settle_tolerance * full_step)
+            {
+                break;
+            }
+        }
+    }
+    crate::trace::fill_commanded_speed(&mut trace);
+    let final_error = err_of(count, &x);
+    let energy = if IDEAL {
+        None
+    } else {
+        Some(EnergyBalance {
+            electrical_input_j: x[E_IN],
+            copper_loss_j: x[E_CU],
+            mechanical_work_j: x[E_MECH],
+            stored_change_j: p.stored_energy(&x) - stored0,
+        })
+    };
+    let lost_cycles = meas.cycles_lost(final_error);
+    Ok(SimResult {
+        steps: count,
+        microsteps: cfg.driver.microsteps,
+        mode: cfg.driver.mode,
+        lost_steps: lost_cycles * 4 * cfg.driver.microsteps as i64,
+        lost: lost_cycles != 0 || meas.first_loss.is_some(),
+        first_loss_s: meas.first_loss,
+        peak_following_error_deg: meas.peak_abs().to_degrees(),
+        min_following_error_deg: meas.min_error.to_degrees(),
+        max_following_error_deg: meas.max_error.to_degrees(),
+        final_error_deg: final_error.to_degrees(),
+        peak_following_error_steps: meas.peak_abs() / micro,
+        move_time_s: last_edge_t,
+        simulated_s: t,
+        dt_s: dt,
+        damping_ratio: zeta,
+        natural_frequency_hz: wn / std::f64::consts::TAU,
+        peak_speed_deg_s: meas.peak_speed.to_degrees(),
+        energy,
+        trace,
+    })
+}

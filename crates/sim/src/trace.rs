@@ -1,0 +1,49 @@
+//! The trace of a simulated move: the commanded speed column and CSV output.
+
+use crate::error::SimError;
+use crate::TraceRow;
+use std::io::Write;
+
+/// Commanded speed from the microstep staircase: a centred difference over ±5 samples, so the
+/// column shows the edge rate rather than the steps of θ*.
+pub fn fill_commanded_speed(rows: &mut [TraceRow]) {
+    const HALF: usize = 5;
+    let n = rows.len();
+    for k in 0..n {
+        let (a, b) = (k.saturating_sub(HALF), (k + HALF).min(n - 1));
+        if b > a {
+            rows[k].commanded_speed_deg_s =
+                (rows[b].commanded_deg - rows[a].commanded_deg) / (rows[b].t - rows[a].t);
+        }
+    }
+}
+
+pub fn write_csv(path: &str, rows: &[TraceRow]) -> Result<(), SimError> {
+    let io = |source| SimError::Io {
+        file: path.to_string(),
+        source,
+    };
+    let f = std::fs::File::create(path).map_err(io)?;
+    let mut w = std::io::BufWriter::new(f);
+    writeln!(
+        w,
+        "t_s,commanded_deg,actual_deg,commanded_speed_deg_s,actual_speed_deg_s,error_deg,ia_a,ib_a"
+    )
+    .map_err(io)?;
+    for r in rows {
+        writeln!(
+            w,
+            "{:.7},{:.6},{:.6},{:.3},{:.3},{:.6},{:.5},{:.5}",
+            r.t,
+            r.commanded_deg,
+            r.actual_deg,
+            r.commanded_speed_deg_s,
+            r.actual_speed_deg_s,
+            r.error_deg,
+            r.ia,
+            r.ib
+        )
+        .map_err(io)?;
+    }
+    w.flush().map_err(io)
+}
