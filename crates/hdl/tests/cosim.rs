@@ -252,3 +252,50 @@ fn rtl_equals_core_tdm_board() {
         }
     }
 }
+
+/// Seed 000's two-axis experiment (trapezoids of 2400 and 1800 steps, 20 ms accel, 10 ms
+/// cruise, 20 ms decel at 50 MHz) loaded as three segments per axis: the RTL's edges are
+/// the core's integer phase-mode edges of the same moves, all 4200 of them.
+#[test]
+fn seed000_two_axis_experiment() {
+    use multistep_core::int::{IntClock, IntEdgeGenerator, IntPhaseMove, IntProfile};
+    let p = params(2);
+    let f = p.frac_bits;
+    let axis = |steps: u32, dir: bool| {
+        // vm = 2N / (Ta + 2Tb + Tc) = N / 0.03 s, in steps/tick times 2^F times d
+        let (d_acc, d_cru) = (1_000_000u32, 500_000u32);
+        let n = steps / 3;
+        let s = |d: u32| ((u64::from(steps) << f) * u64::from(d) / 1_500_000) as u32;
+        AxisMove {
+            dir,
+            segs: vec![
+                SegRegs { n, d: d_acc, s: 0 },
+                SegRegs {
+                    n,
+                    d: d_cru,
+                    s: s(d_cru),
+                },
+                SegRegs {
+                    n,
+                    d: d_acc,
+                    s: s(d_acc),
+                },
+            ],
+        }
+    };
+    let moves = [axis(2400, false), axis(1800, true)];
+    for m in &moves {
+        let phase = IntPhaseMove {
+            steps: m.segs.iter().map(|s| u64::from(s.n)).sum(),
+            accel_ticks: 1_000_000,
+            cruise_ticks: 500_000,
+            decel_ticks: 1_000_000,
+            start_speed: 0,
+            end_speed: 0,
+        };
+        let profile = IntProfile::phase(&phase, IntClock::hz(50_000_000)).unwrap();
+        let core: Vec<u64> = IntEdgeGenerator::new(profile).collect();
+        assert_eq!(m.edges(f), core);
+    }
+    cosim(Arch::Tdm, &p, &moves, "seed000");
+}
