@@ -77,8 +77,7 @@ impl BenchMove {
             && self.vmax * self.vmax % (2 * self.amax) == 0
             && CLOCK_HZ * self.vmax % self.amax == 0
             && n * CLOCK_HZ % self.vmax == 0
-            && t > 0
-            || n == 0
+            && (t > 0 || n == 0)
     }
 
     pub fn float_profile(&self) -> Result<Profile, PlanError> {

@@ -5,12 +5,14 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod ctl;
 mod demo;
 mod experiment;
 mod hdl;
 mod moveargs;
 mod output;
 mod plan;
+mod serve;
 mod simulate;
 mod tdm;
 
@@ -31,6 +33,10 @@ enum Cmd {
     Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
+    /// Run a simulated controller board: line protocol on TCP (and a serial line)
+    Serve(serve::ServeArgs),
+    /// Talk to controller boards: move, home, stop, status, …
+    Ctl(ctl::CtlArgs),
     /// Run several axes through the time-division-multiplexed engine (one shared calculator)
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
@@ -61,6 +67,8 @@ fn main() -> ExitCode {
     let result = match &cli.cmd {
         Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Serve(a) => serve::run(a),
+        Cmd::Ctl(a) => ctl::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
         Cmd::Hdl(a) => hdl::run(a),

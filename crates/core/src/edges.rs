@@ -51,6 +51,9 @@ pub struct EdgeGenerator {
     quad: bool,
     c1: f64,
     c2: f64,
+    /// ... with zero acceleration and positive speed: `τ = n/c1`.
+    cruise: bool,
+    inv_c1: f64,
     /// Local times of the last three steps in the current piece (newest first) and how
     /// many of them are valid: the next step's Newton guess extrapolates them.
     hist: [f64; 3],
@@ -87,12 +90,15 @@ impl EdgeGenerator {
             quad: cur.quadratic().is_some(),
             c1: cur.quadratic().map_or(0.0, |q| q.0),
             c2: cur.quadratic().map_or(0.0, |q| q.1),
+            cruise: false,
+            inv_c1: 0.0,
             hist: [0.0; 3],
             nhist: 0,
             v_prev: 0.0,
             last_edge: 0,
             settled: 0,
-        })
+        }
+        .entered(0))
     }
 
     pub fn profile(&self) -> &Profile {
@@ -150,6 +156,11 @@ impl EdgeGenerator {
         k
     }
 
+    fn entered(mut self, k: usize) -> Self {
+        self.enter(k);
+        self
+    }
+
     fn enter(&mut self, k: usize) {
         self.piece = k;
         self.cur = *self.profile.piece(k);
@@ -157,6 +168,8 @@ impl EdgeGenerator {
         let q = self.cur.quadratic();
         self.quad = q.is_some();
         (self.c1, self.c2) = q.unwrap_or((0.0, 0.0));
+        self.cruise = self.quad && self.c2 == 0.0 && self.c1 > 0.0;
+        self.inv_c1 = if self.cruise { 1.0 / self.c1 } else { 0.0 };
         self.nhist = 0;
         self.v_prev = 0.0;
     }
@@ -168,6 +181,15 @@ impl EdgeGenerator {
         let f = self.clock;
         let p = &self.cur;
         let n = i - p.p0;
+        if self.cruise {
+            // constant speed: τ = n/c1, by a reciprocal kept per piece (two roundings);
+            // the bound covers them, n's own rounding (ε·i over the speed) and f·(t0 + τ).
+            let tau = (n * self.inv_c1).min(p.dur);
+            let x = (p.t0 + tau) * f;
+            let (tick, dist) = nearest_tick(x);
+            let bound = self.k_err * (2.0 * tau + i * self.inv_c1) + 8.0 * EPS * x + 2e-9;
+            return (tau, tick, dist > bound);
+        }
         if self.quad {
             let (c1, c2) = (self.c1, self.c2);
             let r = c1 * c1 + 4.0 * c2 * n;

@@ -87,21 +87,21 @@ fn seed000_two_axis_run_passes_with_fifo_depth_1() {
         assert!(r.min_slack_ticks > 0);
         assert_eq!(r.edges, 4200);
         assert_eq!(r.start_skew_ticks, 0);
-        // prefill: one period per axis, 54 cycles each
-        assert_eq!(r.start_tick, 2 * 54);
+        // prefill: one period per axis, 68 cycles each
+        assert_eq!(r.start_tick, 2 * 68);
         // both moves end at 50 ms: round(f·T) = 2.5 M ticks after the common start
         assert_eq!(pulses[0].last().unwrap().rise, r.start_tick + 2_500_000);
         assert_eq!(pulses[1].last().unwrap().rise, r.start_tick + 2_500_000);
         check_against_plan(&r, &axes, &pulses, F);
         let u = r.calculator_utilization();
         assert!(u > 0.0 && u < 0.2, "{u}");
-        assert_eq!(r.busy_cycles, 4200 * 54);
+        assert_eq!(r.busy_cycles, 4200 * 68);
     }
 }
 
 #[test]
 fn overloaded_board_reports_underruns_and_the_exact_delay() {
-    // 32 axes at 100 k steps/s: 500-tick periods, 54 cycles each: about 3.5× overload
+    // 32 axes at 100 k steps/s: 500-tick periods, 68 cycles each: about 4× overload
     let p = rate_move(100e3, 0.02, 0.01, 0.02).unwrap();
     let mut axes: Vec<Axis> = (0..32).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
     for policy in [Policy::RoundRobin, Policy::EarliestDeadline] {
@@ -135,7 +135,19 @@ fn start_waits_for_prefill_and_dir_setup() {
         ..TdmConfig::default()
     };
     let (r, _) = run(cfg, &mut axes);
-    assert_eq!(r.start_tick, 6 * 54, "3 periods for each of 2 axes");
+    assert_eq!(r.start_tick, 6 * 68, "3 periods for each of 2 axes");
+    let cfg = TdmConfig {
+        fifo_depth: 3,
+        latencies: Latencies::RADIX4_PIPELINED,
+        ..TdmConfig::default()
+    };
+    let (r, pulses) = run(cfg, &mut axes);
+    assert_eq!(
+        r.start_tick,
+        5 * 32 + 68,
+        "6 periods started 32 cycles apart"
+    );
+    check_against_plan(&r, &axes, &pulses, F);
 }
 
 #[test]
@@ -169,6 +181,7 @@ fn bad_configurations_are_typed_errors() {
             div: 0,
             sqrt: 0,
             overhead: 0,
+            pipelined: true,
         },
         ..TdmConfig::default()
     };
@@ -194,17 +207,30 @@ fn bad_configurations_are_typed_errors() {
 }
 
 #[test]
-fn k_max_at_100k_steps_per_s_matches_eq12_for_aligned_identical_moves() {
-    // identical, aligned moves and depth 1: all k periods of a common edge must fit into
-    // the shortest period, which is exactly eq. (12)
+fn k_max_at_100k_steps_per_s_against_eq12() {
     let p = rate_move(100e3, 0.02, 0.01, 0.02).unwrap();
-    let mut storage: Vec<Axis> = (0..16).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
-    let km = k_max(&TdmConfig::default(), &[p], &mut storage).unwrap();
-    assert_eq!(km.min_period_ticks, 500);
-    assert_eq!(km.k_eq12, 500 / 54);
-    assert_eq!(km.k_max as u64, km.k_eq12);
-    assert!(!km.capped);
-    assert!(km.first_failure.unwrap().underruns > 0);
+    let mut storage: Vec<Axis> = (0..24).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
+    let mut k = |latencies, fifo_depth| {
+        let cfg = TdmConfig {
+            latencies,
+            fifo_depth,
+            ..TdmConfig::default()
+        };
+        let km = k_max(&cfg, std::slice::from_ref(&p), &mut storage).unwrap();
+        assert_eq!(km.min_period_ticks, 500);
+        assert!(!km.capped);
+        assert!(km.first_failure.unwrap().underruns > 0);
+        (km.k_max as u64, km.k_eq12)
+    };
+    // one period at a time, identical moves started together: every common edge needs k
+    // periods within the shortest period, which is exactly eq. (12): 500/68
+    assert_eq!(k(Latencies::RADIX4, 1), (7, 7));
+    assert_eq!(k(Latencies::RADIX4, 4), (7, 7));
+    // pipelined: t_calc = 32 but each period takes 68 cycles to arrive. With depth 1 the
+    // k-th period of a common edge is ready (k−1)·32 + 68 after it: k ≤ (500−68)/32 + 1
+    assert_eq!(k(Latencies::RADIX4_PIPELINED, 1), (14, 15));
+    // a second FIFO slot hides the latency: eq. (12) again
+    assert_eq!(k(Latencies::RADIX4_PIPELINED, 2), (15, 15));
 }
 
 fn arb_profile(max_steps: u64, max_time: f64) -> impl Strategy<Value = Profile> {
@@ -278,7 +304,7 @@ proptest! {
         let cfg = TdmConfig {
             fifo_depth: depth,
             policy,
-            latencies: Latencies { mul: 0, div: c, sqrt: 0, overhead: 0 },
+            latencies: Latencies { mul: 0, div: c, sqrt: 0, overhead: 0, pipelined: false },
             ..TdmConfig::default()
         };
         let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), F).unwrap()).collect();
@@ -320,6 +346,8 @@ proptest! {
         depth in 1usize..=4,
         policy in arb_policy(),
         cycles in 1u32..60,
+        units in prop::array::uniform3(0u32..30),
+        pipelined in any::<bool>(),
         dir_setup in 0u64..500,
     ) {
         let clock = 1e6;
@@ -327,7 +355,7 @@ proptest! {
             clock_hz: clock,
             fifo_depth: depth,
             policy,
-            latencies: Latencies { mul: 0, div: cycles, sqrt: 0, overhead: 0 },
+            latencies: Latencies { mul: units[0], div: cycles, sqrt: units[1], overhead: units[2], pipelined },
             dir_setup_ticks: dir_setup,
             ..TdmConfig::default()
         };
@@ -344,8 +372,9 @@ proptest! {
 }
 
 // ---------------------------------------------------------------------------------------
-// A tick-by-tick reference model: FIFOs hold real periods, pulse units act on every tick,
-// nothing is known ahead of time. Slow, so only for short moves at a slow clock.
+// A tick-by-tick reference model: FIFOs hold real periods with the tick each becomes
+// ready, pulse units act on every tick, nothing is known ahead of time. Slow, so only for
+// short moves at a slow clock.
 
 #[derive(Clone, Copy, PartialEq)]
 enum Unit {
@@ -357,7 +386,8 @@ enum Unit {
 
 struct RefAxis {
     periods: VecDeque<u64>,
-    fifo: VecDeque<u64>,
+    /// Computed or being computed: (period, ready tick), in step order.
+    fifo: VecDeque<(u64, u64)>,
     unit: Unit,
     loaded: usize,
     total: usize,
@@ -373,15 +403,9 @@ impl RefAxis {
                 self.unit = Unit::Done;
                 return;
             }
-            match self.fifo.pop_front() {
-                None => {
-                    if !matches!(self.unit, Unit::Waiting { .. }) {
-                        self.underruns += 1;
-                        self.unit = Unit::Waiting { since: t };
-                    }
-                    return;
-                }
-                Some(p) => {
+            match self.fifo.front() {
+                Some(&(p, ready)) if ready <= t => {
+                    self.fifo.pop_front();
                     self.loaded += 1;
                     self.unit = Unit::Counting { rise: t + p };
                     if p > 0 {
@@ -389,14 +413,35 @@ impl RefAxis {
                     }
                     self.rises.push(t);
                 }
+                _ => {
+                    if !matches!(self.unit, Unit::Waiting { .. }) {
+                        self.underruns += 1;
+                        self.unit = Unit::Waiting { since: t };
+                    }
+                    return;
+                }
             }
         }
+    }
+
+    /// Tick the FIFO runs dry: when the pulse unit needs the period after all it holds.
+    fn deadline(&self, start: u64) -> u64 {
+        let mut need = match self.unit {
+            Unit::NotStarted => start,
+            Unit::Counting { rise } => rise,
+            Unit::Waiting { since } => since,
+            Unit::Done => u64::MAX,
+        };
+        for &(p, ready) in &self.fifo {
+            need = need.max(ready) + p;
+        }
+        need
     }
 }
 
 /// Start tick, every axis's rises and underrun count.
 fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<u64>) {
-    let c = cfg.latencies.cycles_per_period();
+    let (ii, lat) = (cfg.latencies.interval(), cfg.latencies.latency());
     let d = cfg.fifo_depth;
     let mut axes: Vec<RefAxis> = profiles
         .iter()
@@ -423,17 +468,11 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
         .collect();
     let k = axes.len();
     let prefill: u64 = axes.iter().map(|a| a.total.min(d) as u64).sum();
-    let start = cfg.dir_setup_ticks.max(prefill * c);
-    let mut calc: Option<(u64, usize, u64)> = None; // (done tick, axis, period)
+    let start = cfg.dir_setup_ticks.max((prefill - 1) * ii + lat);
+    let mut next_issue = 0u64;
     let mut ptr = 0;
     let mut t = 0u64;
     while !axes.iter().all(|a| a.unit == Unit::Done) {
-        if let Some((done, m, p)) = calc {
-            if done == t {
-                axes[m].fifo.push_back(p);
-                calc = None;
-            }
-        }
         for a in axes.iter_mut() {
             match a.unit {
                 Unit::NotStarted if t == start => a.try_load(t),
@@ -445,28 +484,19 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
                 _ => {}
             }
         }
-        if calc.is_none() {
+        if t >= next_issue {
             let eligible = |a: &RefAxis| !a.periods.is_empty() && a.fifo.len() < d;
-            let deadline = |a: &RefAxis| {
-                let base = match a.unit {
-                    Unit::NotStarted => start,
-                    Unit::Counting { rise } => rise,
-                    Unit::Waiting { since } => since,
-                    Unit::Done => u64::MAX,
-                };
-                base + a.fifo.iter().sum::<u64>()
-            };
             let pick = match cfg.policy {
                 Policy::RoundRobin => (0..k).map(|i| (ptr + i) % k).find(|&m| eligible(&axes[m])),
                 Policy::EarliestDeadline => (0..k)
                     .filter(|&m| eligible(&axes[m]))
-                    .min_by_key(|&m| (deadline(&axes[m]), m)),
+                    .min_by_key(|&m| (axes[m].deadline(start), m)),
             };
             if let Some(m) = pick {
                 ptr = (m + 1) % k;
                 let p = axes[m].periods.pop_front().unwrap();
-                // the one calculator is busy until done, so nothing else can take the slot
-                calc = Some((t + c, m, p));
+                axes[m].fifo.push_back((p, t + lat));
+                next_issue = t + ii;
             }
         }
         t += 1;
@@ -474,4 +504,27 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
     }
     let under = axes.iter().map(|a| a.underruns).collect();
     (start, axes.into_iter().map(|a| a.rises).collect(), under)
+}
+
+#[test]
+fn a_run_that_could_pass_tick_2_pow_57_is_refused() {
+    // 2^40 steps of ~2^17-cycle periods: more calculator work than the tick range holds
+    let p = MoveSpec {
+        steps: Some(1 << 40),
+        vmax: Some(1e9),
+        amax: Some(1e12),
+        ..MoveSpec::default()
+    }
+    .plan()
+    .unwrap();
+    let mut axes = vec![Axis::new(p, F).unwrap()];
+    let slow = TdmConfig {
+        latencies: Latencies {
+            div: 1 << 17,
+            ..Latencies::default()
+        },
+        ..TdmConfig::default()
+    };
+    assert_eq!(Board::new(slow, &mut axes).err(), Some(TdmError::TooLong));
+    assert!(Board::new(TdmConfig::default(), &mut axes).is_ok());
 }

@@ -185,15 +185,19 @@ impl Widths {
         6 * self.mul_cycles() + (self.wx / 2 + 2) + (self.wq + 2)
     }
 
-    /// The RTL's latencies in the core's TDM model's terms (two multiplies per period
-    /// there, six here: each model multiply stands for three), with the scheduler's two
-    /// cycles per period (start, FIFO write) as overhead.
+    /// The RTL's latencies in the core's TDM model's terms: its multiplies per period
+    /// stand for our six (the remainder goes to the overhead), plus the scheduler's two
+    /// cycles per period (start, FIFO write); one period at a time, not pipelined.
     pub fn latencies(&self) -> multistep_core::tdm::Latencies {
-        multistep_core::tdm::Latencies {
-            mul: 3 * self.mul_cycles(),
+        use multistep_core::tdm::Latencies;
+        let muls = 6 * self.mul_cycles();
+        let mul = muls / Latencies::MULS_PER_PERIOD;
+        Latencies {
+            mul,
             sqrt: self.wx / 2 + 2,
             div: self.wq + 2,
-            overhead: 2,
+            overhead: 2 + muls - mul * Latencies::MULS_PER_PERIOD,
+            pipelined: false,
         }
     }
 }
@@ -207,7 +211,8 @@ mod tests {
         let w = CoreParams::default().widths().unwrap();
         assert_eq!((w.wm, w.wx, w.wq, w.wt, w.aw), (57, 114, 25, 27, 6));
         assert_eq!(w.calc_busy_cycles(), 6 * 6 + 59 + 27);
-        assert_eq!(w.latencies().cycles_per_period(), 124);
+        assert_eq!(w.latencies().latency(), 124);
+        assert_eq!(w.latencies().interval(), 124);
     }
 
     #[test]

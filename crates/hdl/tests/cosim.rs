@@ -233,10 +233,8 @@ fn rtl_equals_core_tdm_board() {
             falls[sp.axis].push(sp.fall - start);
         });
         assert_eq!(report.underruns, 0);
-        assert_eq!(
-            report.cycles_per_period,
-            u64::from(w.calc_busy_cycles()) + 2
-        );
+        assert_eq!(report.interval_cycles, u64::from(w.calc_busy_cycles()) + 2);
+        assert_eq!(report.latency_cycles, u64::from(w.calc_busy_cycles()) + 2);
         let d = Design::new(&p, Arch::Tdm).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let out = simulate(&d, &moves, dir.path(), 400_000).unwrap_or_else(|e| panic!("{e}"));

@@ -2,7 +2,8 @@
 //! in "elements" = simulated microseconds: elements/s ÷ 10⁶ is simulated s per wall s.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use multistep_core::{MoveSpec, DEFAULT_CLOCK_HZ};
+use multistep_core::DEFAULT_CLOCK_HZ;
+use multistep_sim::experiments::phase_move;
 use multistep_sim::{simulate_profile, Motor, SimConfig};
 
 fn bench(c: &mut Criterion) {
@@ -36,15 +37,7 @@ fn bench(c: &mut Criterion) {
         m.load_inertia = jl;
         let mut cfg = SimConfig::for_motor(&m);
         cfg.driver.microsteps = micro;
-        let profile = MoveSpec {
-            steps: Some(steps),
-            accel_time: Some(ta),
-            cruise_time: Some(tb),
-            decel_time: Some(tc),
-            ..Default::default()
-        }
-        .plan()
-        .unwrap();
+        let profile = phase_move("trapezoid", steps, [ta, tb, tc]).unwrap();
         let r = simulate_profile(&m, &cfg, profile.clone(), DEFAULT_CLOCK_HZ, 1.0).unwrap();
         assert_eq!(r.lost_steps, 0);
         g.throughput(Throughput::Elements((r.simulated_s * 1e6).round() as u64));

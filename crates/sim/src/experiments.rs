@@ -3,7 +3,7 @@
 
 use crate::{simulate_profile, Motor, SimConfig, SimError, SimResult};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use multistep_core::{MoveSpec, DEFAULT_CLOCK_HZ};
+use multistep_core::{MoveSpec, PlanError, Profile, DEFAULT_CLOCK_HZ};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -32,6 +32,19 @@ pub const FAMILIES: [&str; 6] = [
     "scurve",
     "scurve4",
 ];
+
+/// A phase-mode move (DESIGN.md §2): `steps` of `family` in accel, cruise and decel times.
+pub fn phase_move(family: &str, steps: u64, [ta, tb, tc]: [f64; 3]) -> Result<Profile, PlanError> {
+    MoveSpec {
+        profile: Some(family),
+        steps: Some(steps),
+        accel_time: Some(ta),
+        cruise_time: Some(tb),
+        decel_time: Some(tc),
+        ..Default::default()
+    }
+    .plan()
+}
 
 /// Settings of the curve-limits experiment (seed 001 §3).
 #[derive(Clone, Debug)]
@@ -73,6 +86,11 @@ impl CurveLimitsSetup {
         })
     }
 
+    /// Accel, cruise and decel times of a move lasting `period_s`.
+    fn phases(&self, period_s: f64) -> [f64; 3] {
+        self.fractions.map(|f| f * period_s)
+    }
+
     fn steps_for(&self, angle_deg: f64) -> u64 {
         (angle_deg / 1.8 * self.cfg.driver.microsteps as f64).round() as u64
     }
@@ -86,16 +104,7 @@ impl CurveLimitsSetup {
         period_s: f64,
         stop_at_loss: bool,
     ) -> Result<SimResult, SimError> {
-        let [fa, fb, fc] = self.fractions;
-        let profile = MoveSpec {
-            profile: Some(family),
-            steps: Some(self.steps_for(angle_deg)),
-            accel_time: Some(fa * period_s),
-            cruise_time: Some(fb * period_s),
-            decel_time: Some(fc * period_s),
-            ..Default::default()
-        }
-        .plan()?;
+        let profile = phase_move(family, self.steps_for(angle_deg), self.phases(period_s))?;
         let mut cfg = self.cfg.clone();
         cfg.stop_at_first_loss = stop_at_loss;
         self.simulations.fetch_add(1, Ordering::Relaxed);
@@ -289,15 +298,7 @@ impl CurveLimitsSetup {
                 "settle"
             }
         });
-        let profile = MoveSpec {
-            profile: Some(fam),
-            steps: Some(self.steps_for(at.0)),
-            accel_time: Some(fa * at.1),
-            cruise_time: Some(fb * at.1),
-            decel_time: Some(fc * at.1),
-            ..Default::default()
-        }
-        .plan()?;
+        let profile = phase_move(fam, self.steps_for(at.0), self.phases(at.1))?;
         let deg_per_step = 1.8 / self.cfg.driver.microsteps as f64;
         // Just before the end of the accel phase: the acceleration at the peak speed.
         let t_top = fa * at.1 * (1.0 - 1e-9);
@@ -415,15 +416,7 @@ pub fn two_axis(dt: f64) -> Result<TwoAxis, SimError> {
     let axes = [2400u64, 1800]
         .par_iter()
         .map(|&n| {
-            let profile = MoveSpec {
-                profile: Some("trapezoid"),
-                steps: Some(n),
-                accel_time: Some(ta),
-                cruise_time: Some(tb),
-                decel_time: Some(tc),
-                ..Default::default()
-            }
-            .plan()?;
+            let profile = phase_move("trapezoid", n, [ta, tb, tc])?;
             let r = simulate_profile(&motor, &cfg, profile, DEFAULT_CLOCK_HZ, 1.0)?;
             let per = 1.8 / cfg.driver.microsteps as f64;
             Ok(AxisResult {

@@ -2,6 +2,7 @@
 //! that contains edges is split at each edge time: every RK4 sub-step sees a constant command
 //! and the result is exact to RK4 order however many microsteps fall in one dt.
 
+use crate::driver::SineTable;
 use crate::error::SimError;
 use crate::measures::{EnergyBalance, Measures};
 use crate::model::{
@@ -99,7 +100,8 @@ fn rk4<const IDEAL: bool>(p: &Plant, x: &mut State, u: &Command, h: f64) {
     }
 }
 
-/// Runs one move: `edges` are the step edges in ticks of `clock_hz`, `direction` ±1.
+/// Runs one move: `edges` are the step edges in ticks of `clock_hz`; the move goes in the
+/// negative direction when `direction` < 0, else in the positive one.
 pub fn run<I: Iterator<Item = u64>>(
     m: &Motor,
     cfg: &SimConfig,
@@ -117,10 +119,11 @@ pub fn run<I: Iterator<Item = u64>>(
         });
     }
     check_step(m, cfg)?;
-    let p = Plant::new(m, &cfg.driver, direction);
+    let dir = if direction < 0.0 { -1.0 } else { 1.0 };
+    let p = Plant::new(m, &cfg.driver, dir);
     match cfg.driver.mode {
-        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, direction),
-        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, direction),
+        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, dir),
+        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, dir),
     }
 }
 
@@ -130,9 +133,8 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     cfg: &SimConfig,
     mut edges: I,
     clock: f64,
-    direction: f64,
+    dir: f64,
 ) -> Result<SimResult, SimError> {
-    let dir = if direction < 0.0 { -1.0 } else { 1.0 };
     let dt = cfg.dt;
     let micro = m.microstep_angle(cfg.driver.microsteps);
     let full_step = micro * cfg.driver.microsteps as f64;
@@ -150,7 +152,17 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     let mut x: State = [0.0; NSTATE];
     let mut next = edges.next();
     let mut after = edges.next();
-    let mut u = p.references(0.0, omega_ref(0, next));
+    // i_A* = I·cos(N_r θ*), i_B* = I·sin(N_r θ*) (DESIGN.md §4), from the driver's table.
+    let table = SineTable::new(cfg.driver.current, cfg.driver.microsteps);
+    let command = |count: u64, omega_ref: f64| {
+        let (ia_ref, ib_ref) = table.at(count, dir);
+        Command {
+            ia_ref,
+            ib_ref,
+            omega_ref,
+        }
+    };
+    let mut u = command(0, omega_ref(0, next));
     x[IA] = u.ia_ref;
     x[IB] = u.ib_ref;
     // PI integrators start at the steady holding voltage R·i: no start-up transient.
@@ -187,7 +199,7 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
                     return Err(SimError::EdgesBackwards { prev: e, next: n });
                 }
             }
-            u = p.references(dir * count as f64 * micro, omega_ref(e, next));
+            u = command(count, omega_ref(e, next));
             last_edge_t = te;
         }
         rk4::<IDEAL>(p, &mut x, &u, t_grid - t);
@@ -206,7 +218,8 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
                     t,
                     commanded_deg: (count as f64 * micro).to_degrees(),
                     actual_deg: (dir * x[TH]).to_degrees(),
-                    commanded_speed_deg_s: 0.0,
+                    // the step rate of the edge interval in progress (one microstep per period)
+                    commanded_speed_deg_s: (dir * u.omega_ref).to_degrees(),
                     actual_speed_deg_s: (dir * x[OM]).to_degrees(),
                     error_deg: err.to_degrees(),
                     ia,
@@ -227,7 +240,6 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
             }
         }
     }
-    crate::trace::fill_commanded_speed(&mut trace);
     let final_error = err_of(count, &x);
     let energy = if IDEAL {
         None

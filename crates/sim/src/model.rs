@@ -76,16 +76,6 @@ impl Plant {
         }
     }
 
-    /// Current references for the electrical angle N_r·θ*: i_A* = I·cos, i_B* = I·sin.
-    pub fn references(&self, theta_ref: f64, omega_ref: f64) -> Command {
-        let (s, c) = (self.nr * theta_ref).sin_cos();
-        Command {
-            ia_ref: self.current * c,
-            ib_ref: self.current * s,
-            omega_ref,
-        }
-    }
-
     /// Drag torques that are not the load: B·ω + dry friction (smoothed sign).
     #[inline(always)]
     fn drag(&self, w: f64) -> f64 {

@@ -149,7 +149,8 @@ impl Motor {
             return Err(bad(
                 "detent_torque",
                 self.detent_torque,
-                "must be below the torque amplitude K_m·I, or the rotor has no single equilibrium",
+                "must be below holding_torque/√2 (the torque amplitude K_m·I at rated_current), \
+                 or the rotor has no single equilibrium",
             ));
         }
         Ok(())
@@ -204,6 +205,7 @@ impl Motor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::strategy::Strategy;
 
     #[test]
     fn library_motors_load_and_match_issue_values() {
@@ -243,6 +245,31 @@ mod tests {
         assert!(e.contains("rated_current"), "{e}");
         let e = Motor::load("no-such-motor").unwrap_err().to_string();
         assert!(e.contains("57mm"), "{e}");
+    }
+
+    proptest::proptest! {
+        /// Any value in any numeric field: the file loads, or the error names that field.
+        #[test]
+        fn any_numeric_field_value_loads_or_names_the_field(
+            field_index in 0usize..9,
+            value in proptest::prop_oneof![
+                proptest::num::f64::ANY.prop_map(|v| format!("{v:e}")),
+                proptest::strategy::Just("nan".to_string()),
+                proptest::strategy::Just("-inf".to_string()),
+                proptest::strategy::Just("\"x\"".to_string()),
+            ],
+        ) {
+            let fields = ["holding_torque", "rated_current", "resistance", "inductance",
+                "rotor_inertia", "detent_torque", "viscous_friction", "load_inertia", "damping_ratio"];
+            let field = fields[field_index];
+            let text: String = LIBRARY[1].1.lines().map(|l| {
+                if l.starts_with(&format!("{field} =")) { format!("{field} = {value}") } else { l.to_string() }
+            }).collect::<Vec<_>>().join("\n");
+            match Motor::from_toml(&text, "p.toml") {
+                Ok(m) => proptest::prop_assert!(m.validate().is_ok()),
+                Err(e) => proptest::prop_assert!(e.to_string().contains(field), "{}", e),
+            }
+        }
     }
 
     #[test]

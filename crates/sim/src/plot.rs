@@ -16,7 +16,8 @@ const FONT_PATHS: [&str; 4] = [
     "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
 ];
 
-fn ensure_font() -> Result<(), String> {
+/// Registers the sans-serif font plotters lays text out with (once per program).
+pub fn ensure_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
         let env = std::env::var("MULTISTEP_FONT").ok();

@@ -1,22 +1,8 @@
-//! The trace of a simulated move: the commanded speed column and CSV output.
+//! The trace of a simulated move as CSV.
 
 use crate::error::SimError;
 use crate::TraceRow;
 use std::io::Write;
-
-/// Commanded speed from the microstep staircase: a centred difference over ±5 samples, so the
-/// column shows the edge rate rather than the steps of θ*.
-pub fn fill_commanded_speed(rows: &mut [TraceRow]) {
-    const HALF: usize = 5;
-    let n = rows.len();
-    for k in 0..n {
-        let (a, b) = (k.saturating_sub(HALF), (k + HALF).min(n - 1));
-        if b > a {
-            rows[k].commanded_speed_deg_s =
-                (rows[b].commanded_deg - rows[a].commanded_deg) / (rows[b].t - rows[a].t);
-        }
-    }
-}
 
 pub fn write_csv(path: &str, rows: &[TraceRow]) -> Result<(), SimError> {
     let io = |source| SimError::Io {

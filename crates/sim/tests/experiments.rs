@@ -23,6 +23,15 @@ fn curve_limits_reproduce_seed_001_ordering() {
     assert!(r.min_time_360_ms["parabolic"] < r.min_time_360_ms["trapezoid"]);
     // DESIGN.md's exponential has the lowest peak speed of the three: it is not the worst.
     assert!(r.max_angle_deg["exponential"] > trap);
+    // Bisection assumes pass/fail is monotone; spot-check below each angle limit.
+    let mut m = setup.motor.clone();
+    m.load_inertia = r.load_inertia;
+    for (fam, &a) in &r.max_angle_deg {
+        for below in [a - 10.0, a / 2.0] {
+            let run = setup.run(&m, fam, below, setup.period_s, true).unwrap();
+            assert!(!run.lost, "{fam}: {below}° loses although {a}° does not");
+        }
+    }
     // Each limit is a real edge: the move one resolution step past it loses a step.
     for cells in [&r.cells_max_angle, &r.cells_min_time] {
         for (fam, c) in cells.iter() {

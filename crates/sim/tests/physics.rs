@@ -1,22 +1,14 @@
 //! The simulator against exact references: energy conservation, the closed-form pull-out
 //! bound, dt convergence, the damping ratio it claims, and moves that must or must not lose.
 
-use multistep_core::{EdgeGenerator, MoveSpec, Profile, Segment, DEFAULT_CLOCK_HZ};
+use multistep_core::{EdgeGenerator, Profile, Segment, DEFAULT_CLOCK_HZ};
 use multistep_sim::analysis::pull_out_bound;
+use multistep_sim::experiments::phase_move;
 use multistep_sim::{simulate_edges, simulate_profile, DriverMode, Motor, SimConfig, SimResult};
 use proptest::prelude::*;
 
 fn phases(family: &str, steps: u64, ta: f64, tb: f64, tc: f64) -> Profile {
-    MoveSpec {
-        profile: Some(family),
-        steps: Some(steps),
-        accel_time: Some(ta),
-        cruise_time: Some(tb),
-        decel_time: Some(tc),
-        ..Default::default()
-    }
-    .plan()
-    .unwrap()
+    phase_move(family, steps, [ta, tb, tc]).unwrap()
 }
 
 fn run(m: &Motor, cfg: &SimConfig, p: Profile) -> SimResult {

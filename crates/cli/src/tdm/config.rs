@@ -17,11 +17,13 @@ pub struct ConfigFile {
     pub fifo_depth: Option<usize>,
     /// round-robin (default) or earliest-deadline; `--policy` overrides it.
     pub policy: Option<String>,
-    /// Calculator latencies in cycles (defaults: the radix-4 datapath, 54 cycles/period).
+    /// Calculator latencies in cycles (defaults: the radix-4 datapath, 68 cycles/period).
     pub mul_cycles: Option<u32>,
     pub div_cycles: Option<u32>,
     pub sqrt_cycles: Option<u32>,
     pub overhead_cycles: Option<u32>,
+    /// Overlap periods of different axes across the units (default false).
+    pub pipelined: Option<bool>,
     /// Least ticks from DIR set (tick 0) to the group's start (default 0).
     pub dir_setup_ticks: Option<u64>,
     /// Fixed STEP high time in ticks; absent: half of the interval to the next edge.
@@ -116,6 +118,7 @@ impl ConfigFile {
                 div: self.div_cycles.unwrap_or(d.div),
                 sqrt: self.sqrt_cycles.unwrap_or(d.sqrt),
                 overhead: self.overhead_cycles.unwrap_or(d.overhead),
+                pipelined: self.pipelined.unwrap_or(d.pipelined),
             },
             policy,
             pulse: match self.pulse_width_ticks {
@@ -166,6 +169,7 @@ mod tests {
             clock = 50e6
             fifo_depth = 2
             div_cycles = 40
+            pipelined = true
             pulse_width_ticks = 100
             [[axis]]
             steps = 2400
@@ -187,6 +191,7 @@ mod tests {
         assert_eq!(b.fifo_depth, 2);
         assert_eq!(b.latencies.div, 40);
         assert_eq!(b.latencies.sqrt, Latencies::default().sqrt);
+        assert!(b.latencies.pipelined);
         assert_eq!(b.pulse, PulseShape::Fixed { ticks: 100 });
         assert_eq!(b.policy, Policy::RoundRobin);
         let p = cfg.profiles().unwrap();

@@ -8,7 +8,7 @@ use crate::plan::{itoa_buf, write_row};
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use config::ConfigFile;
-use multistep_core::tdm::{k_eq12, Axis, Board, Policy, Report, StepPulse, TdmConfig};
+use multistep_core::tdm::{k_eq12, k_max, Axis, Board, Policy, Report, StepPulse, TdmConfig};
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -38,7 +38,7 @@ pub enum TdmFormat {
 #[derive(Args, Debug)]
 pub struct TdmArgs {
     /// Board and axes (TOML): clock, fifo_depth, *_cycles, [[axis]] tables
-    #[arg(long, value_name = "FILE", required_unless_present = "sweep")]
+    #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Scheduling policy (overrides the config's)
     #[arg(long, value_enum)]
@@ -51,6 +51,10 @@ pub struct TdmArgs {
     /// Sweep: the largest underrun-free number of axes against the maximum step rate
     #[arg(long)]
     pub sweep: bool,
+    /// Analysis: the most axes that run the config's moves with no underrun (axis i runs
+    /// move i mod n, all started together), up to --max-axes; next to seed eq. (12)
+    #[arg(long)]
+    pub k_max: bool,
     #[command(flatten)]
     pub sweep_args: sweep::SweepArgs,
 }
@@ -73,7 +77,10 @@ struct RunSummary {
     policy: &'static str,
     clock_hz: f64,
     fifo_depth: usize,
-    cycles_per_period: u64,
+    /// Cycles between computation starts (t_calc of seed eq. (12)).
+    interval_cycles: u64,
+    /// Cycles from a computation's start to its FIFO write.
+    latency_cycles: u64,
     start_tick: u64,
     end_tick: u64,
     edges: u64,
@@ -96,9 +103,15 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     if args.sweep {
         return sweep::run(args);
     }
-    let path = args.config.as_ref().context("--config is required")?;
+    let path = args
+        .config
+        .as_ref()
+        .context("tdm needs --config FILE.toml (or --sweep)")?;
     let file = ConfigFile::load(path)?;
     let cfg = file.board(args.policy.map(Policy::from))?;
+    if args.k_max {
+        return print_k_max(args, &cfg, &file.profiles()?);
+    }
     let mut axes = file
         .profiles()?
         .into_iter()
@@ -173,14 +186,15 @@ fn summarize(
     min_periods: &[u64],
     file: &ConfigFile,
 ) -> RunSummary {
-    let c = r.cycles_per_period;
+    let c = r.interval_cycles;
     let slack = |s: i64| (s != i64::MAX).then_some(s);
     let dmin = min_periods.iter().copied().min().unwrap_or(0);
     RunSummary {
         policy: cfg.policy.name(),
         clock_hz: cfg.clock_hz,
         fifo_depth: cfg.fifo_depth,
-        cycles_per_period: c,
+        interval_cycles: c,
+        latency_cycles: r.latency_cycles,
         start_tick: r.start_tick,
         end_tick: r.end_tick,
         edges: r.edges,
@@ -223,8 +237,8 @@ fn print_table(out: &mut impl Write, s: &RunSummary) -> anyhow::Result<()> {
     writeln!(out, "fifo depth      {}", s.fifo_depth)?;
     writeln!(
         out,
-        "calculator      {} cycles per period",
-        s.cycles_per_period
+        "calculator      a period every {} cycles, each ready {} cycles after its start",
+        s.interval_cycles, s.latency_cycles
     )?;
     writeln!(out, "axes            {}", s.axes.len())?;
     writeln!(
@@ -271,10 +285,86 @@ fn print_table(out: &mut impl Write, s: &RunSummary) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Rejects flags that only make sense in the other mode.
+#[derive(Serialize, Debug)]
+struct KMaxSummary {
+    policy: &'static str,
+    fifo_depth: usize,
+    interval_cycles: u64,
+    latency_cycles: u64,
+    moves: usize,
+    k_max: usize,
+    /// k_max is the most axes tried; the real bound may be higher.
+    capped: bool,
+    k_eq12: u64,
+    /// Most axes whose summed load Σ t_calc / Δt_min stays ≤ 1.
+    k_load: usize,
+    min_period_ticks: u64,
+    /// Underruns of the first failing run (k_max + 1 axes).
+    first_failure_underruns: Option<u64>,
+}
+
+fn print_k_max(
+    args: &TdmArgs,
+    cfg: &TdmConfig,
+    moves: &[multistep_core::Profile],
+) -> anyhow::Result<()> {
+    let n = args.sweep_args.max_axes;
+    if n == 0 || n > multistep_core::tdm::MAX_AXES {
+        bail!("--max-axes must be 1 to {}", multistep_core::tdm::MAX_AXES);
+    }
+    let mut storage = (0..n)
+        .map(|i| Axis::new(moves[i % moves.len()].clone(), cfg.clock_hz))
+        .collect::<Result<Vec<_>, _>>()?;
+    let km = k_max(cfg, moves, &mut storage)?;
+    let s = KMaxSummary {
+        policy: cfg.policy.name(),
+        fifo_depth: cfg.fifo_depth,
+        interval_cycles: cfg.latencies.interval(),
+        latency_cycles: cfg.latencies.latency(),
+        moves: moves.len(),
+        k_max: km.k_max,
+        capped: km.capped,
+        k_eq12: km.k_eq12,
+        k_load: km.k_load,
+        min_period_ticks: km.min_period_ticks,
+        first_failure_underruns: km.first_failure.map(|r| r.underruns),
+    };
+    let mut out = std::io::stdout().lock();
+    match args.format {
+        TdmFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?,
+        TdmFormat::Table => {
+            let cap = if s.capped { " (the most tried)" } else { "" };
+            writeln!(
+                out,
+                "policy {}, fifo depth {}, t_calc {} cycles (latency {}), {} moves",
+                s.policy, s.fifo_depth, s.interval_cycles, s.latency_cycles, s.moves
+            )?;
+            writeln!(out, "k_max (simulated)      {}{cap}", s.k_max)?;
+            writeln!(
+                out,
+                "eq. (12) k             {} (Δt_min {} ticks)",
+                s.k_eq12, s.min_period_ticks
+            )?;
+            writeln!(
+                out,
+                "load bound k           {} (Σ t_calc / Δt_min ≤ 1)",
+                s.k_load
+            )?;
+            if let Some(u) = s.first_failure_underruns {
+                writeln!(out, "with {} axes           {} underruns", s.k_max + 1, u)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Rejects flags that only make sense in another mode.
 fn check_mode(args: &TdmArgs) -> anyhow::Result<()> {
-    if args.sweep && args.edges_dir.is_some() {
-        bail!("--edges-dir writes a single run's edges; it does not go with --sweep");
+    if (args.sweep || args.k_max) && args.edges_dir.is_some() {
+        bail!("--edges-dir writes a single run's edges; it does not go with --sweep or --k-max");
+    }
+    if args.sweep && args.k_max {
+        bail!("--sweep and --k-max are two different analyses; give one");
     }
     Ok(())
 }

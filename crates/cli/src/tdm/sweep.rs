@@ -19,7 +19,7 @@ pub struct SweepArgs {
     /// Sweep: maximum step rates MIN:MAX:POINTS (steps/s)
     #[arg(long, value_name = "MIN:MAX:N", default_value = "10000:200000:20")]
     pub rates: String,
-    /// Sweep: most axes to try (up to 64)
+    /// Sweep and --k-max: most axes to try (up to 64)
     #[arg(long, value_name = "K", default_value_t = MAX_AXES)]
     pub max_axes: usize,
     /// Sweep: FIFO depths to compare
@@ -58,7 +58,8 @@ struct Row {
 #[derive(Serialize, Debug)]
 struct SweepOut {
     clock_hz: f64,
-    cycles_per_period: u64,
+    interval_cycles: u64,
+    latency_cycles: u64,
     move_times_s: [f64; 3],
     rows: Vec<Row>,
 }
@@ -137,7 +138,8 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     }
     let out = SweepOut {
         clock_hz: base.clock_hz,
-        cycles_per_period: base.latencies.cycles_per_period(),
+        interval_cycles: base.latencies.interval(),
+        latency_cycles: base.latencies.latency(),
         move_times_s: times,
         rows,
     };
@@ -147,6 +149,7 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
         TdmFormat::Json => writeln!(w, "{}", serde_json::to_string_pretty(&out)?)?,
         TdmFormat::Table => print_table(&mut w, &out)?,
     }
+    w.flush()?;
     eprintln!("plot written to {}", sa.plot.display());
     Ok(())
 }
@@ -158,8 +161,8 @@ fn series_name(s: &Series) -> String {
 fn print_table(w: &mut impl Write, out: &SweepOut) -> anyhow::Result<()> {
     writeln!(
         w,
-        "clock {} Hz, t_calc {} cycles, trapezoid {:?} s, all axes started together",
-        out.clock_hz, out.cycles_per_period, out.move_times_s
+        "clock {} Hz, t_calc {} cycles (latency {}), trapezoid {:?} s, all axes started together",
+        out.clock_hz, out.interval_cycles, out.latency_cycles, out.move_times_s
     )?;
     write!(w, "{:>12} {:>8} {:>6}", "rate", "Δt_min", "eq.12")?;
     if let Some(r) = out.rows.first() {
@@ -201,13 +204,14 @@ fn plot(out: &SweepOut, path: &PathBuf) -> anyhow::Result<()> {
         .max()
         .unwrap_or(1)
         .min(MAX_AXES as u64 + 4) as f64;
+    multistep_sim::plot::ensure_font().map_err(anyhow::Error::msg)?;
     let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!(
-                "axes served by one calculator ({} cycles/period)",
-                out.cycles_per_period
+                "axes served by one calculator (t_calc {} cycles, latency {})",
+                out.interval_cycles, out.latency_cycles
             ),
             ("sans-serif", 20),
         )

@@ -1,43 +1,55 @@
-//! Integer square roots, floor(√n), with no floating point: the top half of the bits gives
-//! an estimate one level down, one Newton step doubles its precision, and a correction step
-//! makes it exact (Zimmermann's "Karatsuba square root" uses the same recursion).
+//! Integer square roots, floor(√n), with no floating point: a 192-entry seed table on
+//! the top byte, Newton steps that each double the correct bits, and a correction step that
+//! makes the result exact. The u128 root takes the u64 root of its top half and one more
+//! Newton step (Zimmermann's "Karatsuba square root" uses the same recursion).
 
-/// floor(√n) for n < 2^32, by the bit-by-bit (restoring) method: 16 fixed iterations.
-#[inline]
-pub fn isqrt_u32(n: u32) -> u32 {
-    let mut rem = n;
-    let mut root = 0u32;
-    let mut bit = 1u32 << 30;
-    while bit > rem {
-        bit >>= 2;
-    }
-    while bit != 0 {
-        if rem >= root + bit {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
+/// `SEED[t − 64] = ⌈√((t + 1)·2^16)⌉` for a normalised top byte t ∈ [64, 255]: shifted left
+/// by 20 it is at least √m for every 64-bit m with that top byte, and at most 2^-7 above.
+const SEED: [u32; 192] = seed_table();
+
+const fn seed_table() -> [u32; 192] {
+    let mut table = [0u32; 192];
+    let mut i = 0;
+    while i < 192 {
+        let x = (i as u64 + 65) << 16;
+        // ⌈√x⌉ by bisection
+        let (mut lo, mut hi) = (0u64, 1u64 << 17);
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if mid * mid >= x {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
         }
-        bit >>= 2;
+        table[i] = lo as u32;
+        i += 1;
     }
-    root
+    table
 }
 
-/// floor(√n) for u64: estimate from the top 32 bits, one Newton step, correction.
+/// floor(√n) for n < 2^32.
+#[inline]
+pub fn isqrt_u32(n: u32) -> u32 {
+    isqrt_u64(n as u64) as u32
+}
+
+/// floor(√n) for u64: table seed, two Newton steps from above, correction.
 #[inline]
 pub fn isqrt_u64(n: u64) -> u64 {
-    if n < 1 << 32 {
-        return isqrt_u32(n as u32) as u64;
+    if n == 0 {
+        return 0;
     }
     // shift by an even amount so the top two bits hold the leading one
     let shift = n.leading_zeros() & !1;
     let m = n << shift;
-    let hi = (m >> 32) as u32;
-    let x = (isqrt_u32(hi) as u64) << 16;
-    // Newton from x ≤ √m: the result is ≥ √m − 1 and within a few units above it
-    let x = (x + m / x) >> 1;
-    let s = correct_u64(m, x);
-    s >> (shift / 2)
+    let mut x = (SEED[(m >> 56) as usize - 64] as u64) << 20;
+    // relative error 2^-7 → 2^-15 → 2^-31: at most a few units above ⌊√m⌋ (integer Newton
+    // from above never drops below it), which the correction walks down
+    for _ in 0..2 {
+        x = (x + m / x) >> 1;
+    }
+    correct_u64(m, x) >> (shift / 2)
 }
 
 #[inline(always)]

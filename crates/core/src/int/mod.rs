@@ -39,11 +39,12 @@
 //! it). The last step of a piece that ends on a step (`M = A·D + B·D²`) is `t0 + D`.
 //!
 //! # Bit widths
-//! Planning checks (typed error [`IntError::TooWide`] otherwise) that `8M < 2^127` and
+//! Planning checks (typed error [`IntError::TooWide`] otherwise) that `8M < 2^124` and
 //! `q·(2A + |B|q) < 2^124` for every step. The datapath needs one 128 × 128 → 256-bit
 //! multiplier (B·M; a 128-bit one when k = 0), two multiplies with the narrow operand q
-//! (⌈log2(2D + 2)⌉ bits, 33 for pieces under 2^32 ticks), a 127/64-bit divider whose
-//! quotient has ⌈log2(2D + 2)⌉ bits, and a 126-bit-in, 63-bit-out square root. `Den` is the
+//! (⌈log2(2D + 2)⌉ bits, 33 for pieces under 2^32 ticks), a divider with a 124-bit
+//! dividend whose quotient has only ⌈log2(2D + 2)⌉ bits (so a restoring divider takes that
+//! many cycles), and a 126-bit-in, 63-bit-out square root. `Den` is the
 //! product of the phase times (and, with nonzero start/end speeds, of `f·Q`) reduced by
 //! their gcd; e.g. a 50 MHz trapezoid from rest with phases of 2^24 ticks and 10^6 steps
 //! needs `M` of about 2^70.

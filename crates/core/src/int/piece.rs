@@ -170,7 +170,13 @@ impl IntPiece {
         // s·2^k ≈ √(4r) = 2·Den·v from below; q = ⌈8M / (2A + s·2^k)⌉ − 1 is
         // ⌈2τ*⌉ − 1 or one more
         let s = isqrt_u128(self.radicand(m));
-        let q = ((m << 3) - 1) / ((self.a << 1) + (s << self.k));
+        let (num, div) = ((m << 3) - 1, (self.a << 1) + (s << self.k));
+        // same quotient; a 64-bit divide when the operands allow (software speed only)
+        let q = if (num | div) >> 64 == 0 {
+            (num as u64 / div as u64) as u128
+        } else {
+            num / div
+        };
         // correction: keep q iff q < 2τ*, i.e. p(q/2) < target on the rising branch:
         // A + Bq ≥ 0 and q·(2A + Bq) < 4M (2 multiplies)
         let qi = q as i128;

@@ -252,13 +252,14 @@ pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMov
     let sq = |v: u128| checked(v.checked_mul(v));
     // distance to go vs → v → ve at amax, ×2·amax·Q: 2v² − vs² − ve²
     let two_aqn = checked(checked((2 * amax).checked_mul(q))?.checked_mul(n))?;
+    let ends = checked(sq(vs)?.checked_add(sq(ve)?))?;
     let need = |v: u128| -> Result<u128, IntError> {
-        Ok(checked((2 * sq(v)?).checked_sub(sq(vs)? + sq(ve)?))?)
+        checked(checked(sq(v)?.checked_mul(2))?.checked_sub(ends))
     };
     let vp = if need(vmax)? <= two_aqn {
         vmax
     } else {
-        let vp = super::isqrt::isqrt_u128((two_aqn + sq(vs)? + sq(ve)?) / 2);
+        let vp = super::isqrt::isqrt_u128(checked(two_aqn.checked_add(ends))? / 2);
         if vp < vs.max(ve) || vp == 0 {
             return Err(IntError::TooShortForLimits);
         }

@@ -204,14 +204,13 @@ fn phase_mode_matches_float_up_to_ties_at_50mhz() {
     let mut r = Rng(4);
     let (mut moves, mut edges, mut ties, mut exact_ties) = (0u64, 0u64, 0u64, 0u64);
     while moves < 150_000 {
-        let m = IntPhaseMove {
-            steps: r.range(1, 64),
-            accel_ticks: r.range(0, 3_000_000),
-            cruise_ticks: r.range(0, 2_000_000),
-            decel_ticks: r.range(0, 3_000_000),
-            start_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
-            end_speed: if r.below(2) == 0 { 0 } else { r.range(1, 500) },
-        };
+        let m = random_phase(
+            &mut r,
+            64,
+            [(0, 3_000_000), (0, 2_000_000), (0, 3_000_000)],
+            500,
+            true,
+        );
         let Ok(ip) = IntProfile::phase(&m, IntClock::hz(hz)) else {
             continue;
         };
@@ -247,6 +246,33 @@ fn exact_half_tick(p: &IntProfile, i: u64, mid: u128) -> bool {
     let q = &p.pieces()[k];
     q.target(i)
         .is_some_and(|m| q.cmp_at_half_ticks(mid - 2 * q.t0 as u128, m).is_eq())
+}
+
+/// A phase move with up to `steps` steps, phase ticks in the given ranges, and start and
+/// end speeds up to `speed` (each 0 half the time if `rests`).
+fn random_phase(
+    r: &mut Rng,
+    steps: u64,
+    ticks: [(u64, u64); 3],
+    speed: u64,
+    rests: bool,
+) -> IntPhaseMove {
+    let [a, b, c] = ticks.map(|(lo, hi)| r.range(lo, hi));
+    let v = |r: &mut Rng| {
+        if rests && r.below(2) == 0 {
+            0
+        } else {
+            r.range(1, speed)
+        }
+    };
+    IntPhaseMove {
+        steps: r.range(1, steps),
+        accel_ticks: a,
+        cruise_ticks: b,
+        decel_ticks: c,
+        start_speed: v(r),
+        end_speed: v(r),
+    }
 }
 
 /// Whether step i's exact time is within 1e-6 tick of the half tick `mid/2`: p at
@@ -399,6 +425,34 @@ fn bad_moves_get_typed_errors() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Wild integers never panic: planning returns a move or a typed error, and a planned
+    /// move streams non-decreasing edges ending at its last tick.
+    #[test]
+    fn wild_inputs_never_panic(
+        x in proptest::collection::vec(any::<u64>(), 6),
+        shift in proptest::collection::vec(0u32..64, 6),
+        hz in any::<u64>(),
+        q in any::<u64>(),
+    ) {
+        let v: Vec<u64> = x.iter().zip(&shift).map(|(a, s)| a >> s).collect();
+        let clock = IntClock { clock_hz: hz >> (hz % 64), speed_scale: q >> (q % 64) };
+        let ph = IntPhaseMove {
+            steps: v[0], accel_ticks: v[1], cruise_ticks: v[2], decel_ticks: v[3],
+            start_speed: v[4], end_speed: v[5],
+        };
+        let lm = IntLimitsMove { steps: v[0], vmax: v[1], amax: v[2], start_speed: v[3], end_speed: v[4] };
+        let sg = [IntSegment { v0: v[0], ticks: v[1], steps: v[2] }, IntSegment { v0: v[3], ticks: v[4], steps: v[5] }];
+        for p in [IntProfile::phase(&ph, clock), IntProfile::limits(&lm, clock), IntProfile::segments(&sg, clock)]
+            .into_iter()
+            .flatten()
+        {
+            let e: Vec<u64> = IntEdgeGenerator::new(p.clone()).take(200).collect();
+            prop_assert!(e.windows(2).all(|w| w[0] <= w[1]));
+            prop_assert!(e.iter().all(|&t| t <= p.end_tick()));
+        }
+    }
+
     /// Any segment chain the planner accepts is exact on every edge (odd clocks too).
     #[test]
     fn segments_are_exact(
@@ -412,4 +466,41 @@ proptest! {
             assert_exact(&p, &e, &|| format!("{hz} {segs:?}"));
         }
     }
+}
+
+/// Moves whose radicand needs more than 126 bits (k > 0: the rounded-radicand path) are
+/// exact on every edge too.
+#[test]
+fn wide_radicand_moves_are_exact() {
+    let mut r = Rng(6);
+    let clock = IntClock {
+        clock_hz: 50_000_000,
+        speed_scale: 1000,
+    };
+    let (mut wide, mut moves, mut too_wide) = (0u64, 0u64, 0u64);
+    while moves < 3000 {
+        let m = random_phase(
+            &mut r,
+            200,
+            [(1, 20_000_000), (0, 5_000_000), (1, 20_000_000)],
+            100_000_000,
+            false,
+        );
+        let p = match IntProfile::phase(&m, clock) {
+            Ok(p) => p,
+            Err(e) => {
+                too_wide += (e == IntError::TooWide) as u64;
+                continue;
+            }
+        };
+        moves += 1;
+        wide += p.pieces().iter().any(|q| q.k > 0) as u64;
+        let e = int_edges(p.clone());
+        assert_exact(&p, &e, &|| format!("{m:?}"));
+    }
+    std::println!("{moves} moves, {wide} on the wide path, {too_wide} rejected as too wide");
+    assert!(
+        wide > 1000,
+        "only {wide} of {moves} moves took the wide path"
+    );
 }

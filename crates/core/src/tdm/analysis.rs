@@ -1,15 +1,20 @@
 //! How many axes one calculator serves: simulation against seed 000's rule of thumb.
 //!
-//! Seed eq. (12): `k = Δt_min / t_calc`. It is a throughput bound for axes that all run at
-//! the fastest rate at once: every axis needs one period per Δt_min and each costs t_calc.
-//! The simulation ([`k_max`]) differs from it in three ways:
-//! - axes at different rates: a slow axis needs few periods, so the real load is
-//!   `Σ_m t_calc / Δt_min,m` ([`KMax::k_load`]), and mixed sets fit more axes than eq. (12);
-//! - the policy: round-robin serves axes in a fixed order whatever their deadline, so with a
-//!   shallow FIFO an urgent axis can wait behind k−1 others that were not urgent;
-//! - FIFO depth and phase: with depth D a burst of coinciding deadlines (a synchronous group
-//!   starts together, so their edges line up) can be absorbed by periods computed ahead; with
-//!   D = 1 nothing is ahead, and all k periods of a common edge must fit into one period.
+//! Seed eq. (12): `k = Δt_min / t_calc`. For axes that all run at the fastest rate at once
+//! it is the throughput bound: each needs one period per Δt_min and each costs t_calc.
+//! It is also what round-robin guarantees with any FIFO depth and any phases: a freed
+//! slot is refilled within k computations (the one running, then at most one per other
+//! axis). The simulation ([`k_max`]) departs from it when
+//! - the calculator is pipelined: a period arrives one latency after it starts, so with
+//!   depth 1 the last of k coinciding periods is ready `(k−1)·t_calc + latency` after the
+//!   edge; a second FIFO slot hides that;
+//! - axes run at different rates: the load is `Σ_m t_calc / Δt_min,m` ([`KMax::k_load`]);
+//!   earliest-deadline reaches that bound where round-robin stays at eq. (12), because it
+//!   serves an urgent axis first instead of after k−1 others;
+//! - the top rate lasts only a moment: a deep FIFO holds periods computed during the
+//!   slower stretches around it.
+//!
+//! Synchronous groups start together, so their edges coincide: the worst phase alignment.
 
 use super::board::{Axis, Board, Report, TdmConfig};
 use super::TdmError;
@@ -30,7 +35,8 @@ pub struct KMax {
     /// Largest k whose summed load `Σ t_calc / Δt_min,m` stays ≤ 1.
     pub k_load: usize,
     pub min_period_ticks: u64,
-    pub cycles_per_period: u64,
+    /// t_calc: cycles between computation starts.
+    pub interval_cycles: u64,
 }
 
 /// Shortest period (ticks) of a move at a clock.
@@ -42,8 +48,8 @@ pub fn min_period_ticks(profile: &Profile, clock_hz: f64) -> Result<u64, TdmErro
 }
 
 /// Seed 000 eq. (12): `k = Δt_min / t_calc`, rounded down.
-pub fn k_eq12(min_period_ticks: u64, cycles_per_period: u64) -> u64 {
-    min_period_ticks.checked_div(cycles_per_period).unwrap_or(0)
+pub fn k_eq12(min_period_ticks: u64, interval_cycles: u64) -> u64 {
+    min_period_ticks.checked_div(interval_cycles).unwrap_or(0)
 }
 
 /// Runs k = 1, 2, … axes (axis i runs `moves[i % moves.len()]`, all started together) until
@@ -52,7 +58,7 @@ pub fn k_max(cfg: &TdmConfig, moves: &[Profile], storage: &mut [Axis]) -> Result
     if moves.is_empty() || storage.is_empty() {
         return Err(TdmError::NoAxes);
     }
-    let c = cfg.latencies.cycles_per_period();
+    let c = cfg.latencies.interval();
     let mut min_period = u64::MAX;
     let mut k_load = 0;
     let mut load = 0.0;
@@ -71,7 +77,7 @@ pub fn k_max(cfg: &TdmConfig, moves: &[Profile], storage: &mut [Axis]) -> Result
         k_eq12: k_eq12(min_period, c),
         k_load,
         min_period_ticks: min_period,
-        cycles_per_period: c,
+        interval_cycles: c,
     };
     for k in 1..=storage.len() {
         for (i, slot) in storage[..k].iter_mut().enumerate() {

@@ -1,12 +1,13 @@
 //! The engine: k axes, one calculator, one synchronous start.
 //!
 //! Tick 0: the move is loaded and every DIR line is set. The calculator starts at once and
-//! fills every FIFO (round-robin over the axes, `min(depth, steps)` periods each); the
-//! group starts when that is done and the DIR setup time has passed:
-//! `start = max(dir_setup, prefill · t_calc)`. At `start` every pulse unit loads period 1.
+//! fills every FIFO (by the policy, `min(depth, steps)` periods each); the group starts
+//! when that is done and the DIR setup time has passed (see [`Board::start_tick`]). At
+//! `start` every pulse unit loads period 1.
 //!
 //! The simulation is event-driven: time jumps from one calculator decision to the next
-//! (idle stretches are skipped). When a period is computed the engine already knows when
+//! (idle stretches are skipped); a computation starts every `interval` cycles at most and
+//! its period is in the FIFO `latency` cycles after it starts ([`Latencies`]). When a period is computed the engine already knows when
 //! its pulse unit needs it (the previous edge), so it knows at once whether it is in time
 //! (slack = needed − ready ≥ 0) or an underrun (ready later than needed: the edge and
 //! every later one of that axis are late by the difference). Each pulse goes to the sink
@@ -16,7 +17,7 @@
 use super::calculator::Latencies;
 use super::fifo::Fifo;
 use super::pulse::{PulseShape, PulseUnit, StepPulse};
-use super::scheduler::Policy;
+use super::scheduler::{Policy, Queue};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::profile::Profile;
@@ -166,8 +167,11 @@ pub struct Report {
     /// Largest delay of any axis's last edge.
     pub max_late_ticks: u64,
     pub min_slack_ticks: i64,
-    pub cycles_per_period: u64,
-    /// Cycles the calculator computed.
+    /// Cycles between computation starts (t_calc of seed eq. (12)).
+    pub interval_cycles: u64,
+    /// Cycles from a computation's start to its FIFO write.
+    pub latency_cycles: u64,
+    /// Issue cycles used: `interval_cycles` per period computed.
     pub busy_cycles: u64,
     /// Latest minus earliest axis start tick (a synchronous group must show 0).
     pub start_skew_ticks: u64,
@@ -175,7 +179,7 @@ pub struct Report {
 }
 
 impl Report {
-    /// Busy cycles over the run's span, tick 0 to the last edge.
+    /// Issue cycles used over the run's span, tick 0 to the last edge.
     pub fn calculator_utilization(&self) -> f64 {
         if self.end_tick == 0 {
             return 0.0;
@@ -202,11 +206,26 @@ impl<'a> Board<'a> {
                 max: MAX_AXES,
             });
         }
-        if cfg.latencies.cycles_per_period() == 0 {
+        if cfg.latencies.interval() == 0 {
             return Err(TdmError::ZeroCycles);
         }
         if cfg.pulse == (PulseShape::Fixed { ticks: 0 }) {
             return Err(TdmError::ZeroPulseWidth);
+        }
+        // Worst case: every period computed after the last edge of the longest move.
+        let work: u128 = axes
+            .iter()
+            .map(|a| a.profile().steps() as u128)
+            .sum::<u128>()
+            * cfg.latencies.latency() as u128
+            + axes
+                .iter()
+                .map(|a| a.gen.last_edge_tick() as u128)
+                .max()
+                .unwrap_or(0)
+            + cfg.dir_setup_ticks as u128;
+        if work >= 1 << 57 {
+            return Err(TdmError::TooLong);
         }
         for (m, a) in axes.iter_mut().enumerate() {
             if a.gen.clock() != cfg.clock_hz {
@@ -221,48 +240,49 @@ impl<'a> Board<'a> {
         Ok(Board { cfg, axes })
     }
 
-    /// The group's start: every FIFO filled and the DIR setup time over,
-    /// `max(dir_setup, t_calc · Σ_m min(depth, steps_m))`.
+    /// The group's start: every FIFO filled and the DIR setup time over. The P prefill
+    /// periods (`Σ_m min(depth, steps_m)`) start every interval; the last is ready one
+    /// latency after its start: `max(dir_setup, (P − 1)·interval + latency)`.
     pub fn start_tick(&self) -> u64 {
         let depth = self.cfg.fifo_depth as u64;
         let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
-        let c = self.cfg.latencies.cycles_per_period();
-        self.cfg.dir_setup_ticks.max(prefill.saturating_mul(c))
+        let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
+        let fill = match prefill {
+            0 => 0,
+            p => (p - 1).saturating_mul(ii).saturating_add(lat),
+        };
+        self.cfg.dir_setup_ticks.max(fill)
     }
 
     /// Runs every axis to its last step, handing each pulse to `sink`.
     pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
         let k = self.axes.len();
-        let c = self.cfg.latencies.cycles_per_period();
-        // Hot scheduling state, contiguous so the policy's scans stay in cache.
-        let mut room = [u64::MAX; MAX_AXES];
+        let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
+        // Hot scheduling state, contiguous and outside the (large) axes.
         let mut need = [0u64; MAX_AXES];
+        let mut queue = Queue::default();
         for (m, a) in self.axes.iter().enumerate() {
             if a.remaining() > 0 {
-                room[m] = 0;
+                queue.insert(m, 0, 0);
             }
         }
         let start = self.start_tick();
         need[..k].fill(start);
-        let (room, need) = (&mut room[..k], &mut need[..k]);
+        let need = &mut need[..k];
 
         let policy = self.cfg.policy;
         let mut t = 0u64;
         let mut next = 0usize;
         let mut busy = 0u64;
-        loop {
-            let Some((now, m)) = policy.pick(t, room, need, &mut next) else {
-                break;
-            };
+        while let Some((now, m)) = queue.pick(policy, t, need, &mut next) {
             t = now;
             let a = &mut self.axes[m];
             let Some(edge) = a.next_edge() else {
-                room[m] = u64::MAX;
                 continue;
             };
             let period = edge - a.prev_edge;
             a.prev_edge = edge;
-            let ready = t + c;
+            let ready = t + lat;
             let due = need[m];
             let load = if ready > due {
                 a.stats.underruns += 1;
@@ -281,21 +301,20 @@ impl<'a> Board<'a> {
             need[m] = rise;
             a.fifo.push(load);
             if a.remaining() == 0 {
-                room[m] = u64::MAX;
                 a.pulse.finish(m, &mut sink);
                 a.stats.last_rise = rise;
                 a.stats.start_tick = a.pulse.start_tick();
                 a.stats.merged_pulses = a.pulse.merged();
             } else {
-                room[m] = a.fifo.room_tick();
+                queue.insert(m, a.fifo.room_tick(), t);
             }
-            busy += c;
-            t = ready;
+            busy += ii;
+            t += ii;
         }
-        self.report(start, c, busy)
+        self.report(start, busy)
     }
 
-    fn report(&self, start_tick: u64, cycles_per_period: u64, busy_cycles: u64) -> Report {
+    fn report(&self, start_tick: u64, busy_cycles: u64) -> Report {
         let mut r = Report {
             axes: self.axes.len(),
             start_tick,
@@ -304,7 +323,8 @@ impl<'a> Board<'a> {
             underruns: 0,
             max_late_ticks: 0,
             min_slack_ticks: i64::MAX,
-            cycles_per_period,
+            interval_cycles: self.cfg.latencies.interval(),
+            latency_cycles: self.cfg.latencies.latency(),
             busy_cycles,
             start_skew_ticks: 0,
             merged_pulses: 0,

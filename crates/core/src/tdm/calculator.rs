@@ -1,22 +1,29 @@
-//! The shared period calculator, modelled by its latency only.
+//! The shared period calculator, modelled by its timing only.
 //!
-//! Datapath for one period of a constant-acceleration segment (DESIGN.md §2, seed 000
-//! eq. (10)/(11) merged, no cancellation):
+//! It runs the integer datapath of [`crate::int`] (issue 6): per step, with `M` the
+//! step's target advanced by `M += Den`,
 //!
 //! ```text
-//! edge_i = round( 2·f·i / (v0 + √(v0² + 2a·i)) )    (in ticks, from the segment start)
-//! 1. m1 = 2a·i            multiplier            (v0² latched once per segment)
-//! 2. s  = √(v0² + m1)     square-root unit      64-bit radicand → 32-bit root
-//! 3. m2 = 2f·i            multiplier (the same one, second use)
-//! 4. q  = m2 / (v0 + s)   divider               48-bit quotient + 1 rounding bit
-//! 5. period = t0 + q − previous edge, written to the axis's FIFO
+//! 1. R = (4A² + 16·B·M) / 4^k     multiplier (128 × 128 bits, the wide one)
+//! 2. s = ⌊√R⌋                     square-root unit: 126-bit radicand, 63-bit root
+//! 3. q = ⌊(8M − 1)/(2A + s·2^k)⌋  divider: 127/64 bits, a 33-bit quotient (pieces < 2^32 ticks)
+//! 4. keep q or q − 1              multiplier twice, with the narrow operand q
+//! 5. edge = t0 + ⌊(q + 1)/2⌋, period = edge − previous edge → the axis's FIFO
 //! ```
 //!
-//! Two multiplies, one square root and one divide per period, in sequence (each step needs
-//! the previous result), plus the state machine's own cycles (axis select and register load,
-//! the adds, rounding, subtract, FIFO write, step counter and segment switch).
-//! The values themselves come from [`EdgeGenerator`](crate::EdgeGenerator); issue 6's
-//! integer datapath is the bit-exact version of this sequence.
+//! — three multiplies, one square root, one divide, each needing the one before. The
+//! values themselves come from [`EdgeGenerator`](crate::EdgeGenerator) (the integer
+//! datapath gives the same edges), so only the cycles are modelled here.
+//!
+//! Default latencies ([`Latencies::RADIX4`]): radix-4 digit recurrences (2 result bits per
+//! cycle): the 33-bit quotient in 17 cycles + 1 normalisation, the 63-bit root in 32; a
+//! multiply in 4 (a pipelined 64 × 64 DSP multiplier, the wide product from its partial
+//! products); 6 state-machine cycles (axis select and register load, `M += Den`, rounding,
+//! subtract, FIFO write). In sequence that is 3·4 + 18 + 32 + 6 = 68 cycles per period.
+//! The three units are separate (seed 000 §1.2: one multiplier, one divider, one square
+//! root unit), so the state machine can also overlap different axes' periods, each in a
+//! different unit (seed 000 §2.2 pipelines its flow): then a period is still 68 cycles
+//! from start to FIFO, but a new one starts every 32 cycles, the busiest unit's occupancy.
 
 /// Operation latencies of the period calculator, in clock cycles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,35 +36,58 @@ pub struct Latencies {
     pub sqrt: u32,
     /// State-machine cycles per period besides the three units.
     pub overhead: u32,
+    /// Overlap periods of different axes across the units: a new period starts every
+    /// [`interval`](Self::interval) cycles instead of after the previous one finished.
+    pub pipelined: bool,
 }
 
 impl Latencies {
-    pub const MULS_PER_PERIOD: u32 = 2;
+    pub const MULS_PER_PERIOD: u32 = 3;
 
-    /// Default datapath: radix-4 digit recurrences (2 result bits per cycle) — a 48-bit
-    /// quotient in 24 cycles + 1 rounding cycle, a 32-bit root in 16 cycles + 1 correction
-    /// cycle, a 3-stage pipelined 64×64 multiplier, 6 cycles of state machine: 54 cycles.
+    /// Radix-4 units, one period at a time: 68 cycles per period.
     pub const RADIX4: Latencies = Latencies {
-        mul: 3,
-        div: 25,
-        sqrt: 17,
+        mul: 4,
+        div: 18,
+        sqrt: 32,
         overhead: 6,
+        pipelined: false,
     };
 
-    /// The plain sequential datapath: one quotient bit and one root bit per cycle: 94 cycles.
+    /// Radix-4 units, periods of different axes overlapped: 68 cycles latency, one period
+    /// every 32 cycles.
+    pub const RADIX4_PIPELINED: Latencies = Latencies {
+        pipelined: true,
+        ..Latencies::RADIX4
+    };
+
+    /// The plain sequential datapath, one quotient bit and one root bit per cycle: 115 cycles.
     pub const RADIX2: Latencies = Latencies {
-        mul: 3,
-        div: 49,
-        sqrt: 33,
+        mul: 4,
+        div: 34,
+        sqrt: 63,
         overhead: 6,
+        pipelined: false,
     };
 
-    /// Cycles the calculator is busy for one period (t_calc of seed eq. (12), in ticks).
-    pub fn cycles_per_period(&self) -> u64 {
+    /// Cycles from the start of a period's computation to its FIFO write.
+    pub fn latency(&self) -> u64 {
         Self::MULS_PER_PERIOD as u64 * self.mul as u64
             + self.div as u64
             + self.sqrt as u64
             + self.overhead as u64
+    }
+
+    /// Cycles between the starts of two computations: the latency, or when pipelined the
+    /// busiest unit's cycles per period. This is t_calc of seed eq. (12).
+    pub fn interval(&self) -> u64 {
+        if self.pipelined {
+            (Self::MULS_PER_PERIOD as u64 * self.mul as u64)
+                .max(self.div as u64)
+                .max(self.sqrt as u64)
+                .max(self.overhead as u64)
+        } else {
+            self.latency()
+        }
     }
 }
 
@@ -73,8 +103,11 @@ mod tests {
 
     #[test]
     fn cycle_counts_of_the_documented_datapaths() {
-        assert_eq!(Latencies::RADIX4.cycles_per_period(), 2 * 3 + 25 + 17 + 6);
-        assert_eq!(Latencies::RADIX2.cycles_per_period(), 2 * 3 + 49 + 33 + 6);
+        assert_eq!(Latencies::RADIX4.latency(), 3 * 4 + 18 + 32 + 6);
+        assert_eq!(Latencies::RADIX4.interval(), 68);
+        assert_eq!(Latencies::RADIX4_PIPELINED.latency(), 68);
+        assert_eq!(Latencies::RADIX4_PIPELINED.interval(), 32);
+        assert_eq!(Latencies::RADIX2.interval(), 3 * 4 + 34 + 63 + 6);
         assert_eq!(Latencies::default(), Latencies::RADIX4);
     }
 }

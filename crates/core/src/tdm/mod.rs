@@ -2,7 +2,7 @@
 //!
 //! One period calculator serves k axes in turn. Each axis has a FIFO of periods and a pulse
 //! unit that consumes one period per step. The model is cycle-accurate and event-driven: the
-//! calculator's only cost is its latency ([`Latencies`]); the period values come from the
+//! calculator's only cost is its timing ([`Latencies`]); the period values come from the
 //! core's [`EdgeGenerator`](crate::EdgeGenerator), so with no underrun every axis emits
 //! exactly the edges `multistep plan` gives.
 //!
@@ -45,6 +45,8 @@ pub enum TdmError {
         axis_hz: f64,
         board_hz: f64,
     },
+    #[error("the run could last past tick 2^57 (the scheduler's tick range)")]
+    TooLong,
     #[error("unknown policy (expected round-robin or earliest-deadline)")]
     UnknownPolicy,
     #[error(transparent)]

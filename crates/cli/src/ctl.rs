@@ -1,0 +1,313 @@
+//! `multistep ctl`: the host client. Sends protocol lines to one or more boards; axes are
+//! `BOARD:AXIS` (a bare `AXIS` when there is one board).
+
+use crate::moveargs::MoveArgs;
+use anyhow::{anyhow, bail, Context};
+use clap::{Args, Subcommand};
+use multistep_controller::client::{Client, Endpoint};
+use multistep_controller::{AxisState, MoveOpts};
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct CtlArgs {
+    /// A board: NAME=tcp://HOST:PORT or NAME=serial:DEVICE (repeat for several boards)
+    #[arg(long = "board", value_name = "NAME=ENDPOINT", required = true)]
+    pub boards: Vec<String>,
+    #[command(subcommand)]
+    pub cmd: CtlCmd,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum CtlCmd {
+    /// Relative move by STEPS microsteps (or a number with 'u' for user units)
+    Move {
+        axis: String,
+        #[arg(allow_hyphen_values = true, value_name = "STEPS")]
+        distance: String,
+        #[command(flatten)]
+        m: MoveArgs,
+        /// Use a stored speed preset
+        #[arg(long)]
+        preset: Option<String>,
+    },
+    /// Absolute move to POSITION (periodic axes take the shortest way)
+    Moveto {
+        axis: String,
+        #[arg(allow_hyphen_values = true)]
+        position: String,
+        #[command(flatten)]
+        m: MoveArgs,
+        #[arg(long)]
+        preset: Option<String>,
+    },
+    /// Move axes of one board together: same start tick (--sync: same finish tick too)
+    Group {
+        /// AXIS=N targets (BOARD:AXIS=N with several boards; all on one board)
+        #[arg(required = true, allow_hyphen_values = true)]
+        targets: Vec<String>,
+        /// Targets are absolute positions (default: relative distances)
+        #[arg(long)]
+        absolute: bool,
+        /// Finish on the same tick as well
+        #[arg(long)]
+        sync: bool,
+        #[command(flatten)]
+        m: MoveArgs,
+        #[arg(long)]
+        preset: Option<String>,
+    },
+    /// Home an axis on its Hall sensor
+    Home { axis: String },
+    /// Controlled stop of an axis (all axes of all boards without one)
+    Stop { axis: Option<String> },
+    /// Emergency stop on every board
+    Estop,
+    /// Clear an emergency stop on every board
+    Reset,
+    /// Wait until the axes are idle (fails if one faults)
+    Wait {
+        #[arg(required = true)]
+        axes: Vec<String>,
+        /// Give up after this many seconds
+        #[arg(long, default_value_t = 600.0)]
+        timeout: f64,
+    },
+    /// Status of every axis of every board
+    Status {
+        /// An array of objects: axis (BOARD:AXIS), position, state, homed, trusted, …
+        #[arg(long)]
+        json: bool,
+    },
+    /// Send one raw protocol line to a board and print its data lines
+    Raw {
+        /// Board name (may be left out with one board)
+        #[arg(long = "to")]
+        to: Option<String>,
+        #[arg(required = true, allow_hyphen_values = true)]
+        line: Vec<String>,
+    },
+}
+
+struct Boards {
+    list: Vec<(String, Client)>,
+}
+
+impl Boards {
+    fn connect(specs: &[String]) -> anyhow::Result<Boards> {
+        let mut list: Vec<(String, Client)> = Vec::new();
+        for s in specs {
+            let (name, ep) = s.split_once('=').ok_or_else(|| {
+                anyhow!("--board '{s}' is not NAME=tcp://HOST:PORT or NAME=serial:DEVICE")
+            })?;
+            if name.is_empty() || name.contains(':') || list.iter().any(|b| b.0 == name) {
+                bail!("board name '{name}' is empty, has ':' or is given twice");
+            }
+            let ep: Endpoint = ep.parse()?;
+            let c = Client::connect(&ep).with_context(|| format!("board {name} ({ep:?})"))?;
+            list.push((name.to_string(), c));
+        }
+        Ok(Boards { list })
+    }
+
+    /// `BOARD:AXIS` (or a bare axis with one board) → (board index, axis).
+    fn axis(&self, s: &str) -> anyhow::Result<(usize, String)> {
+        match s.split_once(':') {
+            Some((b, a)) => {
+                let i = self.board(Some(b))?;
+                Ok((i, a.to_string()))
+            }
+            None if self.list.len() == 1 => Ok((0, s.to_string())),
+            None => bail!("with several boards, name the axis as BOARD:AXIS (got '{s}')"),
+        }
+    }
+
+    fn board(&self, name: Option<&str>) -> anyhow::Result<usize> {
+        match name {
+            Some(b) => self
+                .list
+                .iter()
+                .position(|x| x.0 == b)
+                .ok_or_else(|| anyhow!("no board named '{b}'")),
+            None if self.list.len() == 1 => Ok(0),
+            None => bail!("with several boards, say which one (--to NAME)"),
+        }
+    }
+
+    fn send(&mut self, i: usize, line: &str) -> anyhow::Result<Vec<String>> {
+        let (name, c) = &mut self.list[i];
+        c.request(line)
+            .with_context(|| format!("board {name}: '{line}'"))
+    }
+}
+
+fn move_words(m: &MoveArgs, preset: &Option<String>) -> anyhow::Result<String> {
+    if m.steps.is_some() || !m.segments.is_empty() {
+        bail!("give the distance as the STEPS argument; --steps and --segment do not apply here");
+    }
+    let opts = MoveOpts {
+        preset: preset.clone(),
+        profile: m.profile.clone(),
+        vmax: m.vmax,
+        amax: m.amax,
+        jmax: m.jmax,
+        smax: m.smax,
+        accel_time: m.accel_time,
+        cruise_time: m.cruise_time,
+        decel_time: m.decel_time,
+        start_speed: m.start_speed,
+        end_speed: m.end_speed,
+        rho: m.rho,
+        phi: m.phi,
+        psi: m.psi,
+    };
+    Ok(opts.words().join(" "))
+}
+
+fn print_lines(lines: &[String]) {
+    for l in lines {
+        println!("{l}");
+    }
+}
+
+pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
+    let mut boards = Boards::connect(&a.boards)?;
+    match &a.cmd {
+        CtlCmd::Move {
+            axis,
+            distance: steps,
+            m,
+            preset,
+        }
+        | CtlCmd::Moveto {
+            axis,
+            position: steps,
+            m,
+            preset,
+        } => {
+            let verb = if matches!(a.cmd, CtlCmd::Move { .. }) {
+                "move"
+            } else {
+                "moveto"
+            };
+            let (i, ax) = boards.axis(axis)?;
+            let line = format!("{verb} {ax} {steps} {}", move_words(m, preset)?);
+            print_lines(&boards.send(i, line.trim_end())?);
+        }
+        CtlCmd::Group {
+            targets,
+            absolute,
+            sync,
+            m,
+            preset,
+        } => {
+            let mut board = None;
+            let mut words = Vec::new();
+            for t in targets {
+                let (a, n) = t
+                    .rsplit_once('=')
+                    .ok_or_else(|| anyhow!("'{t}' is not AXIS=N"))?;
+                let (i, ax) = boards.axis(a)?;
+                if *board.get_or_insert(i) != i {
+                    bail!("a group moves axes of one board (boards start on their own clocks)");
+                }
+                words.push(format!("{ax}={n}"));
+            }
+            let verb = if *absolute { "moveto" } else { "move" };
+            let sync = if *sync { " sync" } else { "" };
+            let line = format!(
+                "group {verb} {}{sync} {}",
+                words.join(" "),
+                move_words(m, preset)?
+            );
+            print_lines(&boards.send(board.unwrap_or(0), line.trim_end())?);
+        }
+        CtlCmd::Home { axis } => {
+            let (i, ax) = boards.axis(axis)?;
+            boards.send(i, &format!("home {ax}"))?;
+        }
+        CtlCmd::Stop { axis: Some(axis) } => {
+            let (i, ax) = boards.axis(axis)?;
+            boards.send(i, &format!("stop {ax}"))?;
+        }
+        CtlCmd::Stop { axis: None } | CtlCmd::Estop | CtlCmd::Reset => {
+            let line = match a.cmd {
+                CtlCmd::Estop => "estop",
+                CtlCmd::Reset => "reset",
+                _ => "stop all",
+            };
+            // Every board, even if one fails.
+            let mut first_err = None;
+            for i in 0..boards.list.len() {
+                if let Err(e) = boards.send(i, line) {
+                    eprintln!("error: {e:#}");
+                    first_err.get_or_insert(e);
+                }
+            }
+            if let Some(e) = first_err {
+                return Err(e);
+            }
+        }
+        CtlCmd::Wait { axes, timeout } => {
+            let deadline = Instant::now() + Duration::from_secs_f64(timeout.max(0.0));
+            let want: Vec<(usize, String)> = axes
+                .iter()
+                .map(|x| boards.axis(x))
+                .collect::<Result<_, _>>()?;
+            for (i, ax) in want {
+                loop {
+                    let line = boards.send(i, &format!("status json {ax}"))?;
+                    let st: Vec<multistep_controller::AxisStatus> =
+                        serde_json::from_str(line.first().map(|s| s.as_str()).unwrap_or("[]"))?;
+                    let s = st.first().ok_or_else(|| anyhow!("no status for {ax}"))?;
+                    match s.state {
+                        AxisState::Idle => break,
+                        AxisState::Fault => bail!(
+                            "axis {ax} is in fault: {}",
+                            s.fault.as_deref().unwrap_or("?")
+                        ),
+                        _ if Instant::now() > deadline => bail!("timed out waiting for {ax}"),
+                        _ => std::thread::sleep(Duration::from_millis(20)),
+                    }
+                }
+            }
+        }
+        CtlCmd::Status { json } => {
+            let mut all = Vec::new();
+            for i in 0..boards.list.len() {
+                let name = boards.list[i].0.clone();
+                let st = boards.list[i]
+                    .1
+                    .status()
+                    .with_context(|| format!("board {name}"))?;
+                all.extend(st.into_iter().map(|mut s| {
+                    s.axis = format!("{name}:{}", s.axis);
+                    s
+                }));
+            }
+            if *json {
+                println!("{}", serde_json::to_string_pretty(&all)?);
+            } else {
+                println!(
+                    "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10}",
+                    "axis", "position", "state", "homed", "trusted", "speed"
+                );
+                for s in &all {
+                    println!(
+                        "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10.1}",
+                        s.axis,
+                        s.position,
+                        s.state.name(),
+                        if s.homed { "yes" } else { "no" },
+                        if s.trusted { "yes" } else { "no" },
+                        s.speed
+                    );
+                }
+            }
+        }
+        CtlCmd::Raw { to, line } => {
+            let i = boards.board(to.as_deref())?;
+            print_lines(&boards.send(i, &line.join(" "))?);
+        }
+    }
+    Ok(())
+}

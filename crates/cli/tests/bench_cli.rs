@@ -1,0 +1,54 @@
+//! `multistep bench`: every implementation on every move, in the JSON shape the issue fixes.
+
+use std::process::{Command, Output};
+
+fn bench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .arg("bench")
+        .args(args)
+        .output()
+        .expect("run multistep")
+}
+
+#[test]
+fn quick_json_has_every_impl_and_multistep_is_exact() {
+    let out = bench(&["--quick", "--format", "json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let cases = v["cases"].as_array().unwrap();
+    let names = [
+        "multistep-float",
+        "multistep-int",
+        "seed000",
+        "austin",
+        "eiderman",
+        "ramp-maker",
+    ];
+    assert_eq!(cases.len() % names.len(), 0);
+    for c in cases {
+        let imp = c["impl"].as_str().unwrap();
+        assert!(names.contains(&imp), "{imp}");
+        assert!(c["move"].is_string());
+        assert!(c["edges_per_s"].as_f64().unwrap() > 0.0);
+        assert!(c["max_period_error_pct"].as_f64().unwrap() >= 0.0);
+        if imp.starts_with("multistep") {
+            assert_eq!(c["max_edge_error_ticks"], 0, "{c}");
+            assert_eq!(c["drift_ticks"], 0, "{c}");
+        } else {
+            // the baselines approximate: none of them lands every edge on the nearest tick
+            assert!(c["max_edge_error_ticks"].as_u64().unwrap() > 0, "{c}");
+        }
+    }
+}
+
+#[test]
+fn csv_is_refused_with_one_line() {
+    let out = bench(&["--quick", "--format", "csv"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+}

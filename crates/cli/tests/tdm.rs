@@ -1,0 +1,158 @@
+//! `multistep tdm` end to end on the example configs.
+
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::Command;
+
+fn example(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+}
+
+fn multistep(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+fn tdm_json(config: &str, extra: &[&str]) -> Value {
+    let path = example(config);
+    let mut args = vec![
+        "tdm",
+        "--config",
+        path.to_str().unwrap(),
+        "--format",
+        "json",
+    ];
+    args.extend_from_slice(extra);
+    let (ok, out, err) = multistep(&args);
+    assert!(ok, "{err}");
+    serde_json::from_str(&out).unwrap()
+}
+
+#[test]
+fn seed000_example_runs_clean_and_its_edges_are_the_plans() {
+    let dir = std::env::temp_dir().join(format!("multistep-tdm-test-{}", std::process::id()));
+    let v = tdm_json(
+        "seed000-two-axis.toml",
+        &["--edges-dir", dir.to_str().unwrap()],
+    );
+    assert_eq!(v["underruns"], 0);
+    assert_eq!(v["start_skew_ticks"], 0);
+    assert!(v["min_slack_ticks"].as_i64().unwrap() > 0);
+    let u = v["calculator_utilization"].as_f64().unwrap();
+    assert!(u > 0.0 && u < 1.0);
+    let axes = v["axes"].as_array().unwrap();
+    assert_eq!(axes.len(), 2);
+    for (m, steps) in [(0, "2400"), (1, "1800")] {
+        assert_eq!(axes[m]["steps"].as_u64().unwrap().to_string(), steps);
+        assert_eq!(axes[m]["underruns"], 0);
+        let cmd = format!("plan --steps {steps} --accel-time 0.02 --cruise-time 0.01 --decel-time 0.02 --format csv");
+        let args: Vec<&str> = cmd.split_whitespace().collect();
+        let (ok, plan, _) = multistep(&args);
+        assert!(ok);
+        let got = std::fs::read_to_string(dir.join(format!("axis{m}.csv"))).unwrap();
+        assert!(
+            got == plan,
+            "axis {m}: TDM edges differ from multistep plan"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn telescope_example_serves_17_axes() {
+    let v = tdm_json("telescope-17-axis.toml", &[]);
+    assert_eq!(v["axes"].as_array().unwrap().len(), 17);
+    assert_eq!(v["underruns"], 0);
+    assert_eq!(v["start_skew_ticks"], 0);
+    assert!(v["start_tick"].as_u64().unwrap() >= 500, "DIR setup time");
+}
+
+#[test]
+fn stress_example_underruns_with_round_robin_and_not_with_earliest_deadline() {
+    let rr = tdm_json("stress.toml", &["--policy", "round-robin"]);
+    assert!(rr["underruns"].as_u64().unwrap() > 0);
+    assert!(rr["min_slack_ticks"].as_i64().unwrap() < 0);
+    let per_axis: u64 = rr["axes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["underruns"].as_u64().unwrap())
+        .sum();
+    assert_eq!(per_axis, rr["underruns"].as_u64().unwrap());
+    let edf = tdm_json("stress.toml", &["--policy", "earliest-deadline"]);
+    assert_eq!(edf["underruns"], 0);
+    assert!(
+        edf["k_eq12"].as_u64().unwrap() < 19,
+        "more axes than eq. (12) promises"
+    );
+}
+
+#[test]
+fn sweep_prints_k_max_and_writes_an_svg() {
+    let svg = std::env::temp_dir().join(format!("multistep-sweep-{}.svg", std::process::id()));
+    let (ok, out, err) = multistep(&[
+        "tdm",
+        "--sweep",
+        "--rates",
+        "80000:100000:2",
+        "--max-axes",
+        "16",
+        "--fifo-depths",
+        "1",
+        "--format",
+        "json",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    // identical cruising moves started together: eq. (12) is exact
+    for r in rows {
+        for s in r["series"].as_array().unwrap() {
+            assert_eq!(s["k_max"], r["k_eq12"]);
+        }
+    }
+    assert_eq!(rows[1]["k_eq12"], 500 / 68);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.contains("eq. (12)"));
+    std::fs::remove_file(&svg).ok();
+}
+
+#[test]
+fn bad_input_is_one_clear_error() {
+    let (ok, _, err) = multistep(&["tdm"]);
+    assert!(!ok && err.contains("--config"), "{err}");
+    let bad = std::env::temp_dir().join(format!("multistep-bad-{}.toml", std::process::id()));
+    std::fs::write(
+        &bad,
+        "fifo_depth = 0\n[[axis]]\nsteps = 10\naccel_time = 0.1\n",
+    )
+    .unwrap();
+    let (ok, _, err) = multistep(&["tdm", "--config", bad.to_str().unwrap()]);
+    assert!(!ok && err.contains("fifo_depth"), "{err}");
+    std::fs::remove_file(&bad).ok();
+}
+
+#[test]
+fn k_max_of_a_config_against_eq12() {
+    // seed 000's two moves alternating over k axes: eq. (12) from the 625-tick cruise
+    let v = tdm_json("seed000-two-axis.toml", &["--k-max", "--max-axes", "16"]);
+    assert_eq!(v["k_eq12"], 625 / 68);
+    assert_eq!(v["k_max"], v["k_eq12"]);
+    assert!(v["first_failure_underruns"].as_u64().unwrap() > 0);
+    // mixed rates: round-robin at depth 1 holds exactly eq. (12), below the load bound
+    let rr = tdm_json("stress.toml", &["--k-max", "--policy", "round-robin"]);
+    assert_eq!(rr["k_max"], rr["k_eq12"]);
+    assert!(rr["k_load"].as_u64().unwrap() > rr["k_max"].as_u64().unwrap());
+}

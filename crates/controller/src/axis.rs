@@ -1,0 +1,328 @@
+//! Per-axis settings, state and the status a client sees.
+
+use crate::error::CtlError;
+use serde::{Deserialize, Serialize};
+
+/// Everything a user may set on one axis (protocol `set AXIS KEY VALUE`, board config,
+/// persisted in the store). Positions and distances are in microsteps.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AxisSettings {
+    /// Driver microsteps per full step (informational: all counts are microsteps).
+    pub microsteps: u32,
+    /// Microsteps per user unit (degrees, mm, …): `moveto X 12.5u`.
+    pub steps_per_unit: f64,
+    /// Default profile family for moves on this axis.
+    pub profile: String,
+    /// Default limits (steps/s, steps/s², steps/s³, steps/s⁴); also the ceiling for any move.
+    pub vmax: f64,
+    pub amax: f64,
+    pub jmax: Option<f64>,
+    pub smax: Option<f64>,
+    /// Soft limits on the counted position (non-periodic axes only).
+    pub soft_min: Option<i64>,
+    pub soft_max: Option<i64>,
+    /// Periodic axis: its period in microsteps (seed 002: a wave plate repeats every 90°).
+    pub period: Option<u64>,
+    /// Counted position given to the sensor edge by homing.
+    pub home_offset: i64,
+    /// Homing direction: -1 or +1.
+    pub home_dir: i8,
+    /// Hall-sensor debounce: a level must hold this long (s) to count.
+    pub debounce: f64,
+    /// Homing seek speed (steps/s).
+    pub home_speed: f64,
+    /// Homing slow re-approach speed (steps/s); clamped to one microstep per 2 debounce times.
+    pub home_slow_speed: f64,
+    /// Homing back-off distance past the edge (microsteps).
+    pub home_backoff: u64,
+    /// Homing gives up after this many microsteps without finding the sensor.
+    pub home_search: u64,
+    /// Flip the DIR line level (wiring); the count direction is unchanged.
+    pub invert_dir: bool,
+    /// The simulated axis: where its sensor is and how noisy it is.
+    pub sim: SimSettings,
+}
+
+/// The simulated mechanics and Hall sensor of one axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimSettings {
+    /// True (mechanical) position of the sensor edge met when moving in `home_dir`.
+    pub sensor_at: i64,
+    /// Width of the sensor's active window (microsteps).
+    pub sensor_width: u64,
+    /// Up to this many extra toggles after each real edge (contact bounce)…
+    pub bounce_count: u32,
+    /// …all within this time (s) of the edge.
+    pub bounce_time: f64,
+    /// Mean rate of noise glitches (1/s): the signal flips for a short time.
+    pub glitch_rate: f64,
+    /// Longest glitch (s).
+    pub glitch_max: f64,
+    /// Shortest quiet time between glitches (s).
+    pub glitch_gap: f64,
+    /// Seed of the glitch and bounce generator.
+    pub seed: u64,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        SimSettings {
+            sensor_at: 0,
+            sensor_width: 400,
+            bounce_count: 0,
+            bounce_time: 0.0002,
+            glitch_rate: 0.0,
+            glitch_max: 0.0005,
+            glitch_gap: 0.005,
+            seed: 1,
+        }
+    }
+}
+
+impl Default for AxisSettings {
+    fn default() -> Self {
+        AxisSettings {
+            microsteps: 16,
+            steps_per_unit: 1.0,
+            profile: "trapezoid".into(),
+            vmax: 4000.0,
+            amax: 20000.0,
+            jmax: None,
+            smax: None,
+            soft_min: None,
+            soft_max: None,
+            period: None,
+            home_offset: 0,
+            home_dir: -1,
+            debounce: 0.002,
+            home_speed: 2000.0,
+            home_slow_speed: 400.0,
+            home_backoff: 200,
+            home_search: 1_000_000,
+            invert_dir: false,
+            sim: SimSettings::default(),
+        }
+    }
+}
+
+impl AxisSettings {
+    /// Checks the values that the rest of the controller relies on.
+    pub fn validate(&self) -> Result<(), CtlError> {
+        let bad = |m: String| Err(CtlError::Setting(m));
+        let pos = |name: &str, v: f64| -> Result<(), CtlError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(CtlError::Setting(format!(
+                    "{name} must be a positive number (got {v})"
+                )))
+            }
+        };
+        pos("steps_per_unit", self.steps_per_unit)?;
+        pos("vmax", self.vmax)?;
+        pos("amax", self.amax)?;
+        pos("debounce", self.debounce)?;
+        pos("home_speed", self.home_speed)?;
+        pos("home_slow_speed", self.home_slow_speed)?;
+        if let Some(j) = self.jmax {
+            pos("jmax", j)?;
+        }
+        if let Some(s) = self.smax {
+            pos("smax", s)?;
+        }
+        if self.home_dir != 1 && self.home_dir != -1 {
+            return bad(format!("home_dir must be -1 or 1 (got {})", self.home_dir));
+        }
+        if self.period == Some(0) {
+            return bad("period must be at least 1 microstep".into());
+        }
+        if let (Some(lo), Some(hi)) = (self.soft_min, self.soft_max) {
+            if lo > hi {
+                return bad(format!("soft_min {lo} is above soft_max {hi}"));
+            }
+        }
+        if self.home_backoff == 0 || self.home_search == 0 {
+            return bad("home_backoff and home_search must be at least 1".into());
+        }
+        let s = &self.sim;
+        if s.sensor_width == 0 {
+            return bad("sim.sensor_width must be at least 1".into());
+        }
+        for (name, v) in [
+            ("sim.bounce_time", s.bounce_time),
+            ("sim.glitch_rate", s.glitch_rate),
+            ("sim.glitch_max", s.glitch_max),
+            ("sim.glitch_gap", s.glitch_gap),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} must be a number ≥ 0 (got {v})"));
+            }
+        }
+        multistep_core::Family::parse(&self.profile, None, None, None)?;
+        Ok(())
+    }
+
+    /// The slow re-approach speed actually used: at most one microstep per two debounce
+    /// times. The filter's edge is at most one glitch plus one debounce time (< 2 debounce)
+    /// early, so at this speed it is less than one microstep off.
+    pub fn effective_slow_speed(&self) -> f64 {
+        self.home_slow_speed.min(0.5 / self.debounce)
+    }
+
+    /// Reads one setting as text (`get AXIS KEY`); keys are the field names, `sim.x` for sim.
+    pub fn get(&self, key: &str) -> Result<String, CtlError> {
+        let v = serde_json::to_value(self)?;
+        let field = lookup(&v, key).ok_or_else(|| unknown_key(key))?;
+        Ok(match field {
+            serde_json::Value::String(s) => s.clone(),
+            other => other.to_string(),
+        })
+    }
+
+    /// Every setting as `key=value` (sim keys as `sim.key`), in a stable order.
+    pub fn list(&self) -> Vec<String> {
+        let v = serde_json::to_value(self).unwrap_or_default();
+        let mut out = Vec::new();
+        flatten("", &v, &mut out);
+        out
+    }
+
+    /// Sets one setting from text, through serde so names and types have one definition.
+    pub fn set(&mut self, key: &str, value: &str) -> Result<(), CtlError> {
+        let mut v = serde_json::to_value(&*self)?;
+        let slot = lookup_mut(&mut v, key).ok_or_else(|| unknown_key(key))?;
+        *slot = match slot {
+            serde_json::Value::String(_) => serde_json::Value::String(value.to_string()),
+            _ if value == "none" => serde_json::Value::Null,
+            _ => serde_json::from_str(value).map_err(|_| {
+                CtlError::Setting(format!("'{value}' is not a valid value for {key}"))
+            })?,
+        };
+        let new: AxisSettings =
+            serde_json::from_value(v).map_err(|e| CtlError::Setting(format!("{key}: {e}")))?;
+        new.validate()?;
+        *self = new;
+        Ok(())
+    }
+}
+
+fn unknown_key(key: &str) -> CtlError {
+    CtlError::Setting(format!("unknown setting '{key}' (see 'get AXIS')"))
+}
+
+fn lookup<'v>(v: &'v serde_json::Value, key: &str) -> Option<&'v serde_json::Value> {
+    key.split('.')
+        .try_fold(v, |node, part| node.as_object()?.get(part))
+}
+
+fn lookup_mut<'v>(v: &'v mut serde_json::Value, key: &str) -> Option<&'v mut serde_json::Value> {
+    key.split('.')
+        .try_fold(v, |node, part| node.as_object_mut()?.get_mut(part))
+}
+
+fn flatten(prefix: &str, v: &serde_json::Value, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten(&key, x, out);
+            }
+        }
+        serde_json::Value::String(s) => out.push(format!("{prefix}={s}")),
+        serde_json::Value::Null => out.push(format!("{prefix}=none")),
+        other => out.push(format!("{prefix}={other}")),
+    }
+}
+
+/// What an axis is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisState {
+    Idle,
+    Moving,
+    Homing,
+    Fault,
+}
+
+impl AxisState {
+    pub fn name(self) -> &'static str {
+        match self {
+            AxisState::Idle => "idle",
+            AxisState::Moving => "moving",
+            AxisState::Homing => "homing",
+            AxisState::Fault => "fault",
+        }
+    }
+}
+
+/// One axis as a client sees it (`status json`, `multistep ctl status --json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AxisStatus {
+    pub axis: String,
+    /// Counted position (microsteps).
+    pub position: i64,
+    /// `position / steps_per_unit`.
+    pub units: f64,
+    pub state: AxisState,
+    pub homed: bool,
+    /// False whenever the count might differ from the mechanics.
+    pub trusted: bool,
+    /// Target of the move under way.
+    pub target: Option<i64>,
+    /// Commanded speed now (steps/s, signed).
+    pub speed: f64,
+    /// Debounced Hall-sensor level.
+    pub sensor: bool,
+    /// Counted minus expected position at the last pass over the sensor edge.
+    pub drift: Option<i64>,
+    /// Sensor passes checked during normal moves.
+    pub drift_checks: u64,
+    /// Tick (board clock) at which the last move started and ends.
+    pub move_start: Option<u64>,
+    pub move_end: Option<u64>,
+    /// Why the axis is in fault.
+    pub fault: Option<String>,
+    /// The simulated mechanical position (simulation only; a real board cannot know it).
+    pub sim_position: i64,
+    /// Level of the DIR line for the last move: high for positive counts, unless
+    /// `invert_dir` (wiring) flips it.
+    pub dir_level: bool,
+}
+
+impl AxisStatus {
+    /// The one-line `key=value` form of the text protocol.
+    pub fn line(&self) -> String {
+        let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
+        format!(
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={}",
+            self.axis,
+            self.position,
+            self.units,
+            self.state.name(),
+            self.homed as u8,
+            self.trusted as u8,
+            opt(self.target),
+            self.speed,
+            self.sensor as u8,
+            opt(self.drift),
+            self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
+        )
+    }
+}
+
+/// Axis names: what can be typed in a terminal and split on ':' by the host client.
+pub fn valid_axis_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 32
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        && !name.eq_ignore_ascii_case("ok")
+        && !name.eq_ignore_ascii_case("all")
+}

@@ -1,0 +1,90 @@
+//! Planning a move without running it (the web page's preview). [`Board::group_move`]
+//! plans through [`Board::plan_group`] too, so what is previewed is what would run.
+
+use super::{Board, Profile};
+use crate::error::CtlError;
+use crate::protocol::{Amount, MoveOpts};
+
+/// One axis of a previewed move.
+#[derive(Clone, Debug)]
+pub struct PlannedAxis {
+    pub axis: String,
+    /// Signed steps the move would make (periodic axes: the shortest way).
+    pub delta: i64,
+    /// Counted position at the end.
+    pub target: i64,
+    /// `None` when the axis would not move.
+    pub profile: Option<Profile>,
+}
+
+/// Axis indices with signed step counts, and their profiles (`None`: stays put).
+type GroupPlan = (Vec<(usize, i64)>, Vec<Option<Profile>>);
+
+impl Board {
+    /// The planning half of [`Board::group_move`]: each named axis with its signed step
+    /// count and profile (`None`: it stays put). Refuses what a run would refuse before
+    /// timing: unknown or repeated axes, busy axes, e-stop, limits, plan errors.
+    pub(super) fn plan_group(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<GroupPlan, CtlError> {
+        let mut plan = Vec::new();
+        for (name, amount) in targets {
+            let i = self.index(name)?;
+            if plan.iter().any(|&(j, _)| j == i) {
+                return Err(CtlError::syntax(format!("axis {name} is named twice")));
+            }
+            self.check_can_move(i)?;
+            plan.push((i, self.delta(i, *amount, absolute)?));
+        }
+        let profiles = if sync {
+            self.plan_sync(&plan, opts)?
+        } else {
+            plan.iter()
+                .map(|&(i, d)| {
+                    if d == 0 {
+                        Ok(None)
+                    } else {
+                        self.plan(i, d.unsigned_abs(), opts).map(Some)
+                    }
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        Ok((plan, profiles))
+    }
+
+    /// What `group_move(targets, absolute, sync, opts)` would run from the counted
+    /// positions now, without starting anything.
+    pub fn preview(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<PlannedAxis>, CtlError> {
+        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        // The same timing check as a run: a group the TDM calculator cannot keep up with
+        // is refused here too.
+        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
+        if !moving.is_empty() {
+            crate::motion::start_group(&moving, &self.tdm, 0)?;
+        }
+        Ok(plan
+            .iter()
+            .zip(profiles)
+            .map(|(&(i, delta), profile)| {
+                let ax = &self.axes[i];
+                let t = ax.count + delta;
+                PlannedAxis {
+                    axis: ax.name.clone(),
+                    delta,
+                    target: ax.period().map_or(t, |p| t.rem_euclid(p)),
+                    profile,
+                }
+            })
+            .collect())
+    }
+}

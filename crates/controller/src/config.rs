@@ -1,0 +1,165 @@
+//! Board configuration file (TOML): the board's name and its axes with their settings.
+//!
+//! ```toml
+//! [board]
+//! name = "a"
+//! [[axis]]
+//! name = "wp1"
+//! period = 14400     # every other key of AxisSettings may be given
+//! ```
+
+use crate::axis::{valid_axis_name, AxisSettings};
+use crate::error::CtlError;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoardConfig {
+    #[serde(default)]
+    pub board: BoardSection,
+    #[serde(default, rename = "axis")]
+    pub axes: Vec<AxisConfig>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BoardSection {
+    pub name: String,
+    /// Step clock of the board (Hz).
+    pub clock_hz: f64,
+    /// Depth of each axis's period FIFO in the TDM engine.
+    pub fifo_depth: usize,
+}
+
+impl Default for BoardSection {
+    fn default() -> Self {
+        BoardSection {
+            name: "board".into(),
+            clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
+            fifo_depth: 4,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct AxisConfig {
+    pub name: String,
+    #[serde(flatten)]
+    pub settings: AxisSettings,
+}
+
+// By hand: serde's `flatten` would let misspelt setting names through silently.
+impl<'de> Deserialize<'de> for AxisConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut t = toml::Table::deserialize(d)?;
+        let name = match t.remove("name") {
+            Some(toml::Value::String(s)) => s,
+            _ => return Err(D::Error::custom("every [[axis]] needs name = \"…\"")),
+        };
+        let settings = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e| D::Error::custom(format!("axis {name}: {e}")))?;
+        Ok(AxisConfig { name, settings })
+    }
+}
+
+impl Default for BoardConfig {
+    /// Without a file: four axes X, Y, Z, A with default settings.
+    fn default() -> Self {
+        BoardConfig {
+            board: BoardSection::default(),
+            axes: ["X", "Y", "Z", "A"]
+                .iter()
+                .map(|n| AxisConfig {
+                    name: n.to_string(),
+                    settings: AxisSettings::default(),
+                })
+                .collect(),
+        }
+    }
+}
+
+impl BoardConfig {
+    pub fn parse(text: &str) -> Result<BoardConfig, CtlError> {
+        let c: BoardConfig =
+            toml::from_str(text).map_err(|e| CtlError::Setting(format!("board config: {e}")))?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    pub fn load(path: &std::path::Path) -> Result<BoardConfig, CtlError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| CtlError::Io(format!("cannot read {}: {e}", path.display())))?;
+        Self::parse(&text)
+    }
+
+    pub fn validate(&self) -> Result<(), CtlError> {
+        if self.axes.is_empty() || self.axes.len() > crate::MAX_AXES {
+            return Err(CtlError::Setting(format!(
+                "a board has 1 to {} axes (config has {})",
+                crate::MAX_AXES,
+                self.axes.len()
+            )));
+        }
+        if !(self.board.clock_hz.is_finite() && self.board.clock_hz >= 1e3) {
+            return Err(CtlError::Setting(
+                "board.clock_hz must be at least 1000".into(),
+            ));
+        }
+        for (i, a) in self.axes.iter().enumerate() {
+            if !valid_axis_name(&a.name) {
+                return Err(CtlError::Setting(format!(
+                    "'{}' is not a valid axis name",
+                    a.name
+                )));
+            }
+            if self.axes[..i].iter().any(|b| b.name == a.name) {
+                return Err(CtlError::Setting(format!(
+                    "axis '{}' is named twice",
+                    a.name
+                )));
+            }
+            a.settings
+                .validate()
+                .map_err(|e| CtlError::Setting(format!("axis {}: {e}", a.name)))?;
+        }
+        Ok(())
+    }
+}
+
+impl BoardSection {
+    /// The TDM engine that times this board's moves (seed 000's calculator latencies).
+    pub fn tdm(&self) -> multistep_core::tdm::TdmConfig {
+        multistep_core::tdm::TdmConfig {
+            clock_hz: self.clock_hz,
+            fifo_depth: self.fifo_depth,
+            ..multistep_core::tdm::TdmConfig::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_two_board_telescope_example_has_17_axes() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/telescope");
+        let a = BoardConfig::load(&std::path::Path::new(dir).join("board-a.toml")).unwrap();
+        let b = BoardConfig::load(&std::path::Path::new(dir).join("board-b.toml")).unwrap();
+        assert_eq!((a.axes.len(), b.axes.len()), (12, 5));
+        assert_eq!(a.axes[0].settings.period, Some(4000));
+        assert_eq!(a.axes[0].settings.sim.seed, 1);
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_refused() {
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmaxx = 3.0\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = -3.0\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X:1\"\n").is_err());
+        assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\n[[axis]]\nname = \"X\"\n").is_err());
+        let c = BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = 3.0\n").unwrap();
+        assert_eq!(c.axes[0].settings.vmax, 3.0);
+    }
+}

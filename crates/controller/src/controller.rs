@@ -1,0 +1,272 @@
+//! The board running in real time: a ticker thread advances the simulation along the
+//! edge timeline at wall-clock rate × time scale, and every front end (line protocol,
+//! host tools, a future web page) goes through [`Controller`]'s methods.
+
+use crate::axis::AxisStatus;
+use crate::board::Board;
+use crate::config::BoardConfig;
+use crate::error::CtlError;
+use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
+use crate::store::Store;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Board ticks since start-up: wall time × time scale × clock.
+#[derive(Clone, Copy, Debug)]
+struct SimClock {
+    t0: Instant,
+    ticks_per_s: f64,
+}
+
+impl SimClock {
+    fn now(&self) -> u64 {
+        (self.t0.elapsed().as_secs_f64() * self.ticks_per_s) as u64
+    }
+}
+
+pub struct Controller {
+    board: Arc<Mutex<Board>>,
+    clock: SimClock,
+    time_scale: f64,
+    quit: Arc<AtomicBool>,
+    ticker: Option<JoinHandle<()>>,
+}
+
+impl Controller {
+    /// Opens the board's store in `data` and starts its clock.
+    pub fn open(
+        config: &BoardConfig,
+        data: &Path,
+        time_scale: f64,
+    ) -> Result<Controller, CtlError> {
+        if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
+            return Err(CtlError::Setting(format!(
+                "time scale must be in (0, 10000] (got {time_scale})"
+            )));
+        }
+        let board = Board::open(config, Store::open(data)?)?;
+        let clock = SimClock {
+            t0: Instant::now(),
+            ticks_per_s: board.clock_hz() * time_scale,
+        };
+        let board = Arc::new(Mutex::new(board));
+        let quit = Arc::new(AtomicBool::new(false));
+        let ticker = {
+            let (board, quit) = (board.clone(), quit.clone());
+            std::thread::Builder::new()
+                .name("board-ticker".into())
+                .spawn(move || {
+                    while !quit.load(Ordering::Relaxed) {
+                        std::thread::sleep(Duration::from_millis(1));
+                        let mut b = lock(&board);
+                        if b.busy() {
+                            b.advance(clock.now());
+                        }
+                    }
+                })
+                .map_err(|e| CtlError::Io(e.to_string()))?
+        };
+        Ok(Controller {
+            board,
+            clock,
+            time_scale,
+            quit,
+            ticker: Some(ticker),
+        })
+    }
+
+    /// Board tick now.
+    pub fn now(&self) -> u64 {
+        self.clock.now()
+    }
+
+    /// Runs `f` on the board at the current tick.
+    pub fn with_board<R>(&self, f: impl FnOnce(&mut Board, u64) -> R) -> R {
+        let mut b = lock(&self.board);
+        let now = self.clock.now();
+        f(&mut b, now)
+    }
+
+    pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
+        self.with_board(|b, now| b.status(axes, now))
+    }
+    pub fn move_axis(
+        &self,
+        axis: &str,
+        amount: Amount,
+        absolute: bool,
+        opts: &MoveOpts,
+    ) -> Result<i64, CtlError> {
+        self.with_board(|b, now| b.move_axis(axis, amount, absolute, opts, now))
+    }
+    pub fn group_move(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<i64>, CtlError> {
+        self.with_board(|b, now| b.group_move(targets, absolute, sync, opts, now))
+    }
+    pub fn home(&self, axis: &str) -> Result<(), CtlError> {
+        self.with_board(|b, now| b.home(axis, now))
+    }
+    pub fn stop(&self, axis: Option<&str>) -> Result<(), CtlError> {
+        self.with_board(|b, now| b.stop(axis, now))
+    }
+    pub fn estop(&self) {
+        self.with_board(|b, now| b.estop(now))
+    }
+    pub fn reset(&self) {
+        self.with_board(|b, now| b.reset(now))
+    }
+
+    /// Parses and runs one received line.
+    pub fn execute_bytes(&self, line: &[u8]) -> Reply {
+        match protocol::parse_bytes(line) {
+            Ok(cmd) => self.execute(&cmd),
+            Err(e) => Reply::err(e),
+        }
+    }
+
+    /// Runs one command: the single place where protocol words meet the board.
+    pub fn execute(&self, cmd: &Command) -> Reply {
+        Reply::from_result(self.run(cmd))
+    }
+
+    fn run(&self, cmd: &Command) -> Result<Vec<String>, CtlError> {
+        let target_line = |axes: &[String], t: &[i64]| -> Vec<String> {
+            axes.iter()
+                .zip(t)
+                .map(|(a, t)| format!("{a} target={t}"))
+                .collect()
+        };
+        Ok(match cmd {
+            Command::Nop => vec![],
+            Command::Help => protocol::HELP.iter().map(|s| s.to_string()).collect(),
+            Command::Version => vec![format!(
+                "multistep-controller {}",
+                env!("CARGO_PKG_VERSION")
+            )],
+            Command::Info => self.with_board(|b, now| {
+                let mut v = vec![
+                    format!("board={}", b.name()),
+                    format!("version={}", env!("CARGO_PKG_VERSION")),
+                    format!("axes={}", b.axis_names().join(",")),
+                    format!("clock_hz={}", b.clock_hz()),
+                    format!("time_scale={}", self.time_scale),
+                    format!("tick={now}"),
+                    format!("estop={}", b.is_estopped() as u8),
+                ];
+                v.extend(b.warnings().iter().map(|w| format!("warning={w}")));
+                v
+            }),
+            Command::Status { axes, json } => {
+                let st = self.status(axes)?;
+                if *json {
+                    vec![serde_json::to_string(&st)?]
+                } else {
+                    st.iter().map(|s| s.line()).collect()
+                }
+            }
+            Command::Move { axis, by, opts } => {
+                let t = self.move_axis(axis, *by, false, opts)?;
+                target_line(std::slice::from_ref(axis), &[t])
+            }
+            Command::MoveTo { axis, to, opts } => {
+                let t = self.move_axis(axis, *to, true, opts)?;
+                target_line(std::slice::from_ref(axis), &[t])
+            }
+            Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts,
+            } => {
+                let t = self.group_move(targets, *absolute, *sync, opts)?;
+                let names: Vec<String> = targets.iter().map(|x| x.0.clone()).collect();
+                target_line(&names, &t)
+            }
+            Command::Stop { axis } => {
+                self.stop(axis.as_deref())?;
+                vec![]
+            }
+            Command::EStop => {
+                self.estop();
+                vec![]
+            }
+            Command::Reset => {
+                self.reset();
+                vec![]
+            }
+            Command::Home { axis } => {
+                self.home(axis)?;
+                vec![]
+            }
+            Command::Get { axis, key } => self.with_board(|b, _| -> Result<_, CtlError> {
+                let s = b.settings(axis)?;
+                Ok(match key {
+                    Some(k) => vec![format!("{k}={}", s.get(k)?)],
+                    None => s.list(),
+                })
+            })?,
+            Command::Set { axis, key, value } => {
+                self.with_board(|b, now| b.set(axis, key, value, now))?;
+                vec![]
+            }
+            Command::Save { name, axes } => {
+                let p = self.with_board(|b, now| b.save_position(name, axes, now))?;
+                vec![named_line(name, &p)]
+            }
+            Command::Goto { name, opts } => {
+                self.with_board(|b, now| b.goto(name, opts, now))?;
+                vec![]
+            }
+            Command::Positions => {
+                let all = self.with_board(|b, _| b.named_positions())?;
+                all.iter().map(|(n, p)| named_line(n, p)).collect()
+            }
+            Command::Forget { name } => {
+                self.with_board(|b, _| b.forget(name))?;
+                vec![]
+            }
+            Command::Preset { name, opts } => {
+                self.with_board(|b, _| b.set_preset(name, opts))?;
+                vec![]
+            }
+            Command::Presets => {
+                let all = self.with_board(|b, _| b.presets())?;
+                all.iter()
+                    .map(|(n, o)| format!("{n} {}", o.words().join(" ")))
+                    .collect()
+            }
+            Command::SimSlip { axis, steps } => {
+                self.with_board(|b, now| b.sim_slip(axis, *steps, now))?;
+                vec![]
+            }
+        })
+    }
+}
+
+fn named_line(name: &str, p: &crate::store::NamedPosition) -> String {
+    let parts: Vec<String> = p.iter().map(|(a, x)| format!("{a}={x}")).collect();
+    format!("{name} {}", parts.join(" "))
+}
+
+/// A poisoned lock means a thread panicked mid-update; the board data is still the best
+/// there is, so carry on rather than take the service down.
+fn lock(b: &Mutex<Board>) -> MutexGuard<'_, Board> {
+    b.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl Drop for Controller {
+    fn drop(&mut self) {
+        self.quit.store(true, Ordering::Relaxed);
+        if let Some(t) = self.ticker.take() {
+            let _ = t.join();
+        }
+    }
+}

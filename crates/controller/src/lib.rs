@@ -1,0 +1,29 @@
+//! # multistep-controller
+//!
+//! A simulated stepper-motor controller board after seed 002: up to 16 axes driven by the
+//! exact edge generator, Hall-sensor homing with a debounce filter, positions persisted
+//! in redb, periodic axes, named positions and speed presets, and a line protocol served
+//! over TCP and serial lines. [`Controller`] is the one API: the protocol, the host
+//! client and any other front end call its methods.
+
+pub mod axis;
+pub mod board;
+pub mod client;
+pub mod config;
+pub mod controller;
+pub mod error;
+pub mod hall;
+pub mod motion;
+pub mod protocol;
+pub mod service;
+pub mod store;
+
+pub use axis::{AxisSettings, AxisState, AxisStatus, SimSettings};
+pub use board::Board;
+pub use config::BoardConfig;
+pub use controller::Controller;
+pub use error::CtlError;
+pub use protocol::{Command, MoveOpts, Reply};
+
+/// Most axes on one board.
+pub const MAX_AXES: usize = 16;

@@ -1,0 +1,587 @@
+//! The line protocol: one command per line, answered by zero or more data lines and then
+//! exactly one `ok` or `error:<code> <message>` (grbl style). See docs/PROTOCOL.md.
+
+use crate::error::CtlError;
+use serde::{Deserialize, Serialize};
+use std::io::{BufRead, ErrorKind};
+
+/// Longest accepted line, newline excluded.
+pub const MAX_LINE: usize = 4096;
+
+/// A target or distance: microsteps, or user units with a `u` suffix (`12.5u`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Amount {
+    Steps(i64),
+    Units(f64),
+}
+
+/// Move options by name; anything not given comes from a preset, then the axis settings.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MoveOpts {
+    pub preset: Option<String>,
+    pub profile: Option<String>,
+    pub vmax: Option<f64>,
+    pub amax: Option<f64>,
+    pub jmax: Option<f64>,
+    pub smax: Option<f64>,
+    pub accel_time: Option<f64>,
+    pub cruise_time: Option<f64>,
+    pub decel_time: Option<f64>,
+    pub start_speed: Option<f64>,
+    pub end_speed: Option<f64>,
+    pub rho: Option<f64>,
+    pub phi: Option<f64>,
+    pub psi: Option<f64>,
+}
+
+impl MoveOpts {
+    /// `self` where given, else `base`.
+    pub fn over(&self, base: &MoveOpts) -> MoveOpts {
+        macro_rules! pick {
+            ($($f:ident),*) => { MoveOpts { $($f: self.$f.clone().or_else(|| base.$f.clone()),)* } };
+        }
+        pick!(
+            preset,
+            profile,
+            vmax,
+            amax,
+            jmax,
+            smax,
+            accel_time,
+            cruise_time,
+            decel_time,
+            start_speed,
+            end_speed,
+            rho,
+            phi,
+            psi
+        )
+    }
+
+    pub fn has_phase_times(&self) -> bool {
+        self.accel_time.is_some() || self.cruise_time.is_some() || self.decel_time.is_some()
+    }
+
+    /// Reads one `key=value` word; false if the key is not a move option.
+    fn set(&mut self, key: &str, value: &str) -> Result<bool, CtlError> {
+        let num = |v: &str| -> Result<Option<f64>, CtlError> {
+            v.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .map(Some)
+                .ok_or_else(|| CtlError::syntax(format!("{key}: '{v}' is not a number")))
+        };
+        match key {
+            "preset" => self.preset = Some(value.to_string()),
+            "profile" => self.profile = Some(value.to_ascii_lowercase()),
+            "vmax" => self.vmax = num(value)?,
+            "amax" => self.amax = num(value)?,
+            "jmax" => self.jmax = num(value)?,
+            "smax" => self.smax = num(value)?,
+            "accel" | "accel_time" => self.accel_time = num(value)?,
+            "cruise" | "cruise_time" => self.cruise_time = num(value)?,
+            "decel" | "decel_time" => self.decel_time = num(value)?,
+            "vs" | "start_speed" => self.start_speed = num(value)?,
+            "ve" | "end_speed" => self.end_speed = num(value)?,
+            "rho" => self.rho = num(value)?,
+            "phi" => self.phi = num(value)?,
+            "psi" => self.psi = num(value)?,
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    /// The `key=value` words that give these options (for presets and the host client).
+    pub fn words(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Some(p) = &self.preset {
+            w.push(format!("preset={p}"));
+        }
+        if let Some(p) = &self.profile {
+            w.push(format!("profile={p}"));
+        }
+        for (k, v) in [
+            ("vmax", self.vmax),
+            ("amax", self.amax),
+            ("jmax", self.jmax),
+            ("smax", self.smax),
+            ("accel", self.accel_time),
+            ("cruise", self.cruise_time),
+            ("decel", self.decel_time),
+            ("vs", self.start_speed),
+            ("ve", self.end_speed),
+            ("rho", self.rho),
+            ("phi", self.phi),
+            ("psi", self.psi),
+        ] {
+            if let Some(x) = v {
+                w.push(format!("{k}={x}"));
+            }
+        }
+        w
+    }
+}
+
+/// Every command of the protocol.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    /// Blank line or comment: answered `ok`.
+    Nop,
+    Help,
+    Version,
+    Info,
+    Status {
+        axes: Vec<String>,
+        json: bool,
+    },
+    Move {
+        axis: String,
+        by: Amount,
+        opts: MoveOpts,
+    },
+    MoveTo {
+        axis: String,
+        to: Amount,
+        opts: MoveOpts,
+    },
+    /// Synchronous group move: same start tick; `sync` also gives the same finish time.
+    Group {
+        absolute: bool,
+        targets: Vec<(String, Amount)>,
+        sync: bool,
+        opts: MoveOpts,
+    },
+    /// Controlled stop of one axis, or all.
+    Stop {
+        axis: Option<String>,
+    },
+    EStop,
+    Reset,
+    Home {
+        axis: String,
+    },
+    Get {
+        axis: String,
+        key: Option<String>,
+    },
+    Set {
+        axis: String,
+        key: String,
+        value: String,
+    },
+    /// Save the current positions of some (default all) axes under a name.
+    Save {
+        name: String,
+        axes: Vec<String>,
+    },
+    Goto {
+        name: String,
+        opts: MoveOpts,
+    },
+    Positions,
+    Forget {
+        name: String,
+    },
+    Preset {
+        name: String,
+        opts: MoveOpts,
+    },
+    Presets,
+    /// Simulation only: lose `steps` steps on an axis (the count does not see it).
+    SimSlip {
+        axis: String,
+        steps: i64,
+    },
+}
+
+/// The answer to one command.
+#[derive(Debug)]
+pub struct Reply {
+    pub data: Vec<String>,
+    pub result: Result<(), CtlError>,
+}
+
+impl Reply {
+    pub fn ok(data: Vec<String>) -> Reply {
+        Reply {
+            data,
+            result: Ok(()),
+        }
+    }
+    pub fn err(e: CtlError) -> Reply {
+        Reply {
+            data: Vec::new(),
+            result: Err(e),
+        }
+    }
+    pub fn from_result(r: Result<Vec<String>, CtlError>) -> Reply {
+        match r {
+            Ok(d) => Reply::ok(d),
+            Err(e) => Reply::err(e),
+        }
+    }
+
+    /// The reply as sent: data lines, then the status line; every line ends in `\n`.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        for d in &self.data {
+            // A data line never looks like a status line and never spans lines.
+            let d = d.replace(['\n', '\r'], " ");
+            if d == "ok" || d.starts_with("error:") {
+                s.push_str("> ");
+            }
+            s.push_str(&d);
+            s.push('\n');
+        }
+        match &self.result {
+            Ok(()) => s.push_str("ok\n"),
+            Err(e) => {
+                let msg = e.to_string().replace(['\n', '\r'], " ");
+                s.push_str(&format!("error:{} {}\n", e.code(), msg));
+            }
+        }
+        s
+    }
+}
+
+/// One line as read from a connection.
+#[derive(Debug, PartialEq)]
+pub enum Line {
+    Text(Vec<u8>),
+    /// Longer than [`MAX_LINE`]; the rest of it up to the newline was discarded.
+    TooLong,
+    Eof,
+}
+
+/// Reads one line of at most [`MAX_LINE`] bytes without ever holding more than that.
+pub fn read_line<R: BufRead>(r: &mut R) -> std::io::Result<Line> {
+    let mut buf = Vec::new();
+    let mut too_long = false;
+    loop {
+        let chunk = match r.fill_buf() {
+            Ok(c) => c,
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if chunk.is_empty() {
+            return Ok(if too_long {
+                Line::TooLong
+            } else if buf.is_empty() {
+                Line::Eof
+            } else {
+                Line::Text(buf)
+            });
+        }
+        let (part, found) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(i) => (&chunk[..i], Some(i + 1)),
+            None => (chunk, None),
+        };
+        if !too_long {
+            if buf.len() + part.len() > MAX_LINE {
+                too_long = true;
+                buf = Vec::new();
+            } else {
+                buf.extend_from_slice(part);
+            }
+        }
+        let used = found.unwrap_or(chunk.len());
+        r.consume(used);
+        if found.is_some() {
+            if buf.last() == Some(&b'\r') {
+                buf.pop();
+            }
+            return Ok(if too_long {
+                Line::TooLong
+            } else {
+                Line::Text(buf)
+            });
+        }
+    }
+}
+
+/// Parses raw bytes (without the newline) into a command.
+pub fn parse_bytes(line: &[u8]) -> Result<Command, CtlError> {
+    if line.len() > MAX_LINE {
+        return Err(CtlError::LineTooLong { max: MAX_LINE });
+    }
+    let text = std::str::from_utf8(line).map_err(|_| CtlError::InvalidUtf8)?;
+    parse(text)
+}
+
+/// Parses one line of text into a command.
+pub fn parse(line: &str) -> Result<Command, CtlError> {
+    let line = line.split(['#', ';']).next().unwrap_or("");
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let Some((&head, rest)) = words.split_first() else {
+        return Ok(Command::Nop);
+    };
+    let head = head.to_ascii_lowercase();
+    let want = |n: usize, usage: &str| -> Result<(), CtlError> {
+        if rest.len() < n {
+            Err(CtlError::syntax(format!("usage: {usage}")))
+        } else {
+            Ok(())
+        }
+    };
+    let none_after = |n: usize, usage: &str| -> Result<(), CtlError> {
+        if rest.len() > n {
+            Err(CtlError::syntax(format!(
+                "unexpected '{}'; usage: {usage}",
+                rest[n]
+            )))
+        } else {
+            Ok(())
+        }
+    };
+    Ok(match head.as_str() {
+        "help" | "?" => Command::Help,
+        "version" => Command::Version,
+        "info" => Command::Info,
+        "status" | "s" => {
+            let json = rest.first().is_some_and(|w| w.eq_ignore_ascii_case("json"));
+            let axes = rest[json as usize..]
+                .iter()
+                .map(|a| axis_word(a))
+                .collect::<Result<_, _>>()?;
+            Command::Status { axes, json }
+        }
+        "move" | "moveto" => {
+            let usage = if head == "move" {
+                "move AXIS STEPS [key=value…]"
+            } else {
+                "moveto AXIS POSITION [key=value…]"
+            };
+            want(2, usage)?;
+            let axis = axis_word(rest[0])?;
+            let amount = parse_amount(rest[1])?;
+            let opts = only_opts(&rest[2..], usage)?;
+            if head == "move" {
+                Command::Move {
+                    axis,
+                    by: amount,
+                    opts,
+                }
+            } else {
+                Command::MoveTo {
+                    axis,
+                    to: amount,
+                    opts,
+                }
+            }
+        }
+        "group" => {
+            let usage = "group move|moveto AXIS=N… [sync] [key=value…]";
+            want(2, usage)?;
+            let absolute = match rest[0].to_ascii_lowercase().as_str() {
+                "move" => false,
+                "moveto" => true,
+                other => return Err(CtlError::syntax(format!("'{other}': {usage}"))),
+            };
+            let mut targets = Vec::new();
+            let mut sync = false;
+            let opts = parse_opts(&rest[1..], &mut |w| {
+                if w.eq_ignore_ascii_case("sync") {
+                    sync = true;
+                    return Ok(());
+                }
+                let (a, n) = w
+                    .split_once('=')
+                    .ok_or_else(|| CtlError::syntax(format!("'{w}' is not AXIS=N; {usage}")))?;
+                targets.push((axis_word(a)?, parse_amount(n)?));
+                Ok(())
+            })?;
+            if targets.is_empty() {
+                return Err(CtlError::syntax(format!("no axes given; {usage}")));
+            }
+            Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts,
+            }
+        }
+        "stop" => {
+            none_after(1, "stop [AXIS|all]")?;
+            let axis = match rest.first() {
+                None => None,
+                Some(w) if w.eq_ignore_ascii_case("all") => None,
+                Some(w) => Some(axis_word(w)?),
+            };
+            Command::Stop { axis }
+        }
+        "estop" | "!" => {
+            none_after(0, "estop")?;
+            Command::EStop
+        }
+        "reset" => {
+            none_after(0, "reset")?;
+            Command::Reset
+        }
+        "home" => {
+            want(1, "home AXIS")?;
+            none_after(1, "home AXIS")?;
+            Command::Home {
+                axis: axis_word(rest[0])?,
+            }
+        }
+        "get" => {
+            want(1, "get AXIS [KEY]")?;
+            none_after(2, "get AXIS [KEY]")?;
+            Command::Get {
+                axis: axis_word(rest[0])?,
+                key: rest.get(1).map(|s| s.to_string()),
+            }
+        }
+        "set" => {
+            want(3, "set AXIS KEY VALUE")?;
+            none_after(3, "set AXIS KEY VALUE")?;
+            Command::Set {
+                axis: axis_word(rest[0])?,
+                key: rest[1].to_string(),
+                value: rest[2].to_string(),
+            }
+        }
+        "save" => {
+            want(1, "save NAME [AXIS…]")?;
+            Command::Save {
+                name: name_word(rest[0])?,
+                axes: rest[1..]
+                    .iter()
+                    .map(|a| axis_word(a))
+                    .collect::<Result<_, _>>()?,
+            }
+        }
+        "goto" => {
+            want(1, "goto NAME [key=value…]")?;
+            let opts = only_opts(&rest[1..], "goto NAME [key=value…]")?;
+            Command::Goto {
+                name: name_word(rest[0])?,
+                opts,
+            }
+        }
+        "positions" => Command::Positions,
+        "forget" => {
+            want(1, "forget NAME")?;
+            Command::Forget {
+                name: name_word(rest[0])?,
+            }
+        }
+        "preset" => {
+            want(2, "preset NAME key=value…")?;
+            let opts = only_opts(&rest[1..], "preset NAME key=value…")?;
+            if opts.preset.is_some() {
+                return Err(CtlError::syntax("a preset cannot refer to another preset"));
+            }
+            Command::Preset {
+                name: name_word(rest[0])?,
+                opts,
+            }
+        }
+        "presets" => Command::Presets,
+        "sim" => {
+            let usage = "sim AXIS slip STEPS";
+            want(3, usage)?;
+            none_after(3, usage)?;
+            if !rest[1].eq_ignore_ascii_case("slip") {
+                return Err(CtlError::syntax(format!("usage: {usage}")));
+            }
+            let steps = rest[2]
+                .parse()
+                .map_err(|_| CtlError::syntax(format!("'{}' is not a whole number", rest[2])))?;
+            Command::SimSlip {
+                axis: axis_word(rest[0])?,
+                steps,
+            }
+        }
+        other => {
+            let shown: String = other.chars().take(40).collect();
+            return Err(CtlError::syntax(format!(
+                "unknown command '{shown}' (try 'help')"
+            )));
+        }
+    })
+}
+
+/// Reads words that must all be move options.
+fn only_opts(words: &[&str], usage: &str) -> Result<MoveOpts, CtlError> {
+    parse_opts(words, &mut |w| {
+        Err(CtlError::syntax(format!(
+            "unexpected '{w}'; usage: {usage}"
+        )))
+    })
+}
+
+/// Reads `key=value` move options; other words go to `other`.
+fn parse_opts(
+    words: &[&str],
+    other: &mut dyn FnMut(&str) -> Result<(), CtlError>,
+) -> Result<MoveOpts, CtlError> {
+    let mut opts = MoveOpts::default();
+    for w in words {
+        match w.split_once('=') {
+            Some((k, v)) if opts.set(&k.to_ascii_lowercase(), v)? => {}
+            _ => other(w)?,
+        }
+    }
+    Ok(opts)
+}
+
+fn axis_word(w: &str) -> Result<String, CtlError> {
+    if crate::axis::valid_axis_name(w) {
+        Ok(w.to_string())
+    } else {
+        let shown: String = w.chars().take(40).collect();
+        Err(CtlError::UnknownAxis(shown))
+    }
+}
+
+fn name_word(w: &str) -> Result<String, CtlError> {
+    if crate::axis::valid_axis_name(w) {
+        Ok(w.to_string())
+    } else {
+        Err(CtlError::syntax(
+            "names are letters, digits, '_' and '-' (at most 32)",
+        ))
+    }
+}
+
+/// `123`, `-40` (microsteps) or `12.5u` (user units).
+pub fn parse_amount(w: &str) -> Result<Amount, CtlError> {
+    let bad = || {
+        CtlError::syntax(format!(
+            "'{w}' is not a whole number of steps or a number with 'u'"
+        ))
+    };
+    if let Some(u) = w.strip_suffix(['u', 'U']) {
+        let x: f64 = u.parse().map_err(|_| bad())?;
+        if !x.is_finite() {
+            return Err(bad());
+        }
+        return Ok(Amount::Units(x));
+    }
+    w.parse::<i64>().map(Amount::Steps).map_err(|_| bad())
+}
+
+/// Splits a received reply into its data lines and result (host side).
+pub fn parse_status_line(line: &str) -> Option<Result<(), (u16, String)>> {
+    if line == "ok" {
+        return Some(Ok(()));
+    }
+    let rest = line.strip_prefix("error:")?;
+    let (code, msg) = rest.split_once(' ').unwrap_or((rest, ""));
+    Some(Err((code.parse().unwrap_or(0), msg.to_string())))
+}
+
+/// The text of `help`.
+pub const HELP: &[&str] = &[
+    "commands (AXIS is an axis name; N is microsteps or a number with 'u' for user units):",
+    "  move AXIS N [opts]           relative move",
+    "  moveto AXIS N [opts]         absolute move (periodic axes: shortest way)",
+    "  group move|moveto A=N B=N… [sync] [opts]   same start tick; sync: same finish",
+    "  stop [AXIS|all]  estop  reset  home AXIS",
+    "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
+    "  save NAME [AXIS…]  goto NAME  positions  forget NAME",
+    "  preset NAME opts  presets  version  info  sim AXIS slip N",
+    "opts: preset=P profile=F vmax= amax= jmax= smax= accel= cruise= decel= vs= ve= rho= phi= psi=",
+];

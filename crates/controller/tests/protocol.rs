@@ -1,0 +1,104 @@
+//! The line protocol under random input: nothing panics, every line gets exactly one
+//! answer, and well-formed commands read back as what was written.
+
+use multistep_controller::protocol::{
+    self, parse, parse_bytes, read_line, Amount, Command, Line, MoveOpts, MAX_LINE,
+};
+use multistep_controller::{service, BoardConfig, Controller};
+use proptest::prelude::*;
+use std::io::BufReader;
+
+fn count_status_lines(out: &str) -> usize {
+    out.lines()
+        .filter(|l| protocol::parse_status_line(l).is_some())
+        .count()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_bytes_never_panic_the_parser(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+        let _ = parse_bytes(&bytes);
+    }
+
+    #[test]
+    fn random_words_never_panic_the_parser(words in proptest::collection::vec(
+        prop_oneof![
+            Just("move".to_string()), Just("moveto".to_string()), Just("group".to_string()),
+            Just("X".to_string()), Just("sync".to_string()), Just("vmax=".to_string()),
+            Just("set".to_string()), Just("home".to_string()), Just("-9223372036854775808".to_string()),
+            "[a-z=.0-9u-]{0,12}", Just("1e999u".to_string()), Just("NaN".to_string()),
+        ], 0..8)) {
+        let _ = parse(&words.join(" "));
+    }
+
+    #[test]
+    fn move_commands_read_back(axis in "[A-Za-z][A-Za-z0-9_]{0,8}", n in any::<i64>(),
+                               vmax in proptest::option::of(1.0f64..1e6), amax in proptest::option::of(1.0f64..1e7),
+                               profile in proptest::option::of(prop_oneof![Just("trapezoid"), Just("scurve")])) {
+        prop_assume!(!axis.eq_ignore_ascii_case("ok") && !axis.eq_ignore_ascii_case("all"));
+        let opts = MoveOpts { vmax, amax, profile: profile.map(String::from), ..MoveOpts::default() };
+        let line = format!("move {axis} {n} {}", opts.words().join(" "));
+        prop_assert_eq!(parse(&line).unwrap(), Command::Move { axis, by: Amount::Steps(n), opts });
+    }
+
+    #[test]
+    fn reading_lines_never_holds_more_than_the_limit(len in 0usize..10_000, tail in "[a-z ]{0,20}") {
+        let mut input = vec![b'a'; len];
+        input.push(b'\n');
+        input.extend_from_slice(tail.as_bytes());
+        input.push(b'\n');
+        let mut r = BufReader::with_capacity(64, &input[..]);
+        let first = read_line(&mut r).unwrap();
+        if len > MAX_LINE {
+            prop_assert_eq!(first, Line::TooLong);
+        } else {
+            prop_assert_eq!(first, Line::Text(vec![b'a'; len]));
+        }
+        prop_assert_eq!(read_line(&mut r).unwrap(), Line::Text(tail.into_bytes()));
+        prop_assert_eq!(read_line(&mut r).unwrap(), Line::Eof);
+    }
+}
+
+/// A whole connection fed random bytes: one `ok`/`error:` line per input line, and the
+/// connection still answers a real command afterwards.
+#[test]
+fn a_connection_answers_every_random_line_exactly_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 300,
+        ..ProptestConfig::default()
+    });
+    let lines = proptest::collection::vec(
+        prop_oneof![
+            proptest::collection::vec(
+                any::<u8>().prop_filter("no newline", |b| *b != b'\n'),
+                0..200
+            ),
+            proptest::collection::vec(Just(b'x'), 4000..4200),
+            Just(b"status X".to_vec()),
+            Just(b"get Y vmax".to_vec()),
+            Just(b"\xff\xfe move".to_vec()),
+        ],
+        1..20,
+    );
+    runner
+        .run(&lines, |lines| {
+            let mut input = Vec::new();
+            for l in &lines {
+                input.extend_from_slice(l);
+                input.push(b'\n');
+            }
+            input.extend_from_slice(b"version\n");
+            let mut out = Vec::new();
+            service::serve_stream(&ctl, &input[..], &mut out).unwrap();
+            let out = String::from_utf8(out).unwrap();
+            prop_assert_eq!(count_status_lines(&out), lines.len() + 1, "{}", out);
+            prop_assert!(out.ends_with("ok\n"));
+            prop_assert!(out.contains("multistep-controller"));
+            Ok(())
+        })
+        .unwrap();
+}

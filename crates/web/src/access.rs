@@ -1,0 +1,172 @@
+//! Who may use the page: loopback by default; another address only with an explicit
+//! opt-in and an access token, which every request must then carry.
+
+use std::net::{SocketAddr, ToSocketAddrs};
+
+/// Where and how the HTTP side listens.
+#[derive(Clone, Debug)]
+pub struct HttpOptions {
+    /// `HOST:PORT`; `127.0.0.1:0` picks a free port.
+    pub addr: String,
+    /// Needed to bind anything but a loopback address.
+    pub allow_remote: bool,
+    /// Access token; required with `allow_remote`, optional on loopback.
+    pub token: Option<String>,
+}
+
+/// Shortest accepted token: long enough that guessing is not a plan.
+pub const MIN_TOKEN_LEN: usize = 16;
+
+#[derive(Debug, thiserror::Error)]
+pub enum WebError {
+    #[error("cannot listen on {addr}: {why}")]
+    Bind { addr: String, why: String },
+    #[error("{0} is not a loopback address; serving the page to other machines needs --http-allow-remote and --http-token")]
+    RemoteNotAllowed(String),
+    #[error("--http-allow-remote needs an access token (--http-token, at least {MIN_TOKEN_LEN} characters)")]
+    TokenRequired,
+    #[error(
+        "the access token must be {MIN_TOKEN_LEN} to 256 printable ASCII characters without spaces"
+    )]
+    BadToken,
+    #[error("no board to serve")]
+    NoBoards,
+}
+
+/// What every request is checked against.
+#[derive(Clone, Debug)]
+pub struct Access {
+    pub token: Option<String>,
+    /// Bound to loopback only: then requests must also name a loopback host (DNS rebinding).
+    pub loopback: bool,
+}
+
+impl HttpOptions {
+    pub fn check(&self) -> Result<Access, WebError> {
+        let addrs: Vec<SocketAddr> = self
+            .addr
+            .to_socket_addrs()
+            .map_err(|e| WebError::Bind {
+                addr: self.addr.clone(),
+                why: e.to_string(),
+            })?
+            .collect();
+        let loopback = !addrs.is_empty() && addrs.iter().all(|a| a.ip().is_loopback());
+        if let Some(t) = &self.token {
+            let ok =
+                (MIN_TOKEN_LEN..=256).contains(&t.len()) && t.bytes().all(|b| b.is_ascii_graphic());
+            if !ok {
+                return Err(WebError::BadToken);
+            }
+        }
+        if !loopback {
+            if !self.allow_remote {
+                return Err(WebError::RemoteNotAllowed(self.addr.clone()));
+            }
+            if self.token.is_none() {
+                return Err(WebError::TokenRequired);
+            }
+        }
+        Ok(Access {
+            token: self.token.clone(),
+            loopback,
+        })
+    }
+}
+
+impl Access {
+    /// `token`: from the `Authorization: Bearer` header or the `token` query parameter.
+    pub fn allows(&self, host: Option<&str>, token: Option<&str>) -> bool {
+        if self.loopback && !host.is_some_and(is_loopback_host) {
+            return false;
+        }
+        match (&self.token, token) {
+            (None, _) => true,
+            (Some(want), Some(got)) => same(want.as_bytes(), got.as_bytes()),
+            (Some(_), None) => false,
+        }
+    }
+}
+
+/// Compares without stopping at the first difference, so timing tells nothing.
+fn same(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// `localhost`, `127.x.y.z` or `[::1]`, with or without a port.
+fn is_loopback_host(host: &str) -> bool {
+    let name = if let Some(rest) = host.strip_prefix('[') {
+        rest.split(']').next().unwrap_or("")
+    } else {
+        host.rsplit_once(':').map_or(host, |(h, _)| h)
+    };
+    name.eq_ignore_ascii_case("localhost")
+        || name
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts(addr: &str, allow_remote: bool, token: Option<&str>) -> HttpOptions {
+        HttpOptions {
+            addr: addr.into(),
+            allow_remote,
+            token: token.map(String::from),
+        }
+    }
+    const TOKEN: &str = "0123456789abcdef";
+
+    #[test]
+    fn remote_needs_the_flag_and_a_token() {
+        assert!(matches!(
+            opts("0.0.0.0:0", false, None).check(),
+            Err(WebError::RemoteNotAllowed(_))
+        ));
+        assert!(matches!(
+            opts("0.0.0.0:0", false, Some(TOKEN)).check(),
+            Err(WebError::RemoteNotAllowed(_))
+        ));
+        assert!(matches!(
+            opts("0.0.0.0:0", true, None).check(),
+            Err(WebError::TokenRequired)
+        ));
+        assert!(matches!(
+            opts("0.0.0.0:0", true, Some("short")).check(),
+            Err(WebError::BadToken)
+        ));
+        assert!(matches!(
+            opts("0.0.0.0:0", true, Some("has a space 123456")).check(),
+            Err(WebError::BadToken)
+        ));
+        let a = opts("0.0.0.0:0", true, Some(TOKEN)).check().unwrap();
+        assert!(!a.loopback);
+        let a = opts("127.0.0.1:0", false, None).check().unwrap();
+        assert!(a.loopback && a.token.is_none());
+        assert!(opts("[::1]:0", false, None).check().unwrap().loopback);
+    }
+
+    #[test]
+    fn every_request_is_checked() {
+        let remote = Access {
+            token: Some(TOKEN.into()),
+            loopback: false,
+        };
+        assert!(remote.allows(Some("10.0.0.5:8080"), Some(TOKEN)));
+        assert!(!remote.allows(Some("10.0.0.5:8080"), None));
+        assert!(!remote.allows(Some("10.0.0.5:8080"), Some("0123456789abcdeF")));
+        assert!(!remote.allows(Some("10.0.0.5:8080"), Some("0123456789abcde")));
+        let local = Access {
+            token: None,
+            loopback: true,
+        };
+        assert!(local.allows(Some("127.0.0.1:8080"), None));
+        assert!(local.allows(Some("localhost:1"), None));
+        assert!(local.allows(Some("[::1]:1"), None));
+        // A page served from another name resolving to 127.0.0.1 (DNS rebinding) is refused.
+        assert!(!local.allows(Some("evil.example:8080"), None));
+        assert!(!local.allows(None, None));
+    }
+}

@@ -1,0 +1,81 @@
+//! The `--http…` flags, shared by every command that serves a board
+//! (`#[command(flatten)] http: HttpArgs`).
+
+use crate::boards::{BoardLink, Remote};
+use crate::{start_links, HttpOptions, WebError, WebServer};
+use multistep_controller::Controller;
+use std::sync::Arc;
+
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct HttpArgs {
+    /// Serve the operator web page and its API on HOST:PORT, or on 127.0.0.1 with just a
+    /// PORT (loopback unless --http-allow-remote; port 0 picks a free port)
+    #[arg(long, value_name = "HOST:PORT")]
+    pub http: Option<String>,
+    /// Allow --http on a non-loopback address (needs --http-token)
+    #[arg(long, requires = "http")]
+    pub http_allow_remote: bool,
+    /// Access token every HTTP request must carry (`?token=` or `Authorization: Bearer`);
+    /// falls back to the MULTISTEP_HTTP_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_HTTP_TOKEN",
+        hide_env_values = true
+    )]
+    pub http_token: Option<String>,
+    /// Also show another board on the page, reached over its line protocol at HOST:PORT
+    /// (repeat for more boards)
+    #[arg(long, value_name = "HOST:PORT", requires = "http")]
+    pub http_board: Vec<String>,
+}
+
+impl HttpArgs {
+    /// Starts the web side if `--http` was given, and says where it listens on stderr.
+    pub fn start(&self, boards: Vec<Arc<Controller>>) -> Result<Option<WebServer>, WebError> {
+        let Some(addr) = &self.http else {
+            return Ok(None);
+        };
+        let opts = HttpOptions {
+            addr: with_host(addr),
+            allow_remote: self.http_allow_remote,
+            token: self.http_token.clone(),
+        };
+        let links = boards
+            .into_iter()
+            .map(BoardLink::Local)
+            .chain(
+                self.http_board
+                    .iter()
+                    .map(|a| BoardLink::Remote(Remote::new(a))),
+            )
+            .collect();
+        let server = start_links(links, &opts)?;
+        eprintln!("web page on http://{}/", server.addr());
+        Ok(Some(server))
+    }
+}
+
+/// `8080` and `:8080` mean `127.0.0.1:8080`: loopback unless a host is named.
+fn with_host(addr: &str) -> String {
+    let port = addr.strip_prefix(':').unwrap_or(addr);
+    if port.parse::<u16>().is_ok() {
+        format!("127.0.0.1:{port}")
+    } else {
+        addr.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::with_host;
+
+    #[test]
+    fn a_bare_port_is_loopback() {
+        assert_eq!(with_host("8080"), "127.0.0.1:8080");
+        assert_eq!(with_host(":0"), "127.0.0.1:0");
+        assert_eq!(with_host("0.0.0.0:8080"), "0.0.0.0:8080");
+        assert_eq!(with_host("[::1]:80"), "[::1]:80");
+        assert_eq!(with_host("localhost:80"), "localhost:80");
+    }
+}

@@ -1,0 +1,60 @@
+//! Snapshots of every board, and the server-sent-events stream that repeats them.
+
+use crate::boards::BoardLink;
+use multistep_controller::{AxisState, AxisStatus};
+use serde::Serialize;
+use std::io::Write;
+use std::time::Duration;
+
+/// Period of updates while any axis moves or homes (20 Hz), and at rest.
+pub const MOVING_PERIOD: Duration = Duration::from_millis(50);
+pub const IDLE_PERIOD: Duration = Duration::from_millis(250);
+
+#[derive(Clone, Serialize)]
+pub struct BoardSnapshot {
+    pub board: usize,
+    pub name: String,
+    pub tick: u64,
+    pub clock_hz: f64,
+    pub estop: bool,
+    pub warnings: Vec<String>,
+    pub axes: Vec<AxisStatus>,
+    /// Why a remote board could not be read.
+    pub error: Option<String>,
+}
+
+#[derive(Serialize)]
+pub struct Snapshot {
+    pub boards: Vec<BoardSnapshot>,
+    /// Some axis is moving or homing.
+    pub busy: bool,
+}
+
+/// Every axis of every board, each board read at one moment so its axes agree in time.
+pub fn snapshot(boards: &[BoardLink]) -> Snapshot {
+    let boards: Vec<BoardSnapshot> = boards
+        .iter()
+        .enumerate()
+        .map(|(k, b)| b.snapshot(k))
+        .collect();
+    let busy = boards
+        .iter()
+        .flat_map(|b| &b.axes)
+        .any(|a| matches!(a.state, AxisState::Moving | AxisState::Homing));
+    Snapshot { boards, busy }
+}
+
+/// Writes snapshots as SSE until the client goes away.
+pub fn stream(boards: &[BoardLink], out: &mut dyn Write) -> std::io::Result<()> {
+    out.write_all(
+        b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
+          Connection: close\r\nX-Content-Type-Options: nosniff\r\n\r\nretry: 1000\n\n",
+    )?;
+    loop {
+        let s = snapshot(boards);
+        let json = serde_json::to_string(&s).map_err(std::io::Error::other)?;
+        out.write_all(format!("data: {json}\n\n").as_bytes())?;
+        out.flush()?;
+        std::thread::sleep(if s.busy { MOVING_PERIOD } else { IDLE_PERIOD });
+    }
+}
