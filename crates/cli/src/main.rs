@@ -8,6 +8,7 @@ mod bench;
 mod ctl;
 mod demo;
 mod experiment;
+mod hdl;
 mod moveargs;
 mod output;
 mod plan;
@@ -40,6 +41,8 @@ enum Cmd {
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
+    /// The TDM IP core as Verilog: emit it, and report its FPGA resource use (yosys)
+    Hdl(hdl::HdlArgs),
     /// Simulate one move on a motor and driver: lost steps and following error
     Simulate(Box<simulate::SimulateArgs>),
     /// Reproduce the seed papers' experiments on the simulator
@@ -68,6 +71,7 @@ fn main() -> ExitCode {
         Cmd::Ctl(a) => ctl::run(a),
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
+        Cmd::Hdl(a) => hdl::run(a),
         Cmd::Simulate(a) => simulate::run(a),
         Cmd::Experiment(a) => experiment::run(a),
     };

@@ -1,0 +1,310 @@
+//! `multistep hdl`: emit the TDM IP core as Verilog, and report its resource use from
+//! yosys against K independent single-axis cores.
+
+use anyhow::Context;
+use clap::{Args, Subcommand, ValueEnum};
+use multistep_hdl::report::{
+    sweep, Baseline, Row, Target, PAPER_DSP_RATIO, PAPER_FF_RATIO, PAPER_LUT_RATIO,
+};
+use multistep_hdl::{tools, Arch, CoreParams, Design};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct HdlArgs {
+    #[command(subcommand)]
+    cmd: HdlCmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum HdlCmd {
+    /// Write the Verilog-2005 of the TDM core (ms_tdm_top) and of K independent cores (ms_indep_top)
+    Emit(EmitArgs),
+    /// Synthesize both with yosys for each axis count and compare LUT, FF, DSP and memory use
+    Report(ReportArgs),
+}
+
+/// Core parameters shared by both subcommands.
+#[derive(Args, Debug)]
+struct CoreArgs {
+    /// Periods per axis FIFO (power of two)
+    #[arg(long, default_value_t = 16)]
+    fifo_depth: u32,
+    /// Segments per axis move (power of two)
+    #[arg(long, default_value_t = 4)]
+    segments: u32,
+    /// Bits of a segment's step count
+    #[arg(long, default_value_t = 20)]
+    step_bits: u32,
+    /// Bits of a segment's duration in ticks (and of a period)
+    #[arg(long, default_value_t = 24)]
+    tick_bits: u32,
+    /// Fraction bits of the start-speed register
+    #[arg(long, default_value_t = 8)]
+    frac_bits: u32,
+    /// Clock (Hz)
+    #[arg(long, default_value_t = multistep_core::DEFAULT_CLOCK_HZ)]
+    clock: f64,
+    /// Highest step rate (steps/s)
+    #[arg(long, default_value_t = 200_000.0)]
+    max_rate: f64,
+    /// Longest segment (s)
+    #[arg(long, default_value_t = 0.3)]
+    max_segment: f64,
+}
+
+impl CoreArgs {
+    fn params(&self, axes: u32) -> CoreParams {
+        CoreParams {
+            axes,
+            fifo_depth: self.fifo_depth,
+            segments: self.segments,
+            step_bits: self.step_bits,
+            tick_bits: self.tick_bits,
+            frac_bits: self.frac_bits,
+            clock_hz: self.clock,
+            max_rate: self.max_rate,
+            max_segment_s: self.max_segment,
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+struct EmitArgs {
+    /// Axes sharing the calculator (K)
+    #[arg(long)]
+    axes: u32,
+    /// Output directory (created)
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    core: CoreArgs,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum ReportFormat {
+    Table,
+    Json,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum TargetArg {
+    Xilinx,
+    Ice40,
+    Ecp5,
+}
+
+#[derive(Args, Debug)]
+struct ReportArgs {
+    /// Axis counts, comma separated
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16")]
+    axes: Vec<u32>,
+    #[arg(long, value_enum, default_value_t = TargetArg::Xilinx)]
+    target: TargetArg,
+    #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
+    format: ReportFormat,
+    /// Synthesize the whole K-core baseline instead of one core times K (slow)
+    #[arg(long)]
+    full_baseline: bool,
+    /// Working directory for yosys (default: a fresh temporary directory)
+    #[arg(long)]
+    work: Option<PathBuf>,
+    #[command(flatten)]
+    core: CoreArgs,
+}
+
+pub fn run(a: &HdlArgs) -> anyhow::Result<()> {
+    match &a.cmd {
+        HdlCmd::Emit(e) => emit(e),
+        HdlCmd::Report(r) => report(r),
+    }
+}
+
+fn emit(a: &EmitArgs) -> anyhow::Result<()> {
+    let p = a.core.params(a.axes);
+    // both designs are checked before anything is written
+    let designs = [
+        Design::new(&p, Arch::Tdm)?,
+        Design::new(&p, Arch::Independent)?,
+    ];
+    let mut out = std::io::stdout().lock();
+    for d in &designs {
+        for path in d.write(&a.out)? {
+            writeln!(out, "{}", path.display())?;
+        }
+    }
+    Ok(())
+}
+
+fn report(a: &ReportArgs) -> anyhow::Result<()> {
+    if a.axes.is_empty() {
+        anyhow::bail!("--axes needs at least one axis count");
+    }
+    for &k in &a.axes {
+        a.core.params(k).widths()?;
+    }
+    let target = match a.target {
+        TargetArg::Xilinx => Target::Xilinx,
+        TargetArg::Ice40 => Target::Ice40,
+        TargetArg::Ecp5 => Target::Ecp5,
+    };
+    let baseline = if a.full_baseline {
+        Baseline::Full
+    } else {
+        Baseline::Scaled
+    };
+    let version = tools::yosys_version()?;
+    let tmp;
+    let work = match &a.work {
+        Some(w) => w.clone(),
+        None => {
+            tmp = std::env::temp_dir().join(format!("multistep-hdl-{}", std::process::id()));
+            tmp
+        }
+    };
+    let rows = sweep(&a.core.params(1), &a.axes, target, baseline, &work).context("synthesis")?;
+    if a.work.is_none() {
+        let _ = std::fs::remove_dir_all(&work);
+    }
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        ReportFormat::Json => {
+            let v: Vec<serde_json::Value> = rows
+                .iter()
+                .map(|r| row_json(r, &version, target, baseline))
+                .collect();
+            writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        }
+        ReportFormat::Table => write_table(&mut out, &rows, &version, target, baseline)?,
+    }
+    Ok(())
+}
+
+fn row_json(r: &Row, version: &str, target: Target, baseline: Baseline) -> serde_json::Value {
+    serde_json::json!({
+        "axes": r.axes,
+        "tdm": r.tdm,
+        "independent": r.independent,
+        "ratio": { "lut": finite(r.lut_ratio()), "ff": finite(r.ff_ratio()), "dsp": finite(r.dsp_ratio()) },
+        "paper_ratio": { "lut": PAPER_LUT_RATIO, "ff": PAPER_FF_RATIO, "dsp": PAPER_DSP_RATIO },
+        "target": target,
+        "baseline": baseline,
+        "yosys": version,
+    })
+}
+
+/// JSON has no NaN: a ratio over zero cells is null.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+fn write_table(
+    out: &mut impl Write,
+    rows: &[Row],
+    version: &str,
+    target: Target,
+    baseline: Baseline,
+) -> std::io::Result<()> {
+    let base = match baseline {
+        Baseline::Scaled => "K x one synthesized single-axis core",
+        Baseline::Full => "K single-axis cores synthesized together",
+    };
+    writeln!(out, "{version}; target {target:?}; independent = {base}")?;
+    writeln!(
+        out,
+        "{:>4} | {:>6} {:>6} {:>4} {:>6} {:>4} | {:>6} {:>6} {:>4} {:>6} {:>4} | {:>9} {:>8} {:>9}",
+        "K",
+        "LUT",
+        "FF",
+        "DSP",
+        "LUTRAM",
+        "BRAM",
+        "LUT",
+        "FF",
+        "DSP",
+        "LUTRAM",
+        "BRAM",
+        "LUT ratio",
+        "FF ratio",
+        "DSP ratio"
+    )?;
+    writeln!(
+        out,
+        "{:>4} | {:^32} | {:^32} |",
+        "", "TDM core", "K independent cores"
+    )?;
+    for r in rows {
+        let (t, i) = (r.tdm, r.independent);
+        writeln!(
+            out,
+            "{:>4} | {:>6} {:>6} {:>4} {:>6} {:>4} | {:>6} {:>6} {:>4} {:>6} {:>4} | {:>9.3} {:>8.3} {:>9.3}",
+            r.axes, t.lut, t.ff, t.dsp, t.lutram, t.bram, i.lut, i.ff, i.dsp, i.lutram, i.bram,
+            r.lut_ratio(), r.ff_ratio(), r.dsp_ratio()
+        )?;
+    }
+    writeln!(
+        out,
+        "paper (seed 000, K = 2, vendor tools): LUT ratio {PAPER_LUT_RATIO:.3}, FF ratio {PAPER_FF_RATIO:.3}, DSP ratio {PAPER_DSP_RATIO:.3}; absolute counts differ between tools, compare ratios"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use multistep_hdl::report::Resources;
+
+    fn row() -> Row {
+        let one = Resources {
+            lut: 1000,
+            ff: 600,
+            dsp: 3,
+            lutram: 10,
+            bram: 0,
+        };
+        Row {
+            axes: 2,
+            tdm: Resources {
+                lut: 1200,
+                ff: 660,
+                ..one
+            },
+            independent: one.times(2),
+        }
+    }
+
+    #[test]
+    fn json_row_has_the_issue_fields() {
+        let v = row_json(&row(), "Yosys 0.23", Target::Xilinx, Baseline::Scaled);
+        assert_eq!(v["axes"], 2);
+        assert_eq!(v["tdm"]["lut"], 1200);
+        assert_eq!(v["independent"]["ff"], 1200);
+        assert_eq!(v["independent"]["dsp"], 6);
+        assert_eq!(v["ratio"]["lut"], 0.6);
+        assert_eq!(v["ratio"]["dsp"], 0.5);
+        assert_eq!(v["yosys"], "Yosys 0.23");
+        assert!((v["paper_ratio"]["lut"].as_f64().unwrap() - 0.663).abs() < 1e-3);
+    }
+
+    #[test]
+    fn table_shows_ratios_paper_and_version() {
+        let mut out = Vec::new();
+        write_table(
+            &mut out,
+            &[row()],
+            "Yosys 0.23",
+            Target::Xilinx,
+            Baseline::Scaled,
+        )
+        .unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.starts_with("Yosys 0.23; target Xilinx"), "{text}");
+        assert!(
+            text.contains("0.600") && text.contains("0.550") && text.contains("0.500"),
+            "{text}"
+        );
+        assert!(
+            text.contains("LUT ratio 0.663, FF ratio 0.713, DSP ratio 0.833"),
+            "{text}"
+        );
+    }
+}

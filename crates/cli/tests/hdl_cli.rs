@@ -1,0 +1,82 @@
+//! `multistep hdl`: emit writes both tops; bad parameters fail before anything is written.
+
+use std::process::Command;
+
+fn multistep(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_multistep"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn emit_writes_the_library_and_both_tops() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rtl");
+    let o = multistep(&["hdl", "emit", "--axes", "3", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "ms_core.v",
+        "ms_calc.v",
+        "ms_fifo.v",
+        "ms_pulse.v",
+        "ms_tdm_top.v",
+        "ms_indep_top.v",
+    ] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let top = std::fs::read_to_string(out.join("ms_tdm_top.v")).unwrap();
+    assert!(top.contains(".K(3)") && top.contains("K = 3 axes"), "{top}");
+    let ind = std::fs::read_to_string(out.join("ms_indep_top.v")).unwrap();
+    assert_eq!(ind.matches("ms_core #(").count(), 3);
+}
+
+#[test]
+fn bad_parameters_fail_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let o = out.to_str().unwrap();
+    for (args, msg) in [
+        (vec!["hdl", "emit", "--axes", "0", "--out", o], "axes"),
+        (
+            vec![
+                "hdl",
+                "emit",
+                "--axes",
+                "2",
+                "--fifo-depth",
+                "0",
+                "--out",
+                o,
+            ],
+            "fifo depth",
+        ),
+        (
+            vec![
+                "hdl",
+                "emit",
+                "--axes",
+                "2",
+                "--tick-bits",
+                "20",
+                "--out",
+                o,
+            ],
+            "tick bits 20 too narrow",
+        ),
+        (
+            vec!["hdl", "emit", "--axes", "2", "--clock", "1e5", "--out", o],
+            "clock",
+        ),
+        (vec!["hdl", "report", "--axes", "1,0", "--work", o], "axes"),
+    ] {
+        let r = multistep(&args);
+        assert_eq!(r.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            err.starts_with("error:") && err.contains(msg),
+            "{args:?}: {err}"
+        );
+        assert!(!out.exists(), "{args:?} wrote files");
+    }
+}

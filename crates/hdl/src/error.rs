@@ -1,0 +1,41 @@
+//! Errors of the HDL crate: bad core parameters, bad move registers, tool failures.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while emitting, simulating or synthesizing the core.
+#[derive(Debug, thiserror::Error)]
+pub enum HdlError {
+    /// A core parameter is out of range (checked before any Verilog is written).
+    #[error("bad core parameter: {0}")]
+    Param(String),
+    /// A segment does not fit the core's registers or speed range.
+    #[error("bad segment {index}: {reason}")]
+    Segment { index: usize, reason: String },
+    /// An external tool (iverilog, vvp, verilator, yosys) is not installed.
+    #[error("{tool} not found on PATH: install it with `apt-get install -y {package}` (the HDL tests need it)")]
+    ToolMissing {
+        tool: &'static str,
+        package: &'static str,
+    },
+    /// An external tool ran and failed.
+    #[error("{tool} failed: {detail}")]
+    ToolFailed { tool: &'static str, detail: String },
+    /// The simulation produced something unexpected.
+    #[error("simulation: {0}")]
+    Sim(String),
+    /// Reading or writing files.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+impl HdlError {
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        HdlError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,16 @@
+//! multistep-hdl: the TDM step-pulse IP core of seed 000 as synthesizable Verilog-2005,
+//! its bit-exact reference model, a testbench generator, and runners for Icarus Verilog,
+//! Verilator (lint) and yosys (resource use).
+
+mod emit;
+mod error;
+pub mod model;
+mod params;
+pub mod report;
+pub mod testbench;
+pub mod tools;
+
+pub use emit::{Arch, Design, LIBRARY};
+pub use error::HdlError;
+pub use model::{AxisMove, SegRegs};
+pub use params::{CoreParams, Widths};

@@ -1,0 +1,235 @@
+//! Resource use from yosys: synthesize the TDM core and the K independent cores for one
+//! FPGA family and count LUTs, flip-flops, DSP blocks and memories from `stat -json`.
+
+use crate::tools::{file_names_of, run};
+use crate::{Arch, CoreParams, Design, HdlError};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Seed 000 table 1 (two axes, vendor tools): TDM / independent.
+pub const PAPER_LUT_RATIO: f64 = 4153.0 / 6262.0;
+/// Seed 000 table 1: flip-flops.
+pub const PAPER_FF_RATIO: f64 = 2139.0 / 2999.0;
+/// Seed 000 table 1: DSP blocks.
+pub const PAPER_DSP_RATIO: f64 = 5.0 / 6.0;
+
+/// FPGA family for yosys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Target {
+    /// Xilinx 7-series (`synth_xilinx`): LUT1-6 and INV, FD*, DSP48E1, LUTRAM/SRL, RAMB18/36.
+    Xilinx,
+    /// Lattice iCE40 UltraPlus (`synth_ice40 -dsp`): SB_LUT4, SB_DFF*, SB_MAC16, SB_RAM40_4K.
+    Ice40,
+    /// Lattice ECP5 (`synth_ecp5`): LUT4 (+2 per CCU2C carry), TRELLIS_FF, MULT18X18D,
+    /// TRELLIS_DPR16X4, DP16KD.
+    Ecp5,
+}
+
+impl Target {
+    fn synth(self, top: &str) -> String {
+        match self {
+            Target::Xilinx => format!("synth_xilinx -flatten -top {top}"),
+            Target::Ice40 => format!("synth_ice40 -dsp -top {top}"),
+            Target::Ecp5 => format!("synth_ecp5 -top {top}"),
+        }
+    }
+
+    /// Adds one cell type's count to `r`.
+    fn classify(self, cell: &str, n: u64, r: &mut Resources) {
+        let is = |p: &[&str]| p.iter().any(|x| cell.starts_with(x));
+        match self {
+            Target::Xilinx => {
+                // INV cells occupy LUT1s on the device
+                if is(&["LUT", "INV"]) {
+                    r.lut += n
+                } else if is(&["FD"]) {
+                    r.ff += n
+                } else if is(&["DSP48"]) {
+                    r.dsp += n
+                } else if is(&["RAMB"]) {
+                    r.bram += n
+                } else if is(&["RAM", "SRL"]) {
+                    r.lutram += n
+                }
+            }
+            Target::Ice40 => {
+                if cell == "SB_LUT4" {
+                    r.lut += n
+                } else if is(&["SB_DFF"]) {
+                    r.ff += n
+                } else if cell == "SB_MAC16" {
+                    r.dsp += n
+                } else if is(&["SB_RAM"]) {
+                    r.bram += n
+                }
+            }
+            Target::Ecp5 => {
+                if cell == "LUT4" {
+                    r.lut += n
+                } else if cell == "CCU2C" {
+                    r.lut += 2 * n
+                } else if cell == "TRELLIS_FF" {
+                    r.ff += n
+                } else if is(&["MULT18", "ALU54"]) {
+                    r.dsp += n
+                } else if cell == "TRELLIS_DPR16X4" {
+                    r.lutram += n
+                } else if cell == "DP16KD" {
+                    r.bram += n
+                }
+            }
+        }
+    }
+}
+
+/// Counted cells of one synthesized design.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Resources {
+    pub lut: u64,
+    pub ff: u64,
+    pub dsp: u64,
+    /// Distributed RAM / shift-register LUT cells (FIFOs, per-axis state).
+    pub lutram: u64,
+    /// Block RAMs.
+    pub bram: u64,
+}
+
+impl Resources {
+    /// K copies.
+    pub fn times(self, k: u64) -> Resources {
+        Resources {
+            lut: self.lut * k,
+            ff: self.ff * k,
+            dsp: self.dsp * k,
+            lutram: self.lutram * k,
+            bram: self.bram * k,
+        }
+    }
+}
+
+/// One row of the sweep: the TDM core and K independent cores for K axes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Row {
+    pub axes: u32,
+    pub tdm: Resources,
+    pub independent: Resources,
+}
+
+/// a / b, or NaN when b is 0.
+pub fn ratio(a: u64, b: u64) -> f64 {
+    if b == 0 {
+        f64::NAN
+    } else {
+        a as f64 / b as f64
+    }
+}
+
+impl Row {
+    pub fn lut_ratio(&self) -> f64 {
+        ratio(self.tdm.lut, self.independent.lut)
+    }
+    pub fn ff_ratio(&self) -> f64 {
+        ratio(self.tdm.ff, self.independent.ff)
+    }
+    pub fn dsp_ratio(&self) -> f64 {
+        ratio(self.tdm.dsp, self.independent.dsp)
+    }
+}
+
+/// Sums the cells of `stat -json` output for `target`.
+pub fn parse_stat(json: &str, target: Target) -> Result<Resources, HdlError> {
+    let bad = |m: &str| HdlError::ToolFailed {
+        tool: "yosys",
+        detail: format!("stat -json: {m}"),
+    };
+    let v: serde_json::Value = serde_json::from_str(json).map_err(|e| bad(&e.to_string()))?;
+    let cells = v
+        .get("design")
+        .and_then(|d| d.get("num_cells_by_type"))
+        .and_then(|c| c.as_object())
+        .ok_or_else(|| bad("no design.num_cells_by_type"))?;
+    let counts: BTreeMap<&str, u64> = cells
+        .iter()
+        .filter_map(|(k, n)| n.as_u64().map(|n| (k.as_str(), n)))
+        .collect();
+    let mut r = Resources::default();
+    for (cell, n) in counts {
+        target.classify(cell, n, &mut r);
+    }
+    Ok(r)
+}
+
+/// Synthesizes `design` with yosys in `dir` and counts its cells.
+pub fn synthesize(design: &Design, target: Target, dir: &Path) -> Result<Resources, HdlError> {
+    let paths = design.write(dir)?;
+    let script = format!(
+        "read_verilog {}; {}; tee -q -o stat.json stat -json",
+        file_names_of(&paths).join(" "),
+        target.synth(design.arch.top())
+    );
+    run("yosys", "yosys", &["-q", "-p", &script], dir)?;
+    let path = dir.join("stat.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    parse_stat(&text, target)
+}
+
+/// How the baseline of K independent cores is measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Baseline {
+    /// Synthesize one single-axis core and multiply by K: the cores share nothing, so
+    /// this leaves out only the bus decode and the group-start AND (a few LUTs).
+    Scaled,
+    /// Synthesize the whole `ms_indep_top` of K cores (slow: K times the work).
+    Full,
+}
+
+/// The sweep over `axes`: for each K, the TDM core and K independent cores, synthesized
+/// under `workdir`. Every parameter set is checked before any Verilog is written.
+pub fn sweep(
+    base: &CoreParams,
+    axes: &[u32],
+    target: Target,
+    baseline: Baseline,
+    workdir: &Path,
+) -> Result<Vec<Row>, HdlError> {
+    let with_axes = |k: u32| CoreParams {
+        axes: k,
+        ..base.clone()
+    };
+    let designs = axes
+        .iter()
+        .map(|&k| {
+            let p = with_axes(k);
+            Ok((
+                k,
+                Design::new(&p, Arch::Tdm)?,
+                Design::new(&p, Arch::Independent)?,
+            ))
+        })
+        .collect::<Result<Vec<_>, HdlError>>()?;
+    let single = match baseline {
+        Baseline::Scaled => Some(synthesize(
+            &Design::new(&with_axes(1), Arch::Independent)?,
+            target,
+            &workdir.join("indep-1"),
+        )?),
+        Baseline::Full => None,
+    };
+    designs
+        .iter()
+        .map(|(k, tdm, ind)| {
+            let independent = match single {
+                Some(one) => one.times(u64::from(*k)),
+                None => synthesize(ind, target, &workdir.join(format!("indep-{k}")))?,
+            };
+            Ok(Row {
+                axes: *k,
+                tdm: synthesize(tdm, target, &workdir.join(format!("tdm-{k}")))?,
+                independent,
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,160 @@
+//! Runners for the external tools: Icarus Verilog (iverilog + vvp), Verilator (lint) and
+//! yosys. A missing tool is an error naming the Debian package, never a silent skip.
+
+use crate::testbench::{testbench, EDGE_FILE};
+use crate::{AxisMove, Design, HdlError};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The path of `tool`, or [`HdlError::ToolMissing`].
+pub fn find(tool: &'static str, package: &'static str) -> Result<PathBuf, HdlError> {
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    std::env::split_paths(&path)
+        .map(|dir| dir.join(tool))
+        .find(|p| p.is_file())
+        .ok_or(HdlError::ToolMissing { tool, package })
+}
+
+/// Runs `tool args…` in `dir`; a non-zero exit is [`HdlError::ToolFailed`] with its output.
+pub fn run(
+    tool: &'static str,
+    package: &'static str,
+    args: &[&str],
+    dir: &Path,
+) -> Result<Output, HdlError> {
+    let exe = find(tool, package)?;
+    let out = Command::new(exe)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .map_err(|e| HdlError::ToolFailed {
+            tool,
+            detail: e.to_string(),
+        })?;
+    if !out.status.success() {
+        return Err(HdlError::ToolFailed {
+            tool,
+            detail: format!(
+                "exit {}: {}{}",
+                out.status,
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        });
+    }
+    Ok(out)
+}
+
+pub(crate) fn file_names_of(paths: &[PathBuf]) -> Vec<String> {
+    paths
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect()
+}
+
+/// What one simulation produced.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SimOutput {
+    /// Edge ticks (STEP rises) of each axis, in order (tick 0 = the group's go).
+    pub edges: Vec<Vec<u64>>,
+    /// STEP falls of each axis.
+    pub falls: Vec<Vec<u64>>,
+    /// Axes whose pulse unit underran.
+    pub underrun: u32,
+    /// DIR levels at the end.
+    pub dir: u32,
+    /// Cycles any calculator was busy, and periods started (summed over calculators).
+    pub calc_busy_cycles: u64,
+    pub calc_starts: u64,
+}
+
+/// Simulates `moves` on the design in Icarus Verilog inside `dir`.
+pub fn simulate(
+    design: &Design,
+    moves: &[AxisMove],
+    dir: &Path,
+    timeout: u64,
+) -> Result<SimOutput, HdlError> {
+    let tb = testbench(design, moves, timeout)?;
+    let mut paths = design.write(dir)?;
+    let tb_path = dir.join("tb.v");
+    std::fs::write(&tb_path, tb).map_err(|e| HdlError::io(&tb_path, e))?;
+    paths.push(tb_path);
+    let mut args = vec!["-g2005".to_string(), "-o".into(), "sim.vvp".into()];
+    args.extend(["-s".into(), "tb".into()]);
+    args.extend(file_names_of(&paths));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run("iverilog", "iverilog", &args, dir)?;
+    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
+    let path = dir.join(EDGE_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    parse_edges(&text, design.params.axes as usize)
+}
+
+fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
+    let mut out = SimOutput {
+        edges: vec![Vec::new(); axes],
+        falls: vec![Vec::new(); axes],
+        underrun: 0,
+        dir: 0,
+        calc_busy_cycles: 0,
+        calc_starts: 0,
+    };
+    let bad = |line: &str| HdlError::Sim(format!("unexpected testbench line {line:?}"));
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        match (it.next(), it.next()) {
+            (Some("timeout"), _) => return Err(HdlError::Sim("testbench timed out".into())),
+            (Some("underrun"), Some(v)) => out.underrun = v.parse().map_err(|_| bad(line))?,
+            (Some("dir"), Some(v)) => out.dir = v.parse().map_err(|_| bad(line))?,
+            (Some("calc"), Some(v)) => {
+                out.calc_busy_cycles = v.parse().map_err(|_| bad(line))?;
+                let starts = it.next().and_then(|s| s.parse().ok());
+                out.calc_starts = starts.ok_or_else(|| bad(line))?;
+            }
+            (Some(kind @ ("rise" | "fall")), Some(t)) => {
+                let t: u64 = t.parse().map_err(|_| bad(line))?;
+                let a: usize = it
+                    .next()
+                    .and_then(|a| a.parse().ok())
+                    .ok_or_else(|| bad(line))?;
+                let list = if kind == "rise" {
+                    &mut out.edges
+                } else {
+                    &mut out.falls
+                };
+                list.get_mut(a).ok_or_else(|| bad(line))?.push(t);
+            }
+            _ => return Err(bad(line)),
+        }
+    }
+    Ok(out)
+}
+
+/// `verilator --lint-only -Wall` on the design; any warning is an error.
+pub fn lint(design: &Design, dir: &Path) -> Result<(), HdlError> {
+    let paths = design.write(dir)?;
+    let mut args = vec![
+        "--lint-only".to_string(),
+        "-Wall".into(),
+        "--top-module".into(),
+        design.arch.top().into(),
+    ];
+    args.extend(file_names_of(&paths));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run("verilator", "verilator", &args, dir)?;
+    let text = String::from_utf8_lossy(&out.stderr);
+    if text.contains("%Warning") || text.contains("%Error") {
+        return Err(HdlError::ToolFailed {
+            tool: "verilator",
+            detail: text.into_owned(),
+        });
+    }
+    Ok(())
+}
+
+/// `yosys -V`, e.g. "Yosys 0.23 (git sha1 7ce5011c24b)".
+pub fn yosys_version() -> Result<String, HdlError> {
+    let out = run("yosys", "yosys", &["-V"], Path::new("."))?;
+    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
