@@ -583,3 +583,24 @@ fn errors_are_typed_and_never_panic() {
         Err(PlanError::SpeedAboveLimit { .. })
     ));
 }
+
+/// Rational speeds put steps exactly on half ticks; on constant-speed pieces those ties are
+/// settled exactly and go to the earlier tick (as the integer datapath does).
+#[test]
+fn exact_ties_at_constant_speed_go_to_the_earlier_tick() {
+    // 32 000 steps/s at 50 MHz: step i at 1562.5·i ticks
+    let p = Profile::segments(&[Segment {
+        v0: 32_000.0,
+        duration: 0.5,
+        steps: 16_000,
+    }])
+    .unwrap();
+    let mut g = EdgeGenerator::new(p, 50e6).unwrap();
+    for (k, e) in (&mut g).enumerate() {
+        let i = k as u64 + 1;
+        // 1562.5·i rounded half down: (3125·i − 1) / 2 for odd i, exact for even i
+        let want = if i % 2 == 1 { (3125 * i - 1) / 2 } else { 3125 * i / 2 };
+        assert_eq!(e, want, "step {i}");
+    }
+    assert!(g.settled_count() >= 7_999);
+}
