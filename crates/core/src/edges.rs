@@ -293,7 +293,11 @@ impl EdgeGenerator {
         // how far x lies above the half tick below `up`; ~0 is an exact tie
         let d = x - Dd::new(up - 0.5);
         let above = d.hi + d.lo;
-        let e = if above <= 1e-24 * (x.hi + 1.0) { up - 1.0 } else { up };
+        let e = if above <= 1e-24 * (x.hi + 1.0) {
+            up - 1.0
+        } else {
+            up
+        };
         let inside = e - 1.0 >= p.t0 * self.clock && e + 1.0 <= (p.t0 + p.dur) * self.clock;
         (e >= 0.0 && inside).then_some(e as u64)
     }

@@ -599,7 +599,11 @@ fn exact_ties_at_constant_speed_go_to_the_earlier_tick() {
     for (k, e) in (&mut g).enumerate() {
         let i = k as u64 + 1;
         // 1562.5·i rounded half down: (3125·i − 1) / 2 for odd i, exact for even i
-        let want = if i % 2 == 1 { (3125 * i - 1) / 2 } else { 3125 * i / 2 };
+        let want = if i % 2 == 1 {
+            (3125 * i - 1) / 2
+        } else {
+            3125 * i / 2
+        };
         assert_eq!(e, want, "step {i}");
     }
     assert!(g.settled_count() >= 7_999);
