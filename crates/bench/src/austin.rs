@@ -9,57 +9,29 @@
 //! register holds it, and edges are the running sum.
 
 use crate::moves::BenchMove;
+use crate::ramp::{RampDelays, Recurrence};
+
+/// Eq. (13): `c − 2c/(4n + 1)`, with n < 0 on decel.
+#[derive(Clone, Copy, Debug)]
+pub struct AustinStep;
+
+impl Recurrence for AustinStep {
+    fn accel(&self, c: f64, n: u64) -> f64 {
+        c - 2.0 * c / (4.0 * n as f64 + 1.0)
+    }
+    fn decel(&self, c: f64, left: u64) -> f64 {
+        c - 2.0 * c / (1.0 - 4.0 * left as f64)
+    }
+}
 
 /// The delay sequence of one trapezoid move (N delays).
-#[derive(Clone, Debug)]
-pub struct Austin {
-    steps: u64,
-    ramp: u64,
-    i: u64,
-    c: f64,
-    c_min: f64,
-    c_ramp_end: f64,
-}
+pub type Austin = RampDelays<AustinStep>;
 
 impl Austin {
     pub fn new(m: &BenchMove, clock_hz: u64) -> Self {
         let f = clock_hz as f64;
-        Austin {
-            steps: m.steps,
-            ramp: m.ramp_steps(),
-            i: 0,
-            c: 0.676 * f * (2.0 / m.amax as f64).sqrt(),
-            c_min: f / m.vmax as f64,
-            c_ramp_end: 0.0,
-        }
-    }
-}
-
-impl Iterator for Austin {
-    type Item = f64;
-    fn next(&mut self) -> Option<f64> {
-        if self.i == self.steps {
-            return None;
-        }
-        self.i += 1;
-        let i = self.i;
-        let decel_from = self.steps - self.ramp;
-        if i == 1 {
-            // c0
-        } else if i <= self.ramp {
-            let n = (i - 1) as f64;
-            self.c = (self.c - 2.0 * self.c / (4.0 * n + 1.0)).max(self.c_min);
-            self.c_ramp_end = self.c;
-        } else if i <= decel_from {
-            self.c = self.c_min;
-        } else if i == decel_from + 1 {
-            // the first decel delay mirrors the last accel delay
-            self.c = self.c_ramp_end.max(self.c_min);
-        } else {
-            let n = -((self.steps - i + 1) as f64);
-            self.c -= 2.0 * self.c / (4.0 * n + 1.0);
-        }
-        Some(self.c)
+        let c0 = 0.676 * f * (2.0 / m.amax as f64).sqrt();
+        RampDelays::start(AustinStep, m, c0, f / m.vmax as f64)
     }
 }
 

@@ -17,6 +17,7 @@ pub mod austin;
 pub mod compare;
 pub mod eiderman;
 pub mod moves;
+pub mod ramp;
 pub mod rampmaker;
 pub mod seed000;
 
