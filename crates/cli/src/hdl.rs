@@ -30,27 +30,33 @@ struct CoreArgs {
     /// Periods per axis FIFO (power of two)
     #[arg(long, default_value_t = 16)]
     fifo_depth: u32,
-    /// Segments per axis move (power of two)
+    /// Piece slots per axis (power of two; a trapezoid needs 3)
     #[arg(long, default_value_t = 4)]
-    segments: u32,
-    /// Bits of a segment's step count
+    pieces: u32,
+    /// Bits of a piece's step count
     #[arg(long, default_value_t = 20)]
     step_bits: u32,
-    /// Bits of a segment's duration in ticks (and of a period)
+    /// Bits of a piece's duration in ticks (and of a period)
     #[arg(long, default_value_t = 24)]
     tick_bits: u32,
-    /// Fraction bits of the start-speed register
-    #[arg(long, default_value_t = 8)]
-    frac_bits: u32,
+    /// Bits of the square root's radicand (even, <= 128)
+    #[arg(long, default_value_t = 128)]
+    radicand_bits: u32,
+    /// Bits of the divisor (the kernel's k has one more)
+    #[arg(long, default_value_t = 68)]
+    kernel_bits: u32,
+    /// Result bits per cycle of the square root and divider (1 = radix 2, 2 = radix 4)
+    #[arg(long, default_value_t = 2)]
+    radix_bits: u32,
     /// Clock (Hz)
     #[arg(long, default_value_t = multistep_core::DEFAULT_CLOCK_HZ)]
     clock: f64,
     /// Highest step rate (steps/s)
     #[arg(long, default_value_t = 200_000.0)]
     max_rate: f64,
-    /// Longest segment (s)
+    /// Longest piece (s)
     #[arg(long, default_value_t = 0.3)]
-    max_segment: f64,
+    max_piece: f64,
 }
 
 impl CoreArgs {
@@ -58,13 +64,15 @@ impl CoreArgs {
         CoreParams {
             axes,
             fifo_depth: self.fifo_depth,
-            segments: self.segments,
+            pieces: self.pieces,
             step_bits: self.step_bits,
             tick_bits: self.tick_bits,
-            frac_bits: self.frac_bits,
+            radicand_bits: self.radicand_bits,
+            kernel_bits: self.kernel_bits,
+            radix_bits: self.radix_bits,
             clock_hz: self.clock,
             max_rate: self.max_rate,
-            max_segment_s: self.max_segment,
+            max_piece_s: self.max_piece,
         }
     }
 }

@@ -1,32 +1,37 @@
 // ms_core: K axes sharing one period calculator by time-division multiplexing
-// (seed 000 section 1.2, DESIGN.md section 3). Each axis has its own segment registers,
-// its own FIFO of periods (a separate memory) and its own pulse unit. Round-robin: if axis
-// m's FIFO has room and steps remain, compute one period for it, then go to m+1.
+// (seed 000 section 1.2, DESIGN.md section 3). Each axis has its pieces in a shared piece
+// memory, its own FIFO of periods (a separate memory) and its own pulse unit. Round-robin
+// (seed 000): the first axis at or after the one after the last served whose FIFO has room
+// and that still owes periods gets the calculator.
 //
 // Register bus (write-only, synchronous, 32-bit data; status on the output ports):
-//   wr_addr = {1'b0, axis[LK], seg[LS], field[2]}   axis segment registers
-//     field 0: n   steps of the segment (>= 1)
-//     field 1: d   duration in ticks
-//     field 2: s   start speed v0 * 2^WF * d   (v0 in steps/tick)
-//     field 3: ctl bit 31 = DIR level, bits LS-1:0 = index of the axis's last segment
-//   wr_addr = {1'b1, ..., 2'd0}: start; data bits K-1:0 = the axes of a synchronous group.
-// The group's pulse units start together (tick 0) once every member's FIFO is full or
-// holds its whole move. Do not write an axis's registers while busy[axis] is high.
+//   wr_addr = {1'b0, axis[LK], word[5]}: staging word (the axis bits are ignored here;
+//             K independent cores use them to pick a core)
+//     words 0-3 y0, 4-7 dy (little-endian 32-bit words), 8-10 k (two's complement),
+//     11-13 dv, 14 t0, 15 steps, 16 mode (0 Accel, 1 Decel, 2 Cruise)
+//   wr_addr = {1'b1, axis[LK], 5'd0}: commit: piece slot data[LS-1:0] of `axis` = staging
+//   wr_addr = {1'b1, axis[LK], 5'd1}: axis control: bit 31 = DIR, data[LS-1:0] = last slot
+//   wr_addr = {1'b1, *, 5'd2}: start; data bits K-1:0 = the axes of a synchronous group.
+// Slots 0..last hold the axis's pieces with steps in order (pieces of 0 steps are not
+// loaded). The group's pulse units start together (tick 0) once every member's FIFO is
+// full or holds its whole move. Do not write an axis's pieces while busy[axis] is high.
+//
+// Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
+// read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
 module ms_core #(
     parameter K   = 2,
     parameter LK  = 1,     // axis index bits (>= 1)
-    parameter LS  = 2,     // segment index bits (2^LS segments per axis)
+    parameter LS  = 2,     // piece slot bits (2^LS pieces per axis)
     parameter LF  = 4,     // FIFO depth 2^LF
-    parameter WN  = 20,
-    parameter WD  = 24,
-    parameter WF  = 8,
-    parameter WM  = 57,
-    parameter WX  = 114,
-    parameter WNU = 60,
-    parameter WDE = 36,
-    parameter WQ  = 25,
-    parameter WT  = 26,    // move tick bits: WD + LS
-    parameter AW  = 6      // 1 + LK + LS + 2
+    parameter WN  = 20,    // steps per piece
+    parameter WD  = 24,    // period (ticks between edges)
+    parameter WQ  = 24,    // local edge
+    parameter WT  = 27,    // move tick (<= 32)
+    parameter WY  = 128,
+    parameter WK  = 68,
+    parameter RB  = 2,
+    parameter MD  = 16,
+    parameter AW  = 7      // 1 + LK + 5
 ) (
     input  wire          clk,
     input  wire          wr_en,
@@ -42,101 +47,153 @@ module ms_core #(
     output wire [K-1:0]  busy,
     output wire [K-1:0]  underrun
 );
-    localparam WS  = WD + WF;
-    localparam WST = LS + WN + 2 * WT;
+    // piece word: {mode, steps, t0, dv, k, dy, y0}
+    localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
+    localparam WST = LS + WN + WT;   // per-axis state {slot, j, last edge}
 
     // ---- register bus ----
-    wire          is_glob = wr_addr[AW-1];
-    wire [1:0]    field   = wr_addr[1:0];
-    wire [LS-1:0] wseg    = wr_addr[LS+1:2];
-    wire [LK-1:0] wax     = wr_addr[LS+LK+1:LS+2];
-    wire          ax_ok   = ({1'b0, wax} < K);
-    reg [WN-1:0] seg_n [0:(1<<(LK+LS))-1];
-    reg [WD-1:0] seg_d [0:(1<<(LK+LS))-1];
-    reg [WS-1:0] seg_s [0:(1<<(LK+LS))-1];
-    reg [LS-1:0] last_seg [0:K-1];
+    wire          is_cmd = wr_addr[AW-1];
+    wire [4:0]    word   = wr_addr[4:0];
+    wire [LK-1:0] wax    = wr_addr[LK+4:5];
+    wire          ax_ok  = ({1'b0, wax} < K);
+    /* verilator lint_off UNUSED */  // bits of staging words beyond the field widths
+    reg [17*32-1:0] stg;    // staging words 0..16
+    /* verilator lint_on UNUSED */
+    always @(posedge clk) begin
+        if (wr_en && !is_cmd && word <= 5'd16) stg[32*word +: 32] <= wr_data;
+    end
+    wire [WP-1:0] stg_word = {stg[16*32 +: 2], stg[15*32 +: WN], stg[14*32 +: WT],
+                              stg[11*32 +: WK], stg[8*32 +: WK+1], stg[4*32 +: WY],
+                              stg[0 +: WY]};
+    wire commit   = wr_en && is_cmd && (word == 5'd0) && ax_ok;
+    wire ctl_wr   = wr_en && is_cmd && (word == 5'd1) && ax_ok;
+    wire start_wr = wr_en && is_cmd && (word == 5'd2);
+    reg [WP-1:0] pmem [0:(1<<(LK+LS))-1];
+    always @(posedge clk) begin
+        if (commit) pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
+    end
+    reg [LS-1:0] last_slot [0:K-1];
     reg [K-1:0]  dir_r;
     reg [K-1:0]  group;
     always @(posedge clk) begin
-        if (wr_en && !is_glob && ax_ok) begin
-            case (field)
-                2'd0: seg_n[{wax, wseg}] <= wr_data[WN-1:0];
-                2'd1: seg_d[{wax, wseg}] <= wr_data[WD-1:0];
-                2'd2: seg_s[{wax, wseg}] <= wr_data[WS-1:0];
-                default: begin
-                    last_seg[wax] <= wr_data[LS-1:0];
-                    dir_r[wax]    <= wr_data[31];
-                end
-            endcase
+        if (ctl_wr) begin
+            last_slot[wax] <= wr_data[LS-1:0];
+            dir_r[wax]     <= wr_data[31];
         end
     end
-    wire start_wr = wr_en && is_glob && (field == 2'd0);
 
-    // ---- scheduler and per-axis calculator state {j, i, t0, last edge} ----
-    reg  [LK-1:0]  m;
+    // ---- scheduler ----
     reg  [WST-1:0] st_mem [0:K-1];
     reg  [K-1:0]   init_pend;
     reg  [K-1:0]   calc_act;
-    reg            sch_wait;
-    wire [WST-1:0] cur    = st_mem[m];
-    wire [LS-1:0]  cur_j  = cur[WST-1:WST-LS];
-    wire [WN-1:0]  cur_i  = cur[2*WT+WN-1:2*WT];
-    wire [WT-1:0]  cur_t0 = cur[2*WT-1:WT];
-    wire [WT-1:0]  cur_lt = cur[WT-1:0];
-    wire [WN-1:0]  cn = seg_n[{m, cur_j}];
-    wire [WD-1:0]  cd = seg_d[{m, cur_j}];
-    wire [WS-1:0]  cs = seg_s[{m, cur_j}];
+    reg            sel;       // free to select (no period in flight)
+    reg            cstart;    // the calculator's start cycle
+    reg  [LK-1:0]  m;         // axis in the calculator
+    reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
+    reg  [WST-1:0] cur;       // m's state, read at select
+    reg  [WP-1:0]  rd;        // m's piece, read at select
     wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
-    wire [LK-1:0]  m_next = ({1'b0, m} == K - 1) ? {LK{1'b0}} : m + 1'b1;
-    wire           calc_go = !sch_wait && !init_pend[m] && calc_act[m] && !fifo_full[m];
-    wire           calc_busy;
-    wire [WQ-1:0]  q;
-    ms_calc #(.WN(WN), .WD(WD), .WF(WF), .WM(WM), .WX(WX), .WNU(WNU), .WDE(WDE), .WQ(WQ))
-        u_calc (.clk(clk), .start(calc_go), .n(cn), .d(cd), .s(cs), .i(cur_i),
-                .busy(calc_busy), .q(q));
-    wire           done    = sch_wait && !calc_busy;
-    wire [WT-1:0]  edge_t  = cur_t0 + {{(WT-WQ){1'b0}}, q};
-    /* verilator lint_off UNUSED */  // a period is < 2^WD; the top bits are zero
-    wire [WT-1:0]  period  = edge_t - cur_lt;
+
+    // lowest axis with a pending start (initialised first, one per cycle)
+    reg          ini_any;
+    reg [LK-1:0] ini_ax;
+    // first eligible axis from rr on, wrapping
+    wire [K-1:0] elig = calc_act & ~fifo_full & ~init_pend;
+    reg          pick_any;
+    reg [LK-1:0] pick;
+    integer o, x;
+    always @(*) begin
+        ini_any = 1'b0;
+        ini_ax = {LK{1'b0}};
+        for (o = K - 1; o >= 0; o = o - 1) begin
+            if (init_pend[o]) begin
+                ini_any = 1'b1;
+                ini_ax = o[LK-1:0];
+            end
+        end
+        pick_any = 1'b0;
+        pick = {LK{1'b0}};
+        for (o = K - 1; o >= 0; o = o - 1) begin
+            x = {{(32-LK){1'b0}}, rr} + o;
+            if (x >= K) x = x - K;
+            if (elig[x]) begin
+                pick_any = 1'b1;
+                pick = x[LK-1:0];
+            end
+        end
+    end
+    wire do_init = sel && ini_any;
+    wire do_sel  = sel && !ini_any && pick_any;
+    wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
+
+    // the piece word in the calculator
+    wire [1:0]    k_mode  = rd[WP-1:WP-2];
+    wire [WN-1:0] k_steps = rd[WP-3:WP-2-WN];
+    wire [WT-1:0] k_t0    = rd[2*WY+2*WK+WT:2*WY+2*WK+1];
+    wire [WK-1:0] k_dv    = rd[2*WY+2*WK:2*WY+WK+1];
+    wire [WK:0]   k_k     = rd[2*WY+WK:2*WY];
+    wire [WY-1:0] k_dy    = rd[2*WY-1:WY];
+    wire [WY-1:0] k_y0    = rd[WY-1:0];
+    wire [LS-1:0] c_slot  = cur[WST-1:WST-LS];
+    wire [WN-1:0] c_j     = cur[WN+WT-1:WT];
+    wire [WT-1:0] c_last  = cur[WT-1:0];
+    wire          done;
+    wire [WQ-1:0] q;
+    ms_calc #(.WY(WY), .WK(WK), .WN(WN), .WQ(WQ), .RB(RB), .MD(MD)) u_calc (
+        .clk(clk), .start(cstart), .mode(k_mode), .y0(k_y0), .dy(k_dy), .k(k_k), .dv(k_dv),
+        .j(c_j), .done(done), .q(q));
+    reg [WT-1:0] qx;
+    always @(*) begin
+        qx = {WT{1'b0}};
+        qx[WQ-1:0] = q;
+    end
+    wire [WT-1:0]  edge_t   = k_t0 + qx;
+    /* verilator lint_off UNUSED */  // a period is < 2^WD (checked on the host)
+    wire [WT-1:0]  period   = edge_t - c_last;
     /* verilator lint_on UNUSED */
-    wire           seg_end = (cur_i == cn);
-    wire           mov_end = seg_end && (cur_j == last_seg[m]);
-    wire [WST-1:0] init_st = {{LS{1'b0}}, {{(WN-1){1'b0}}, 1'b1}, {(2*WT){1'b0}}};
-    wire [WST-1:0] next_st = seg_end
-        ? {cur_j + 1'b1, {{(WN-1){1'b0}}, 1'b1}, cur_t0 + {{(WT-WD){1'b0}}, cd}, edge_t}
-        : {cur_j, cur_i + 1'b1, cur_t0, edge_t};
-    wire           do_init = !sch_wait && init_pend[m];
+    wire [WN-1:0]  j_next   = c_j + 1'b1;
+    wire           piece_end = (j_next == k_steps);
+    wire           mov_end  = piece_end && (c_slot == last_slot[m]);
+    wire [WST-1:0] next_st  = piece_end ? {c_slot + 1'b1, {WN{1'b0}}, edge_t}
+                                        : {c_slot, j_next, edge_t};
     always @(posedge clk) begin
-        if (do_init || done) st_mem[m] <= do_init ? init_st : next_st;
+        if (do_init) st_mem[ini_ax] <= {WST{1'b0}};
+        else if (done) st_mem[m] <= next_st;
+        if (do_sel) begin
+            rd  <= pmem[{pick, pick_slot}];
+            cur <= st_mem[pick];
+        end
     end
     initial begin
         m = {LK{1'b0}};
+        rr = {LK{1'b0}};
         init_pend = {K{1'b0}};
         calc_act = {K{1'b0}};
-        sch_wait = 1'b0;
+        sel = 1'b1;
+        cstart = 1'b0;
         pending = 1'b0;
         group = {K{1'b0}};
     end
+    wire [K-1:0] ini_bit = {{(K-1){1'b0}}, 1'b1} << ini_ax;
+    wire [K-1:0] m_bit   = {{(K-1){1'b0}}, 1'b1} << m;
     always @(posedge clk) begin
-        if (do_init) begin
-            calc_act[m] <= 1'b1;
-            m <= m_next;
-        end else if (calc_go) begin
-            sch_wait <= 1'b1;
+        cstart <= do_sel;
+        if (do_sel) begin
+            sel <= 1'b0;
+            m   <= pick;
+            rr  <= ({1'b0, pick} == K - 1) ? {LK{1'b0}} : pick + 1'b1;
         end else if (done) begin
-            sch_wait <= 1'b0;
-            if (mov_end) calc_act[m] <= 1'b0;
-            m <= m_next;
-        end else if (!sch_wait) begin
-            m <= m_next;
+            sel <= 1'b1;
         end
+        calc_act <= (calc_act | (do_init ? ini_bit : {K{1'b0}}))
+                  & ~((done && mov_end) ? m_bit : {K{1'b0}});
         if (start_wr) begin
-            init_pend <= (init_pend | wr_data[K-1:0]) & ~(do_init ? ({{(K-1){1'b0}}, 1'b1} << m) : {K{1'b0}});
+            init_pend <= (init_pend | wr_data[K-1:0]) & ~(do_init ? ini_bit : {K{1'b0}});
             group     <= wr_data[K-1:0];
             pending   <= 1'b1;
         end else begin
-            if (do_init) init_pend[m] <= 1'b0;
+            if (do_init) init_pend <= init_pend & ~ini_bit;
             if (go) pending <= 1'b0;
         end
     end
@@ -147,7 +204,7 @@ module ms_core #(
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
             ms_fifo #(.W(WD), .LD(LF)) u_fifo (
-                .clk(clk), .clear(do_init && ({1'b0, m} == a)),
+                .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
                 .push(done && ({1'b0, m} == a)), .din(period[WD-1:0]),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .full(fifo_full[a]));

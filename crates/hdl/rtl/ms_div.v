@@ -1,42 +1,70 @@
-// ms_div: sequential restoring divider for a quotient known to fit WQ bits
-// (num < den * 2^WQ), one quotient bit per cycle: q = num / den after WQ cycles.
+// ms_div: sequential restoring divider, RB quotient bits per cycle (radix 2^RB), for a
+// quotient known to fit WQ bits (num < den * 2^WQ). The start cycle loads num and den;
+// then NQ = WQ / RB cycles; `fin` is high in the cycle after the last, when q = num / den.
 module ms_div #(
-    parameter WN = 58,  // numerator bits
-    parameter WD = 57,  // denominator bits (also remainder bits)
-    parameter WQ = 25   // quotient bits; WQ < WN
+    parameter WN = 128,  // numerator bits (> WQ)
+    parameter WD = 68,   // denominator bits (also remainder bits)
+    parameter WQ = 24,   // quotient bits, a multiple of RB
+    parameter RB = 2     // quotient bits per cycle
 ) (
     input  wire          clk,
     input  wire          start,
     input  wire [WN-1:0] num,
     input  wire [WD-1:0] den,
-    output reg           busy,
+    output reg           fin,
     output reg  [WQ-1:0] q
 );
+    localparam NQ = WQ / RB;
     reg [WD-1:0] rem;
     reg [WD-1:0] rden;
     reg [7:0]    cnt;
-    wire [WD:0]  rs = {rem, q[WQ-1]};
-    wire         ge = (rs >= {1'b0, rden});
-    /* verilator lint_off UNUSED */  // rd < den fits WD bits
-    wire [WD:0]  rd = rs - {1'b0, rden};
+    reg          busy;
+    // RB restoring steps in one cycle; the low numerator bits shift through q
+    reg [WD-1:0] nrem;
+    reg [WQ-1:0] nq;
+    /* verilator lint_off UNUSED */  // rs - den < den fits WD bits
+    reg [WD:0]   rs, rd;
     /* verilator lint_on UNUSED */
-    initial busy = 1'b0;
-    // The high numerator bits start in the remainder; the low WQ bits shift through q.
-    /* verilator lint_off UNUSED */  // only the low WD bits are the remainder
+    integer s;
+    always @(*) begin
+        nrem = rem;
+        nq = q;
+        rs = {(WD+1){1'b0}};
+        rd = {(WD+1){1'b0}};
+        for (s = 0; s < RB; s = s + 1) begin
+            rs = {nrem, nq[WQ-1]};
+            rd = rs - {1'b0, rden};
+            if (rs >= {1'b0, rden}) begin
+                nrem = rd[WD-1:0];
+                nq = {nq[WQ-2:0], 1'b1};
+            end else begin
+                nrem = rs[WD-1:0];
+                nq = {nq[WQ-2:0], 1'b0};
+            end
+        end
+    end
+    // the high numerator bits start in the remainder (< den since the quotient fits)
+    /* verilator lint_off UNUSED */
     wire [WD+WN-WQ-1:0] hi_ext = {{WD{1'b0}}, num[WN-1:WQ]};
     /* verilator lint_on UNUSED */
+    initial begin
+        busy = 1'b0;
+        fin = 1'b0;
+    end
     always @(posedge clk) begin
+        fin <= 1'b0;
         if (start) begin
             rem  <= hi_ext[WD-1:0];
             q    <= num[WQ-1:0];
             rden <= den;
-            cnt  <= WQ[7:0];
+            cnt  <= NQ[7:0];
             busy <= 1'b1;
         end else if (busy) begin
-            rem  <= ge ? rd[WD-1:0] : rs[WD-1:0];
-            q    <= {q[WQ-2:0], ge};
+            rem  <= nrem;
+            q    <= nq;
             cnt  <= cnt - 8'd1;
             busy <= (cnt != 8'd1);
+            fin  <= (cnt == 8'd1);
         end
     end
 endmodule

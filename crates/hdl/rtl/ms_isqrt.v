@@ -1,38 +1,72 @@
-// ms_isqrt: sequential integer square root, two bits of x per cycle (restoring).
-// After W/2 cycles: q = floor(sqrt(x)), r = x - q*q (r == 0 iff x is a perfect square).
+// ms_isqrt: sequential integer square root with remainder, RB root bits per cycle (radix
+// 2^RB, restoring; RB = 1 is radix 2, RB = 2 radix 4). The start cycle loads x; then
+// NS = W / (2 RB) cycles; `fin` is high in the cycle after the last, when
+// q = floor(sqrt(x)) and r = x - q*q (r == 0 iff x is a perfect square) are valid.
 module ms_isqrt #(
-    parameter W = 114  // even
+    parameter W  = 128,  // radicand bits, a multiple of 2 RB
+    parameter RB = 2     // root bits per cycle
 ) (
     input  wire           clk,
     input  wire           start,
     input  wire [W-1:0]   x,
-    output reg            busy,
+    output reg            fin,
     output reg  [W/2-1:0] q,
     output reg  [W/2+1:0] r
 );
     localparam WR = W / 2;
+    localparam NS = WR / RB;
     reg [W-1:0] rx;
     reg [7:0]   cnt;
-    wire [WR+3:0] rs = {r, rx[W-1:W-2]};          // r*4 + next two bits
-    wire [WR+3:0] tr = {2'b00, q, 2'b01};         // 4q + 1
-    wire          ge = (rs >= tr);
-    /* verilator lint_off UNUSED */  // the remainder after subtraction fits WR+2 bits
-    wire [WR+3:0] rd = rs - tr;
+    reg         busy;
+    // RB restoring steps in one cycle: bring down two radicand bits, try 4q + 1
+    reg [W-1:0]    nx;
+    reg [WR-1:0]   nq;
+    reg [WR+1:0]   nr;
+    reg [WR+3:0]   rs, tr;
+    /* verilator lint_off UNUSED */  // rs - tr < 2^(WR+2) when taken
+    reg [WR+3:0]   rd;
     /* verilator lint_on UNUSED */
-    initial busy = 1'b0;
+    integer s;
+    always @(*) begin
+        nx = rx;
+        nq = q;
+        nr = r;
+        rs = {(WR+4){1'b0}};
+        tr = {(WR+4){1'b0}};
+        rd = {(WR+4){1'b0}};
+        for (s = 0; s < RB; s = s + 1) begin
+            rs = {nr, nx[W-1:W-2]};
+            tr = {2'b00, nq, 2'b01};
+            rd = rs - tr;
+            nx = {nx[W-3:0], 2'b00};
+            if (rs >= tr) begin
+                nr = rd[WR+1:0];
+                nq = {nq[WR-2:0], 1'b1};
+            end else begin
+                nr = rs[WR+1:0];
+                nq = {nq[WR-2:0], 1'b0};
+            end
+        end
+    end
+    initial begin
+        busy = 1'b0;
+        fin = 1'b0;
+    end
     always @(posedge clk) begin
+        fin <= 1'b0;
         if (start) begin
             rx   <= x;
             q    <= {WR{1'b0}};
             r    <= {(WR+2){1'b0}};
-            cnt  <= WR[7:0];
+            cnt  <= NS[7:0];
             busy <= 1'b1;
         end else if (busy) begin
-            rx   <= {rx[W-3:0], 2'b00};
-            q    <= {q[WR-2:0], ge};
-            r    <= ge ? rd[WR+1:0] : rs[WR+1:0];
+            rx   <= nx;
+            q    <= nq;
+            r    <= nr;
             cnt  <= cnt - 8'd1;
             busy <= (cnt != 8'd1);
+            fin  <= (cnt == 8'd1);
         end
     end
 endmodule

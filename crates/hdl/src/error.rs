@@ -1,4 +1,4 @@
-//! Errors of the HDL crate: bad core parameters, bad move registers, tool failures.
+//! Errors of the HDL crate: bad core parameters, moves that do not fit, tool failures.
 
 use std::path::PathBuf;
 
@@ -8,9 +8,12 @@ pub enum HdlError {
     /// A core parameter is out of range (checked before any Verilog is written).
     #[error("bad core parameter: {0}")]
     Param(String),
-    /// A segment does not fit the core's registers or speed range.
-    #[error("bad segment {index}: {reason}")]
-    Segment { index: usize, reason: String },
+    /// A piece of a move does not fit the core's registers.
+    #[error("piece {index} does not fit the core: {reason}")]
+    Piece { index: usize, reason: String },
+    /// A move does not fit the core (piece count, periods, planning).
+    #[error("move does not fit the core: {0}")]
+    Move(String),
     /// An external tool (iverilog, vvp, verilator, yosys) is not installed.
     #[error("{tool} not found on PATH: install it with `apt-get install -y {package}` (the HDL tests need it)")]
     ToolMissing {

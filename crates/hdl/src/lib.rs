@@ -1,10 +1,11 @@
-//! multistep-hdl: the TDM step-pulse IP core of seed 000 as synthesizable Verilog-2005,
-//! its bit-exact reference model, a testbench generator, and runners for Icarus Verilog,
-//! Verilator (lint) and yosys (resource use).
+//! multistep-hdl: the TDM step-pulse IP core of seed 000 as synthesizable Verilog-2005
+//! (its period calculator runs `multistep_core::int`'s per-step kernel), a testbench
+//! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
 mod emit;
 mod error;
-pub mod model;
+pub mod kernel;
+mod moves;
 mod params;
 pub mod report;
 pub mod testbench;
@@ -12,5 +13,5 @@ pub mod tools;
 
 pub use emit::{Arch, Design, LIBRARY};
 pub use error::HdlError;
-pub use model::{AxisMove, SegRegs};
+pub use moves::{mode_code, AxisMove, PieceRegs};
 pub use params::{CoreParams, Widths};

@@ -1,5 +1,5 @@
-//! Core parameters (axis count, FIFO depth, bit widths, clock and speed range), their
-//! validation, and the internal bit widths derived from them.
+//! Core parameters (axis count, FIFO depth, bit widths, radix, clock and speed range), their
+//! validation, and the internal bit widths and cycle counts derived from them.
 
 use crate::HdlError;
 
@@ -10,20 +10,24 @@ pub struct CoreParams {
     pub axes: u32,
     /// Periods per axis FIFO, a power of two >= 2.
     pub fifo_depth: u32,
-    /// Segments per axis move, a power of two >= 2.
-    pub segments: u32,
-    /// Bits of a segment's step count (n < 2^step_bits).
+    /// Piece slots per axis, a power of two >= 2 (a trapezoid needs 3).
+    pub pieces: u32,
+    /// Bits of a piece's step count (and of the step index j, the multiplier's narrow operand).
     pub step_bits: u32,
-    /// Bits of a segment's duration in ticks (d < 2^tick_bits); also the period width.
+    /// Bits of a piece's duration in ticks: the local edge (quotient) and a period.
     pub tick_bits: u32,
-    /// Fraction bits of the start-speed register s = v0 * 2^frac_bits * d.
-    pub frac_bits: u32,
+    /// Bits of the radicand Y = A² + 4BM (even, at most 128).
+    pub radicand_bits: u32,
+    /// Bits of the divisor dv (k is one bit wider, signed).
+    pub kernel_bits: u32,
+    /// Result bits per cycle of the square root and the divider: 1 = radix 2, 2 = radix 4.
+    pub radix_bits: u32,
     /// Clock (ticks per second).
     pub clock_hz: f64,
     /// Highest step rate the core must produce (steps/s).
     pub max_rate: f64,
-    /// Longest segment (s).
-    pub max_segment_s: f64,
+    /// Longest piece (s).
+    pub max_piece_s: f64,
 }
 
 impl Default for CoreParams {
@@ -31,40 +35,45 @@ impl Default for CoreParams {
         CoreParams {
             axes: 2,
             fifo_depth: 16,
-            segments: 4,
+            pieces: 4,
             step_bits: 20,
             tick_bits: 24,
-            frac_bits: 8,
+            radicand_bits: 128,
+            kernel_bits: 68,
+            radix_bits: 2,
             clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
             max_rate: 200_000.0,
-            max_segment_s: 0.3,
+            max_piece_s: 0.3,
         }
     }
 }
 
-/// Internal widths of the RTL (the Verilog parameters of `ms_core`). Every zero-extension
-/// in the RTL pads by at least one bit, so each width is one more than its largest operand.
+/// Internal widths of the RTL (the Verilog parameters of `ms_core`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Widths {
+    /// axis index bits
     pub lk: u32,
+    /// piece slot bits
     pub ls: u32,
+    /// FIFO depth bits
     pub lf: u32,
+    /// steps per piece, step index j
     pub wn: u32,
+    /// period
     pub wd: u32,
-    pub wf: u32,
-    /// multiplier operand
-    pub wm: u32,
-    /// radicand
-    pub wx: u32,
-    /// divider numerator
-    pub wnu: u32,
-    /// divider denominator
-    pub wde: u32,
-    /// local edge (quotient)
+    /// local edge (quotient), a multiple of `rb`
     pub wq: u32,
-    /// move tick
+    /// move tick (t0, edges)
     pub wt: u32,
-    /// bus address
+    /// radicand
+    pub wy: u32,
+    /// divisor (k has one more bit)
+    pub wk: u32,
+    /// result bits per cycle of the root and the divider
+    pub rb: u32,
+    /// multiplier digit bits
+    pub md: u32,
+    /// bus address bits: 1 + lk + 5
     pub aw: u32,
 }
 
@@ -77,39 +86,65 @@ fn index_bits(n: u32) -> u32 {
     (32 - n.saturating_sub(1).leading_zeros()).max(1)
 }
 
+/// The multiplier's digit: one DSP-sized slice of the narrow operand per cycle.
+const MUL_DIGIT_BITS: u32 = 16;
+
 impl CoreParams {
     /// Checks every parameter and derives the RTL widths.
     pub fn widths(&self) -> Result<Widths, HdlError> {
         if self.axes == 0 || self.axes > 32 {
             return Err(bad(format!("axes must be 1..=32, got {}", self.axes)));
         }
-        for (name, v) in [("fifo depth", self.fifo_depth), ("segments", self.segments)] {
+        for (name, v) in [("fifo depth", self.fifo_depth), ("pieces", self.pieces)] {
             if v < 2 || !v.is_power_of_two() {
                 return Err(bad(format!("{name} must be a power of two >= 2, got {v}")));
             }
         }
-        if !(8..=32).contains(&self.tick_bits) {
+        if !(1..=4).contains(&self.radix_bits) {
             return Err(bad(format!(
-                "tick bits must be 8..=32, got {}",
+                "radix bits must be 1..=4 (radix 2..16), got {}",
+                self.radix_bits
+            )));
+        }
+        let ls = index_bits(self.pieces);
+        if !(8..=32 - ls - 1).contains(&self.tick_bits) {
+            return Err(bad(format!(
+                "tick bits must be 8..={} (a move tick is one bus word), got {}",
+                32 - ls - 1,
                 self.tick_bits
             )));
         }
-        if self.step_bits == 0 || self.step_bits > self.tick_bits {
+        if self.step_bits < 2 || self.step_bits > self.tick_bits {
             return Err(bad(format!(
-                "step bits must be 1..=tick bits ({}), got {}",
+                "step bits must be 2..=tick bits ({}), got {}",
                 self.tick_bits, self.step_bits
             )));
         }
-        if self.tick_bits + self.frac_bits > 32 {
+        let rb = self.radix_bits;
+        if self.radicand_bits > 128 || self.radicand_bits % (2 * rb) != 0 {
             return Err(bad(format!(
-                "tick bits + fraction bits must be <= 32 (the start-speed register is one bus word), got {}",
-                self.tick_bits + self.frac_bits
+                "radicand bits must be a multiple of {} up to 128, got {}",
+                2 * rb,
+                self.radicand_bits
             )));
         }
-        let finite = [self.clock_hz, self.max_rate, self.max_segment_s];
+        if !(self.tick_bits + 2..=95).contains(&self.kernel_bits) {
+            return Err(bad(format!(
+                "kernel bits must be {}..=95 (k is three bus words), got {}",
+                self.tick_bits + 2,
+                self.kernel_bits
+            )));
+        }
+        if self.radicand_bits < 2 * self.tick_bits {
+            return Err(bad(format!(
+                "radicand bits {} too narrow for {} tick bits",
+                self.radicand_bits, self.tick_bits
+            )));
+        }
+        let finite = [self.clock_hz, self.max_rate, self.max_piece_s];
         if finite.iter().any(|v| !v.is_finite() || *v <= 0.0) {
             return Err(bad(
-                "clock, max rate and max segment time must be positive and finite".into(),
+                "clock, max rate and max piece time must be positive and finite".into(),
             ));
         }
         // Periods of 4 ticks or more keep every rounded period >= 2, so the 50 % duty
@@ -122,81 +157,72 @@ impl CoreParams {
                 self.clock_hz
             )));
         }
-        let seg_ticks = (self.max_segment_s * self.clock_hz).ceil();
-        if seg_ticks >= 2f64.powi(self.tick_bits as i32) {
+        let piece_ticks = (self.max_piece_s * self.clock_hz).ceil();
+        if piece_ticks >= 2f64.powi(self.tick_bits as i32) {
             return Err(bad(format!(
-                "tick bits {} too narrow: a {} s segment at {} Hz is {} ticks",
-                self.tick_bits, self.max_segment_s, self.clock_hz, seg_ticks
+                "tick bits {} too narrow: a {} s piece at {} Hz is {} ticks",
+                self.tick_bits, self.max_piece_s, self.clock_hz, piece_ticks
             )));
         }
-        let seg_steps = (self.max_segment_s * self.max_rate).ceil();
-        if seg_steps >= 2f64.powi(self.step_bits as i32) {
+        let piece_steps = (self.max_piece_s * self.max_rate).ceil();
+        if piece_steps >= 2f64.powi(self.step_bits as i32) {
             return Err(bad(format!(
-                "step bits {} too narrow: a {} s segment at {} steps/s is {} steps",
-                self.step_bits, self.max_segment_s, self.max_rate, seg_steps
+                "step bits {} too narrow: a {} s piece at {} steps/s is {} steps",
+                self.step_bits, self.max_piece_s, self.max_rate, piece_steps
             )));
         }
-        let (wn, wd, wf) = (self.step_bits, self.tick_bits, self.frac_bits);
-        let ls = index_bits(self.segments);
         let lk = index_bits(self.axes);
-        // the same names as ms_calc.v: s < 2^WS, |A| < 2^WA, B = s d < 2^WB
-        let ws = wd + wf;
-        let wa = ws + 1;
-        let wb = ws + wd;
-        let wm = wb.max(wa + wn).max(2 * wd) + 1;
-        let wx_need = (2 * wb).max(wa + wn + 2 * wd + wf + 2) + 2;
-        let wx = wx_need + (wx_need & 1);
-        if wx > 128 {
-            return Err(bad(format!(
-                "radicand needs {wx} bits, the reference model handles 128: lower tick or fraction bits"
-            )));
-        }
-        let wnu = (wx / 2).max(wb).max(wa + 1).max(wd + wn + 1) + 2;
-        let wde = (wn + 2).max(wa + 2) + 1;
         Ok(Widths {
             lk,
             ls,
             lf: self.fifo_depth.trailing_zeros(),
-            wn,
-            wd,
-            wf,
-            wm,
-            wx,
-            wnu,
-            wde,
-            wq: wd + 1,
-            wt: wd + ls + 1,
-            aw: 1 + lk + ls + 2,
+            wn: self.step_bits,
+            wd: self.tick_bits,
+            wq: self.tick_bits.div_ceil(rb) * rb,
+            wt: self.tick_bits + ls + 1,
+            wy: self.radicand_bits,
+            wk: self.kernel_bits,
+            rb,
+            md: MUL_DIGIT_BITS,
+            aw: 1 + lk + 5,
         })
     }
 }
 
 impl Widths {
-    /// Cycles of one multiply (`ms_mul.v`): launch, one per 16-bit digit, capture.
+    /// Cycles of the multiply j·dy (`ms_nmul.v`): one per digit of j.
     pub fn mul_cycles(&self) -> u32 {
-        self.wm.div_ceil(16) + 2
+        self.wn.div_ceil(self.md)
     }
 
-    /// Cycles the calculator is busy for one period (`ms_calc.v`): 6 multiplies, the
-    /// square root (launch, WX/2 rounds, capture) and the divide (launch, WQ rounds,
-    /// capture). The scheduler adds 2 per period (start, FIFO write): one period every
-    /// `calc_busy_cycles() + 2` cycles.
-    pub fn calc_busy_cycles(&self) -> u32 {
-        6 * self.mul_cycles() + (self.wx / 2 + 2) + (self.wq + 2)
+    /// Cycles of the square root's iterations (`ms_isqrt.v`): WY/2 root bits, RB per cycle.
+    pub fn sqrt_cycles(&self) -> u32 {
+        self.wy / 2 / self.rb
     }
 
-    /// The RTL's latencies in the core's TDM model's terms: its multiplies per period
-    /// stand for our six (the remainder goes to the overhead), plus the scheduler's two
-    /// cycles per period (start, FIFO write); one period at a time, not pipelined.
+    /// Cycles of the divider's iterations (`ms_div.v`): WQ quotient bits, RB per cycle.
+    pub fn div_cycles(&self) -> u32 {
+        self.wq / self.rb
+    }
+
+    /// The RTL's cycles per period besides the three units (`ms_core.v`): select (piece
+    /// memory read), the radicand add (square-root load), the numerator (divider load),
+    /// the FIFO write.
+    pub const OVERHEAD_CYCLES: u32 = 4;
+
+    /// Cycles from one period's select to the next select (the same for every mode).
+    pub fn period_cycles(&self) -> u32 {
+        self.mul_cycles() + self.sqrt_cycles() + self.div_cycles() + Self::OVERHEAD_CYCLES
+    }
+
+    /// The RTL's latencies in the core TDM model's terms: one multiply, one square root,
+    /// one divide, the overhead; one period at a time (not pipelined).
     pub fn latencies(&self) -> multistep_core::tdm::Latencies {
-        use multistep_core::tdm::Latencies;
-        let muls = 6 * self.mul_cycles();
-        let mul = muls / Latencies::MULS_PER_PERIOD;
-        Latencies {
-            mul,
-            sqrt: self.wx / 2 + 2,
-            div: self.wq + 2,
-            overhead: 2 + muls - mul * Latencies::MULS_PER_PERIOD,
+        multistep_core::tdm::Latencies {
+            mul: self.mul_cycles(),
+            sqrt: self.sqrt_cycles(),
+            div: self.div_cycles(),
+            overhead: Self::OVERHEAD_CYCLES,
             pipelined: false,
         }
     }
@@ -207,12 +233,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn default_widths() {
+    fn default_widths_and_cycles() {
         let w = CoreParams::default().widths().unwrap();
-        assert_eq!((w.wm, w.wx, w.wq, w.wt, w.aw), (57, 114, 25, 27, 6));
-        assert_eq!(w.calc_busy_cycles(), 6 * 6 + 59 + 27);
-        assert_eq!(w.latencies().latency(), 124);
-        assert_eq!(w.latencies().interval(), 124);
+        assert_eq!((w.wy, w.wk, w.wq, w.wt, w.aw), (128, 68, 24, 27, 7));
+        assert_eq!(
+            (w.mul_cycles(), w.sqrt_cycles(), w.div_cycles()),
+            (2, 32, 12)
+        );
+        assert_eq!(w.period_cycles(), 50);
+        assert_eq!(w.latencies().latency(), 50);
+        assert_eq!(w.latencies().interval(), 50);
+        let r2 = CoreParams {
+            radix_bits: 1,
+            ..Default::default()
+        };
+        assert_eq!(r2.widths().unwrap().period_cycles(), 2 + 64 + 24 + 4);
     }
 
     #[test]
@@ -241,6 +276,18 @@ mod tests {
             },
             CoreParams {
                 clock_hz: 1e5,
+                ..p.clone()
+            },
+            CoreParams {
+                radicand_bits: 126,
+                ..p.clone()
+            },
+            CoreParams {
+                radix_bits: 0,
+                ..p.clone()
+            },
+            CoreParams {
+                kernel_bits: 20,
                 ..p.clone()
             },
         ] {

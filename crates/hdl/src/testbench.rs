@@ -1,33 +1,59 @@
 //! Testbench generator: loads moves through the register bus, starts them as one group
-//! and writes every STEP edge as `rise|fall tick axis` (tick 0 = the group's `go`), then
-//! `underrun MASK`, `dir MASK` and `calc BUSY_CYCLES STARTS`.
+//! and writes every STEP edge as `rise|fall tick axis` (tick 0 = the group's `go`), every
+//! calculator select and FIFO write as `sel|push cycle core`, then `go CYCLE`,
+//! `underrun MASK` and `dir MASK`.
 
-use crate::{AxisMove, Design, HdlError};
+use crate::moves::mode_code;
+use crate::{Arch, AxisMove, Design, HdlError};
 use std::fmt::Write as _;
 
 /// Name of the edge dump the testbench writes in its working directory.
 pub const EDGE_FILE: &str = "edges.txt";
 
-/// A bus address: `{glob, axis, seg, field}` (see `ms_core.v`).
-pub fn bus_addr(d: &Design, glob: bool, axis: u32, seg: u32, field: u32) -> u32 {
-    let w = &d.widths;
-    (u32::from(glob) << (w.aw - 1)) | (axis << (w.ls + 2)) | (seg << 2) | field
+/// Bus commands (`ms_core.v`).
+pub const CMD_COMMIT: u32 = 0;
+pub const CMD_CONTROL: u32 = 1;
+pub const CMD_START: u32 = 2;
+
+/// A bus address: `{cmd, axis, word}` (see `ms_core.v`).
+pub fn bus_addr(d: &Design, cmd: bool, axis: u32, word: u32) -> u32 {
+    (u32::from(cmd) << (d.widths.aw - 1)) | (axis << 5) | word
 }
 
-/// Counts the calculators' busy cycles and starts (hierarchical references into the DUT).
-fn calc_counters(d: &Design) -> String {
+/// The 17 staging words of a piece: y0, dy (4 each), k (3, two's complement), dv (3),
+/// t0, steps, mode.
+pub fn staging_words(p: &crate::PieceRegs) -> [u32; 17] {
+    let mut w = [0u32; 17];
+    let k = &p.kernel;
+    for i in 0..4 {
+        w[i] = (k.y0 >> (32 * i)) as u32;
+        w[4 + i] = (k.dy >> (32 * i)) as u32;
+    }
+    for i in 0..3 {
+        w[8 + i] = (k.k >> (32 * i)) as u32;
+        w[11 + i] = (k.dv >> (32 * i)) as u32;
+    }
+    w[14] = p.t0 as u32;
+    w[15] = p.steps as u32;
+    w[16] = mode_code(k.mode);
+    w
+}
+
+/// Logs the calculators' selects and FIFO writes (hierarchical references into the DUT).
+fn calc_log(d: &Design) -> String {
     let cores: Vec<String> = match d.arch {
-        crate::Arch::Tdm => vec!["dut.u_core".into()],
-        crate::Arch::Independent => (0..d.params.axes)
+        Arch::Tdm => vec!["dut.u_core".into()],
+        Arch::Independent => (0..d.params.axes)
             .map(|a| format!("dut.u_core{a}"))
             .collect(),
     };
     cores
         .iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(i, c)| {
             format!(
-                "        if ({c}.u_calc.busy) calc_busy = calc_busy + 1;\n\
-                 \x20       if ({c}.calc_go) calc_starts = calc_starts + 1;\n"
+                "        if ({c}.do_sel) $fdisplay(f, \"sel %0d {i}\", cycle);\n\
+                 \x20       if ({c}.done) $fdisplay(f, \"push %0d {i}\", cycle);\n"
             )
         })
         .collect()
@@ -62,21 +88,21 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20   {top} dut (.clk(clk), .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),\n\
          \x20       .go(go), .step(step), .dir(dir), .busy(busy), .underrun(underrun));\n\
          \x20   integer f, a, tick, cycles;\n\
-         \x20   integer calc_busy = 0, calc_starts = 0;\n\
-         \x20   always @(posedge clk) begin\n\
-         {calc_count}\
-         \x20   end\n\
+         \x20   integer cycle = 0;\n\
          \x20   reg going = 1'b0;\n\
          \x20   reg [{k1}:0] prev = 0;\n\
-         \x20   // DUT registers update after this block reads them (nonblocking), so `go` and\n\
-         \x20   // `step` are the values of the cycle that just ended.\n\
+         \x20   // DUT registers update after this block reads them (nonblocking), so `go`,\n\
+         \x20   // `step` and the strobes are the values of the cycle that just ended.\n\
          \x20   always @(posedge clk) begin\n\
+         {calc_log}\
          \x20       if (going) tick = tick + 1;\n\
+         \x20       if (go && !going) $fdisplay(f, \"go %0d\", cycle);\n\
          \x20       if (go) begin going = 1'b1; tick = 0; end\n\
          \x20       for (a = 0; a < {k}; a = a + 1)\n\
          \x20           if (step[a] != prev[a])\n\
          \x20               $fdisplay(f, \"%0s %0d %0d\", step[a] ? \"rise\" : \"fall\", tick - 1, a);\n\
          \x20       prev = step;\n\
+         \x20       cycle = cycle + 1;\n\
          \x20   end\n\
          \x20   task wr(input [{aw1}:0] ad, input [31:0] da);\n\
          \x20       begin\n\
@@ -89,27 +115,36 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
         aw1 = aw - 1,
         k1 = k - 1,
         top = d.arch.top(),
-        calc_count = calc_counters(d),
+        calc_log = calc_log(d),
     );
     for (a, m) in moves.iter().enumerate() {
         let a = a as u32;
-        for (j, seg) in m.segs.iter().enumerate() {
-            let j = j as u32;
-            for (field, v) in [(0, seg.n), (1, seg.d), (2, seg.s)] {
+        for (slot, pc) in m.pieces.iter().enumerate() {
+            for (word, v) in staging_words(pc).iter().enumerate() {
                 let _ = writeln!(
                     s,
                     "        wr({}, 32'd{v});",
-                    bus_addr(d, false, a, j, field)
+                    bus_addr(d, false, a, word as u32)
                 );
             }
+            let _ = writeln!(
+                s,
+                "        wr({}, 32'd{slot});",
+                bus_addr(d, true, a, CMD_COMMIT)
+            );
         }
-        let ctl = (u32::from(m.dir) << 31) | (m.segs.len() as u32 - 1);
-        let _ = writeln!(s, "        wr({}, 32'd{ctl});", bus_addr(d, false, a, 0, 3));
+        let ctl = (u32::from(m.dir) << 31) | (m.pieces.len() as u32 - 1);
+        let _ = writeln!(
+            s,
+            "        wr({}, 32'd{ctl});",
+            bus_addr(d, true, a, CMD_CONTROL)
+        );
     }
     let mask: u64 = (1u64 << k) - 1;
     let _ = write!(
         s,
-        "        wr({}, 32'd{mask});\n\
+        "        $fdisplay(f, \"start %0d\", cycle);\n\
+         \x20       wr({}, 32'd{mask});\n\
          \x20       cycles = 0;\n\
          \x20       while ((!going || busy != 0) && cycles < {timeout}) begin\n\
          \x20           @(posedge clk); cycles = cycles + 1;\n\
@@ -118,12 +153,11 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       if (cycles >= {timeout}) $fdisplay(f, \"timeout\");\n\
          \x20       $fdisplay(f, \"underrun %0d\", underrun);\n\
          \x20       $fdisplay(f, \"dir %0d\", dir);\n\
-         \x20       $fdisplay(f, \"calc %0d %0d\", calc_busy, calc_starts);\n\
          \x20       $fclose(f);\n\
          \x20       $finish;\n\
          \x20   end\n\
          endmodule\n",
-        bus_addr(d, true, 0, 0, 0)
+        bus_addr(d, true, 0, CMD_START)
     );
     Ok(s)
 }

@@ -2,7 +2,7 @@
 //! yosys. A missing tool is an error naming the Debian package, never a silent skip.
 
 use crate::testbench::{testbench, EDGE_FILE};
-use crate::{AxisMove, Design, HdlError};
+use crate::{Arch, AxisMove, Design, HdlError};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -63,9 +63,13 @@ pub struct SimOutput {
     pub underrun: u32,
     /// DIR levels at the end.
     pub dir: u32,
-    /// Cycles any calculator was busy, and periods started (summed over calculators).
-    pub calc_busy_cycles: u64,
-    pub calc_starts: u64,
+    /// Per calculator (one for the TDM core, one per axis for independent cores): the
+    /// cycles of each select (a period's start) and of each FIFO write.
+    pub sels: Vec<Vec<u64>>,
+    pub pushes: Vec<Vec<u64>>,
+    /// Cycles of the start write and of the group's go.
+    pub start_cycle: u64,
+    pub go_cycle: u64,
 }
 
 /// Simulates `moves` on the design in Icarus Verilog inside `dir`.
@@ -88,17 +92,23 @@ pub fn simulate(
     run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
     let path = dir.join(EDGE_FILE);
     let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
-    parse_edges(&text, design.params.axes as usize)
+    let calcs = match design.arch {
+        Arch::Tdm => 1,
+        Arch::Independent => design.params.axes as usize,
+    };
+    parse_edges(&text, design.params.axes as usize, calcs)
 }
 
-fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
+fn parse_edges(text: &str, axes: usize, calcs: usize) -> Result<SimOutput, HdlError> {
     let mut out = SimOutput {
         edges: vec![Vec::new(); axes],
         falls: vec![Vec::new(); axes],
         underrun: 0,
         dir: 0,
-        calc_busy_cycles: 0,
-        calc_starts: 0,
+        sels: vec![Vec::new(); calcs],
+        pushes: vec![Vec::new(); calcs],
+        start_cycle: 0,
+        go_cycle: 0,
     };
     let bad = |line: &str| HdlError::Sim(format!("unexpected testbench line {line:?}"));
     for line in text.lines() {
@@ -107,21 +117,19 @@ fn parse_edges(text: &str, axes: usize) -> Result<SimOutput, HdlError> {
             (Some("timeout"), _) => return Err(HdlError::Sim("testbench timed out".into())),
             (Some("underrun"), Some(v)) => out.underrun = v.parse().map_err(|_| bad(line))?,
             (Some("dir"), Some(v)) => out.dir = v.parse().map_err(|_| bad(line))?,
-            (Some("calc"), Some(v)) => {
-                out.calc_busy_cycles = v.parse().map_err(|_| bad(line))?;
-                let starts = it.next().and_then(|s| s.parse().ok());
-                out.calc_starts = starts.ok_or_else(|| bad(line))?;
-            }
-            (Some(kind @ ("rise" | "fall")), Some(t)) => {
+            (Some("start"), Some(v)) => out.start_cycle = v.parse().map_err(|_| bad(line))?,
+            (Some("go"), Some(v)) => out.go_cycle = v.parse().map_err(|_| bad(line))?,
+            (Some(kind @ ("rise" | "fall" | "sel" | "push")), Some(t)) => {
                 let t: u64 = t.parse().map_err(|_| bad(line))?;
                 let a: usize = it
                     .next()
                     .and_then(|a| a.parse().ok())
                     .ok_or_else(|| bad(line))?;
-                let list = if kind == "rise" {
-                    &mut out.edges
-                } else {
-                    &mut out.falls
+                let list = match kind {
+                    "rise" => &mut out.edges,
+                    "fall" => &mut out.falls,
+                    "sel" => &mut out.sels,
+                    _ => &mut out.pushes,
                 };
                 list.get_mut(a).ok_or_else(|| bad(line))?.push(t);
             }

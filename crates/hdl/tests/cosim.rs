@@ -1,65 +1,15 @@
-//! Co-simulation: the emitted RTL in Icarus Verilog against the Rust reference model.
-//! Every edge tick of every axis must be equal. Needs `iverilog` (a missing tool fails).
+//! Co-simulation: the emitted RTL in Icarus Verilog against the Rust references — the
+//! core's integer datapath (`multistep_core::int`, every edge) and its cycle-accurate TDM
+//! board (`multistep_core::tdm`, the RTL's latencies, no underrun in both). Needs
+//! `iverilog` (a missing tool fails).
 
 mod common;
 
-use common::{params, random_move, Rng};
-use multistep_core::tdm::{Axis, Board, TdmConfig};
-use multistep_core::Profile;
-use multistep_hdl::tools::simulate;
-use multistep_hdl::{Arch, AxisMove, CoreParams, Design, SegRegs};
-
-/// Simulates `moves` on `arch` and asserts bit-exact edges and no underrun.
-fn cosim(arch: Arch, p: &CoreParams, moves: &[AxisMove], name: &str) {
-    let d = Design::new(p, arch).expect("parameters");
-    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
-    let last: u64 = moves
-        .iter()
-        .map(|m| m.segs.iter().map(|s| u64::from(s.d)).sum::<u64>())
-        .max()
-        .unwrap();
-    let out = simulate(&d, moves, dir.path(), last + 100_000).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(out.underrun, 0, "{name}: underrun");
-    // one calculator start per step, each busy for the documented cycle count
-    let steps: u64 = moves
-        .iter()
-        .map(|m| m.segs.iter().map(|s| u64::from(s.n)).sum::<u64>())
-        .sum();
-    assert_eq!(out.calc_starts, steps, "{name}: calculator starts");
-    let busy = u64::from(d.widths.calc_busy_cycles());
-    assert_eq!(
-        out.calc_busy_cycles,
-        steps * busy,
-        "{name}: calculator busy cycles"
-    );
-    let dirs: u32 = moves
-        .iter()
-        .enumerate()
-        .map(|(a, m)| u32::from(m.dir) << a)
-        .sum();
-    assert_eq!(out.dir, dirs, "{name}: DIR lines");
-    for (a, m) in moves.iter().enumerate() {
-        let want = m.edges(p.frac_bits);
-        assert_eq!(
-            out.falls[a],
-            half_interval_falls(&want),
-            "{name}: axis {a} STEP falls"
-        );
-        assert_eq!(
-            out.edges[a].len(),
-            want.len(),
-            "{name}: axis {a} step count"
-        );
-        if let Some(k) = (0..want.len()).find(|&k| out.edges[a][k] != want[k]) {
-            panic!(
-                "{name}: axis {a} step {} at tick {} in RTL, {} in the model",
-                k + 1,
-                out.edges[a][k],
-                want[k]
-            );
-        }
-    }
-}
+use common::{params, random_move, IntMove, Rng, HZ};
+use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
+use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
+use multistep_hdl::tools::{simulate, SimOutput};
+use multistep_hdl::{Arch, AxisMove, CoreParams, Design};
 
 /// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
 /// tick), the last pulse for half of the last interval.
@@ -76,224 +26,249 @@ fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
         .collect()
 }
 
-/// All three cases of the calculator (A > 0, A = 0, A < 0), one-step segments and a
-/// move that ends on a perfect square, on one axis.
-#[test]
-fn single_axis_every_calculator_case() {
-    let p = params(1);
-    let q = 1u32 << p.frac_bits;
-    let m = AxisMove {
-        dir: true,
-        segs: vec![
-            SegRegs {
-                n: 25,
-                d: 10_000,
-                s: 0,
-            }, // accelerate from rest: A > 0
-            SegRegs {
-                n: 40,
-                d: 8_000,
-                s: 40 * q,
-            }, // cruise: A = 0
-            SegRegs {
-                n: 1,
-                d: 1_000,
-                s: 400,
-            }, // one step, decelerating (A < 0)
-            SegRegs {
-                n: 30,
-                d: 12_001,
-                s: 60 * q,
-            }, // decelerate to rest: A < 0
-        ],
+/// The core's TDM board on the same moves (float twins) with the RTL's latencies: its
+/// edges from the group's start, and its underrun count.
+fn board(p: &CoreParams, moves: &[IntMove]) -> (Vec<Vec<u64>>, u64) {
+    let w = p.widths().unwrap();
+    let mut axes: Vec<Axis> = moves
+        .iter()
+        .map(|m| Axis::new(m.float_profile(), HZ as f64).unwrap())
+        .collect();
+    let cfg = TdmConfig {
+        clock_hz: HZ as f64,
+        fifo_depth: p.fifo_depth as usize,
+        latencies: w.latencies(),
+        ..Default::default()
     };
-    m.check(&p).unwrap();
-    cosim(Arch::Tdm, &p, &[m], "k1-cases");
+    let board = Board::new(cfg, &mut axes).unwrap();
+    let start = board.start_tick();
+    let mut edges = vec![Vec::new(); moves.len()];
+    let report = board.run(|sp| edges[sp.axis].push(sp.rise - start));
+    (edges, report.underruns)
 }
 
-#[test]
-fn tdm_random_moves_k1_to_k4() {
-    let mut rng = Rng(0x5eed_0007);
-    for k in 1..=4u32 {
+/// Every select-to-FIFO-write takes the latency; selects are never closer than the
+/// interval, and exactly that apart while the calculator is saturated.
+fn check_timing(out: &SimOutput, lat: Latencies, name: &str) {
+    for (c, (sels, pushes)) in out.sels.iter().zip(&out.pushes).enumerate() {
+        assert_eq!(sels.len(), pushes.len(), "{name}: calculator {c}");
+        for (s, p) in sels.iter().zip(pushes) {
+            // select in cycle s, FIFO write in cycle p: p − s + 1 cycles
+            assert_eq!(p - s + 1, lat.latency(), "{name}: calculator {c} period at {s}");
+        }
+        if let Some(gap) = sels.windows(2).map(|w| w[1] - w[0]).min() {
+            assert_eq!(gap, lat.interval(), "{name}: calculator {c} closest selects");
+        }
+    }
+}
+
+/// Simulates `moves` on `arch`: bit-exact edges against core::int, the 50 % duty falls,
+/// DIR, no underrun, the board's edges, and the measured cycles against the latencies.
+fn cosim(arch: Arch, p: &CoreParams, moves: &[(IntMove, AxisMove)], name: &str) -> SimOutput {
+    let d = Design::new(p, arch).expect("parameters");
+    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
+    let regs: Vec<AxisMove> = moves.iter().map(|m| m.1.clone()).collect();
+    let last: u64 = regs
+        .iter()
+        .map(|m| m.edges().last().copied().unwrap_or(0))
+        .max()
+        .unwrap();
+    let out = simulate(&d, &regs, dir.path(), last + 200_000).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.underrun, 0, "{name}: underrun");
+    let dirs: u32 = regs
+        .iter()
+        .enumerate()
+        .map(|(a, m)| u32::from(m.dir) << a)
+        .sum();
+    assert_eq!(out.dir, dirs, "{name}: DIR lines");
+    let steps: usize = regs.iter().map(|m| m.steps() as usize).sum();
+    assert_eq!(out.sels.iter().map(Vec::len).sum::<usize>(), steps, "{name}");
+    check_timing(&out, d.widths.latencies(), name);
+    let ints: Vec<IntMove> = moves.iter().map(|m| m.0.clone()).collect();
+    let (model, underruns) = board(p, &ints);
+    assert_eq!(underruns, 0, "{name}: the board underruns");
+    for (a, (im, _)) in moves.iter().enumerate() {
+        let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
+        assert_eq!(out.edges[a].len(), want.len(), "{name}: axis {a} step count");
+        if let Some(k) = (0..want.len()).find(|&k| out.edges[a][k] != want[k]) {
+            panic!(
+                "{name}: axis {a} step {} at tick {} in RTL, {} in core::int ({im:?})",
+                k + 1,
+                out.edges[a][k],
+                want[k]
+            );
+        }
+        assert_eq!(out.falls[a], half_interval_falls(&want), "{name}: axis {a} falls");
+        assert_eq!(model[a], want, "{name}: axis {a}: TDM board against core::int");
+    }
+    out
+}
+
+/// Random moves at rates the core sustains for K axes, `rounds` runs each.
+fn random_runs(arch: Arch, ks: &[u32], seed: u64, rounds: usize, ticks: u64) {
+    let mut rng = Rng(seed);
+    for &k in ks {
         let p = params(k);
-        // sustained rate well below one period per k calculations (~130 cycles each)
-        let vmax = 1.0 / (f64::from(k) * 200.0 + 200.0);
-        for round in 0..2 {
-            let moves: Vec<AxisMove> = (0..k)
-                .map(|_| {
-                    let segs = 1 + rng.range(0, 3) as usize;
-                    random_move(&mut rng, &p, segs, vmax, round == 0)
-                })
+        let interval = p.widths().unwrap().latencies().interval();
+        // one period per k computations, with a margin for the prefill
+        let vmax = HZ / (interval * u64::from(k) * 3 / 2);
+        for round in 0..rounds {
+            let moves: Vec<_> = (0..k)
+                .map(|_| random_move(&mut rng, &p, vmax.min(150_000), ticks))
                 .collect();
-            cosim(Arch::Tdm, &p, &moves, &format!("tdm-k{k}-r{round}"));
+            cosim(arch, &p, &moves, &format!("{arch:?}-k{k}-r{round}"));
         }
     }
 }
 
 #[test]
-fn independent_cores_match_the_model_too() {
-    let mut rng = Rng(0xba5e_11e5);
-    let p = params(3);
-    let moves: Vec<AxisMove> = (0..3)
-        .map(|_| random_move(&mut rng, &p, 3, 1.0 / 300.0, true))
-        .collect();
-    cosim(Arch::Independent, &p, &moves, "indep-k3");
+fn tdm_random_moves_k1_k2_k4_k8() {
+    random_runs(Arch::Tdm, &[1, 2, 4, 8], 0x5eed_0007, 2, 120_000);
 }
 
-/// A FIFO absorbs a short burst faster than the calculator: 16 steps at 1/8 step per tick
-/// after a slow start that fills it.
+#[test]
+fn independent_cores_match_too() {
+    random_runs(Arch::Independent, &[3], 0xba5e_11e5, 1, 80_000);
+}
+
+/// Every kernel mode on one axis: a phase trapezoid with start and end speeds (Accel,
+/// Cruise, Decel) and radix 2 (one result bit per cycle), whose latencies are the core's
+/// `Latencies::RADIX2`.
+#[test]
+fn every_mode_at_radix_2_and_4() {
+    let m = IntMove::Phase(IntPhaseMove {
+        steps: 300,
+        accel_ticks: 40_000,
+        cruise_ticks: 30_000,
+        decel_ticks: 50_001,
+        start_speed: 5_000,
+        end_speed: 1_000,
+    });
+    for radix_bits in [1, 2] {
+        let p = CoreParams {
+            axes: 1,
+            radix_bits,
+            ..Default::default()
+        };
+        let a = AxisMove::from_profile(&m.profile(), true, &p).unwrap();
+        assert_eq!(a.pieces.len(), 3);
+        cosim(Arch::Tdm, &p, &[(m.clone(), a)], &format!("modes-r{radix_bits}"));
+    }
+    let r2 = CoreParams {
+        radix_bits: 1,
+        ..Default::default()
+    };
+    assert_eq!(r2.widths().unwrap().latencies(), Latencies::RADIX2);
+}
+
+/// Issue 4's goal in RTL and model: 8 axes at 100 000 steps/s each, one calculator, no
+/// underrun; the calculator is saturated for stretches (selects exactly one interval apart).
+#[test]
+fn eight_axes_at_100k_steps_per_second() {
+    let p = params(8);
+    let w = p.widths().unwrap();
+    assert!(8 * w.latencies().interval() <= HZ / 100_000);
+    let moves: Vec<_> = (0..8u64)
+        .map(|a| {
+            // reach 100 k steps/s in 1 ms, cruise 3 ms, stop in 1 ms
+            let m = IntMove::Phase(IntPhaseMove {
+                steps: 400,
+                accel_ticks: 50_000 + 17 * a,
+                cruise_ticks: 150_000,
+                decel_ticks: 50_000,
+                start_speed: 0,
+                end_speed: 0,
+            });
+            let r = AxisMove::from_profile(&m.profile(), a % 2 == 0, &p).unwrap();
+            (m, r)
+        })
+        .collect();
+    cosim(Arch::Tdm, &p, &moves, "k8-100k");
+}
+
+/// A FIFO absorbs a burst faster than the calculator's share: two axes, one cruising at
+/// 240 k steps/s after a slow start that fills its FIFO.
 #[test]
 fn fifo_absorbs_a_fast_burst() {
+    use multistep_core::int::IntSegment;
     let p = params(2);
-    let q = 1u32 << p.frac_bits;
-    let burst = AxisMove {
-        dir: false,
-        segs: vec![SegRegs {
-            n: 12,
-            d: 96,
-            s: 12 * q,
-        }],
-    };
-    let slow = AxisMove {
-        dir: true,
-        segs: vec![SegRegs {
-            n: 10,
-            d: 20_000,
-            s: 0,
-        }],
-    };
-    cosim(Arch::Tdm, &p, &[burst, slow], "burst");
+    let burst = IntMove::Segments(vec![
+        IntSegment {
+            v0: 2_000,
+            ticks: 50_000,
+            steps: 2,
+        },
+        IntSegment {
+            v0: 240_000,
+            ticks: 2_500,
+            steps: 12,
+        },
+    ]);
+    let slow = IntMove::Segments(vec![IntSegment {
+        v0: 0,
+        ticks: 100_000,
+        steps: 10,
+    }]);
+    let moves: Vec<_> = [burst, slow]
+        .into_iter()
+        .map(|m| {
+            let r = AxisMove::from_profile(&m.profile(), false, &p).unwrap();
+            (m, r)
+        })
+        .collect();
+    cosim(Arch::Tdm, &p, &moves, "burst");
 }
 
 /// When the calculator cannot keep up the pulse unit flags an underrun, and its edges are
-/// late, never early.
+/// late, never early; the board reports underruns too.
 #[test]
 fn underrun_is_flagged_and_edges_are_late() {
     let p = CoreParams {
-        axes: 2,
+        axes: 6,
         fifo_depth: 2,
         ..Default::default()
     };
-    let q = 1u32 << p.frac_bits;
-    let fast = AxisMove {
-        dir: false,
-        segs: vec![SegRegs {
-            n: 200,
-            d: 1_600,
-            s: 200 * q,
-        }],
-    };
+    // 200 k steps/s: 250 ticks per step, 6 x 50 cycles of calculator per step
+    let m = IntMove::Segments(vec![multistep_core::int::IntSegment {
+        v0: 200_000,
+        ticks: 50_000,
+        steps: 200,
+    }]);
+    let regs = AxisMove::from_profile(&m.profile(), false, &p).unwrap();
     let d = Design::new(&p, Arch::Tdm).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let out = simulate(&d, &[fast.clone(), fast.clone()], dir.path(), 1_000_000)
-        .unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(out.underrun, 0b11);
-    let want = fast.edges(p.frac_bits);
+    let all = vec![regs.clone(); 6];
+    let out = simulate(&d, &all, dir.path(), 1_000_000).unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(out.underrun, 0);
+    let want = regs.edges();
     for e in &out.edges {
         assert_eq!(e.len(), want.len());
         assert!(e.iter().zip(&want).all(|(r, m)| r >= m));
-        assert!(e.last() > want.last());
     }
-}
-
-/// The core's cycle-accurate TDM model (float edge generator, the RTL's latencies) gives
-/// the same edges as the RTL on the same moves, from the group's start.
-#[test]
-fn rtl_equals_core_tdm_board() {
-    let mut rng = Rng(0x7d_0004);
-    for k in [2u32, 3] {
-        let p = params(k);
-        let moves: Vec<AxisMove> = (0..k)
-            .map(|_| random_move(&mut rng, &p, 3, 1.0 / 900.0, true))
-            .collect();
-        let w = p.widths().unwrap();
-        let mut axes: Vec<Axis> = moves
-            .iter()
-            .map(|m| {
-                let segs: Vec<_> = m
-                    .segs
-                    .iter()
-                    .map(|s| s.to_core(p.clock_hz, p.frac_bits))
-                    .collect();
-                Axis::new(Profile::segments(&segs).unwrap(), p.clock_hz).unwrap()
-            })
-            .collect();
-        let cfg = TdmConfig {
-            clock_hz: p.clock_hz,
-            fifo_depth: p.fifo_depth as usize,
-            latencies: w.latencies(),
-            ..Default::default()
-        };
-        let board = Board::new(cfg, &mut axes).unwrap();
-        let start = board.start_tick();
-        let mut model = vec![Vec::new(); k as usize];
-        let mut falls = vec![Vec::new(); k as usize];
-        let report = board.run(|sp| {
-            model[sp.axis].push(sp.rise - start);
-            falls[sp.axis].push(sp.fall - start);
-        });
-        assert_eq!(report.underruns, 0);
-        assert_eq!(report.interval_cycles, u64::from(w.calc_busy_cycles()) + 2);
-        assert_eq!(report.latency_cycles, u64::from(w.calc_busy_cycles()) + 2);
-        let d = Design::new(&p, Arch::Tdm).unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let out = simulate(&d, &moves, dir.path(), 400_000).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(out.underrun, 0);
-        for a in 0..k as usize {
-            assert_eq!(out.edges[a], model[a], "K = {k} axis {a}");
-            assert_eq!(out.falls[a], falls[a], "K = {k} axis {a} falls");
-            assert_eq!(
-                out.edges[a],
-                moves[a].edges(p.frac_bits),
-                "K = {k} axis {a}"
-            );
-        }
-    }
+    assert!(out.edges.iter().any(|e| e.last() > want.last()));
+    let (_, underruns) = board(&p, &vec![m; 6]);
+    assert!(underruns > 0);
 }
 
 /// Seed 000's two-axis experiment (trapezoids of 2400 and 1800 steps, 20 ms accel, 10 ms
-/// cruise, 20 ms decel at 50 MHz) loaded as three segments per axis: the RTL's edges are
-/// the core's integer phase-mode edges of the same moves, all 4200 of them.
+/// cruise, 20 ms decel at 50 MHz): all 4200 RTL edges are core::int's.
 #[test]
 fn seed000_two_axis_experiment() {
-    use multistep_core::int::{IntClock, IntEdgeGenerator, IntPhaseMove, IntProfile};
     let p = params(2);
-    let f = p.frac_bits;
-    let axis = |steps: u32, dir: bool| {
-        // vm = 2N / (Ta + 2Tb + Tc) = N / 0.03 s, in steps/tick times 2^F times d
-        let (d_acc, d_cru) = (1_000_000u32, 500_000u32);
-        let n = steps / 3;
-        let s = |d: u32| ((u64::from(steps) << f) * u64::from(d) / 1_500_000) as u32;
-        AxisMove {
-            dir,
-            segs: vec![
-                SegRegs { n, d: d_acc, s: 0 },
-                SegRegs {
-                    n,
-                    d: d_cru,
-                    s: s(d_cru),
-                },
-                SegRegs {
-                    n,
-                    d: d_acc,
-                    s: s(d_acc),
-                },
-            ],
-        }
-    };
-    let moves = [axis(2400, false), axis(1800, true)];
-    for m in &moves {
-        let phase = IntPhaseMove {
-            steps: m.segs.iter().map(|s| u64::from(s.n)).sum(),
-            accel_ticks: 1_000_000,
-            cruise_ticks: 500_000,
-            decel_ticks: 1_000_000,
-            start_speed: 0,
-            end_speed: 0,
-        };
-        let profile = IntProfile::phase(&phase, IntClock::hz(50_000_000)).unwrap();
-        let core: Vec<u64> = IntEdgeGenerator::new(profile).collect();
-        assert_eq!(m.edges(f), core);
-    }
+    let moves: Vec<_> = [(2400, false), (1800, true)]
+        .into_iter()
+        .map(|(steps, dir)| {
+            let m = IntMove::Phase(IntPhaseMove {
+                steps,
+                accel_ticks: 1_000_000,
+                cruise_ticks: 500_000,
+                decel_ticks: 1_000_000,
+                start_speed: 0,
+                end_speed: 0,
+            });
+            let r = AxisMove::from_profile(&m.profile(), dir, &p).unwrap();
+            (m, r)
+        })
+        .collect();
     cosim(Arch::Tdm, &p, &moves, "seed000");
 }

@@ -24,13 +24,15 @@ fn verilator_lint_is_clean() {
     let p = CoreParams {
         axes: 4,
         fifo_depth: 64,
-        segments: 2,
+        pieces: 2,
         step_bits: 10,
         tick_bits: 16,
-        frac_bits: 4,
+        radicand_bits: 72,
+        kernel_bits: 40,
+        radix_bits: 3,
         clock_hz: 1e6,
         max_rate: 5e3,
-        max_segment_s: 0.05,
+        max_piece_s: 0.05,
     };
     let dir = tempfile::tempdir().unwrap();
     lint(&Design::new(&p, Arch::Tdm).unwrap(), dir.path())

@@ -1,29 +1,33 @@
 //! The shared period calculator, modelled by its timing only.
 //!
-//! It runs the integer datapath of [`crate::int`] (issue 6): per step, with `M` the
-//! step's target advanced by `M += Den`,
+//! It runs the per-step kernel of [`crate::int`]'s integer datapath: every piece of a move is
+//! `Den·(p(τ) − p0) = A·τ + B·τ²`, and the host precomputes per piece a kernel
+//! `(y0, dy, k, dv)` so that the edge of the piece's j-th step, the nearest tick to the
+//! exact root with an exact half tick going to the earlier one, is
 //!
 //! ```text
-//! 1. R = (4A² + 16·B·M) / 4^k     multiplier (128 × 128 bits, the wide one)
-//! 2. s = ⌊√R⌋                     square-root unit: 126-bit radicand, 63-bit root
-//! 3. q = ⌊(8M − 1)/(2A + s·2^k)⌋  divider: 127/64 bits, a 33-bit quotient (pieces < 2^32 ticks)
-//! 4. keep q or q − 1              multiplier twice, with the narrow operand q
-//! 5. edge = t0 + ⌊(q + 1)/2⌋, period = edge − previous edge → the axis's FIFO
+//! 1. Y = y0 ± j·dy               multiplier: one multiply with the narrow operand j
+//! 2. root, rem = isqrt(Y)        square-root unit: Y = (Den·v)², up to 128 bits, 64-bit root
+//! 3. num = ⌈√Y⌉ + k (Accel), k − ⌊√Y⌋ (Decel), Y (Cruise: the root is unused)
+//! 4. q = ⌊num / dv⌋              divider: quotient ≤ the piece's ticks
+//! 5. edge = t0 + q, period = edge − previous edge → the axis's FIFO
 //! ```
 //!
-//! — three multiplies, one square root, one divide, each needing the one before. The
-//! values themselves come from [`EdgeGenerator`](crate::EdgeGenerator) (the integer
-//! datapath gives the same edges), so only the cycles are modelled here.
+//! — one multiply, one square root, one divide, each needing the one before, and no
+//! correction step. The values themselves come from [`EdgeGenerator`](crate::EdgeGenerator)
+//! (the integer datapath gives the same edges), so only the cycles are modelled here.
 //!
-//! Default latencies ([`Latencies::RADIX4`]): radix-4 digit recurrences (2 result bits per
-//! cycle): the 33-bit quotient in 17 cycles + 1 normalisation, the 63-bit root in 32; a
-//! multiply in 4 (a pipelined 64 × 64 DSP multiplier, the wide product from its partial
-//! products); 6 state-machine cycles (axis select and register load, `M += Den`, rounding,
-//! subtract, FIFO write). In sequence that is 3·4 + 18 + 32 + 6 = 68 cycles per period.
-//! The three units are separate (seed 000 §1.2: one multiplier, one divider, one square
-//! root unit), so the state machine can also overlap different axes' periods, each in a
-//! different unit (seed 000 §2.2 pipelines its flow): then a period is still 68 cycles
-//! from start to FIFO, but a new one starts every 32 cycles, the busiest unit's occupancy.
+//! Default latencies ([`Latencies::RADIX4`]) are those of the Verilog core in
+//! `crates/hdl` at its default parameters (`multistep_hdl::Widths::latencies`, checked by
+//! a test there): the 20-bit step index in 16-bit digits (2 cycles), the 64-bit root at 2
+//! bits per cycle (32), the 24-bit quotient at 2 bits per cycle (12), and 4 state-machine
+//! cycles (select and piece-memory read, radicand add, numerator, FIFO write): 50 cycles
+//! per period, so at 50 MHz one calculator serves 10 axes at 100 000 steps/s by seed
+//! eq. (12). The three units are separate (seed 000 §1.2: one multiplier, one divider, one
+//! square-root unit), so a state machine could also overlap different axes' periods, each
+//! in a different unit (seed 000 §2.2 pipelines its flow): then a period is still 50 cycles
+//! from start to FIFO, but a new one starts every 32 cycles, the busiest unit's occupancy
+//! ([`Latencies::RADIX4_PIPELINED`], a model only: the RTL runs one period at a time).
 
 /// Operation latencies of the period calculator, in clock cycles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,30 +46,32 @@ pub struct Latencies {
 }
 
 impl Latencies {
-    pub const MULS_PER_PERIOD: u32 = 3;
+    pub const MULS_PER_PERIOD: u32 = 1;
 
-    /// Radix-4 units, one period at a time: 68 cycles per period.
+    /// Radix-4 square root and divider, one period at a time: 2 + 32 + 12 + 4 = 50 cycles
+    /// per period, the Verilog core at its default parameters.
     pub const RADIX4: Latencies = Latencies {
-        mul: 4,
-        div: 18,
+        mul: 2,
+        div: 12,
         sqrt: 32,
-        overhead: 6,
+        overhead: 4,
         pipelined: false,
     };
 
-    /// Radix-4 units, periods of different axes overlapped: 68 cycles latency, one period
-    /// every 32 cycles.
+    /// Radix-4 units, periods of different axes overlapped: 50 cycles latency, one period
+    /// every 32 cycles (a model only).
     pub const RADIX4_PIPELINED: Latencies = Latencies {
         pipelined: true,
         ..Latencies::RADIX4
     };
 
-    /// The plain sequential datapath, one quotient bit and one root bit per cycle: 115 cycles.
+    /// One root bit and one quotient bit per cycle (the Verilog core with `radix_bits` 1):
+    /// 2 + 64 + 24 + 4 = 94 cycles.
     pub const RADIX2: Latencies = Latencies {
-        mul: 4,
-        div: 34,
-        sqrt: 63,
-        overhead: 6,
+        mul: 2,
+        div: 24,
+        sqrt: 64,
+        overhead: 4,
         pipelined: false,
     };
 
@@ -103,11 +109,11 @@ mod tests {
 
     #[test]
     fn cycle_counts_of_the_documented_datapaths() {
-        assert_eq!(Latencies::RADIX4.latency(), 3 * 4 + 18 + 32 + 6);
-        assert_eq!(Latencies::RADIX4.interval(), 68);
-        assert_eq!(Latencies::RADIX4_PIPELINED.latency(), 68);
+        assert_eq!(Latencies::RADIX4.latency(), 2 + 12 + 32 + 4);
+        assert_eq!(Latencies::RADIX4.interval(), 50);
+        assert_eq!(Latencies::RADIX4_PIPELINED.latency(), 50);
         assert_eq!(Latencies::RADIX4_PIPELINED.interval(), 32);
-        assert_eq!(Latencies::RADIX2.interval(), 3 * 4 + 34 + 63 + 6);
+        assert_eq!(Latencies::RADIX2.interval(), 2 + 24 + 64 + 4);
         assert_eq!(Latencies::default(), Latencies::RADIX4);
     }
 }

@@ -1,7 +1,15 @@
-//! Shared helpers: seeded random moves that the core can sustain without underrun.
+//! Shared helpers: seeded random integer moves (segments, phase and limits trapezoids,
+//! with start and end speeds), their float twins for the core's TDM board, and params.
 #![allow(dead_code)]
 
-use multistep_hdl::{AxisMove, CoreParams, SegRegs};
+use multistep_core::int::{
+    limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment,
+};
+use multistep_core::{Family, PhaseMove, Profile, Segment};
+use multistep_hdl::{AxisMove, CoreParams};
+
+pub const HZ: u64 = 50_000_000;
+pub const CLOCK: IntClock = IntClock::hz(HZ);
 
 /// xorshift64*: reproducible test inputs without a dependency.
 pub struct Rng(pub u64);
@@ -17,46 +25,133 @@ impl Rng {
     pub fn range(&mut self, lo: u64, hi: u64) -> u64 {
         lo + self.next() % (hi - lo + 1)
     }
-    pub fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// One integer move and its float twin (the same move for `Profile`).
+#[derive(Clone, Debug)]
+pub enum IntMove {
+    Segments(Vec<IntSegment>),
+    Phase(IntPhaseMove),
+    Limits(IntLimitsMove),
+}
+
+impl IntMove {
+    pub fn try_profile(&self) -> Result<IntProfile, multistep_core::int::IntError> {
+        match self {
+            IntMove::Segments(s) => IntProfile::segments(s, CLOCK),
+            IntMove::Phase(m) => IntProfile::phase(m, CLOCK),
+            IntMove::Limits(m) => IntProfile::limits(m, CLOCK),
+        }
+    }
+
+    pub fn profile(&self) -> IntProfile {
+        self.try_profile().expect("core plans it")
+    }
+
+    /// The same move for the core's float planner (speeds in steps/s, times in s).
+    pub fn float_profile(&self) -> Profile {
+        let s = |ticks: u64| ticks as f64 / HZ as f64;
+        let phase = |m: &IntPhaseMove| PhaseMove {
+            steps: m.steps,
+            accel_time: s(m.accel_ticks),
+            cruise_time: s(m.cruise_ticks),
+            decel_time: s(m.decel_ticks),
+            start_speed: m.start_speed as f64,
+            end_speed: m.end_speed as f64,
+            family: Family::Trapezoid,
+        };
+        match self {
+            IntMove::Segments(segs) => {
+                let v: Vec<Segment> = segs
+                    .iter()
+                    .map(|g| Segment {
+                        v0: g.v0 as f64,
+                        duration: s(g.ticks),
+                        steps: g.steps,
+                    })
+                    .collect();
+                Profile::segments(&v)
+            }
+            IntMove::Phase(m) => Profile::phase(&phase(m)),
+            IntMove::Limits(m) => Profile::phase(&phase(&limits_to_phase(m, CLOCK).unwrap())),
+        }
+        .expect("float planner")
     }
 }
 
-/// A random chain of `segs` segments with speeds up to `vmax` steps/tick, each starting
-/// near the previous one's end speed, from rest and back to rest when `rest` is set.
-pub fn random_move(rng: &mut Rng, p: &CoreParams, segs: usize, vmax: f64, rest: bool) -> AxisMove {
-    let q = f64::from(1u32 << p.frac_bits);
+/// A random move of one of the three kinds with speeds up to `vmax` steps/s, lasting about
+/// `ticks` ticks, that fits core `p` (retries until it does).
+pub fn random_move(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> (IntMove, AxisMove) {
     loop {
-        let mut v0 = if rest { 0.0 } else { rng.unit() * vmax };
-        let mut out = Vec::new();
-        for k in 0..segs {
-            let d = rng.range(2_000, 30_000) as u32;
-            let df = f64::from(d);
-            let lo = (v0 * df / 2.0).ceil().max(1.0);
-            let hi = if rest && k == segs - 1 {
-                lo
-            } else {
-                ((v0 + vmax) * df / 2.0).floor()
-            };
-            if hi < lo {
-                break;
-            }
-            let n = rng.range(lo as u64, hi as u64) as u32;
-            let s = (v0 * q * df).round() as u32;
-            let seg = SegRegs { n, d, s };
-            if seg.check(p, k).is_err() {
-                break;
-            }
-            v0 = f64::from((2 * n << p.frac_bits).saturating_sub(s)) / (q * df);
-            out.push(seg);
-        }
-        if out.len() == segs {
-            return AxisMove {
-                dir: rng.next() & 1 == 1,
-                segs: out,
-            };
+        let m = match rng.range(0, 2) {
+            0 => random_segments(rng, p, vmax, ticks),
+            1 => random_phase(rng, vmax, ticks),
+            _ => random_limits(rng, vmax, ticks),
+        };
+        let Some(m) = m else { continue };
+        let dir = rng.next() & 1 == 1;
+        let Ok(profile) = m.try_profile() else {
+            continue;
+        };
+        if let Ok(a) = AxisMove::from_profile(&profile, dir, p) {
+            return (m, a);
         }
     }
+}
+
+fn random_segments(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> Option<IntMove> {
+    let n = rng.range(1, u64::from(p.pieces));
+    let mut v0 = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax) };
+    let mut segs = Vec::new();
+    for k in 0..n {
+        let d = rng.range(ticks / (2 * n), 2 * ticks / n).max(400);
+        // n steps end at speed 2n/T − v0 in [0, vmax]
+        let lo = (v0 * d).div_ceil(2 * HZ).max(1);
+        let hi = ((v0 + vmax) * d) / (2 * HZ);
+        let hi = if k + 1 == n && rng.next() & 1 == 0 { lo } else { hi };
+        if hi < lo {
+            return None;
+        }
+        let steps = rng.range(lo, hi);
+        segs.push(IntSegment { v0, ticks: d, steps });
+        v0 = (2 * steps * HZ).saturating_sub(v0 * d) / d;
+    }
+    Some(IntMove::Segments(segs))
+}
+
+fn random_phase(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
+    let ta = rng.range(ticks / 8, ticks / 3);
+    let tc = rng.range(ticks / 8, ticks / 3);
+    let tb = if rng.next() % 3 == 0 { 0 } else { rng.range(1, ticks / 3) };
+    let vs = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax / 2) };
+    let ve = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax / 2) };
+    let vm = rng.range(vmax / 2, vmax);
+    // 2N·F = vs·Ta + ve·Tc + vm·(Ta + 2Tb + Tc)
+    let steps = (vs * ta + ve * tc + vm * (ta + 2 * tb + tc)) / (2 * HZ);
+    (steps > 0).then_some(IntMove::Phase(IntPhaseMove {
+        steps,
+        accel_ticks: ta,
+        cruise_ticks: tb,
+        decel_ticks: tc,
+        start_speed: vs,
+        end_speed: ve,
+    }))
+}
+
+fn random_limits(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
+    let vm = rng.range(vmax / 2, vmax);
+    let vs = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vm / 2) };
+    let ve = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vm / 2) };
+    // reach vm in about a third of the move
+    let amax = (vm * HZ * 3 / ticks).max(1);
+    let steps = rng.range(1, vm * ticks / HZ);
+    Some(IntMove::Limits(IntLimitsMove {
+        steps,
+        vmax: vm,
+        amax,
+        start_speed: vs,
+        end_speed: ve,
+    }))
 }
 
 /// The default core with `axes` axes.
