@@ -4,7 +4,6 @@
 
 mod emit;
 mod error;
-pub mod kernel;
 mod moves;
 mod params;
 pub mod report;

@@ -2,9 +2,8 @@
 //! that have steps, each as its per-step kernel, start tick and step count. The reference
 //! edges are the core's own (`StepKernel::local_edge`); nothing here re-derives a formula.
 
-use crate::kernel::{piece_kernel, KernelMode, StepKernel};
 use crate::{CoreParams, HdlError, Widths};
-use multistep_core::int::IntProfile;
+use multistep_core::int::{IntProfile, KernelMode, StepKernel};
 
 /// One piece slot of an axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,19 +89,18 @@ impl AxisMove {
     ) -> Result<AxisMove, HdlError> {
         let mut pieces = Vec::new();
         for (index, pc) in profile.pieces().iter().enumerate() {
-            let (kernel, _first, steps) = piece_kernel(pc);
-            if steps == 0 {
+            if pc.steps == 0 {
                 continue;
             }
-            let kernel = kernel.ok_or(HdlError::Piece {
+            let kernel = *pc.kernel().ok_or(HdlError::Piece {
                 index,
-                reason: "needs intermediates wider than 128 bits".into(),
+                reason: "its radicand needs more than 128 bits (core::int's wide path)".into(),
             })?;
             pieces.push(PieceRegs {
                 kernel,
                 t0: pc.t0,
                 dur: pc.dur,
-                steps,
+                steps: pc.steps,
             });
         }
         let m = AxisMove { dir, pieces };

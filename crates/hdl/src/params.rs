@@ -250,6 +250,19 @@ mod tests {
         assert_eq!(r2.widths().unwrap().period_cycles(), 2 + 64 + 24 + 4);
     }
 
+    /// The core TDM model's default calculator is this RTL at its default parameters.
+    #[test]
+    fn default_latencies_are_the_core_models() -> Result<(), HdlError> {
+        use multistep_core::tdm::Latencies;
+        assert_eq!(CoreParams::default().widths()?.latencies(), Latencies::default());
+        let r2 = CoreParams {
+            radix_bits: 1,
+            ..Default::default()
+        };
+        assert_eq!(r2.widths()?.latencies(), Latencies::RADIX2);
+        Ok(())
+    }
+
     #[test]
     fn rejects_bad_parameters() {
         let p = CoreParams::default();
