@@ -123,7 +123,7 @@ fn sweep_prints_k_max_and_writes_an_svg() {
             assert_eq!(s["k_max"], r["k_eq12"]);
         }
     }
-    assert_eq!(rows[1]["k_eq12"], 500 / 68);
+    assert_eq!(rows[1]["k_eq12"], 500 / 50);
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.contains("eq. (12)"));
     std::fs::remove_file(&svg).ok();
@@ -148,11 +148,12 @@ fn bad_input_is_one_clear_error() {
 fn k_max_of_a_config_against_eq12() {
     // seed 000's two moves alternating over k axes: eq. (12) from the 625-tick cruise
     let v = tdm_json("seed000-two-axis.toml", &["--k-max", "--max-axes", "16"]);
-    assert_eq!(v["k_eq12"], 625 / 68);
+    assert_eq!(v["k_eq12"], 625 / 50);
     assert_eq!(v["k_max"], v["k_eq12"]);
     assert!(v["first_failure_underruns"].as_u64().unwrap() > 0);
-    // mixed rates: round-robin at depth 1 holds exactly eq. (12), below the load bound
+    // mixed rates: round-robin at depth 1 holds at least eq. (12) (its guarantee for any
+    // phases), below the load bound
     let rr = tdm_json("stress.toml", &["--k-max", "--policy", "round-robin"]);
-    assert_eq!(rr["k_max"], rr["k_eq12"]);
+    assert!(rr["k_max"].as_u64().unwrap() >= rr["k_eq12"].as_u64().unwrap());
     assert!(rr["k_load"].as_u64().unwrap() > rr["k_max"].as_u64().unwrap());
 }

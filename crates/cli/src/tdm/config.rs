@@ -17,7 +17,7 @@ pub struct ConfigFile {
     pub fifo_depth: Option<usize>,
     /// round-robin (default) or earliest-deadline; `--policy` overrides it.
     pub policy: Option<String>,
-    /// Calculator latencies in cycles (defaults: the radix-4 datapath, 68 cycles/period).
+    /// Calculator latencies in cycles (defaults: the radix-4 datapath of the Verilog core, 50 cycles/period).
     pub mul_cycles: Option<u32>,
     pub div_cycles: Option<u32>,
     pub sqrt_cycles: Option<u32>,
