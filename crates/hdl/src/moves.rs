@@ -51,7 +51,10 @@ impl PieceRegs {
             return Err(err(format!("{} steps not in 1..2^{}", self.steps, w.wn)));
         }
         if !fits(self.dur.into(), w.wd) {
-            return Err(err(format!("{} ticks do not fit {} tick bits", self.dur, w.wd)));
+            return Err(err(format!(
+                "{} ticks do not fit {} tick bits",
+                self.dur, w.wd
+            )));
         }
         if !fits(u128::from(self.t0) + u128::from(self.dur), w.wt) {
             return Err(err(format!("ends after tick 2^{}", w.wt)));

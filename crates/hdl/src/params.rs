@@ -121,7 +121,7 @@ impl CoreParams {
             )));
         }
         let rb = self.radix_bits;
-        if self.radicand_bits > 128 || self.radicand_bits % (2 * rb) != 0 {
+        if self.radicand_bits > 128 || !self.radicand_bits.is_multiple_of(2 * rb) {
             return Err(bad(format!(
                 "radicand bits must be a multiple of {} up to 128, got {}",
                 2 * rb,
@@ -254,7 +254,10 @@ mod tests {
     #[test]
     fn default_latencies_are_the_core_models() -> Result<(), HdlError> {
         use multistep_core::tdm::Latencies;
-        assert_eq!(CoreParams::default().widths()?.latencies(), Latencies::default());
+        assert_eq!(
+            CoreParams::default().widths()?.latencies(),
+            Latencies::default()
+        );
         let r2 = CoreParams {
             radix_bits: 1,
             ..Default::default()

@@ -8,8 +8,8 @@ mod common;
 use common::{params, random_move, IntMove, Rng, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
 use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
-use multistep_hdl::tools::{simulate, SimOutput};
 use multistep_core::Profile;
+use multistep_hdl::tools::{simulate, SimOutput};
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design};
 
 /// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
@@ -55,10 +55,18 @@ fn check_timing(out: &SimOutput, lat: Latencies, name: &str) {
         assert_eq!(sels.len(), pushes.len(), "{name}: calculator {c}");
         for (s, p) in sels.iter().zip(pushes) {
             // select in cycle s, FIFO write in cycle p: p − s + 1 cycles
-            assert_eq!(p - s + 1, lat.latency(), "{name}: calculator {c} period at {s}");
+            assert_eq!(
+                p - s + 1,
+                lat.latency(),
+                "{name}: calculator {c} period at {s}"
+            );
         }
         if let Some(gap) = sels.windows(2).map(|w| w[1] - w[0]).min() {
-            assert_eq!(gap, lat.interval(), "{name}: calculator {c} closest selects");
+            assert_eq!(
+                gap,
+                lat.interval(),
+                "{name}: calculator {c} closest selects"
+            );
         }
     }
 }
@@ -83,14 +91,37 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[(IntMove, AxisMove)], name: &str) 
         .sum();
     assert_eq!(out.dir, dirs, "{name}: DIR lines");
     let steps: usize = regs.iter().map(|m| m.steps() as usize).sum();
-    assert_eq!(out.sels.iter().map(Vec::len).sum::<usize>(), steps, "{name}");
+    assert_eq!(
+        out.sels.iter().map(Vec::len).sum::<usize>(),
+        steps,
+        "{name}"
+    );
     check_timing(&out, d.widths.latencies(), name);
+    // the prefill: the model's start tick (P periods back to back) plus the RTL's start
+    // write, one init cycle per axis of a calculator and the cycle from ready to go
+    let lat = d.widths.latencies();
+    let fill = |ms: &[AxisMove]| {
+        let p_: u64 = ms
+            .iter()
+            .map(|m| m.steps().min(u64::from(p.fifo_depth)))
+            .sum();
+        (p_ - 1) * lat.interval() + lat.latency() + ms.len() as u64 + 2
+    };
+    let go = match arch {
+        Arch::Tdm => fill(&regs),
+        Arch::Independent => regs.chunks(1).map(fill).max().unwrap(),
+    };
+    assert_eq!(out.go_cycle - out.start_cycle, go, "{name}: group start");
     let ints: Vec<IntMove> = moves.iter().map(|m| m.0.clone()).collect();
     let (model, underruns) = board(p, &ints);
     assert_eq!(underruns, 0, "{name}: the board underruns");
     for (a, (im, _)) in moves.iter().enumerate() {
         let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
-        assert_eq!(out.edges[a].len(), want.len(), "{name}: axis {a} step count");
+        assert_eq!(
+            out.edges[a].len(),
+            want.len(),
+            "{name}: axis {a} step count"
+        );
         if let Some(k) = (0..want.len()).find(|&k| out.edges[a][k] != want[k]) {
             panic!(
                 "{name}: axis {a} step {} at tick {} in RTL, {} in core::int ({im:?})",
@@ -99,8 +130,17 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[(IntMove, AxisMove)], name: &str) 
                 want[k]
             );
         }
-        assert_eq!(out.falls[a], half_interval_falls(&want), "{name}: axis {a} falls");
-        assert_board_edges(&model[a], &want, &im.float_profile(), &format!("{name}: axis {a}"));
+        assert_eq!(
+            out.falls[a],
+            half_interval_falls(&want),
+            "{name}: axis {a} falls"
+        );
+        assert_board_edges(
+            &model[a],
+            &want,
+            &im.float_profile(),
+            &format!("{name}: axis {a}"),
+        );
     }
     out
 }
@@ -171,7 +211,12 @@ fn every_mode_at_radix_2_and_4() {
         };
         let a = AxisMove::from_profile(&m.profile(), true, &p).unwrap();
         assert_eq!(a.pieces.len(), 3);
-        cosim(Arch::Tdm, &p, &[(m.clone(), a)], &format!("modes-r{radix_bits}"));
+        cosim(
+            Arch::Tdm,
+            &p,
+            &[(m.clone(), a)],
+            &format!("modes-r{radix_bits}"),
+        );
     }
     let r2 = CoreParams {
         radix_bits: 1,

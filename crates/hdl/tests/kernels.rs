@@ -35,7 +35,10 @@ fn moves_too_wide_for_the_core_are_refused() {
     let widest = profile
         .pieces()
         .iter()
-        .filter_map(|p| p.kernel().map(|k| bits(k.radicand(0)).max(bits(k.radicand(p.steps - 1)))))
+        .filter_map(|p| {
+            p.kernel()
+                .map(|k| bits(k.radicand(0)).max(bits(k.radicand(p.steps - 1))))
+        })
         .max()
         .unwrap();
     assert!((101..=128).contains(&widest), "{widest} bits");

@@ -21,6 +21,14 @@ impl Rng {
         self.0 ^= self.0 >> 27;
         self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
     }
+    /// 0 half of the time, else uniform in lo..=hi (a speed or phase that may be absent).
+    pub fn zero_or(&mut self, lo: u64, hi: u64) -> u64 {
+        if self.next() & 1 == 0 {
+            0
+        } else {
+            self.range(lo, hi)
+        }
+    }
     /// Uniform in lo..=hi.
     pub fn range(&mut self, lo: u64, hi: u64) -> u64 {
         lo + self.next() % (hi - lo + 1)
@@ -101,19 +109,27 @@ pub fn random_move(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> (Int
 
 fn random_segments(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> Option<IntMove> {
     let n = rng.range(1, u64::from(p.pieces));
-    let mut v0 = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax) };
+    let mut v0 = rng.zero_or(0, vmax);
     let mut segs = Vec::new();
     for k in 0..n {
         let d = rng.range(ticks / (2 * n), 2 * ticks / n).max(400);
         // n steps end at speed 2n/T − v0 in [0, vmax]
         let lo = (v0 * d).div_ceil(2 * HZ).max(1);
         let hi = ((v0 + vmax) * d) / (2 * HZ);
-        let hi = if k + 1 == n && rng.next() & 1 == 0 { lo } else { hi };
+        let hi = if k + 1 == n && rng.next() & 1 == 0 {
+            lo
+        } else {
+            hi
+        };
         if hi < lo {
             return None;
         }
         let steps = rng.range(lo, hi);
-        segs.push(IntSegment { v0, ticks: d, steps });
+        segs.push(IntSegment {
+            v0,
+            ticks: d,
+            steps,
+        });
         v0 = (2 * steps * HZ).saturating_sub(v0 * d) / d;
     }
     Some(IntMove::Segments(segs))
@@ -122,9 +138,9 @@ fn random_segments(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> Opti
 fn random_phase(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
     let ta = rng.range(ticks / 8, ticks / 3);
     let tc = rng.range(ticks / 8, ticks / 3);
-    let tb = if rng.next() % 3 == 0 { 0 } else { rng.range(1, ticks / 3) };
-    let vs = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax / 2) };
-    let ve = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vmax / 2) };
+    let tb = rng.zero_or(1, ticks / 3);
+    let vs = rng.zero_or(0, vmax / 2);
+    let ve = rng.zero_or(0, vmax / 2);
     let vm = rng.range(vmax / 2, vmax);
     // 2N·F = vs·Ta + ve·Tc + vm·(Ta + 2Tb + Tc)
     let steps = (vs * ta + ve * tc + vm * (ta + 2 * tb + tc)) / (2 * HZ);
@@ -140,8 +156,8 @@ fn random_phase(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
 
 fn random_limits(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
     let vm = rng.range(vmax / 2, vmax);
-    let vs = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vm / 2) };
-    let ve = if rng.next() & 1 == 0 { 0 } else { rng.range(0, vm / 2) };
+    let vs = rng.zero_or(0, vm / 2);
+    let ve = rng.zero_or(0, vm / 2);
     // reach vm in about a third of the move
     let amax = (vm * HZ * 3 / ticks).max(1);
     let steps = rng.range(1, vm * ticks / HZ);
