@@ -225,6 +225,54 @@ fn every_mode_at_radix_2_and_4() {
     assert_eq!(r2.widths().unwrap().latencies(), Latencies::RADIX2);
 }
 
+/// Other widths and radices: radix 8 and radix 16 result digits, a 72-bit radicand, 40-bit
+/// kernels, 16 tick bits, 10 step bits, FIFO depth 4, on trapezoids whose kernels fit.
+#[test]
+fn narrow_widths_and_other_radices() {
+    let narrow = CoreParams {
+        axes: 2,
+        fifo_depth: 4,
+        pieces: 4,
+        step_bits: 10,
+        tick_bits: 16,
+        radicand_bits: 72,
+        kernel_bits: 40,
+        radix_bits: 3,
+        clock_hz: 1e6,
+        max_rate: 5e3,
+        max_piece_s: 0.05,
+    };
+    let trapezoid = |steps, ta, tb, tc| {
+        IntMove::Phase(IntPhaseMove {
+            steps,
+            accel_ticks: ta,
+            cruise_ticks: tb,
+            decel_ticks: tc,
+            start_speed: 0,
+            end_speed: 0,
+        })
+    };
+    let moves = [
+        trapezoid(300, 40_000, 20_000, 40_000),
+        trapezoid(250, 30_000, 45_000, 25_000),
+    ];
+    for (radix_bits, radicand_bits) in [(3, 72), (4, 64)] {
+        let p = CoreParams {
+            radix_bits,
+            radicand_bits,
+            ..narrow.clone()
+        };
+        let regs: Vec<_> = moves
+            .iter()
+            .map(|m| {
+                let r = AxisMove::from_profile(&m.profile(), true, &p).unwrap();
+                (m.clone(), r)
+            })
+            .collect();
+        cosim(Arch::Tdm, &p, &regs, &format!("narrow-r{radix_bits}"));
+    }
+}
+
 /// Issue 4's goal in model and RTL: at 100 000 steps/s per axis (trapezoids 2/6/2 ms at
 /// 50 MHz, all started together) the core TDM model with the RTL's latencies finds the
 /// largest axis count with no underrun (>= 8); the RTL runs that many with no underrun and
