@@ -7,6 +7,42 @@ mod common;
 use common::{params, random_move, Rng, CLOCK};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove, IntProfile, IntSegment};
 use multistep_hdl::{AxisMove, CoreParams, HdlError};
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Any phase trapezoid at 50 MHz: either it becomes registers whose every radicand
+    /// (sampled inside each piece too) fits the core and whose edges are core::int's, or it
+    /// is refused with a typed error naming the piece or the move.
+    #[test]
+    fn phase_moves_fit_exactly_or_are_refused(
+        steps in 1u64..20_000,
+        ta in 0u64..3_000_000,
+        tb in 0u64..3_000_000,
+        tc in 1u64..3_000_000,
+        vs in 0u64..50_000,
+        ve in 0u64..50_000,
+        pick in any::<u64>(),
+    ) {
+        let m = IntPhaseMove { steps, accel_ticks: ta, cruise_ticks: tb, decel_ticks: tc, start_speed: vs, end_speed: ve };
+        let Ok(profile) = IntProfile::phase(&m, CLOCK) else { return Ok(()) };
+        let p = CoreParams { radicand_bits: 120, ..params(1) };
+        let w = p.widths().unwrap();
+        match AxisMove::from_profile(&profile, false, &p) {
+            Ok(a) => {
+                for pc in &a.pieces {
+                    let j = pick % pc.steps;
+                    prop_assert!(pc.kernel.radicand(j) >> w.wy == 0);
+                    prop_assert!(pc.kernel.dv >> w.wk == 0);
+                }
+                let want: Vec<u64> = IntEdgeGenerator::new(profile).collect();
+                prop_assert_eq!(a.edges(), want);
+            }
+            Err(e) => prop_assert!(matches!(e, HdlError::Piece { .. } | HdlError::Move(_)), "{e}"),
+        }
+    }
+}
 
 #[test]
 fn random_moves_edges_are_core_int_edges() {
