@@ -210,7 +210,8 @@ module ms_core #(
                 .empty(fifo_empty[a]), .full(fifo_full[a]));
             ms_pulse #(.WP(WD)) u_pulse (
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
-                .empty(fifo_empty[a]), .more(calc_act[a]), .pop(fifo_pop[a]),
+                .empty(fifo_empty[a]), .more(calc_act[a]),
+                .arrive(done && ({1'b0, m} == a)), .ain(period[WD-1:0]), .pop(fifo_pop[a]),
                 .step(step[a]), .running(running[a]), .underrun(underrun[a]));
         end
     endgenerate

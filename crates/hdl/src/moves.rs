@@ -111,7 +111,8 @@ impl AxisMove {
         Ok(m)
     }
 
-    /// Checks the move against the core: slot count, every register's width, every period.
+    /// Checks the move against the core: slot count, every register's width, every period
+    /// (at least 2 ticks, at most the tick bits).
     pub fn check(&self, p: &CoreParams) -> Result<(), HdlError> {
         let w = p.widths()?;
         if self.pieces.is_empty() || self.pieces.len() > p.pieces as usize {
@@ -133,6 +134,14 @@ impl AxisMove {
                     e.wrapping_sub(prev),
                     i + 1,
                     w.wd
+                )));
+            }
+            // the 50 % pulse needs a tick high and a tick low (the first edge may be at 1)
+            if i > 0 && e - prev < 2 {
+                return Err(HdlError::Move(format!(
+                    "step {} is {} tick after the previous one (at least 2)",
+                    i + 1,
+                    e - prev
                 )));
             }
             prev = e;

@@ -30,6 +30,12 @@ fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
 /// The core's TDM board on the same moves (float twins) with the RTL's latencies: its
 /// edges from the group's start, and its underrun count.
 fn board(p: &CoreParams, moves: &[IntMove]) -> (Vec<Vec<u64>>, u64) {
+    let (e, _, u) = board_pulses(p, moves);
+    (e, u)
+}
+
+/// The board's rises and falls per axis (from the group's start) and its underruns.
+fn board_pulses(p: &CoreParams, moves: &[IntMove]) -> (Vec<Vec<u64>>, Vec<Vec<u64>>, u64) {
     let w = p.widths().unwrap();
     let mut axes: Vec<Axis> = moves
         .iter()
@@ -44,8 +50,17 @@ fn board(p: &CoreParams, moves: &[IntMove]) -> (Vec<Vec<u64>>, u64) {
     let board = Board::new(cfg, &mut axes).unwrap();
     let start = board.start_tick();
     let mut edges = vec![Vec::new(); moves.len()];
-    let report = board.run(|sp| edges[sp.axis].push(sp.rise - start));
-    (edges, report.underruns)
+    let mut falls = vec![Vec::new(); moves.len()];
+    let report = board.run(|sp| {
+        edges[sp.axis].push(sp.rise - start);
+        falls[sp.axis].push(sp.fall - start);
+    });
+    for (e, f) in edges.iter_mut().zip(&mut falls) {
+        // pulses arrive per axis in step order, but a fall may come later than the next rise
+        e.sort_unstable();
+        f.sort_unstable();
+    }
+    (edges, falls, report.underruns)
 }
 
 /// Every select-to-FIFO-write takes the latency; selects are never closer than the
@@ -355,35 +370,72 @@ fn fifo_absorbs_a_fast_burst() {
     cosim(Arch::Tdm, &p, &moves, "burst");
 }
 
-/// When the calculator cannot keep up the pulse unit flags an underrun, and its edges are
-/// late, never early; the board reports underruns too.
+/// When the calculator cannot keep up, the pulse units flag underruns and run exactly as
+/// the core's TDM model says: every rise and every fall of every axis equals the board's
+/// (late edges, STEP held high while a period is missing), never early against core::int.
 #[test]
-fn underrun_is_flagged_and_edges_are_late() {
-    let p = CoreParams {
-        axes: 6,
-        fifo_depth: 2,
-        ..Default::default()
+fn overloaded_core_equals_the_model_edge_by_edge() {
+    let fast = |v0: u64, steps: u64| {
+        IntMove::Segments(vec![multistep_core::int::IntSegment {
+            v0,
+            ticks: 50_000,
+            steps,
+        }])
     };
-    // 200 k steps/s: 250 ticks per step, 6 x 50 cycles of calculator per step
-    let m = IntMove::Segments(vec![multistep_core::int::IntSegment {
-        v0: 200_000,
-        ticks: 50_000,
-        steps: 200,
-    }]);
-    let regs = AxisMove::from_profile(&m.profile(), false, &p).unwrap();
-    let d = Design::new(&p, Arch::Tdm).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let all = vec![regs.clone(); 6];
-    let out = simulate(&d, &all, dir.path(), 1_000_000).unwrap_or_else(|e| panic!("{e}"));
-    assert_ne!(out.underrun, 0);
-    let want = regs.edges();
-    for e in &out.edges {
-        assert_eq!(e.len(), want.len());
-        assert!(e.iter().zip(&want).all(|(r, m)| r >= m));
+    let mut rng = Rng(0x0be2_10ad);
+    // (axes, FIFO depth, radix bits, moves): 200 k steps/s against 6 x 50 cycles; 16 axes
+    // waiting longer than half a period; radix 2 with mixed random moves
+    let runs: Vec<(u32, u32, u32, Vec<IntMove>)> = vec![
+        (6, 2, 2, vec![fast(200_000, 200); 6]),
+        (
+            16,
+            2,
+            2,
+            (0..16).map(|a| fast(150_000 + 5_000 * a, 160)).collect(),
+        ),
+        (
+            5,
+            4,
+            1,
+            (0..5)
+                .map(|_| random_move(&mut rng, &params(5), 240_000, 60_000).0)
+                .collect(),
+        ),
+    ];
+    for (k, depth, radix_bits, moves) in runs {
+        let p = CoreParams {
+            axes: k,
+            fifo_depth: depth,
+            radix_bits,
+            ..Default::default()
+        };
+        let regs: Vec<AxisMove> = moves
+            .iter()
+            .map(|m| AxisMove::from_profile(&m.profile(), false, &p).unwrap())
+            .collect();
+        let d = Design::new(&p, Arch::Tdm).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = simulate(&d, &regs, dir.path(), 4_000_000).unwrap_or_else(|e| panic!("{e}"));
+        let (rises, falls, underruns) = board_pulses(&p, &moves);
+        let name = format!("K = {k}, depth {depth}, radix bits {radix_bits}");
+        assert!(underruns > 0 && out.underrun != 0, "{name}: not overloaded");
+        for a in 0..k as usize {
+            assert_eq!(out.edges[a], rises[a], "{name}: axis {a} rises");
+            if let Some(i) = (0..falls[a].len()).find(|&i| out.falls[a].get(i) != falls[a].get(i)) {
+                panic!(
+                    "{name}: axis {a} fall {i} of {}: RTL {:?}, model {}; rises {:?} / {:?}",
+                    falls[a].len(),
+                    out.falls[a].get(i),
+                    falls[a][i],
+                    &out.edges[a][i.saturating_sub(2)..(i + 2).min(out.edges[a].len())],
+                    &rises[a][i.saturating_sub(2)..(i + 2).min(rises[a].len())]
+                );
+            }
+            assert_eq!(out.falls[a].len(), falls[a].len(), "{name}: axis {a} falls");
+            let exact = regs[a].edges();
+            assert!(out.edges[a].iter().zip(&exact).all(|(r, e)| r >= e));
+        }
     }
-    assert!(out.edges.iter().any(|e| e.last() > want.last()));
-    let (_, underruns) = board(&p, &vec![m; 6]);
-    assert!(underruns > 0);
 }
 
 /// Seed 000's two-axis experiment (trapezoids of 2400 and 1800 steps, 20 ms accel, 10 ms
