@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{params, random_move, IntMove, Rng, HZ};
+use common::{narrow_params, params, random_move, IntMove, Rng, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
 use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
 use multistep_core::Profile;
@@ -244,19 +244,7 @@ fn every_mode_at_radix_2_and_4() {
 /// kernels, 16 tick bits, 10 step bits, FIFO depth 4, on trapezoids whose kernels fit.
 #[test]
 fn narrow_widths_and_other_radices() {
-    let narrow = CoreParams {
-        axes: 2,
-        fifo_depth: 4,
-        pieces: 4,
-        step_bits: 10,
-        tick_bits: 16,
-        radicand_bits: 72,
-        kernel_bits: 40,
-        radix_bits: 3,
-        clock_hz: 1e6,
-        max_rate: 5e3,
-        max_piece_s: 0.05,
-    };
+    let narrow = narrow_params(2, 4, 4);
     let trapezoid = |steps, ta, tb, tc| {
         IntMove::Phase(IntPhaseMove {
             steps,

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::params;
+use common::{narrow_params, params};
 use multistep_hdl::report::{parse_stat, sweep, Baseline, Target};
 use multistep_hdl::tools::{find, lint};
 use multistep_hdl::{Arch, CoreParams, Design, HdlError};
@@ -21,19 +21,7 @@ fn verilator_lint_is_clean() {
         lint(&d, dir.path()).unwrap_or_else(|e| panic!("K = {k} {arch:?}: {e}"));
     }
     // narrow widths and a deep FIFO lint clean too
-    let p = CoreParams {
-        axes: 4,
-        fifo_depth: 64,
-        pieces: 2,
-        step_bits: 10,
-        tick_bits: 16,
-        radicand_bits: 72,
-        kernel_bits: 40,
-        radix_bits: 3,
-        clock_hz: 1e6,
-        max_rate: 5e3,
-        max_piece_s: 0.05,
-    };
+    let p = narrow_params(4, 64, 2);
     let dir = tempfile::tempdir().unwrap();
     lint(&Design::new(&p, Arch::Tdm).unwrap(), dir.path())
         .unwrap_or_else(|e| panic!("narrow: {e}"));

@@ -177,3 +177,20 @@ pub fn params(axes: u32) -> CoreParams {
         ..Default::default()
     }
 }
+
+/// A narrow core: 10 step bits, 16 tick bits, a 72-bit radicand, 40-bit kernels, radix 8.
+pub fn narrow_params(axes: u32, fifo_depth: u32, pieces: u32) -> CoreParams {
+    CoreParams {
+        axes,
+        fifo_depth,
+        pieces,
+        step_bits: 10,
+        tick_bits: 16,
+        radicand_bits: 72,
+        kernel_bits: 40,
+        radix_bits: 3,
+        clock_hz: 1e6,
+        max_rate: 5e3,
+        max_piece_s: 0.05,
+    }
+}
