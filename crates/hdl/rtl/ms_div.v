@@ -11,14 +11,14 @@ module ms_div #(
     input  wire          start,
     input  wire [WN-1:0] num,
     input  wire [WD-1:0] den,
-    output reg           fin,
+    output wire          fin,
     output reg  [WQ-1:0] q
 );
     localparam NQ = WQ / RB;
     reg [WD-1:0] rem;
     reg [WD-1:0] rden;
-    reg [7:0]    cnt;
-    reg          busy;
+    wire         busy;   // iterating
+    ms_steps #(.N(NQ)) u_steps (.clk(clk), .start(start), .busy(busy), .fin(fin));
     // RB restoring steps in one cycle; the low numerator bits shift through q
     reg [WD-1:0] nrem;
     reg [WQ-1:0] nq;
@@ -47,24 +47,14 @@ module ms_div #(
     /* verilator lint_off UNUSED */
     wire [WD+WN-WQ-1:0] hi_ext = {{WD{1'b0}}, num[WN-1:WQ]};
     /* verilator lint_on UNUSED */
-    initial begin
-        busy = 1'b0;
-        fin = 1'b0;
-    end
     always @(posedge clk) begin
-        fin <= 1'b0;
         if (start) begin
             rem  <= hi_ext[WD-1:0];
             q    <= num[WQ-1:0];
             rden <= den;
-            cnt  <= NQ[7:0];
-            busy <= 1'b1;
         end else if (busy) begin
-            rem  <= nrem;
-            q    <= nq;
-            cnt  <= cnt - 8'd1;
-            busy <= (cnt != 8'd1);
-            fin  <= (cnt == 8'd1);
+            rem <= nrem;
+            q   <= nq;
         end
     end
 endmodule

@@ -9,15 +9,15 @@ module ms_isqrt #(
     input  wire           clk,
     input  wire           start,
     input  wire [W-1:0]   x,
-    output reg            fin,
+    output wire           fin,
     output reg  [W/2-1:0] q,
     output reg  [W/2+1:0] r
 );
     localparam WR = W / 2;
     localparam NS = WR / RB;
     reg [W-1:0] rx;
-    reg [7:0]   cnt;
-    reg         busy;
+    wire        busy;   // iterating
+    ms_steps #(.N(NS)) u_steps (.clk(clk), .start(start), .busy(busy), .fin(fin));
     // RB restoring steps in one cycle: bring down two radicand bits, try 4q + 1
     reg [W-1:0]    nx;
     reg [WR-1:0]   nq;
@@ -48,25 +48,15 @@ module ms_isqrt #(
             end
         end
     end
-    initial begin
-        busy = 1'b0;
-        fin = 1'b0;
-    end
     always @(posedge clk) begin
-        fin <= 1'b0;
         if (start) begin
-            rx   <= x;
-            q    <= {WR{1'b0}};
-            r    <= {(WR+2){1'b0}};
-            cnt  <= NS[7:0];
-            busy <= 1'b1;
+            rx <= x;
+            q  <= {WR{1'b0}};
+            r  <= {(WR+2){1'b0}};
         end else if (busy) begin
-            rx   <= nx;
-            q    <= nq;
-            r    <= nr;
-            cnt  <= cnt - 8'd1;
-            busy <= (cnt != 8'd1);
-            fin  <= (cnt == 8'd1);
+            rx <= nx;
+            q  <= nq;
+            r  <= nr;
         end
     end
 endmodule

@@ -13,14 +13,14 @@ module ms_nmul #(
     input  wire          start,
     input  wire [WA-1:0] a,
     input  wire [WJ-1:0] j,
-    output reg           fin,
+    output wire          fin,
     output reg  [WA-1:0] p
 );
     localparam ND  = (WJ + MD - 1) / MD;
     localparam WJP = ND * MD;
     reg [WJP-1:0] jr;       // digits not yet used, at the top
-    reg [7:0]     cnt;      // digits left after this cycle's
-    reg           busy;
+    wire          busy;     // a digit after the first
+    ms_steps #(.N(ND - 1)) u_steps (.clk(clk), .start(start), .busy(busy), .fin(fin));
     reg [WJP-1:0] jx;       // j zero-extended to whole digits
     always @(*) begin
         jx = {WJP{1'b0}};
@@ -33,18 +33,10 @@ module ms_nmul #(
     wire [WA+MD-1:0] acc  = {p, {MD{1'b0}}};
     /* verilator lint_on UNUSED */
     wire [WA-1:0]  sum   = (start ? {WA{1'b0}} : acc[WA-1:0]) + part[WA-1:0];
-    initial begin
-        busy = 1'b0;
-        fin = 1'b0;
-    end
     always @(posedge clk) begin
-        fin <= 1'b0;
         if (start || busy) begin
-            p    <= sum;
-            jr   <= src << MD;
-            cnt  <= start ? ND[7:0] - 8'd1 : cnt - 8'd1;
-            busy <= start ? (ND > 1) : (cnt != 8'd1);
-            fin  <= start ? (ND == 1) : (cnt == 8'd1);
+            p  <= sum;
+            jr <= src << MD;
         end
     end
 endmodule

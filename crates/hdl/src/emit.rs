@@ -7,7 +7,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The RTL library, one small module per file.
-pub const LIBRARY: [(&str, &str); 7] = [
+pub const LIBRARY: [(&str, &str); 8] = [
+    ("ms_steps.v", include_str!("../rtl/ms_steps.v")),
     ("ms_nmul.v", include_str!("../rtl/ms_nmul.v")),
     ("ms_isqrt.v", include_str!("../rtl/ms_isqrt.v")),
     ("ms_div.v", include_str!("../rtl/ms_div.v")),
