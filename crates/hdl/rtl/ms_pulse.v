@@ -2,9 +2,9 @@
 // `go` it takes the first period from its FIFO; STEP rises when a period has elapsed (the
 // edge tick) and stays high for half of the interval to the next edge (50 % duty, seed 000;
 // the last pulse for half of its own interval, at least one tick). An underrun (period
-// over, FIFO empty, more steps to come) is flagged; the period is loaded when it arrives,
-// so that edge and the later ones are late by the delay, and STEP stays high until then,
-// then for what is left of half the interval from its rise to the next edge.
+// over, FIFO empty, more steps to come) is flagged; the period is loaded as it arrives, so
+// that edge and the later ones are late by the delay, and STEP stays high until then, then
+// for what is left of half the interval from its rise to the next edge.
 module ms_pulse #(
     parameter WP = 24
 ) (
@@ -20,26 +20,23 @@ module ms_pulse #(
     output reg           running,
     output reg           underrun
 );
-    reg [WP-1:0] cnt;    // ticks left in the current period
+    // ticks left in the current period; while waiting for a period, minus the ticks waited
+    reg [WP-1:0] cnt;
     reg [WP-1:0] hcnt;   // ticks left of STEP high
-    reg [WP-1:0] half;   // half of the period in progress: the last pulse's high time
-    reg [WP-1:0] late;   // ticks waited for the period (saturating)
+    reg [WP-1:0] half;   // half of the interval in progress: the last pulse's high time
     reg          waiting;
     reg          last;   // the edge of the last step has been made
     wire edge_now = running && !waiting && !last && (cnt == {{(WP-1){1'b0}}, 1'b1});
     wire start    = go && !running && !empty;
-    wire refill   = waiting && !empty;
-    assign pop = start || refill || (edge_now && !empty);
-    // On refill the pulse has been high for `late` + 1 ticks of an interval of that plus
-    // din - 1: high on for (din - late - 2) / 2 more ticks when that is positive.
-    wire [WP:0]  rest = {1'b0, din} - {1'b0, late} - {{(WP-1){1'b0}}, 2'd2};
+    wire late_in  = waiting && arrive;   // the missing period, loaded as it is pushed
+    assign pop = start || late_in || (edge_now && (!empty || arrive));
+    // The held pulse rose `w` = -cnt ticks ago; the interval to the next edge is ain + w:
+    // STEP stays high for (ain - w) / 2 more ticks when positive.
+    wire [WP:0] cnt_s = {cnt[WP-1], cnt};
+    wire [WP:0] rest  = {1'b0, ain} + cnt_s;
     /* verilator lint_off UNUSED */  // only half of it is kept
-    wire [WP:0]  span = {1'b0, din} + {1'b0, late};   // the interval from that rise on
+    wire [WP:0] span  = {1'b0, ain} - cnt_s;
     /* verilator lint_on UNUSED */
-    // A period arriving now that leaves at most one tick of high time ends the pulse now,
-    // as it is loaded (the model's fall = max(load, rise + interval / 2)).
-    wire         drop = waiting && arrive
-                     && ({1'b0, ain} <= {1'b0, late} + {{(WP-1){1'b0}}, 2'd2});
     initial begin
         step = 1'b0;
         running = 1'b0;
@@ -62,20 +59,23 @@ module ms_pulse #(
                     cnt  <= din;
                     hcnt <= {1'b0, din[WP-1:1]};
                     half <= {1'b0, din[WP-1:1]};
+                end else if (arrive) begin
+                    // the period arrives just in time
+                    cnt  <= ain;
+                    hcnt <= {1'b0, ain[WP-1:1]};
+                    half <= {1'b0, ain[WP-1:1]};
                 end else if (more) begin
-                    // STEP stays high until the period arrives
+                    // STEP stays high until the period arrives; cnt counts the wait down
                     underrun <= 1'b1;
                     waiting  <= 1'b1;
-                    late     <= {WP{1'b0}};
-                    hcnt     <= {WP{1'b0}};
+                    cnt      <= {WP{1'b1}};
                 end else begin
                     // the last step: high for half of the period just ended (>= 1)
                     hcnt <= (half == {WP{1'b0}}) ? {{(WP-1){1'b0}}, 1'b1} : half;
                     last <= 1'b1;
                 end
-            end else if (refill) begin
-                // the period starts now: the next edge is din - 1 ticks on
-                cnt     <= din - 1'b1;
+            end else if (late_in) begin
+                cnt     <= ain;
                 half    <= span[WP:1];
                 waiting <= 1'b0;
                 if (rest[WP] || rest[WP:1] == {WP{1'b0}}) begin
@@ -84,8 +84,7 @@ module ms_pulse #(
                     hcnt <= rest[WP:1];
                 end
             end else if (waiting) begin
-                if (late != {WP{1'b1}}) late <= late + 1'b1;
-                if (drop) step <= 1'b0;
+                cnt <= cnt - 1'b1;
                 if (!more) begin
                     waiting <= 1'b0;   // cannot happen: `more` falls with the last push
                     running <= 1'b0;
