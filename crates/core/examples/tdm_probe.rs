@@ -1,16 +1,17 @@
-//! One run of the 16-axis bench workload, for instruction counting under valgrind:
-//! `tdm_probe rr|edf|gen`.
+//! One run of the TDM bench workload, for instruction counting under valgrind:
+//! `tdm_probe rr|edf|gen [axes]` (16 axes by default; see benches/tdm.rs).
 use multistep_core::tdm::{rate_move, Axis, Board, Policy, TdmConfig};
 use multistep_core::EdgeGenerator;
 fn main() {
     let mode = std::env::args().nth(1).unwrap_or_default();
-    let mut axes: Vec<Axis> = (0..16)
+    let k: usize = std::env::args()
+        .nth(2)
+        .map_or(16, |s| s.parse().expect("axes: a number"));
+    let scale = 16.0 / k as f64;
+    let mut axes: Vec<Axis> = (0..k)
         .map(|m| {
-            Axis::new(
-                rate_move(20e3 + 2e3 * m as f64, 0.4, 0.2, 0.4).unwrap(),
-                50e6,
-            )
-            .unwrap()
+            let rate = scale * (20e3 + 2e3 * (m % 16) as f64);
+            Axis::new(rate_move(rate, 0.4, 0.2, 0.4).unwrap(), 50e6).unwrap()
         })
         .collect();
     let mut s = 0u64;
@@ -35,6 +36,7 @@ fn main() {
             .unwrap()
             .run(|p| s = s.wrapping_add(p.rise ^ p.fall));
         assert_eq!(r.underruns, 0);
+        assert_eq!(r.edges, 336_000);
     }
     println!("{s}");
 }
