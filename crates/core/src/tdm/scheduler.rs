@@ -142,13 +142,10 @@ impl Queue {
         let mask = self.eligible;
         let m = match policy {
             Policy::RoundRobin => {
-                // the first eligible axis at or after the pointer, wrapping around
-                let later = mask >> *next;
-                if later != 0 {
-                    *next + later.trailing_zeros() as usize
-                } else {
-                    mask.trailing_zeros() as usize
-                }
+                // the first eligible axis at or after the pointer, wrapping around: rotated
+                // right by the pointer, axes before it sit above every axis after it
+                // (bits k…63 are clear), so no branch is needed
+                (*next + mask.rotate_right(*next as u32).trailing_zeros() as usize) % 64
             }
             Policy::EarliestDeadline => {
                 // (need, axis) packed in one key: the smallest is the earliest, then lowest m
