@@ -1,5 +1,4 @@
-//! The integer edge stream: one [`IntPiece::edge`] per step, the step target advanced by
-//! one addition (`M += Den`).
+//! The integer edge stream: the pieces in order, each step one [`IntPiece::edge`].
 
 use super::piece::IntPiece;
 use super::plan::IntProfile;
@@ -9,20 +8,21 @@ use super::plan::IntProfile;
 #[derive(Clone, Debug)]
 pub struct IntEdgeGenerator {
     profile: IntProfile,
-    /// Next step (1-based), its piece and its target `Den·i − C` in that piece.
-    next: u64,
+    /// The piece being played and its next step (0-based within the piece).
     piece: usize,
-    m: u128,
+    j: u64,
+    /// Steps still to come.
+    left: u64,
 }
 
 impl IntEdgeGenerator {
     pub fn new(profile: IntProfile) -> Self {
-        let m = profile.pieces()[0].target(1).unwrap_or(0);
+        let left = profile.steps();
         IntEdgeGenerator {
             profile,
-            next: 1,
             piece: 0,
-            m,
+            j: 0,
+            left,
         }
     }
 
@@ -54,30 +54,29 @@ impl Iterator for IntEdgeGenerator {
 
     #[inline]
     fn next(&mut self) -> Option<u64> {
-        let i = self.next;
-        let steps = self.profile.steps();
-        if i > steps {
-            return None;
+        match self.left {
+            0 => return None,
+            // the move ends on step N (same contract as the float generator; the kernel
+            // gives the same tick unless the move ends with a dwell)
+            1 => {
+                self.left = 0;
+                return Some(self.profile.end_tick());
+            }
+            _ => {}
         }
-        self.next += 1;
-        if i == steps {
-            // the move ends on step N (same contract as the float generator)
-            return Some(self.profile.end_tick());
-        }
-        // step i lies in the first piece whose end position is ≥ i
-        while self.m > self.current().m_end && self.piece + 1 < self.profile.pieces().len() {
+        // planning guarantees the pieces' step counts add up to the move's
+        while self.j >= self.current().steps {
             self.piece += 1;
-            self.m = self.current().target(i).unwrap_or(u128::MAX);
+            self.j = 0;
         }
-        let p = *self.current();
-        let e = p.edge(self.m);
-        self.m += p.den;
+        let e = self.current().edge(self.j);
+        self.j += 1;
+        self.left -= 1;
         Some(e)
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let r = (self.profile.steps() + 1 - self.next) as usize;
-        (r, Some(r))
+        (self.left as usize, Some(self.left as usize))
     }
 }
 

@@ -14,49 +14,40 @@
 //!   times are whole ticks this is the float planner's profile exactly.
 //!
 //! Every piece becomes `Den·(p(τ) − p0) = A·τ + B·τ²` (τ in local ticks) with integer
-//! `Den, A, B` and `C = Den·p0`; step i has target `M = Den·i − C`, advanced by `M += Den`.
+//! `Den, A, B` and `C = Den·p0`, reduced by their gcd; step i has target `M = Den·i − C`.
 //!
-//! # Per step (fixed sequence: 3 multiplies, 1 divide, 1 square root)
-//! 1. `R = (4A² + 16·B·M) / 4^k` (1 multiply, 128 × 128 → 256 bits, of which a per-piece
-//!    shift keeps the top; `4A²/4^k` is per piece) — `R = 4r/4^k`, `r = (Den·v)²` with v
-//!    the speed at the step. k = 0 unless `2·Den·vmax ≥ 2^63`; R is rounded down;
-//! 2. `s = ⌊√R⌋` (1 square root; [`isqrt`]: 126-bit radicand, 63-bit root);
-//! 3. `q = ⌊(8M − 1) / (2A + s·2^k)⌋` (1 divide; quotient ≤ 2D + 1);
-//! 4. correction: keep q iff `A + B·q ≥ 0` and `q·(2A + B·q) < 4M` (2 multiplies), else
-//!    `q − 1`;
-//! 5. `edge = t0 + ⌊(q + 1)/2⌋`.
+//! # Per step (fixed sequence: 1 narrow multiply, 1 square root, 1 divide)
+//! Planning turns each piece into a [`StepKernel`]; its j-th step is
+//! 1. `Y = Y₀ ± j·ΔY` (1 multiply by the narrow j; `Y = A² + 4BM = (Den·v)²`, v the speed
+//!    at the step);
+//! 2. `r = ⌊√Y⌋` and whether `r² = Y` (1 square root with remainder, [`isqrt`]);
+//! 3. `num = ⌈√Y⌉ + B − A − 1` (accelerating), `A + |B| − 1 − ⌊√Y⌋` (decelerating) or
+//!    `2M + A − 1` (constant speed);
+//! 4. `e = t0 + ⌊num / 2|B|⌋` (or `/ 2A`): 1 divide.
 //!
-//! Why one correction suffices: with `τ* = 2M/(A + √r)` the exact step time and
-//! `E = 8M/(2A + s·2^k)`, `s·2^k ≤ 2√r` gives `E ≥ 2τ*`; with k = 0,
-//! `E − 2τ* < 4M / ((A + √r)·(2(A + √r) − 1))`, which with `4M = |r − A²| / |B|` and
-//! `A + √r ≥ 2` is below `(2/3)/|B| < 1` for any integer `B ≠ 0` (0 for B = 0, where
-//! `√(4A²)` is exact). With k > 0 the root is short by `Δ < 2.5·2^k` and planning checks
-//! `A + √r ≥ 5·2^k` and `3|B| > 5·2^k` (`3A > 5D·2^k` when B = 0), which bound
-//! `E − 2τ* < 5·2^k/(3|B|) < 1` the same way. So `q = ⌈E⌉ − 1` is `⌈2τ*⌉ − 1` or one more,
-//! and step 4 is the exact test `p(q/2) < i` of DESIGN.md §1 on the rising branch. Step 5
-//! is then `⌈τ* − ½⌉`: the nearest tick, with an exact half tick going to the earlier tick
-//! as in the exactness test `p(e − ½) < i ≤ p(e + ½)` (and as the float generator settles
-//! it). The last step of a piece that ends on a step (`M = A·D + B·D²`) is `t0 + D`.
+//! That is the exact nearest tick `⌈τ* − ½⌉`, an exact half tick going to the earlier tick
+//! as in the exactness test `p(e − ½) < i ≤ p(e + ½)`, with no correction step: the
+//! remainder makes `⌈√Y⌉` exact and `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉` for integers y, n > 0
+//! ([`IntPiece`] docs). The FPGA calculator (crates/hdl) runs the same kernel.
 //!
 //! # Bit widths
-//! Planning checks (typed error [`IntError::TooWide`] otherwise) that `8M < 2^124` and
-//! `q·(2A + |B|q) < 2^124` for every step. The datapath needs one 128 × 128 → 256-bit
-//! multiplier (B·M; a 128-bit one when k = 0), two multiplies with the narrow operand q
-//! (⌈log2(2D + 2)⌉ bits, 33 for pieces under 2^32 ticks), a divider with a 124-bit
-//! dividend whose quotient has only ⌈log2(2D + 2)⌉ bits (so a restoring divider takes that
-//! many cycles), and a 126-bit-in, 63-bit-out square root. `Den` is the
-//! product of the phase times (and, with nonzero start/end speeds, of `f·Q`) reduced by
-//! their gcd; e.g. a 50 MHz trapezoid from rest with phases of 2^24 ticks and 10^6 steps
-//! needs `M` of about 2^70.
+//! Planning checks (typed error [`IntError::TooWide`] otherwise) that `Den`, `A`, `|B|`,
+//! `C` and `8M` stay below 2^124. Per step the datapath needs a multiplier with the narrow
+//! operand j (⌈log2 steps⌉ bits), a square root of `Y` (`2·⌈log2(Den·vmax)⌉` bits; the root
+//! has half as many) and a divider whose quotient has only ⌈log2(D + 1)⌉ bits (D the
+//! piece's ticks). `Den` is the product of the phase times (and, with nonzero start/end
+//! speeds, of `f·Q`) reduced by their gcd; e.g. a 20 ms segment at 50 MHz and 100 k
+//! steps/s needs `Y` of about 2^113. Pieces whose `Y` needs more than 128 bits run the same
+//! sequence on 256 bits in software ([`IntPiece::kernel`] is `None` for them; the RTL
+//! rejects such moves).
 
 mod gen;
 pub mod isqrt;
 mod piece;
 mod plan;
-mod wide;
 
 pub use gen::IntEdgeGenerator;
-pub use piece::IntPiece;
+pub use piece::{IntPiece, KernelMode, StepKernel};
 pub use plan::{limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
 
 use thiserror::Error;

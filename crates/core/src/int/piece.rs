@@ -1,16 +1,109 @@
-//! One constant-acceleration piece in exact integers, and the per-step datapath.
+//! One constant-acceleration piece in exact integers, and its per-step kernel.
 //!
 //! In local ticks τ ∈ [0, D] from the piece's start tick `t0`, the position above the
-//! piece's start `p0` is `(A·τ + B·τ²) / Den` steps. Step i is the m-th step target
-//! `M = Den·i − C` (`C = Den·p0`) and happens at `τ* = 2M / (A + √(A² + 4BM))` (seed 000's
-//! merged accel/decel formula, DESIGN.md §2, no cancellation).
+//! piece's start `p0` is `(A·τ + B·τ²) / Den` steps. Step i is the target
+//! `M = Den·i − C` (`C = Den·p0`) and happens at the root τ* of `A·τ + B·τ² = M`; its edge
+//! is the nearest tick, an exact half tick going to the earlier one: `e = ⌈τ* − ½⌉`
+//! (DESIGN.md §1). With `Y = A² + 4BM` (the squared speed `(Den·v)²` at the step) and
+//! `τ* = (√Y − A)/(2B)` (or `(A − √Y)/(2b)`, `b = −B`, on deceleration; `M/A` at constant
+//! speed), `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉` for integers y, n > 0 gives the edge exactly:
+//!
+//! ```text
+//! Accel  (B > 0): e = ⌊(⌈√Y⌉ + B − A − 1) / 2B⌋
+//! Decel  (B < 0): e = ⌊(A + b − 1 − ⌊√Y⌋) / 2b⌋
+//! Cruise (B = 0): e = ⌊(2M + A − 1) / 2A⌋
+//! ```
+//!
+//! In exact integers the difference √Y − A has no cancellation to fear (that is a float
+//! concern, seed 000 eq. (10)/(11) vs DESIGN.md §2), and the square root's remainder makes
+//! ⌈√Y⌉ exact, so no correction step is needed.
 
-use super::isqrt::{isqrt_u128, isqrt_u64};
-use super::wide::{mul_wide, shr};
+use super::isqrt::isqrt_u128;
 use super::IntError;
+use crypto_bigint::U256;
 
-/// Bits every per-step intermediate must fit in (checked once when the piece is built).
+/// Bits every planning quantity (Den, A, B, C, 8M) must fit in.
 const LIMIT: u32 = 124;
+
+/// Which closed form a piece's steps use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelMode {
+    Accel,
+    Decel,
+    Cruise,
+}
+
+/// The per-step datapath of one piece: for its j-th step (j = 0, 1, …)
+///
+/// ```text
+/// Y   = y0 + j·dy   (Accel, Cruise)   or   y0 − j·dy   (Decel)     1 narrow multiply
+/// num = ⌈√Y⌉ + k    (Accel)  ·  k − ⌊√Y⌋  (Decel)  ·  Y  (Cruise)   1 square root
+/// e   = ⌊num / dv⌋  (local ticks)                                  1 divide
+/// ```
+///
+/// This is what the FPGA calculator computes (crates/hdl): the host plans the piece, the
+/// calculator runs the kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepKernel {
+    pub mode: KernelMode,
+    /// Y at the piece's first step: `A² + 4B·M₀`, or `2M₀ + A − 1` on Cruise.
+    pub y0: u128,
+    /// |ΔY| per step: `4|B|·Den`, or `2·Den` on Cruise.
+    pub dy: u128,
+    /// `B − A − 1` (Accel, may be negative), `A + b − 1` (Decel), 0 (Cruise).
+    pub k: i128,
+    /// `2B`, `2b` or `2A`.
+    pub dv: u128,
+}
+
+impl StepKernel {
+    /// `Y` of the j-th step.
+    #[inline(always)]
+    pub fn radicand(&self, j: u64) -> u128 {
+        let d = j as u128 * self.dy;
+        match self.mode {
+            KernelMode::Decel => self.y0 - d,
+            _ => self.y0 + d,
+        }
+    }
+
+    /// The numerator from `Y` and `(⌊√Y⌋, Y is a square)`.
+    #[inline(always)]
+    fn numerator(&self, y: u128, root: u128, square: bool) -> u128 {
+        match self.mode {
+            KernelMode::Accel => (root as i128 + !square as i128 + self.k) as u128,
+            KernelMode::Decel => self.k as u128 - root,
+            KernelMode::Cruise => y,
+        }
+    }
+
+    /// The local edge tick of the j-th step of the piece.
+    #[inline]
+    pub fn local_edge(&self, j: u64) -> u64 {
+        let y = self.radicand(j);
+        let root = isqrt_u128(y);
+        let num = self.numerator(y, root, root * root == y);
+        divide(num, self.dv)
+    }
+}
+
+/// `⌊num / dv⌋`; a 64-bit divide when the operands allow (software speed only).
+#[inline(always)]
+fn divide(num: u128, dv: u128) -> u64 {
+    if (num | dv) >> 64 == 0 {
+        num as u64 / dv as u64
+    } else {
+        (num / dv) as u64
+    }
+}
+
+/// The radicand of a piece whose `Y` needs more than 128 bits (software only: the RTL
+/// rejects such moves). Same sequence at 256 bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct WideRadicand {
+    y0: U256,
+    dy: U256,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IntPiece {
@@ -27,10 +120,12 @@ pub struct IntPiece {
     pub c: u128,
     /// `A·D + B·D²`: Den × the steps this piece covers.
     pub m_end: u128,
-    /// The radicand `4r = (2·Den·v)²` is kept as `4r / 4^k` (k = 0 unless it needs more
-    /// than 126 bits); `4A² / 4^k` rounded down is its per-piece part.
-    pub k: u32,
-    pub(super) a2k: u128,
+    /// The move's index (1-based) of this piece's first step, and its number of steps
+    /// (step i belongs to the first piece whose end position is ≥ i; 0 if none).
+    pub first: u64,
+    pub steps: u64,
+    kernel: StepKernel,
+    wide: Option<WideRadicand>,
 }
 
 fn gcd(mut x: u128, mut y: u128) -> u128 {
@@ -56,11 +151,42 @@ fn add(x: u128, y: u128) -> Result<u128, IntError> {
     x.checked_add(y).ok_or(IntError::TooWide).and_then(fits)
 }
 
-fn bits(x: u128) -> u32 {
-    128 - x.leading_zeros()
+fn wide(x: u128) -> U256 {
+    U256::from_u128(x)
+}
+
+/// A 256-bit value below 2^128 as u128.
+fn narrow(x: &U256) -> Option<u128> {
+    (x.bits() <= 128).then(|| {
+        let b = x.to_le_bytes();
+        let mut lo = [0u8; 16];
+        lo.copy_from_slice(&b[..16]);
+        u128::from_le_bytes(lo)
+    })
 }
 
 impl IntPiece {
+    /// A placeholder for unused slots of a profile.
+    pub(super) const EMPTY: IntPiece = IntPiece {
+        t0: 0,
+        dur: 0,
+        den: 1,
+        a: 0,
+        b: 0,
+        c: 0,
+        m_end: 0,
+        first: 1,
+        steps: 0,
+        kernel: StepKernel {
+            mode: KernelMode::Cruise,
+            y0: 0,
+            dy: 0,
+            k: 0,
+            dv: 1,
+        },
+        wide: None,
+    };
+
     /// A piece from speed `u/g` to speed `w/g` (steps/tick) over `dur` ticks, starting at
     /// position `s/(2g)` steps and tick `t0`: `Den = 2gD`, `A = 2Du`, `B = w − u`, `C = Ds`,
     /// reduced by their common divisor.
@@ -84,40 +210,17 @@ impl IntPiece {
         } else {
             add(ad, bd2)?
         };
-        // the divisor operand 8M and the check q·(2A + |B|q), q ≤ 2D + 1
         mul(8, m_end)?;
-        let q = add(mul(2, d)?, 1)?;
-        mul(q, add(mul(2, a)?, mul(bm, q)?)?)?;
-        // √(4r) = 2·Den·v ≤ 2V, V = Den × the larger end speed: keep the root under 2^63
-        let v = if neg {
-            a
+        // the first step above p0 = C/Den, M₀ = Den·first − C ∈ (0, Den]
+        let first = c / den + 1;
+        let m0 = den * first - c;
+        let steps = if m0 <= m_end {
+            (m_end - m0) / den + 1
         } else {
-            add(a, mul(2, mul(bm, d)?)?)?
+            0
         };
-        let k = (bits(v) + 1).saturating_sub(63);
-        if k > 0 {
-            // rounding the radicand costs Δ < 2.5·2^k on the root; the estimate stays within
-            // one of the answer if X = A + √r ≥ 5·2^k and 3|B| > 5·2^k (3A > 5D·2^k if B = 0)
-            let x_min = if neg {
-                a
-            } else {
-                a.max(2 * isqrt_u64(bm.min(u64::MAX as u128) as u64) as u128)
-            };
-            let unit = 5u128 << k;
-            let ok = x_min >= unit
-                && if bm == 0 {
-                    3 * a > mul(unit, d)?
-                } else {
-                    3 * bm > unit
-                };
-            if !ok {
-                return Err(IntError::TooWide);
-            }
-        }
-        let (hi, lo) = mul_wide(2 * a, 2 * a);
-        let a2k = shr(hi, lo, 2 * k, false);
         let b = if neg { -(bm as i128) } else { bm as i128 };
-        Ok(IntPiece {
+        let mut piece = IntPiece {
             t0,
             dur,
             den,
@@ -125,9 +228,69 @@ impl IntPiece {
             b,
             c,
             m_end,
+            first: u64::try_from(first).map_err(|_| IntError::TooWide)?,
+            steps: u64::try_from(steps).map_err(|_| IntError::TooWide)?,
+            ..IntPiece::EMPTY
+        };
+        if steps > 0 {
+            piece.set_kernel(m0, m0 + (steps - 1) * den)?;
+        }
+        Ok(piece)
+    }
+
+    /// The kernel constants for steps with targets `m0` … `m_last`.
+    fn set_kernel(&mut self, m0: u128, m_last: u128) -> Result<(), IntError> {
+        let (a, bm, den) = (self.a, self.b.unsigned_abs(), self.den);
+        let kernel = &mut self.kernel;
+        if bm == 0 {
+            // Cruise: e = ⌊(2M + A − 1)/2A⌋, all below 2^126
+            *kernel = StepKernel {
+                mode: KernelMode::Cruise,
+                y0: 2 * m0 + a - 1,
+                dy: 2 * den,
+                k: 0,
+                dv: 2 * a,
+            };
+            return Ok(());
+        }
+        let (mode, k) = if self.b > 0 {
+            (KernelMode::Accel, bm as i128 - a as i128 - 1)
+        } else {
+            (KernelMode::Decel, (a + bm - 1) as i128)
+        };
+        // Y = A² ± 4|B|M: every term below 2^252 (A, B, M < 2^124), so no overflow
+        let a2 = wide(a).wrapping_mul(&wide(a));
+        let dy = wide(4 * bm).wrapping_mul(&wide(den));
+        let at = |m: u128| {
+            let t = wide(4 * bm).wrapping_mul(&wide(m));
+            if mode == KernelMode::Accel {
+                a2.wrapping_add(&t)
+            } else {
+                a2.wrapping_sub(&t)
+            }
+        };
+        let (y0, y_last) = (at(m0), at(m_last));
+        *kernel = StepKernel {
+            mode,
+            y0: 0,
+            dy: 0,
             k,
-            a2k,
-        })
+            dv: 2 * bm,
+        };
+        // Y is largest at the last step (Accel) or the first (Decel)
+        match (narrow(&y0), narrow(&y_last), narrow(&dy)) {
+            (Some(y0), Some(_), Some(dy)) => {
+                kernel.y0 = y0;
+                kernel.dy = dy;
+            }
+            _ => self.wide = Some(WideRadicand { y0, dy }),
+        }
+        Ok(())
+    }
+
+    /// The per-step kernel, or None when this piece's `Y` needs more than 128 bits.
+    pub fn kernel(&self) -> Option<&StepKernel> {
+        self.wide.is_none().then_some(&self.kernel)
     }
 
     /// `M = Den·i − C` for a step i past this piece's start (None if i is at or before it).
@@ -136,55 +299,28 @@ impl IntPiece {
         (m > 0).then_some(m)
     }
 
-    /// `4r / 4^k = (4A² ± 16|B|M) / 4^k`, rounded down (1 multiply).
-    #[inline(always)]
-    fn radicand(&self, m: u128) -> u128 {
-        let bm = self.b.unsigned_abs();
-        let t = if self.k == 0 {
-            (bm * m) << 4
-        } else {
-            let (hi, lo) = mul_wide(bm, m);
-            // ⌊16|B|M/4^k⌋ when adding, ⌈…⌉ when subtracting: the sum never rounds up
-            let n = 2 * self.k;
-            if n >= 4 {
-                shr(hi, lo, n - 4, self.b < 0)
-            } else {
-                lo << (4 - n)
-            }
+    /// The edge tick of the piece's j-th step (`j < steps`).
+    #[inline]
+    pub fn edge(&self, j: u64) -> u64 {
+        let local = match &self.wide {
+            None => self.kernel.local_edge(j),
+            Some(w) => self.wide_local_edge(w, j),
         };
-        if self.b >= 0 {
-            self.a2k + t
-        } else {
-            self.a2k.saturating_sub(t)
-        }
+        self.t0 + local
     }
 
-    /// The edge tick of the step with target `m` (0 < m ≤ m_end): the nearest tick to
-    /// `t0 + τ*`, an exact half tick going down (module docs). 3 multiplies, 1 divide,
-    /// 1 square root.
-    #[inline]
-    pub fn edge(&self, m: u128) -> u64 {
-        if m == self.m_end {
-            return self.t0 + self.dur;
-        }
-        // s·2^k ≈ √(4r) = 2·Den·v from below; q = ⌈8M / (2A + s·2^k)⌉ − 1 is
-        // ⌈2τ*⌉ − 1 or one more
-        let s = isqrt_u128(self.radicand(m));
-        let (num, div) = ((m << 3) - 1, (self.a << 1) + (s << self.k));
-        // same quotient; a 64-bit divide when the operands allow (software speed only)
-        let q = if (num | div) >> 64 == 0 {
-            (num as u64 / div as u64) as u128
+    /// [`StepKernel::local_edge`] with a 256-bit radicand (the root is below 2^126).
+    fn wide_local_edge(&self, w: &WideRadicand, j: u64) -> u64 {
+        let d = U256::from_u64(j).wrapping_mul(&w.dy);
+        let y = if self.kernel.mode == KernelMode::Decel {
+            w.y0.wrapping_sub(&d)
         } else {
-            num / div
+            w.y0.wrapping_add(&d)
         };
-        // correction: keep q iff q < 2τ*, i.e. p(q/2) < target on the rising branch:
-        // A + Bq ≥ 0 and q·(2A + Bq) < 4M (2 multiplies)
-        let qi = q as i128;
-        let bq = self.b * qi;
-        let ok = self.a as i128 + bq >= 0 && qi * ((self.a << 1) as i128 + bq) < (m << 2) as i128;
-        let q = if ok { q } else { q - 1 };
-        // ⌈τ* − ½⌉ = ⌊⌈2τ*⌉ / 2⌋
-        self.t0 + ((q as u64 + 1) >> 1)
+        let r = y.floor_sqrt_vartime();
+        let square = r.wrapping_mul(&r) == y;
+        let root = narrow(&r).unwrap_or(u128::MAX);
+        divide(self.kernel.numerator(0, root, square), self.kernel.dv)
     }
 
     /// Compares `Den·(p(τ) − p0)` at local time `tau2/2` ticks with `m`: exact, for tests.
@@ -192,5 +328,54 @@ impl IntPiece {
         // 4(A·τ + B·τ²) = 2A·tau2 + B·tau2²
         let lhs = 2 * self.a as i128 * tau2 as i128 + self.b * (tau2 * tau2) as i128;
         lhs.cmp(&(4 * m as i128))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    impl IntPiece {
+        /// The same piece on the 256-bit path.
+        fn forced_wide(mut self) -> Self {
+            if self.kernel.mode != KernelMode::Cruise {
+                let k = &self.kernel;
+                self.wide = Some(WideRadicand {
+                    y0: wide(k.y0),
+                    dy: wide(k.dy),
+                });
+            }
+            self
+        }
+    }
+
+    /// The first tick e with p(e + ½) ≥ the target, by scanning: the nearest tick with
+    /// an exact half tick going down (p is non-decreasing).
+    fn brute_edge(p: &IntPiece, m: u128) -> u64 {
+        (0..=p.dur)
+            .find(|&e| p.cmp_at_half_ticks(2 * e as u128 + 1, m).is_ge())
+            .unwrap_or(p.dur)
+    }
+
+    proptest! {
+        /// Small pieces, so exact squares and exact half ticks are frequent: every step of
+        /// both the 128-bit and the 256-bit kernel equals the scan.
+        #[test]
+        fn kernels_match_a_scan(
+            dur in 1u64..120, g in 1u128..12, u in 0u128..40, w in 0u128..40, s in 0u128..50,
+        ) {
+            let Ok(p) = IntPiece::new(0, dur, g, u, w, s) else { return Ok(()) };
+            prop_assert!(p.kernel().is_some());
+            let wide = p.forced_wide();
+            for j in 0..p.steps {
+                let m = p.target(p.first + j).unwrap();
+                let want = brute_edge(&p, m);
+                prop_assert_eq!(p.edge(j), want, "{:?} step {}", p, j);
+                prop_assert_eq!(wide.edge(j), want, "wide {:?} step {}", p, j);
+            }
+            // the steps are exactly those the piece covers
+            prop_assert_eq!((p.first + p.steps) as u128, (p.c + p.m_end) / p.den + 1);
+        }
     }
 }

@@ -72,18 +72,6 @@ pub struct IntProfile {
     end_tick: u64,
 }
 
-const EMPTY: IntPiece = IntPiece {
-    t0: 0,
-    dur: 0,
-    den: 1,
-    a: 0,
-    b: 0,
-    c: 0,
-    m_end: 0,
-    k: 0,
-    a2k: 0,
-};
-
 fn checked(x: Option<u128>) -> Result<u128, IntError> {
     x.ok_or(IntError::TooWide)
 }
@@ -94,7 +82,7 @@ impl IntProfile {
             return Err(IntError::NoSteps);
         }
         Ok(IntProfile {
-            pieces: [EMPTY; MAX_PIECES],
+            pieces: [IntPiece::EMPTY; MAX_PIECES],
             len: 0,
             steps,
             end_tick: 0,
@@ -130,6 +118,10 @@ impl IntProfile {
             .iter()
             .any(|p| p.den.checked_mul(self.steps as u128).is_none())
         {
+            return Err(IntError::TooWide);
+        }
+        // the pieces' steps cover 1..=N once each (what the generator walks)
+        if self.pieces().iter().map(|p| p.steps).sum::<u64>() != self.steps {
             return Err(IntError::TooWide);
         }
         Ok(self)

@@ -468,7 +468,7 @@ proptest! {
     }
 }
 
-/// Moves whose radicand needs more than 126 bits (k > 0: the rounded-radicand path) are
+/// Moves whose radicand Y needs more than 128 bits (the 256-bit software path) are
 /// exact on every edge too.
 #[test]
 fn wide_radicand_moves_are_exact() {
@@ -494,7 +494,7 @@ fn wide_radicand_moves_are_exact() {
             }
         };
         moves += 1;
-        wide += p.pieces().iter().any(|q| q.k > 0) as u64;
+        wide += p.pieces().iter().any(|q| q.kernel().is_none()) as u64;
         let e = int_edges(p.clone());
         assert_exact(&p, &e, &|| format!("{m:?}"));
     }
