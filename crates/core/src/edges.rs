@@ -145,7 +145,7 @@ impl EdgeGenerator {
     pub fn fill(&mut self, out: &mut [u64]) -> usize {
         let mut k = 0;
         while k < out.len() {
-            match self.next() {
+            match self.step() {
                 Some(e) => {
                     out[k] = e;
                     k += 1;
@@ -351,6 +351,20 @@ impl Iterator for EdgeGenerator {
 
     #[inline]
     fn next(&mut self) -> Option<u64> {
+        self.step()
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let r = self.remaining() as usize;
+        (r, Some(r))
+    }
+}
+
+impl EdgeGenerator {
+    /// The next edge. Always inlined, so that [`fill`](Self::fill) runs it in a tight loop
+    /// (as `for e in generator` does) instead of calling it once per edge.
+    #[inline(always)]
+    fn step(&mut self) -> Option<u64> {
         let i = self.next_f;
         if i >= self.last_f {
             if i > self.last_f {
@@ -381,11 +395,6 @@ impl Iterator for EdgeGenerator {
         let e = e.max(self.last_edge);
         self.last_edge = e;
         Some(e)
-    }
-
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        let r = self.remaining() as usize;
-        (r, Some(r))
     }
 }
 

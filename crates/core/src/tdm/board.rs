@@ -90,6 +90,8 @@ const LOOKAHEAD: usize = 16;
 #[derive(Clone, Debug)]
 pub struct Axis {
     gen: EdgeGenerator,
+    /// Steps of the move.
+    steps: u64,
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
     ahead_len: usize,
@@ -102,6 +104,7 @@ pub struct Axis {
 impl Axis {
     pub fn new(profile: Profile, clock_hz: f64) -> Result<Axis, TdmError> {
         Ok(Axis {
+            steps: profile.steps(),
             gen: EdgeGenerator::new(profile, clock_hz)?,
             ahead: [0; LOOKAHEAD],
             ahead_pos: 0,
@@ -138,6 +141,47 @@ impl Axis {
         let e = self.ahead[self.ahead_pos];
         self.ahead_pos += 1;
         Some(e)
+    }
+
+    /// Computes the next period, which is ready at tick `ready` and needed at `due`, and
+    /// loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
+    /// if it is late. Returns the step's rise tick, `None` if no step was left.
+    #[inline]
+    fn compute<F: FnMut(StepPulse)>(
+        &mut self,
+        m: usize,
+        ready: u64,
+        due: u64,
+        sink: &mut F,
+    ) -> Option<u64> {
+        let edge = self.next_edge()?;
+        let period = edge - self.prev_edge;
+        self.prev_edge = edge;
+        let load = if ready > due {
+            self.stats.underruns += 1;
+            self.stats.late_ticks += ready - due;
+            ready
+        } else {
+            due
+        };
+        // period 1 fixes the start tick, so its slack is 0 by construction: not counted
+        let slack = due as i64 - ready as i64;
+        if self.stats.steps > 0 && slack < self.stats.min_slack_ticks {
+            self.stats.min_slack_ticks = slack;
+        }
+        let rise = self.pulse.load(m, load, period, sink);
+        self.stats.steps += 1;
+        self.fifo.push(load);
+        Some(rise)
+    }
+
+    /// Closes the last pulse, which rises at `rise` (the move is computed), and records
+    /// the pulse unit's figures.
+    fn finish<F: FnMut(StepPulse)>(&mut self, m: usize, rise: u64, sink: &mut F) {
+        self.pulse.finish(m, sink);
+        self.stats.last_rise = rise;
+        self.stats.start_tick = self.pulse.start_tick();
+        self.stats.merged_pulses = self.pulse.merged();
     }
 
     /// Periods not computed yet.
@@ -273,48 +317,24 @@ impl<'a> Board<'a> {
         let policy = self.cfg.policy;
         let mut t = 0u64;
         let mut next = 0usize;
-        let mut busy = 0u64;
         while let Some((now, m)) = queue.pick(policy, t, need, &mut next) {
             t = now;
             let a = &mut self.axes[m];
-            let Some(edge) = a.next_edge() else {
+            let Some(rise) = a.compute(m, t + lat, need[m], &mut sink) else {
                 continue;
             };
-            let period = edge - a.prev_edge;
-            a.prev_edge = edge;
-            let ready = t + lat;
-            let due = need[m];
-            let load = if ready > due {
-                a.stats.underruns += 1;
-                a.stats.late_ticks += ready - due;
-                ready
-            } else {
-                due
-            };
-            // period 1 fixes the start tick, so its slack is 0 by construction: not counted
-            let slack = due as i64 - ready as i64;
-            if a.stats.steps > 0 && slack < a.stats.min_slack_ticks {
-                a.stats.min_slack_ticks = slack;
-            }
-            let rise = a.pulse.load(m, load, period, &mut sink);
-            a.stats.steps += 1;
             need[m] = rise;
-            a.fifo.push(load);
-            if a.remaining() == 0 {
-                a.pulse.finish(m, &mut sink);
-                a.stats.last_rise = rise;
-                a.stats.start_tick = a.pulse.start_tick();
-                a.stats.merged_pulses = a.pulse.merged();
+            if a.stats.steps == a.steps {
+                a.finish(m, rise, &mut sink);
             } else {
                 queue.insert(m, a.fifo.room_tick(), t);
             }
-            busy += ii;
             t += ii;
         }
-        self.report(start, busy)
+        self.report(start)
     }
 
-    fn report(&self, start_tick: u64, busy_cycles: u64) -> Report {
+    fn report(&self, start_tick: u64) -> Report {
         let mut r = Report {
             axes: self.axes.len(),
             start_tick,
@@ -325,7 +345,7 @@ impl<'a> Board<'a> {
             min_slack_ticks: i64::MAX,
             interval_cycles: self.cfg.latencies.interval(),
             latency_cycles: self.cfg.latencies.latency(),
-            busy_cycles,
+            busy_cycles: 0,
             start_skew_ticks: 0,
             merged_pulses: 0,
         };
@@ -342,6 +362,8 @@ impl<'a> Board<'a> {
             last = last.max(s.start_tick);
         }
         r.start_skew_ticks = last - first;
+        // one issue interval per period computed
+        r.busy_cycles = r.edges * r.interval_cycles;
         r
     }
 }

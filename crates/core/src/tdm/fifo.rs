@@ -8,13 +8,21 @@ use super::TdmError;
 
 /// Deepest FIFO a board supports.
 pub const MAX_FIFO_DEPTH: usize = 64;
+// slots are indexed by push number mod a power of two up to the depth limit
+const _: () = assert!(MAX_FIFO_DEPTH.is_power_of_two());
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fifo {
-    leave: [u64; MAX_FIFO_DEPTH],
-    head: usize,
-    len: usize,
+    /// Periods ever pushed.
+    pushed: usize,
     depth: usize,
+    /// `slots − 1`, the slots used being `depth` rounded up to a power of two (few, so
+    /// that they share a cache line or two).
+    mask: usize,
+    /// Leave tick of push number n at `n & mask`: the last `depth` pushes are all there,
+    /// and the slot `depth` pushes back still reads 0 (never written) during the first
+    /// `depth` pushes, so neither call below needs a branch.
+    leave: [u64; MAX_FIFO_DEPTH],
 }
 
 impl Fifo {
@@ -26,10 +34,10 @@ impl Fifo {
             });
         }
         Ok(Fifo {
-            leave: [0; MAX_FIFO_DEPTH],
-            head: 0,
-            len: 0,
+            pushed: 0,
             depth,
+            mask: depth.next_power_of_two() - 1,
+            leave: [0; MAX_FIFO_DEPTH],
         })
     }
 
@@ -41,37 +49,30 @@ impl Fifo {
     /// periods were ever pushed, else the leave tick of the oldest of the last `depth`.
     #[inline]
     pub fn room_tick(&self) -> u64 {
-        if self.len < self.depth {
-            0
-        } else {
-            self.leave[self.head]
-        }
+        // push number `pushed − depth`; before it exists, a slot not written yet (0)
+        self.leave[self.slot(self.pushed.wrapping_sub(self.depth))]
     }
 
     /// Pushes a period that leaves at tick `leave`. The caller has checked
     /// [`room_tick`](Self::room_tick), so the oldest entry it forgets has already left.
     #[inline]
     pub fn push(&mut self, leave: u64) {
-        if self.len < self.depth {
-            let mut i = self.head + self.len;
-            if i >= self.depth {
-                i -= self.depth;
-            }
-            self.leave[i] = leave;
-            self.len += 1;
-        } else {
-            self.leave[self.head] = leave;
-            self.head += 1;
-            if self.head == self.depth {
-                self.head = 0;
-            }
-        }
+        self.leave[self.slot(self.pushed)] = leave;
+        self.pushed += 1;
+    }
+
+    /// Slot of push number n (mod 2^64, which the slot count divides).
+    #[inline]
+    fn slot(&self, n: usize) -> usize {
+        // `mask < MAX_FIFO_DEPTH`; the second mask only spares a bounds check
+        n & self.mask & (MAX_FIFO_DEPTH - 1)
     }
 
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
     pub fn occupancy_at(&self, t: u64) -> usize {
-        (0..self.len)
-            .filter(|&j| self.leave[(self.head + j) % self.depth] > t)
+        let held = self.pushed.min(self.depth);
+        (self.pushed - held..self.pushed)
+            .filter(|&n| self.leave[self.slot(n)] > t)
             .count()
     }
 }
@@ -103,5 +104,28 @@ mod tests {
         f.push(600);
         assert_eq!(f.room_tick(), 400);
         assert_eq!(f.occupancy_at(450), 2);
+    }
+
+    /// Room and occupancy against a queue of leave ticks, for depths on both sides of
+    /// half the slot count, over several laps of the slots.
+    #[test]
+    fn matches_a_queue_of_leave_ticks() {
+        for depth in [1, 2, 3, 31, 32, 33, 63, MAX_FIFO_DEPTH] {
+            let mut f = Fifo::new(depth).unwrap();
+            let mut q = std::collections::VecDeque::new();
+            for n in 0..5 * MAX_FIFO_DEPTH as u64 {
+                let room = if q.len() < depth { 0 } else { q[0] };
+                assert_eq!(f.room_tick(), room, "depth {depth}, push {n}");
+                let leave = 10 * n + n % 7 + 1;
+                if q.len() == depth {
+                    q.pop_front();
+                }
+                q.push_back(leave);
+                f.push(leave);
+                let t = leave.saturating_sub(15);
+                let held = q.iter().filter(|&&l| l > t).count();
+                assert_eq!(f.occupancy_at(t), held, "depth {depth}, push {n}");
+            }
+        }
     }
 }

@@ -35,28 +35,42 @@ impl Policy {
     }
 }
 
-/// Which axes have room: a bit mask of those eligible now and a min-heap of the others by
-/// the tick their FIFO gets room, so a decision costs O(log k), not a scan of every axis.
-/// Axes with no period left to compute are in neither.
+/// Which axes have room: a bit mask of those eligible now and, sorted by the tick their
+/// FIFO gets room, the others. Axes with no period left to compute are in neither.
+///
+/// The waiting axes form a sorted run in a ring: releasing takes from its front, and a
+/// served axis is inserted from whichever end is nearer, shifting the keys on that side
+/// by one. A served axis's FIFO is full again, so its room tick is usually among the
+/// latest (measured on the bench loads: 2.3 axes from the back on average with 16 axes,
+/// 10 with 64), which makes insertion cheaper than a heap's or a tournament tree's
+/// O(log k) sifts; a fast axis among slow ones goes in near the front. The worst case
+/// shifts half of the waiting axes.
 #[derive(Clone, Debug)]
 pub struct Queue {
     /// Bit m: axis m has room and periods left.
     eligible: u64,
-    /// `(room tick << 6) | m`, a 4-ary min-heap; free slots hold `u64::MAX`, so a node's
-    /// four children can be compared without checking which exist.
-    heap: [u64; HEAP_SLOTS],
-    len: usize,
+    /// `(room tick << 6) | m`, ascending from `head` to before `tail` (indices mod
+    /// RING). `ring[tail]` is `u64::MAX`, so the front of an empty run reads MAX and a
+    /// scan from the front stops there. Every other slot holds a released key or 0: no
+    /// larger than any key still to come (room ticks after the current tick go in, those
+    /// at or before it come out), so a scan from the back stops at `head − 1`.
+    ring: [u64; RING],
+    head: usize,
+    tail: usize,
 }
 
-/// Children of node i < 64 are 4i+1 … 4i+4 ≤ 256.
-const HEAP_SLOTS: usize = 4 * MAX_AXES + 5;
+/// At most 64 waiting keys and the MAX after them, with room to spare.
+const RING: usize = 2 * MAX_AXES;
 
 impl Default for Queue {
     fn default() -> Self {
+        let mut ring = [0; RING];
+        ring[0] = u64::MAX;
         Queue {
             eligible: 0,
-            heap: [u64::MAX; HEAP_SLOTS],
-            len: 0,
+            ring,
+            head: 0,
+            tail: 0,
         }
     }
 }
@@ -70,55 +84,67 @@ impl Queue {
             return;
         }
         let key = (room << 6) | m as u64;
-        let mut i = self.len & (MAX_AXES - 1);
-        self.len += 1;
-        while i > 0 {
-            let parent = (i - 1) / 4;
-            if self.heap[parent] <= key {
-                break;
-            }
-            self.heap[i] = self.heap[parent];
-            i = parent;
+        let mid = self.head + self.tail.wrapping_sub(self.head) % RING / 2;
+        if key < self.ring[mid % RING] {
+            self.insert_from_front(key);
+        } else {
+            self.insert_from_back(key);
         }
-        self.heap[i] = key;
     }
 
-    /// Removes the smallest key (the heap is not empty).
+    // Indices count mod 2^64, a multiple of RING, so `i % RING` wraps correctly.
+
+    /// The later keys move up one slot, the first over the MAX, which is put back after.
     #[inline]
-    fn pop(&mut self) -> u64 {
-        let top = self.heap[0];
-        self.len -= 1;
-        let last = self.heap[self.len];
-        self.heap[self.len] = u64::MAX;
-        if self.len == 0 {
-            return top;
-        }
-        let mut i = 0usize;
+    fn insert_from_back(&mut self, key: u64) {
+        let mut j = self.tail;
         loop {
-            let base = 4 * (i & (MAX_AXES - 1)) + 1;
-            let (a, b) = (self.heap[base], self.heap[base + 1]);
-            let (c, d) = (self.heap[base + 2], self.heap[base + 3]);
-            let (ab, ia) = if b < a { (b, base + 1) } else { (a, base) };
-            let (cd, ic) = if d < c { (d, base + 3) } else { (c, base + 2) };
-            let (min, child) = if cd < ab { (cd, ic) } else { (ab, ia) };
-            if min >= last {
+            let before = self.ring[j.wrapping_sub(1) % RING];
+            if before <= key {
                 break;
             }
-            self.heap[i] = min;
-            i = child;
+            self.ring[j % RING] = before;
+            j = j.wrapping_sub(1);
         }
-        self.heap[i] = last;
-        top
+        self.ring[j % RING] = key;
+        self.tail = (self.tail + 1) % RING;
+        self.ring[self.tail] = u64::MAX;
+    }
+
+    /// The earlier keys move down one slot, into the one before `head`.
+    #[inline]
+    fn insert_from_front(&mut self, key: u64) {
+        let mut j = self.head.wrapping_sub(1);
+        loop {
+            let after = self.ring[j.wrapping_add(1) % RING];
+            if after >= key {
+                break;
+            }
+            self.ring[j % RING] = after;
+            j = j.wrapping_add(1);
+        }
+        self.ring[j % RING] = key;
+        self.head = self.head.wrapping_sub(1) % RING;
     }
 
     /// Moves every axis with room at `t` into the eligible mask.
     #[inline]
     fn release(&mut self, t: u64) {
-        // ticks stay below 2^57 (checked by the board), so an empty heap's MAX never passes
-        while self.heap[0] <= (t << 6) | 63 {
-            let key = self.pop();
+        // ticks stay below 2^57 (checked by the board), so the MAX at the tail never passes
+        loop {
+            let key = self.ring[self.head];
+            if key > (t << 6) | 63 {
+                break;
+            }
             self.eligible |= 1 << (key & 63);
+            self.head = (self.head + 1) % RING;
         }
+    }
+
+    /// The earliest waiting key, `u64::MAX` when none waits.
+    #[inline]
+    fn first(&self) -> u64 {
+        self.ring[self.head]
     }
 
     /// The next computation at or after tick `t`: `(start tick, axis)`, or `None` when no
@@ -137,22 +163,19 @@ impl Queue {
         let mut t = t;
         self.release(t);
         if self.eligible == 0 {
-            if self.heap[0] == u64::MAX {
+            if self.first() == u64::MAX {
                 return None;
             }
-            t = self.heap[0] >> 6;
+            t = self.first() >> 6;
             self.release(t);
         }
         let mask = self.eligible;
         let m = match policy {
             Policy::RoundRobin => {
-                // the first eligible axis at or after the pointer, wrapping around
-                let later = mask >> *next;
-                if later != 0 {
-                    *next + later.trailing_zeros() as usize
-                } else {
-                    mask.trailing_zeros() as usize
-                }
+                // the first eligible axis at or after the pointer, wrapping around: rotated
+                // right by the pointer, axes before it sit above every axis after it
+                // (bits k…63 are clear), so no branch is needed
+                (*next + mask.rotate_right(*next as u32).trailing_zeros() as usize) % 64
             }
             Policy::EarliestDeadline => {
                 // (need, axis) packed in one key: the smallest is the earliest, then lowest m
@@ -253,5 +276,60 @@ mod tests {
         let mut want: std::vec::Vec<(u64, usize)> = ticks.iter().copied().zip(0..).collect();
         want.sort();
         assert_eq!(got, want);
+    }
+
+    /// Picks against a scan of every axis, over many laps of the ring, for both policies
+    /// and 64 axes: room ticks at, just after and far after the decision tick, some axes
+    /// finishing.
+    #[test]
+    fn picks_match_a_scan_of_every_axis() {
+        const K: usize = 64;
+        for policy in [Policy::RoundRobin, Policy::EarliestDeadline] {
+            let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+            let mut rand = |n: u64| {
+                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                (seed >> 33) % n
+            };
+            let mut q = Queue::default();
+            let mut room = [0u64; K];
+            let mut need = [0u64; K];
+            let mut left = [0u64; K];
+            for m in 0..K {
+                room[m] = rand(3000);
+                need[m] = rand(3000);
+                left[m] = 1 + rand(400);
+                q.insert(m, room[m], 0);
+            }
+            let (mut t, mut next, mut want_next) = (0u64, 0usize, 0usize);
+            loop {
+                // the scan: idle until the earliest room tick, then choose by the policy
+                let active = (0..K).filter(|&m| left[m] > 0);
+                let Some(earliest) = active.clone().map(|m| room[m]).min() else {
+                    assert_eq!(q.pick(policy, t, &need, &mut next), None);
+                    break;
+                };
+                let now = t.max(earliest);
+                let ok = |m: &usize| left[*m] > 0 && room[*m] <= now;
+                let want = match policy {
+                    Policy::RoundRobin => (0..K).map(|i| (want_next + i) % K).find(ok),
+                    Policy::EarliestDeadline => (0..K).filter(ok).min_by_key(|&m| (need[m], m)),
+                }
+                .unwrap();
+                want_next = (want + 1) % K;
+                assert_eq!(q.pick(policy, t, &need, &mut next), Some((now, want)));
+                assert_eq!(next, want_next);
+                t = now + 1 + rand(40);
+                need[want] += rand(5000);
+                left[want] -= 1;
+                if left[want] > 0 {
+                    room[want] = match rand(4) {
+                        0 => t - rand(2),
+                        1 => t + 1 + rand(60),
+                        _ => t + rand(6000),
+                    };
+                    q.insert(want, room[want], t);
+                }
+            }
+        }
     }
 }
