@@ -26,6 +26,8 @@ pub struct ServeArgs {
     pub time_scale: f64,
     #[command(flatten)]
     pub http: multistep_web::HttpArgs,
+    #[command(flatten)]
+    pub alpaca: multistep_alpaca::AlpacaArgs,
 }
 
 pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
@@ -37,6 +39,7 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;
+    let _alpaca = a.alpaca.start(&config, ctl.clone())?;
     if let Some(dev) = &a.serial {
         let (ctl, dev) = (ctl.clone(), dev.clone());
         std::thread::spawn(move || {

@@ -19,6 +19,10 @@ pub struct BoardConfig {
     pub board: BoardSection,
     #[serde(default, rename = "axis")]
     pub axes: Vec<AxisConfig>,
+    /// Which axes are ASCOM Alpaca devices; read and checked by the Alpaca server
+    /// (multistep-alpaca), kept as plain TOML here.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpaca: Option<toml::Table>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -76,6 +80,7 @@ impl Default for BoardConfig {
                     settings: AxisSettings::default(),
                 })
                 .collect(),
+            alpaca: None,
         }
     }
 }

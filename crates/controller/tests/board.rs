@@ -21,6 +21,7 @@ fn config(axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
                 settings: s,
             })
             .collect(),
+        alpaca: None,
     }
 }
 

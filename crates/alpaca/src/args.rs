@@ -1,0 +1,87 @@
+//! The `--alpaca…` flags of `multistep serve` (`#[command(flatten)] alpaca: AlpacaArgs`).
+
+use crate::config::AlpacaSection;
+use crate::{start, AlpacaError, AlpacaOptions, AlpacaServer};
+use multistep_controller::{BoardConfig, Controller};
+use std::sync::Arc;
+
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct AlpacaArgs {
+    /// Serve the board config's [alpaca] devices (Focuser, Rotator, FilterWheel) as ASCOM
+    /// Alpaca on HOST:PORT, or on 127.0.0.1 with just a PORT (loopback unless
+    /// --alpaca-allow-remote; port 0 picks a free port)
+    #[arg(long, value_name = "HOST:PORT")]
+    pub alpaca: Option<String>,
+    /// Allow --alpaca on a non-loopback address (needs --alpaca-token)
+    #[arg(long, requires = "alpaca")]
+    pub alpaca_allow_remote: bool,
+    /// Access token every Alpaca request must carry (HTTP Basic password, e.g.
+    /// http://alpaca:TOKEN@host:port, `Authorization: Bearer`, or `?token=`); falls back to
+    /// the MULTISTEP_ALPACA_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_ALPACA_TOKEN",
+        hide_env_values = true
+    )]
+    pub alpaca_token: Option<String>,
+    /// UDP port that answers Alpaca discovery (0: any free port)
+    #[arg(long, value_name = "PORT", default_value_t = crate::discovery::DEFAULT_PORT, requires = "alpaca")]
+    pub alpaca_discovery_port: u16,
+    /// Do not answer Alpaca discovery
+    #[arg(long, requires = "alpaca", conflicts_with = "alpaca_discovery_port")]
+    pub alpaca_no_discovery: bool,
+}
+
+impl AlpacaArgs {
+    /// Checks the config's [alpaca] section (always), starts the Alpaca side if --alpaca
+    /// was given, and says where it listens on stderr.
+    pub fn start(
+        &self,
+        config: &BoardConfig,
+        ctl: Arc<Controller>,
+    ) -> Result<Option<AlpacaServer>, AlpacaError> {
+        let section = AlpacaSection::from_board(config)?;
+        let Some(addr) = &self.alpaca else {
+            return Ok(None);
+        };
+        let opts = AlpacaOptions {
+            addr: with_host(addr),
+            allow_remote: self.alpaca_allow_remote,
+            token: self.alpaca_token.clone(),
+            discovery_port: (!self.alpaca_no_discovery).then_some(self.alpaca_discovery_port),
+        };
+        let server = start(ctl, &section, &opts)?;
+        match server.discovery_addr() {
+            Some(d) => eprintln!(
+                "alpaca devices on http://{}/ (discovery on udp port {})",
+                server.addr(),
+                d.port()
+            ),
+            None => eprintln!("alpaca devices on http://{}/", server.addr()),
+        }
+        Ok(Some(server))
+    }
+}
+
+/// `11111` and `:11111` mean `127.0.0.1:11111`: loopback unless a host is named.
+fn with_host(addr: &str) -> String {
+    let port = addr.strip_prefix(':').unwrap_or(addr);
+    if port.parse::<u16>().is_ok() {
+        format!("127.0.0.1:{port}")
+    } else {
+        addr.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::with_host;
+
+    #[test]
+    fn a_bare_port_is_loopback() {
+        assert_eq!(with_host("11111"), "127.0.0.1:11111");
+        assert_eq!(with_host(":0"), "127.0.0.1:0");
+        assert_eq!(with_host("0.0.0.0:1"), "0.0.0.0:1");
+    }
+}
