@@ -117,8 +117,8 @@ enum Role {
 /// Rotator state that is the device's, not the axis's; kept while the server runs.
 #[derive(Default)]
 struct RotatorState {
-    /// Sky angle minus mechanical angle, set by Sync (degrees).
-    sync_offset: f64,
+    /// Sky angle minus mechanical angle, set by Sync (microsteps).
+    sync_offset: i64,
     reverse: bool,
     /// Sky angle the last move was sent to.
     target: Option<f64>,
@@ -314,11 +314,12 @@ impl Device {
                 item("Position", json!(focuser_position(&st)?)),
             ],
             Role::Rotator(r) => {
+                let t = Turn::of(&self.settings(ctl)?);
                 let r = lock(r);
                 vec![
                     item("IsMoving", json!(is_moving(&st))),
-                    item("MechanicalPosition", json!(mechanical(&st, &r))),
-                    item("Position", json!(sky(&st, &r))),
+                    item("MechanicalPosition", json!(t.deg(t.mechanical(&st, &r)))),
+                    item("Position", json!(t.deg(t.sky(&st, &r)))),
                 ]
             }
             Role::FilterWheel(w) => {
@@ -362,7 +363,7 @@ impl Device {
                 self.move_to(ctl, Amount::Steps(to as i64))?;
                 Ok(None)
             }
-            _ => unreachable!("checked against DeviceType::methods"),
+            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
         }
     }
 
@@ -391,59 +392,58 @@ impl Device {
         p: &Params,
     ) -> Answer {
         let st = self.status(ctl)?;
+        let t = Turn::of(&self.settings(ctl)?);
         let mut r = lock(r);
         match (m, put) {
             ("canreverse", _) => val(true),
             ("ismoving", _) => val(is_moving(&st)),
-            ("mechanicalposition", _) => val(mechanical(&st, &r)),
-            ("position", _) => val(sky(&st, &r)),
-            ("targetposition", _) => val(r.target.unwrap_or_else(|| sky(&st, &r))),
+            ("mechanicalposition", _) => val(t.deg(t.mechanical(&st, &r))),
+            ("position", _) => val(t.deg(t.sky(&st, &r))),
+            ("targetposition", _) => val(r.target.unwrap_or_else(|| t.deg(t.sky(&st, &r)))),
             ("reverse", false) => val(r.reverse),
             ("reverse", true) => {
                 r.reverse = p.bool("Reverse")?;
                 Ok(None)
             }
-            ("stepsize", _) => {
-                let s = self.settings(ctl)?;
-                val(360.0 / s.period.unwrap_or(1) as f64)
-            }
+            ("stepsize", _) => val(360.0 / t.period as f64),
             ("halt", _) => self.halt(ctl),
             ("sync", _) => {
                 let to = angle(p, "Position")?;
-                r.sync_offset = to - mechanical(&st, &r);
+                r.sync_offset = t.steps(to) - t.mechanical(&st, &r);
                 r.target = Some(to);
                 Ok(None)
             }
             ("move", _) => {
-                let by = p.f64("Position")?;
-                let target = norm_deg(sky(&st, &r) + by);
-                let mech = norm_deg(target - r.sync_offset);
-                self.rotate_to_mechanical(ctl, &mut r, mech, target)
+                let to = norm_deg(t.deg(t.sky(&st, &r)) + p.f64("Position")?);
+                let mech = t.steps(to) - r.sync_offset;
+                self.rotate(ctl, &t, &mut r, mech, to)
             }
             ("moveabsolute", _) => {
                 let to = angle(p, "Position")?;
-                let mech = norm_deg(to - r.sync_offset);
-                self.rotate_to_mechanical(ctl, &mut r, mech, to)
+                let mech = t.steps(to) - r.sync_offset;
+                self.rotate(ctl, &t, &mut r, mech, to)
             }
             ("movemechanical", _) => {
                 let to = angle(p, "Position")?;
-                let sky = norm_deg(to + r.sync_offset);
-                self.rotate_to_mechanical(ctl, &mut r, to, sky)
+                let sky = t.deg((t.steps(to) + r.sync_offset).rem_euclid(t.period));
+                self.rotate(ctl, &t, &mut r, t.steps(to), sky)
             }
-            _ => unreachable!("checked against DeviceType::methods"),
+            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
         }
     }
 
-    /// An absolute move of the axis: the controller takes the shortest way round.
-    fn rotate_to_mechanical(
+    /// An absolute move of the axis to mechanical angle `mech` (steps): the controller
+    /// takes the shortest way round, as for every periodic axis.
+    fn rotate(
         &self,
         ctl: &Controller,
+        t: &Turn,
         r: &mut RotatorState,
-        mech: f64,
+        mech: i64,
         sky: f64,
     ) -> Answer {
-        let axis_deg = if r.reverse { norm_deg(-mech) } else { mech };
-        self.move_to(ctl, Amount::Units(axis_deg))?;
+        let axis = if r.reverse { -mech } else { mech };
+        self.move_to(ctl, Amount::Steps(axis.rem_euclid(t.period)))?;
         r.target = Some(sky);
         Ok(None)
     }
@@ -478,7 +478,7 @@ impl Device {
                 self.move_to(ctl, Amount::Steps(at))?;
                 Ok(None)
             }
-            _ => unreachable!("checked against DeviceType::methods"),
+            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
         }
     }
 
@@ -545,18 +545,36 @@ fn focuser_position(st: &AxisStatus) -> Result<i32, Fault> {
     })
 }
 
-/// The axis angle (user units are degrees) as the device reports it, reversed or not.
-fn mechanical(st: &AxisStatus, r: &RotatorState) -> f64 {
-    let a = norm_deg(st.units);
-    if r.reverse {
-        norm_deg(-a)
-    } else {
-        a
-    }
+/// One turn of a rotator axis. Angles are kept in microsteps (sync offset included), so
+/// what is read back is exactly a step's angle.
+struct Turn {
+    period: i64,
+    steps_per_degree: f64,
 }
 
-fn sky(st: &AxisStatus, r: &RotatorState) -> f64 {
-    norm_deg(mechanical(st, r) + r.sync_offset)
+impl Turn {
+    fn of(s: &AxisSettings) -> Turn {
+        Turn {
+            period: s.period.map_or(1, |p| p.max(1) as i64),
+            steps_per_degree: s.steps_per_unit,
+        }
+    }
+    /// `deg` (any angle) as microsteps in [0, period).
+    fn steps(&self, deg: f64) -> i64 {
+        ((deg * self.steps_per_degree).round() as i64).rem_euclid(self.period)
+    }
+    /// Microsteps in [0, period) as degrees in [0, 360).
+    fn deg(&self, steps: i64) -> f64 {
+        norm_deg(steps as f64 / self.steps_per_degree)
+    }
+    /// The mechanical angle (steps) as the device reports it, reversed or not.
+    fn mechanical(&self, st: &AxisStatus, r: &RotatorState) -> i64 {
+        let sense = if r.reverse { -1 } else { 1 };
+        (sense * st.position).rem_euclid(self.period)
+    }
+    fn sky(&self, st: &AxisStatus, r: &RotatorState) -> i64 {
+        (self.mechanical(st, r) + r.sync_offset).rem_euclid(self.period)
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
