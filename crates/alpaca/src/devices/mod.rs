@@ -2,11 +2,17 @@
 //! Moves go through `Controller::move_axis`, so limits, homing, e-stop and the shortest
 //! way round a periodic axis are the controller's, as for the line protocol.
 
+mod filterwheel;
+mod focuser;
+mod rotator;
+
 use crate::config::{AlpacaSection, FilterWheelConfig, FocuserConfig};
 use crate::errors::{code, Fault};
 use crate::params::Params;
+use focuser::focuser_position;
 use multistep_controller::protocol::Amount;
-use multistep_controller::{AxisSettings, AxisState, AxisStatus, Controller, CtlError, MoveOpts};
+use multistep_controller::{AxisSettings, AxisState, AxisStatus, Controller, MoveOpts};
+use rotator::{RotatorState, Turn};
 use serde_json::{json, Value};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -112,16 +118,6 @@ enum Role {
     Focuser(FocuserConfig),
     Rotator(Mutex<RotatorState>),
     FilterWheel(FilterWheelConfig),
-}
-
-/// Rotator state that is the device's, not the axis's; kept while the server runs.
-#[derive(Default)]
-struct RotatorState {
-    /// Sky angle minus mechanical angle, set by Sync (microsteps).
-    sync_offset: i64,
-    reverse: bool,
-    /// Sky angle the last move was sent to.
-    target: Option<f64>,
 }
 
 pub struct Device {
@@ -328,253 +324,10 @@ impl Device {
         };
         val(items)
     }
-
-    // ---- Focuser ------------------------------------------------------------------------
-
-    fn focuser(
-        &self,
-        ctl: &Controller,
-        f: &FocuserConfig,
-        m: &str,
-        put: bool,
-        p: &Params,
-    ) -> Answer {
-        match (m, put) {
-            ("absolute", _) => val(true),
-            ("ismoving", _) => val(is_moving(&self.status(ctl)?)),
-            ("maxstep", _) | ("maxincrement", _) => val(self.max_step(ctl)?),
-            ("position", _) => val(focuser_position(&self.status(ctl)?)?),
-            ("stepsize", _) => val(f.microns_per_unit / self.settings(ctl)?.steps_per_unit),
-            ("tempcomp", false) | ("tempcompavailable", _) => val(false),
-            ("tempcomp", true) => {
-                p.bool("TempComp")?;
-                Err(Fault::not_implemented("temperature compensation"))
-            }
-            ("temperature", _) => Err(Fault::not_implemented("temperature")),
-            ("halt", _) => self.halt(ctl),
-            ("move", _) => {
-                let to = p.i32("Position")?;
-                let max = self.max_step(ctl)?;
-                if !(0..=max).contains(&to) {
-                    return Err(Fault::invalid_value(format!(
-                        "Position {to} is outside 0..={max} (MaxStep)"
-                    )));
-                }
-                self.move_to(ctl, Amount::Steps(to as i64))?;
-                Ok(None)
-            }
-            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
-        }
-    }
-
-    /// MaxStep: the axis's soft_max (checked at start; re-read since `set` may change it).
-    fn max_step(&self, ctl: &Controller) -> Result<i32, Fault> {
-        self.settings(ctl)?
-            .soft_max
-            .and_then(|m| i32::try_from(m).ok())
-            .filter(|&m| m > 0)
-            .ok_or_else(|| {
-                Fault::device(
-                    code::VALUE_NOT_SET,
-                    format!("axis {} has no soft_max", self.axis),
-                )
-            })
-    }
-
-    // ---- Rotator ------------------------------------------------------------------------
-
-    fn rotator(
-        &self,
-        ctl: &Controller,
-        r: &Mutex<RotatorState>,
-        m: &str,
-        put: bool,
-        p: &Params,
-    ) -> Answer {
-        let st = self.status(ctl)?;
-        let t = Turn::of(&self.settings(ctl)?);
-        let mut r = lock(r);
-        match (m, put) {
-            ("canreverse", _) => val(true),
-            ("ismoving", _) => val(is_moving(&st)),
-            ("mechanicalposition", _) => val(t.deg(t.mechanical(&st, &r))),
-            ("position", _) => val(t.deg(t.sky(&st, &r))),
-            ("targetposition", _) => val(r.target.unwrap_or_else(|| t.deg(t.sky(&st, &r)))),
-            ("reverse", false) => val(r.reverse),
-            ("reverse", true) => {
-                r.reverse = p.bool("Reverse")?;
-                Ok(None)
-            }
-            ("stepsize", _) => val(360.0 / t.period as f64),
-            ("halt", _) => self.halt(ctl),
-            ("sync", _) => {
-                let to = angle(p, "Position")?;
-                r.sync_offset = t.steps(to) - t.mechanical(&st, &r);
-                r.target = Some(to);
-                Ok(None)
-            }
-            ("move", _) => {
-                let to = norm_deg(t.deg(t.sky(&st, &r)) + p.f64("Position")?);
-                let mech = t.steps(to) - r.sync_offset;
-                self.rotate(ctl, &t, &mut r, mech, to)
-            }
-            ("moveabsolute", _) => {
-                let to = angle(p, "Position")?;
-                let mech = t.steps(to) - r.sync_offset;
-                self.rotate(ctl, &t, &mut r, mech, to)
-            }
-            ("movemechanical", _) => {
-                let to = angle(p, "Position")?;
-                let sky = t.deg((t.steps(to) + r.sync_offset).rem_euclid(t.period));
-                self.rotate(ctl, &t, &mut r, t.steps(to), sky)
-            }
-            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
-        }
-    }
-
-    /// An absolute move of the axis to mechanical angle `mech` (steps): the controller
-    /// takes the shortest way round, as for every periodic axis.
-    fn rotate(
-        &self,
-        ctl: &Controller,
-        t: &Turn,
-        r: &mut RotatorState,
-        mech: i64,
-        sky: f64,
-    ) -> Answer {
-        let axis = if r.reverse { -mech } else { mech };
-        self.move_to(ctl, Amount::Steps(axis.rem_euclid(t.period)))?;
-        r.target = Some(sky);
-        Ok(None)
-    }
-
-    // ---- FilterWheel --------------------------------------------------------------------
-
-    fn filterwheel(
-        &self,
-        ctl: &Controller,
-        w: &FilterWheelConfig,
-        m: &str,
-        put: bool,
-        p: &Params,
-    ) -> Answer {
-        match (m, put) {
-            ("names", _) => val(w.slots.iter().map(|s| &s.name).collect::<Vec<_>>()),
-            ("focusoffsets", _) => val(w.slots.iter().map(|s| s.focus_offset).collect::<Vec<_>>()),
-            ("position", false) => {
-                let st = self.status(ctl)?;
-                val(self.wheel_position(ctl, w, &st)?)
-            }
-            ("position", true) => {
-                let slot = p.i32("Position")?;
-                let n = w.slots.len();
-                if !(0..n as i64).contains(&(slot as i64)) {
-                    return Err(Fault::invalid_value(format!(
-                        "Position {slot} is not a slot (0..={})",
-                        n - 1
-                    )));
-                }
-                let at = self.slot_position(ctl, w, slot as usize)?;
-                self.move_to(ctl, Amount::Steps(at))?;
-                Ok(None)
-            }
-            _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
-        }
-    }
-
-    /// The slot the axis stands on; −1 while moving or between slots.
-    fn wheel_position(
-        &self,
-        ctl: &Controller,
-        w: &FilterWheelConfig,
-        st: &AxisStatus,
-    ) -> Result<i32, Fault> {
-        if is_moving(st) {
-            return Ok(-1);
-        }
-        let period = self.settings(ctl)?.period.map(|p| p as i64);
-        let same = |a: i64, b: i64| match period {
-            Some(p) => (a - b).rem_euclid(p) == 0,
-            None => a == b,
-        };
-        for i in 0..w.slots.len() {
-            // A slot without a saved position cannot be where the wheel is.
-            if let Ok(at) = self.slot_position(ctl, w, i) {
-                if same(at, st.position) {
-                    return Ok(i as i32);
-                }
-            }
-        }
-        Ok(-1)
-    }
-
-    fn slot_position(
-        &self,
-        ctl: &Controller,
-        w: &FilterWheelConfig,
-        i: usize,
-    ) -> Result<i64, Fault> {
-        let slot = &w.slots[i];
-        if let Some(at) = slot.position {
-            return Ok(at);
-        }
-        let named = ctl.with_board(|b, _| b.named_positions())?;
-        named
-            .get(&slot.name)
-            .and_then(|p| p.get(&self.axis))
-            .copied()
-            .ok_or_else(|| {
-                Fault::from(CtlError::UnknownName {
-                    what: "position (save it with 'save NAME AXIS')",
-                    name: format!("{} for axis {}", slot.name, self.axis),
-                })
-            })
-    }
 }
 
 fn is_moving(st: &AxisStatus) -> bool {
     matches!(st.state, AxisState::Moving | AxisState::Homing)
-}
-
-fn focuser_position(st: &AxisStatus) -> Result<i32, Fault> {
-    i32::try_from(st.position).map_err(|_| {
-        Fault::device(
-            code::DRIVER,
-            format!("position {} does not fit Int32", st.position),
-        )
-    })
-}
-
-/// One turn of a rotator axis. Angles are kept in microsteps (sync offset included), so
-/// what is read back is exactly a step's angle.
-struct Turn {
-    period: i64,
-    steps_per_degree: f64,
-}
-
-impl Turn {
-    fn of(s: &AxisSettings) -> Turn {
-        Turn {
-            period: s.period.map_or(1, |p| p.max(1) as i64),
-            steps_per_degree: s.steps_per_unit,
-        }
-    }
-    /// `deg` (any angle) as microsteps in [0, period).
-    fn steps(&self, deg: f64) -> i64 {
-        ((deg * self.steps_per_degree).round() as i64).rem_euclid(self.period)
-    }
-    /// Microsteps in [0, period) as degrees in [0, 360).
-    fn deg(&self, steps: i64) -> f64 {
-        norm_deg(steps as f64 / self.steps_per_degree)
-    }
-    /// The mechanical angle (steps) as the device reports it, reversed or not.
-    fn mechanical(&self, st: &AxisStatus, r: &RotatorState) -> i64 {
-        let sense = if r.reverse { -1 } else { 1 };
-        (sense * st.position).rem_euclid(self.period)
-    }
-    fn sky(&self, st: &AxisStatus, r: &RotatorState) -> i64 {
-        (self.mechanical(st, r) + r.sync_offset).rem_euclid(self.period)
-    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
