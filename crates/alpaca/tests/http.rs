@@ -372,6 +372,28 @@ fn focuser_moves_halts_and_refuses_bad_targets_homing_and_estop() {
     r.ctl.reset();
     r.ok_put(&format!("{f}/move"), "Position=0");
     r.wait_idle("F");
+    // The controller's own soft limits decide within 0..=MaxStep, set over the protocol.
+    assert!(r
+        .ctl
+        .execute_bytes(b"set F soft_min 100")
+        .to_text()
+        .starts_with("ok"));
+    assert_eq!(
+        r.error_number(true, &format!("{f}/move"), "Position=50"),
+        0x401
+    );
+    assert!(r
+        .ctl
+        .execute_bytes(b"set F soft_max 900")
+        .to_text()
+        .starts_with("ok"));
+    assert_eq!(r.ok_get(&format!("{f}/maxstep")), 900);
+    assert!(r
+        .ctl
+        .execute_bytes(b"set F soft_max none")
+        .to_text()
+        .starts_with("ok"));
+    assert_eq!(r.error_number(false, &format!("{f}/maxstep"), ""), 0x402);
 }
 
 #[test]
