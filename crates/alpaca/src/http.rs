@@ -65,14 +65,18 @@ fn header_value<'r>(req: &'r Request, name: &str) -> Option<&'r str> {
 /// The token a request carries: `Authorization: Bearer T`, HTTP Basic with T as the
 /// password (`http://user:T@host/` in a client's address), or `?token=T`.
 fn request_token(req: &Request, query: &Params) -> Option<String> {
+    // The scheme name is case-insensitive (RFC 9110 §11.1).
     let auth = header_value(req, "Authorization").map(str::trim);
-    if let Some(t) = auth.and_then(|a| a.strip_prefix("Bearer ")) {
-        return Some(t.trim().to_string());
+    let scheme = |name: &str| {
+        auth.and_then(|a| a.split_once(' '))
+            .filter(|(s, _)| s.eq_ignore_ascii_case(name))
+            .map(|(_, rest)| rest.trim())
+    };
+    if let Some(t) = scheme("Bearer") {
+        return Some(t.to_string());
     }
-    if let Some(b) = auth.and_then(|a| a.strip_prefix("Basic ")) {
-        let raw = base64::engine::general_purpose::STANDARD
-            .decode(b.trim())
-            .ok()?;
+    if let Some(b) = scheme("Basic") {
+        let raw = base64::engine::general_purpose::STANDARD.decode(b).ok()?;
         let pair = String::from_utf8(raw).ok()?;
         return pair.split_once(':').map(|(_, p)| p.to_string());
     }

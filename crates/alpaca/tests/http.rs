@@ -619,6 +619,15 @@ fn remote_use_needs_the_flag_and_a_token_carried_by_every_request() {
         .0,
         200
     );
+    // The scheme name is case-insensitive; a wrong Basic password is refused.
+    let auth = |v: String| exchange(&addr, line, "", &format!("Authorization: {v}\r\n")).0;
+    assert_eq!(auth(format!("bearer {TOKEN}")), 200);
+    assert_eq!(auth(format!("BASIC {basic}")), 200);
+    assert_eq!(
+        auth(format!("Basic {}", base64_of(&format!("{TOKEN}:x")))),
+        403
+    );
+    assert_eq!(auth("Basic !!!".into()), 403);
     // On loopback a foreign Host (DNS rebinding) is refused.
     let l = rig();
     let (code, _) = exchange(&l.addr(), line, "", "");
