@@ -290,7 +290,8 @@ impl Client {
     /// Polls until every axis in `axes` is idle; an axis in fault, or `timeout`, ends the
     /// wait with an error.
     pub fn wait(&mut self, axes: &[String], timeout: Duration) -> Result<(), ClientError> {
-        let deadline = std::time::Instant::now() + timeout;
+        // a timeout too long to add to the clock is no deadline at all
+        let deadline = std::time::Instant::now().checked_add(timeout);
         loop {
             let st = self.status_of(axes)?;
             if let Some(s) = st.iter().find(|s| s.state == AxisState::Fault) {
@@ -303,7 +304,7 @@ impl Client {
             if st.iter().all(|s| s.state == AxisState::Idle) {
                 return Ok(());
             }
-            if std::time::Instant::now() > deadline {
+            if deadline.is_some_and(|d| std::time::Instant::now() > d) {
                 let busy: Vec<&str> = st
                     .iter()
                     .filter(|s| s.state != AxisState::Idle)

@@ -1,0 +1,124 @@
+"""A Board session against a real `multistep serve` process on 127.0.0.1."""
+
+import pytest
+
+import multistep
+
+
+def test_move_wait_status_and_the_edges_of_plan(serve):
+    with multistep.Board(serve.endpoint) as b:
+        assert b.version().startswith("multistep-controller")
+        info = b.info()
+        assert float(info["clock_hz"]) == multistep.DEFAULT_CLOCK_HZ
+        assert b.move("X", 3200) == ["X target=3200"]
+        b.wait("X", timeout=120)
+        (st,) = b.status("X")
+        assert st["axis"] == "X" and st["position"] == 3200 and st["state"] == "idle"
+        # the board timed the move with the same edges as plan (axis vmax/amax: limits mode)
+        p = multistep.plan(steps=3200, vmax=float(b.get("X", "vmax")), amax=float(b.get("X", "amax")))
+        assert st["move_end"] - st["move_start"] == p.last_edge_tick
+        # phase mode, relative back to 0
+        assert b.move("X", -3200, accel_time=0.5, cruise_time=0.5, decel_time=0.5) == ["X target=0"]
+        b.wait()
+        assert [s["position"] for s in b.status()] == [0, 0, 0, 0]
+
+
+def test_every_protocol_word(serve):
+    b = multistep.Board(serve.endpoint)
+    assert b.get("X", "profile") == "trapezoid"
+    settings = b.get("X")
+    assert settings["vmax"] == b.get("X", "vmax") and "amax" in settings
+    b.set("X", "steps_per_unit", 100)
+    assert b.moveto("X", "12.5u") == ["X target=1250"]
+    b.wait("X", timeout=120)
+    lines = b.group({"X": 100, "Y": -100}, sync=True, profile="scurve", jmax=1e6)
+    assert sorted(lines) == ["X target=1350", "Y target=-100"]
+    b.wait("X", "Y", timeout=120)
+    st = {s["axis"]: s for s in b.status("X", "Y")}
+    assert st["X"]["move_end"] == st["Y"]["move_end"]
+    assert b.save("park", "X", "Y") == ["park X=1350 Y=-100"]
+    assert any(l.startswith("park ") for l in b.positions())
+    b.group({"X": 0, "Y": 0}, absolute=True)
+    b.wait(timeout=120)
+    b.goto("park")
+    b.wait(timeout=120)
+    assert [s["position"] for s in b.status("X", "Y")] == [1350, -100]
+    b.forget("park")
+    assert not any(l.startswith("park ") for l in b.positions())
+    b.preset("gentle", vmax=1000.0, amax=4000.0)
+    assert any(l.startswith("gentle ") for l in b.presets())
+    b.move("Y", 100, preset="gentle")
+    b.wait("Y", timeout=120)
+    b.home("Z")
+    b.wait("Z", timeout=120)
+    (z,) = b.status("Z")
+    assert z["homed"] is True and z["trusted"] is True
+    assert any("move AXIS" in l for l in b.raw("help"))
+    b.close()
+    with pytest.raises(multistep.BoardConnectionError):
+        b.status()
+
+
+def code_of(f, *a, **kw):
+    with pytest.raises(multistep.ProtocolError) as e:
+        f(*a, **kw)
+    assert isinstance(e.value, multistep.MultistepError)
+    assert str(e.value) == f"error:{e.value.code} {e.value.message}"
+    return e.value.code
+
+
+def test_refusals_carry_their_codes(serve):
+    b = multistep.Board(serve.endpoint)
+    assert code_of(b.raw, "frobnicate") == 3
+    assert code_of(b.move, "Q", 10) == 4
+    b.set("X", "soft_max", 1000)
+    assert code_of(b.moveto, "X", 5000) == 5
+    b.move("Y", 40000)
+    assert code_of(b.move, "Y", 10) == 6
+    b.stop("Y")
+    b.wait("Y", timeout=120)
+    assert code_of(b.move, "X", 10, accel_time=-1.0) == 7
+    assert code_of(b.move, "X", 10, preset="nope") == 8
+    assert code_of(b.set, "X", "bogus", 1) == 9
+    assert code_of(b.move, "Z", 40000, vmax=1e5) == 14
+    b.estop()
+    assert code_of(b.move, "X", 10) == 11
+    b.reset()
+    b.move("X", 10)
+    b.wait("X", timeout=120)
+    # the connection stays usable after every refusal
+    assert b.status("X")[0]["position"] == 10
+
+
+def test_client_side_errors(serve):
+    b = multistep.Board(serve.endpoint)
+    with pytest.raises(multistep.BoardError, match="not one protocol word"):
+        b.set("X", "profile", "a b")
+    with pytest.raises(multistep.BoardError, match="not one protocol word"):
+        b.move("X a", 10)
+    with pytest.raises(TypeError):
+        b.move("X", 1.5)
+    with pytest.raises(TypeError):
+        b.move("X", 10, velocity=3)
+    with pytest.raises(ValueError):
+        b.move("X", "ten")
+    for bad in (float("nan"), -1.0):
+        with pytest.raises(ValueError):
+            b.wait("X", timeout=bad)
+    b.wait("X", timeout=float("inf"))
+    b.wait("X", timeout=1e300)
+    b.move("Y", 40000)
+    with pytest.raises(multistep.BoardError, match="timed out"):
+        b.wait("Y", timeout=0.05)
+    b.stop()
+    b.wait(timeout=120)
+    assert b.status("X")[0]["position"] == 0
+
+
+def test_two_sessions_see_one_board(serve):
+    a = multistep.Board(serve.endpoint)
+    c = multistep.Board(serve.endpoint)
+    a.move("A", 500)
+    c.wait("A", timeout=120)
+    assert c.status("A")[0]["position"] == 500
+    assert repr(a) == f"Board('{serve.endpoint}')"
