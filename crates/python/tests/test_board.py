@@ -122,3 +122,82 @@ def test_two_sessions_see_one_board(serve):
     c.wait("A", timeout=120)
     assert c.status("A")[0]["position"] == 500
     assert repr(a) == f"Board('{serve.endpoint}')"
+
+
+class PtyLink:
+    """Two pseudo-terminals joined back to back (what a null-modem cable is to two serial
+    ports): the board opens one by name, the Board client the other."""
+
+    def __init__(self):
+        import os
+        import threading
+        import tty
+
+        self.os = os
+        self.pairs = [os.openpty(), os.openpty()]
+        for _, slave in self.pairs:
+            tty.setraw(slave)
+        self.names = [os.ttyname(s) for _, s in self.pairs]
+        self.running = True
+        self.thread = threading.Thread(target=self._relay, daemon=True)
+        self.thread.start()
+
+    def _relay(self):
+        import select
+
+        (a, _), (b, _) = self.pairs
+        other = {a: b, b: a}
+        while self.running:
+            ready, _, _ = select.select([a, b], [], [], 0.05)
+            for fd in ready:
+                try:
+                    data = self.os.read(fd, 4096)
+                except OSError:
+                    continue
+                self.os.write(other[fd], data)
+
+    def close(self):
+        self.running = False
+        self.thread.join(timeout=5)
+        for m, s in self.pairs:
+            self.os.close(m)
+            self.os.close(s)
+
+
+def wait_until_open(pid, device, timeout=30.0):
+    """Waits until process `pid` has `device` open (the board opens its serial line on a
+    thread of its own, after it prints its address)."""
+    import os
+    import time
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        fds = f"/proc/{pid}/fd"
+        for fd in os.listdir(fds):
+            try:
+                if os.readlink(f"{fds}/{fd}") == device:
+                    return
+            except OSError:
+                pass
+        time.sleep(0.02)
+    raise AssertionError(f"the board did not open {device}")
+
+
+def test_serial_session(cli, tmp_path):
+    from conftest import Serve
+
+    link = PtyLink()
+    board_side, host_side = link.names
+    s = Serve(cli.exe, tmp_path / "board", "--time-scale", "20", "--serial", board_side)
+    try:
+        wait_until_open(s.proc.pid, board_side)
+        b = multistep.Board(f"serial:{host_side}")
+        assert b.version().startswith("multistep-controller")
+        assert b.move("X", 800) == ["X target=800"]
+        b.wait("X", timeout=120)
+        assert b.status("X")[0]["position"] == 800
+        assert code_of(b.move, "Q", 1) == 4
+        b.close()
+    finally:
+        s.stop()
+        link.close()
