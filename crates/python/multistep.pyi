@@ -7,7 +7,7 @@ steps/s², jerk steps/s³, snap steps/s⁴, edges and periods clock ticks at ``c
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, TypedDict, Union, final
 
 import numpy as np
 import numpy.typing as npt
@@ -44,13 +44,26 @@ class ProtocolError(BoardError):
 class BoardConnectionError(BoardError, ConnectionError):
     """The connection to the board failed or was closed."""
 
-Segment = Tuple[float, float, int]
-"""One constant-acceleration segment (v0, T, n): start speed (steps/s), time (s), steps."""
+# Typing only (not names of the module at run time): a segment, the summary dict and the
+# trace dict.
 
-class PlanSummary(Dict[str, Any]):
-    """The fields of ``multistep plan --format json``: mode (str), steps, clock_hz (Hz),
-    duration_s (s), last_edge_tick (ticks), peak_speed_steps_per_s,
-    peak_accel_steps_per_s2, min_period_ticks, max_period_ticks, settled_edges."""
+#: One constant-acceleration segment (v0, T, n): start speed (steps/s), time (s), steps.
+Segment = Tuple[float, float, int]
+
+class PlanSummary(TypedDict):
+    """The fields of ``multistep plan --format json`` (a plain dict at run time)."""
+
+    mode: str
+    steps: int
+    clock_hz: float  # Hz
+    duration_s: float  # s
+    last_edge_tick: int  # ticks
+    peak_speed_steps_per_s: float
+    peak_accel_steps_per_s2: float
+    min_period_ticks: int
+    max_period_ticks: int
+    #: edges settled in double-double because f64 could not decide the nearest tick
+    settled_edges: int
 
 def plan(
     *,
@@ -89,6 +102,7 @@ def plan(
     cannot be planned, ``TypeError`` for a value of the wrong type or an unknown keyword.
     """
 
+@final
 class Plan:
     """A planned move. Nothing is generated until an attribute asks for it."""
 
@@ -124,6 +138,7 @@ class Plan:
         """Commanded position at time ``t`` (s), in steps."""
     def __len__(self) -> int: ...
 
+@final
 class Chunks(Iterator[npt.NDArray[np.uint64]]):
     """Iterator over a plan's edges or periods in uint64 arrays."""
 
@@ -133,9 +148,17 @@ class Chunks(Iterator[npt.NDArray[np.uint64]]):
     def __iter__(self) -> Chunks: ...
     def __next__(self) -> npt.NDArray[np.uint64]: ...
 
-class SimTrace(Dict[str, npt.NDArray[np.float64]]):
-    """Trace columns: t_s (s), commanded_deg, actual_deg (°), commanded_speed_deg_s,
-    actual_speed_deg_s (°/s), error_deg (°), ia_a, ib_a (A)."""
+class SimTrace(TypedDict):
+    """Trace columns, one sample every ``trace_interval`` (a plain dict at run time)."""
+
+    t_s: npt.NDArray[np.float64]  # s
+    commanded_deg: npt.NDArray[np.float64]  # °
+    actual_deg: npt.NDArray[np.float64]  # °
+    commanded_speed_deg_s: npt.NDArray[np.float64]  # °/s
+    actual_speed_deg_s: npt.NDArray[np.float64]  # °/s
+    error_deg: npt.NDArray[np.float64]  # °
+    ia_a: npt.NDArray[np.float64]  # A
+    ib_a: npt.NDArray[np.float64]  # A
 
 def simulate(
     motor: Union[str, os.PathLike[str]],
@@ -182,6 +205,7 @@ def simulate(
     a dict of numpy arrays sampled every ``trace_interval`` (s) (see ``SimTrace``).
     """
 
+@final
 class Board:
     """A session with one controller board (``multistep serve`` or real hardware).
 
@@ -193,7 +217,7 @@ class Board:
     then the axis settings. A refusal raises ``ProtocolError`` with its ``code``.
     """
 
-    def __init__(self, endpoint: str) -> None:
+    def __new__(cls, endpoint: str) -> Board:
         """Connects to ``"tcp://HOST:PORT"`` or ``"serial:DEVICE"`` (115200 8N1)."""
     @property
     def endpoint(self) -> str: ...
