@@ -10,7 +10,22 @@ use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 use std::sync::Mutex;
 
-/// Plans a move; see `multistep.pyi` for every keyword and its unit.
+/// Plans one move, exactly as `multistep plan` does, and returns a `Plan`.
+///
+/// Give the keywords of one mode:
+///
+/// - phase mode: `steps` with `accel_time`, `cruise_time`, `decel_time` (s);
+/// - limits mode: `steps` with `vmax` (steps/s), `amax` (steps/s²), and `jmax` (steps/s³)
+///   for `scurve`, `jmax` and `smax` (steps/s⁴) for `scurve4`;
+/// - segment mode: `segments=[(v0, T, n), …]` (steps/s, s, steps) and nothing else.
+///
+/// `profile` is the family (trapezoid, parabolic, exponential, sine, scurve, scurve4;
+/// default trapezoid), `start_speed` and `end_speed` in steps/s (default 0), `rho` the
+/// exponential time constant as a fraction of the phase time (0.25), `phi` and `psi` the
+/// S-curve jerk and snap fractions in (0, 0.5] (0.5), `clock` the tick rate in Hz (50e6).
+///
+/// Raises `PlanError` (a `ValueError`) with the command line's message for a move that
+/// cannot be planned, `TypeError` for a wrong type or an unknown keyword.
 #[pyfunction]
 #[pyo3(signature = (**kwargs))]
 #[pyo3(

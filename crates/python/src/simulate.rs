@@ -69,7 +69,18 @@ impl Overrides {
     }
 }
 
-/// Simulates one move; see `multistep.pyi` for every keyword and its unit.
+/// Simulates one move on a motor and driver, as `multistep simulate` does.
+///
+/// `motor` is a library name (57mm, 42mm, 20mm) or a path to a TOML motor file; the move
+/// keywords are those of `plan`. `microsteps` per full step, `supply` (V), `mode` "rl" (PI
+/// current loop, voltage clamped to the supply) or "ideal", `load_inertia` (kg·m²),
+/// `load_torque` (N·m), `damping_ratio`, `dt` the RK4 step (s), `reverse`; unset ones come
+/// from the motor file.
+///
+/// Returns a dict with the fields of `simulate --format json` (lost_steps, lost,
+/// first_loss_s, following errors in °, move_time_s, …); with `trace=True` also "trace", a
+/// dict of numpy arrays (t_s, commanded_deg, actual_deg, commanded_speed_deg_s,
+/// actual_speed_deg_s, error_deg, ia_a, ib_a) sampled every `trace_interval` s (10 µs).
 #[pyfunction]
 #[pyo3(signature = (motor, **kwargs))]
 #[pyo3(
