@@ -73,7 +73,7 @@ def test_refusals_carry_their_codes(serve):
     assert code_of(b.move, "Q", 10) == 4
     b.set("X", "soft_max", 1000)
     assert code_of(b.moveto, "X", 5000) == 5
-    b.move("Y", 40000)
+    b.move("Y", 400000)
     assert code_of(b.move, "Y", 10) == 6
     b.stop("Y")
     b.wait("Y", timeout=120)
@@ -107,7 +107,7 @@ def test_client_side_errors(serve):
             b.wait("X", timeout=bad)
     b.wait("X", timeout=float("inf"))
     b.wait("X", timeout=1e300)
-    b.move("Y", 40000)
+    b.move("Y", 400000)
     with pytest.raises(multistep.BoardError, match="timed out"):
         b.wait("Y", timeout=0.05)
     b.stop()
