@@ -201,3 +201,31 @@ def test_serial_session(cli, tmp_path):
     finally:
         s.stop()
         link.close()
+
+
+def test_random_bad_arguments_never_break_the_session(serve):
+    import math
+    import random
+
+    r = random.Random(7)
+    b = multistep.Board(serve.endpoint)
+    values = [None, 0, -1, 2**63, 2**64, 1.5, math.nan, math.inf, "", " ", "X", "Q", "a b",
+              "#", "12.5u", "nanu", "x" * 5000, b"X", [], {}, {"X": 1}, {"X": "1e400u"},
+              {"X": None}, True, object()]
+    methods = ["move", "moveto", "group", "home", "stop", "status", "get", "set", "save",
+               "goto", "forget", "preset", "sim_slip", "raw"]
+    keys = ["preset", "profile", "vmax", "amax", "accel_time", "phi", "bogus"]
+    ok = (TypeError, ValueError, OverflowError, multistep.MultistepError)
+    for _ in range(400):
+        name = r.choice(methods)
+        args = [r.choice(values) for _ in range(r.randint(0, 3))]
+        kw = {k: r.choice(values) for k in r.sample(keys, r.randint(0, 2))}
+        try:
+            getattr(b, name)(*args, **kw)
+        except ok:
+            pass
+    # still one working session
+    b.estop()
+    b.reset()
+    assert b.version().startswith("multistep-controller")
+    assert len(b.status()) == 4
