@@ -1,7 +1,7 @@
 //! The move flags shared by every subcommand that takes a move (`plan`, `simulate`, …).
 
 use clap::Args;
-use multistep_core::{MoveSpec, PlanError, Profile, Segment};
+use multistep_core::{MoveName, MoveSpec, PlanError, Profile, Segment};
 
 #[derive(Args, Clone, Debug, Default)]
 pub struct MoveArgs {
@@ -98,17 +98,12 @@ impl MoveArgs {
         self.spec().plan()
     }
 
-    /// A short name of the mode and family, for summaries.
+    /// A short name of the mode and family, for summaries: the core's [`MoveName`] (the
+    /// error's text if the move does not resolve).
     pub fn describe(&self) -> String {
-        if !self.segments.is_empty() {
-            format!("segments ({})", self.segments.len())
-        } else {
-            let fam = self.profile.as_deref().unwrap_or("trapezoid");
-            if self.vmax.is_some() || self.amax.is_some() {
-                format!("{fam} (limits)")
-            } else {
-                format!("{fam} (phases)")
-            }
-        }
+        self.spec()
+            .resolve()
+            .map(|m| MoveName::of(&m).to_string())
+            .unwrap_or_else(|e| e.to_string())
     }
 }

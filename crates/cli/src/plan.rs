@@ -3,8 +3,7 @@
 use crate::moveargs::MoveArgs;
 use crate::output::Format;
 use clap::Args;
-use multistep_core::{EdgeGenerator, DEFAULT_CLOCK_HZ};
-use serde::Serialize;
+use multistep_core::{EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
 use std::io::Write;
 
 #[derive(Args, Debug)]
@@ -19,23 +18,10 @@ pub struct PlanArgs {
     pub format: Format,
 }
 
-#[derive(Serialize, Debug)]
-pub struct PlanSummary {
-    pub mode: String,
-    pub steps: u64,
-    pub clock_hz: f64,
-    pub duration_s: f64,
-    pub last_edge_tick: u64,
-    pub peak_speed_steps_per_s: f64,
-    pub peak_accel_steps_per_s2: f64,
-    pub min_period_ticks: u64,
-    pub max_period_ticks: u64,
-    /// Edges settled in double-double because f64 could not decide the nearest tick.
-    pub settled_edges: u64,
-}
-
 pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
-    let profile = args.mv.plan()?;
+    let spec = args.mv.spec();
+    let mv = spec.resolve()?;
+    let profile = Profile::plan(&mv)?;
     let mut gen = EdgeGenerator::new(profile, args.clock)?;
     let stdout = std::io::stdout();
     if let Format::Csv = args.format {
@@ -50,27 +36,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
         w.flush()?;
         return Ok(());
     }
-    let (vpk, apk) = gen.profile().peaks();
-    let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
-    let (mut min_p, mut max_p, mut last) = (u64::MAX, 0u64, 0u64);
-    for e in &mut gen {
-        let p = e - last;
-        min_p = min_p.min(p);
-        max_p = max_p.max(p);
-        last = e;
-    }
-    let s = PlanSummary {
-        mode: args.mv.describe(),
-        steps,
-        clock_hz: args.clock,
-        duration_s: duration,
-        last_edge_tick: last,
-        peak_speed_steps_per_s: vpk,
-        peak_accel_steps_per_s2: apk,
-        min_period_ticks: min_p,
-        max_period_ticks: max_p,
-        settled_edges: gen.settled_count(),
-    };
+    let s = PlanSummary::run(MoveName::of(&mv), &mut gen);
     let mut out = stdout.lock();
     match args.format {
         Format::Json => writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?,

@@ -1,9 +1,10 @@
 //! The host side: one connection to a board, TCP or serial, sending a line and reading
 //! its reply (data lines, then `ok` or `error:`).
 
-use crate::axis::AxisStatus;
+use crate::axis::{AxisState, AxisStatus};
 use crate::error::CtlError;
 use crate::protocol::parse_status_line;
+use crate::protocol::{Amount, Command, MoveOpts};
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::time::Duration;
 
@@ -111,5 +112,345 @@ impl Client {
             .first()
             .ok_or_else(|| ClientError::Other("status json gave no data".into()))?;
         serde_json::from_str(line).map_err(|e| ClientError::Other(format!("bad status json: {e}")))
+    }
+}
+
+/// A command as the one protocol line that [`protocol::parse`](crate::protocol::parse)
+/// reads back as the same command: the host side writes what the board reads.
+impl std::fmt::Display for Command {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let amount = |a: &Amount| match a {
+            Amount::Steps(n) => n.to_string(),
+            Amount::Units(x) => format!("{x}u"),
+        };
+        let mut words: Vec<String> = Vec::new();
+        let mut push = |w: &str| words.push(w.to_string());
+        match self {
+            Command::Nop => {}
+            Command::Help => push("help"),
+            Command::Version => push("version"),
+            Command::Info => push("info"),
+            Command::Status { axes, json } => {
+                push("status");
+                if *json {
+                    push("json");
+                }
+                axes.iter().for_each(|a| push(a));
+            }
+            Command::Move { axis, by, opts } => {
+                push("move");
+                push(axis);
+                push(&amount(by));
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::MoveTo { axis, to, opts } => {
+                push("moveto");
+                push(axis);
+                push(&amount(to));
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts,
+            } => {
+                push("group");
+                push(if *absolute { "moveto" } else { "move" });
+                for (a, n) in targets {
+                    push(&format!("{a}={}", amount(n)));
+                }
+                if *sync {
+                    push("sync");
+                }
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::Stop { axis } => {
+                push("stop");
+                push(axis.as_deref().unwrap_or("all"));
+            }
+            Command::EStop => push("estop"),
+            Command::Reset => push("reset"),
+            Command::Home { axis } => {
+                push("home");
+                push(axis);
+            }
+            Command::Get { axis, key } => {
+                push("get");
+                push(axis);
+                if let Some(k) = key {
+                    push(k);
+                }
+            }
+            Command::Set { axis, key, value } => {
+                push("set");
+                push(axis);
+                push(key);
+                push(value);
+            }
+            Command::Save { name, axes } => {
+                push("save");
+                push(name);
+                axes.iter().for_each(|a| push(a));
+            }
+            Command::Goto { name, opts } => {
+                push("goto");
+                push(name);
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::Positions => push("positions"),
+            Command::Forget { name } => {
+                push("forget");
+                push(name);
+            }
+            Command::Preset { name, opts } => {
+                push("preset");
+                push(name);
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::Presets => push("presets"),
+            Command::SimSlip { axis, steps } => {
+                push("sim");
+                push(axis);
+                push("slip");
+                push(&steps.to_string());
+            }
+        }
+        f.write_str(&words.join(" "))
+    }
+}
+
+/// The free-text words of a command (names, keys, values): each must stay one word on the
+/// line, or the board would read a different command.
+fn opt_words(o: &MoveOpts) -> impl Iterator<Item = &str> {
+    o.preset.iter().chain(o.profile.iter()).map(|s| s.as_str())
+}
+
+fn free_words(cmd: &Command) -> Vec<&str> {
+    let mut w: Vec<&str> = Vec::new();
+    match cmd {
+        Command::Status { axes, .. } | Command::Save { axes, .. } => {
+            w.extend(axes.iter().map(|s| s.as_str()))
+        }
+        Command::Move { axis, opts: o, .. } | Command::MoveTo { axis, opts: o, .. } => {
+            w.push(axis);
+            w.extend(opt_words(o));
+        }
+        Command::Group {
+            targets, opts: o, ..
+        } => {
+            w.extend(targets.iter().map(|t| t.0.as_str()));
+            w.extend(opt_words(o));
+        }
+        Command::Stop { axis: Some(a) } | Command::Home { axis: a } => w.push(a),
+        Command::SimSlip { axis, .. } => w.push(axis),
+        Command::Get { axis, key } => {
+            w.push(axis);
+            w.extend(key.iter().map(|s| s.as_str()));
+        }
+        Command::Set { axis, key, value } => w.extend([axis, key, value].map(|s| s.as_str())),
+        Command::Goto { name, opts: o } | Command::Preset { name, opts: o } => {
+            w.push(name);
+            w.extend(opt_words(o));
+        }
+        Command::Forget { name } => w.push(name),
+        _ => {}
+    }
+    if let Command::Save { name, .. } = cmd {
+        w.push(name);
+    }
+    w
+}
+
+impl Client {
+    /// Sends one command, written with the protocol's own words; returns its data lines.
+    pub fn send(&mut self, cmd: &Command) -> Result<Vec<String>, ClientError> {
+        for w in free_words(cmd) {
+            if w.is_empty() || w.contains(|c: char| c.is_whitespace() || c == '#' || c == ';') {
+                return Err(ClientError::Other(format!(
+                    "'{w}' is not one protocol word (empty, or has a space, '#' or ';')"
+                )));
+            }
+        }
+        self.request(&cmd.to_string())
+    }
+
+    /// `status json AXIS…` (every axis when `axes` is empty), parsed.
+    pub fn status_of(&mut self, axes: &[String]) -> Result<Vec<AxisStatus>, ClientError> {
+        let data = self.send(&Command::Status {
+            axes: axes.to_vec(),
+            json: true,
+        })?;
+        let line = data
+            .first()
+            .ok_or_else(|| ClientError::Other("status json gave no data".into()))?;
+        serde_json::from_str(line).map_err(|e| ClientError::Other(format!("bad status json: {e}")))
+    }
+
+    /// Polls until every axis in `axes` is idle; an axis in fault, or `timeout`, ends the
+    /// wait with an error.
+    pub fn wait(&mut self, axes: &[String], timeout: Duration) -> Result<(), ClientError> {
+        // a timeout too long to add to the clock is no deadline at all
+        let deadline = std::time::Instant::now().checked_add(timeout);
+        loop {
+            let st = self.status_of(axes)?;
+            if let Some(s) = st.iter().find(|s| s.state == AxisState::Fault) {
+                return Err(ClientError::Other(format!(
+                    "axis {} is in fault: {}",
+                    s.axis,
+                    s.fault.as_deref().unwrap_or("?")
+                )));
+            }
+            if st.iter().all(|s| s.state == AxisState::Idle) {
+                return Ok(());
+            }
+            if deadline.is_some_and(|d| std::time::Instant::now() > d) {
+                let busy: Vec<&str> = st
+                    .iter()
+                    .filter(|s| s.state != AxisState::Idle)
+                    .map(|s| s.axis.as_str())
+                    .collect();
+                return Err(ClientError::Other(format!(
+                    "timed out waiting for {}",
+                    busy.join(", ")
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::parse;
+
+    fn opts() -> MoveOpts {
+        MoveOpts {
+            preset: Some("fast".into()),
+            profile: Some("scurve4".into()),
+            vmax: Some(12_000.5),
+            amax: Some(1e6),
+            jmax: Some(3e7),
+            smax: Some(1.25e9),
+            accel_time: Some(0.1),
+            cruise_time: Some(0.0),
+            decel_time: Some(1.0 / 3.0),
+            start_speed: Some(5.0),
+            end_speed: Some(0.1),
+            rho: Some(0.2),
+            phi: Some(0.3),
+            psi: Some(0.4),
+        }
+    }
+
+    #[test]
+    fn every_command_reads_back_as_itself() {
+        let x = || "X".to_string();
+        let cmds = vec![
+            Command::Help,
+            Command::Version,
+            Command::Info,
+            Command::Status {
+                axes: vec![],
+                json: false,
+            },
+            Command::Status {
+                axes: vec![x(), "y-2".into()],
+                json: true,
+            },
+            Command::Move {
+                axis: x(),
+                by: Amount::Steps(-3200),
+                opts: opts(),
+            },
+            Command::MoveTo {
+                axis: x(),
+                to: Amount::Units(12.5),
+                opts: MoveOpts::default(),
+            },
+            Command::Group {
+                absolute: true,
+                targets: vec![(x(), Amount::Steps(4)), ("Y".into(), Amount::Units(-0.1))],
+                sync: true,
+                opts: opts(),
+            },
+            Command::Group {
+                absolute: false,
+                targets: vec![(x(), Amount::Steps(i64::MIN))],
+                sync: false,
+                opts: MoveOpts::default(),
+            },
+            Command::Stop { axis: None },
+            Command::Stop { axis: Some(x()) },
+            Command::EStop,
+            Command::Reset,
+            Command::Home { axis: x() },
+            Command::Get {
+                axis: x(),
+                key: None,
+            },
+            Command::Get {
+                axis: x(),
+                key: Some("sim.seed".into()),
+            },
+            Command::Set {
+                axis: x(),
+                key: "vmax".into(),
+                value: "2e4".into(),
+            },
+            Command::Save {
+                name: "park".into(),
+                axes: vec![x()],
+            },
+            Command::Goto {
+                name: "park".into(),
+                opts: opts(),
+            },
+            Command::Positions,
+            Command::Forget {
+                name: "park".into(),
+            },
+            Command::Preset {
+                name: "slow".into(),
+                opts: MoveOpts {
+                    preset: None,
+                    ..opts()
+                },
+            },
+            Command::Presets,
+            Command::SimSlip {
+                axis: x(),
+                steps: -7,
+            },
+        ];
+        for c in cmds {
+            let line = c.to_string();
+            assert_eq!(parse(&line).unwrap(), c, "{line}");
+        }
+    }
+
+    #[test]
+    fn words_that_would_split_are_refused_before_sending() {
+        // a client on an empty stream: anything sent would end in "closed the connection"
+        let mut c = Client {
+            reader: BufReader::new(Box::new(std::io::empty())),
+            writer: Box::new(Vec::new()),
+        };
+        for bad in ["a b", "a#b", "a;b", "", "a\nb"] {
+            let cmd = Command::Set {
+                axis: "X".into(),
+                key: "profile".into(),
+                value: bad.into(),
+            };
+            match c.send(&cmd) {
+                Err(ClientError::Other(m)) => assert!(m.contains("not one protocol word"), "{m}"),
+                other => panic!("{bad:?}: {other:?}"),
+            }
+        }
+        assert!(matches!(
+            c.send(&Command::Version),
+            Err(ClientError::Other(m)) if m.contains("closed")
+        ));
     }
 }

@@ -23,6 +23,7 @@ pub mod profile;
 pub mod real;
 pub mod shape;
 pub mod spec;
+pub mod summary;
 pub mod tdm;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
@@ -32,6 +33,7 @@ pub use profile::{
 };
 pub use shape::Shape;
 pub use spec::MoveSpec;
+pub use summary::{MoveName, PlanSummary};
 
 /// Seed 000's clock: 50 MHz.
 pub const DEFAULT_CLOCK_HZ: f64 = 50_000_000.0;

@@ -1,0 +1,169 @@
+//! What one planned move amounts to: its mode, duration, peaks and period range. The
+//! command line's `plan --format json` and the Python package's `Plan.summary` are this
+//! one type, so they always carry the same fields.
+
+use crate::edges::EdgeGenerator;
+use crate::profile::{Move, Order};
+use core::fmt;
+
+/// The mode and family of a move, shown as `trapezoid (phases)`, `scurve (limits)` or
+/// `segments (3)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MoveName {
+    Phases(&'static str),
+    Limits(&'static str),
+    Segments(usize),
+}
+
+impl MoveName {
+    pub fn of(m: &Move<'_>) -> MoveName {
+        match m {
+            Move::Phase(p) => MoveName::Phases(p.family.name()),
+            Move::Segments(s) => MoveName::Segments(s.len()),
+            Move::Limits(l) => MoveName::Limits(match l.order {
+                Order::Trapezoid => "trapezoid",
+                Order::SCurve => "scurve",
+                Order::SCurve4 => "scurve4",
+            }),
+        }
+    }
+}
+
+impl fmt::Display for MoveName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MoveName::Phases(fam) => write!(f, "{fam} (phases)"),
+            MoveName::Limits(fam) => write!(f, "{fam} (limits)"),
+            MoveName::Segments(n) => write!(f, "segments ({n})"),
+        }
+    }
+}
+
+#[cfg(feature = "serde")]
+impl serde::Serialize for MoveName {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// A move's summary, found by running its whole edge stream (O(1) memory).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct PlanSummary {
+    pub mode: MoveName,
+    pub steps: u64,
+    pub clock_hz: f64,
+    pub duration_s: f64,
+    pub last_edge_tick: u64,
+    pub peak_speed_steps_per_s: f64,
+    pub peak_accel_steps_per_s2: f64,
+    pub min_period_ticks: u64,
+    pub max_period_ticks: u64,
+    /// Edges settled in double-double because f64 could not decide the nearest tick.
+    pub settled_edges: u64,
+}
+
+impl PlanSummary {
+    /// Runs `gen` to its end from where it is and summarises the move.
+    pub fn run(mode: MoveName, gen: &mut EdgeGenerator) -> PlanSummary {
+        let (vpk, apk) = gen.profile().peaks();
+        let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
+        let (mut min_p, mut max_p, mut last) = (u64::MAX, 0u64, 0u64);
+        for e in &mut *gen {
+            let p = e - last;
+            min_p = min_p.min(p);
+            max_p = max_p.max(p);
+            last = e;
+        }
+        PlanSummary {
+            mode,
+            steps,
+            clock_hz: gen.clock(),
+            duration_s: duration,
+            last_edge_tick: last,
+            peak_speed_steps_per_s: vpk,
+            peak_accel_steps_per_s2: apk,
+            min_period_ticks: min_p,
+            max_period_ticks: max_p,
+            settled_edges: gen.settled_count(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::MoveSpec;
+    use crate::Segment;
+
+    #[test]
+    fn names_every_mode() {
+        let segs = [
+            Segment {
+                v0: 0.0,
+                duration: 0.1,
+                steps: 50,
+            },
+            Segment {
+                v0: 1000.0,
+                duration: 0.1,
+                steps: 100,
+            },
+        ];
+        let cases = [
+            (
+                MoveSpec {
+                    steps: Some(10),
+                    accel_time: Some(0.1),
+                    ..Default::default()
+                },
+                "trapezoid (phases)",
+            ),
+            (
+                MoveSpec {
+                    profile: Some("scurve"),
+                    steps: Some(10),
+                    vmax: Some(100.0),
+                    amax: Some(100.0),
+                    jmax: Some(1000.0),
+                    ..Default::default()
+                },
+                "scurve (limits)",
+            ),
+            (
+                MoveSpec {
+                    segments: &segs,
+                    ..Default::default()
+                },
+                "segments (2)",
+            ),
+        ];
+        for (spec, want) in cases {
+            let name = MoveName::of(&spec.resolve().unwrap());
+            assert_eq!(std::format!("{name}"), want);
+        }
+    }
+
+    #[test]
+    fn summary_matches_the_edges() {
+        let spec = MoveSpec {
+            steps: Some(2400),
+            accel_time: Some(0.02),
+            cruise_time: Some(0.01),
+            decel_time: Some(0.02),
+            ..Default::default()
+        };
+        let m = spec.resolve().unwrap();
+        let mut gen = EdgeGenerator::new(spec.plan().unwrap(), 50e6).unwrap();
+        let edges: std::vec::Vec<u64> = gen.clone().collect();
+        let s = PlanSummary::run(MoveName::of(&m), &mut gen);
+        assert_eq!(s.steps, 2400);
+        assert_eq!(s.last_edge_tick, *edges.last().unwrap());
+        let periods: std::vec::Vec<u64> = core::iter::once(edges[0])
+            .chain(edges.windows(2).map(|w| w[1] - w[0]))
+            .collect();
+        assert_eq!(s.min_period_ticks, *periods.iter().min().unwrap());
+        assert_eq!(s.max_period_ticks, *periods.iter().max().unwrap());
+        assert_eq!(gen.next(), None);
+    }
+}

@@ -1,0 +1,448 @@
+//! `multistep.Board`: a session with one controller board through the controller crate's
+//! client. Each method builds a protocol `Command` and the client writes and sends it, so
+//! the words on the line are the protocol's own.
+
+use crate::args::{each_kw, number, signed, string};
+use crate::errors::{client_err, type_err, value_err};
+use multistep_controller::client::{Client, Endpoint};
+use multistep_controller::protocol::{parse_amount, Amount};
+use multistep_controller::{Command, MoveOpts};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyInt, PyList, PyString};
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// Move keywords to the protocol's move options.
+fn move_opts(func: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<MoveOpts> {
+    let mut o = MoveOpts::default();
+    each_kw(func, kwargs, |k, v| {
+        if v.is_none() {
+            return Ok(MOVE_KEYS.contains(&k));
+        }
+        let num = |v: &Bound<'_, PyAny>| number(k, v).map(Some);
+        match k {
+            "preset" => o.preset = Some(string(k, v)?),
+            "profile" => o.profile = Some(string(k, v)?),
+            "vmax" => o.vmax = num(v)?,
+            "amax" => o.amax = num(v)?,
+            "jmax" => o.jmax = num(v)?,
+            "smax" => o.smax = num(v)?,
+            "accel_time" => o.accel_time = num(v)?,
+            "cruise_time" => o.cruise_time = num(v)?,
+            "decel_time" => o.decel_time = num(v)?,
+            "start_speed" => o.start_speed = num(v)?,
+            "end_speed" => o.end_speed = num(v)?,
+            "rho" => o.rho = num(v)?,
+            "phi" => o.phi = num(v)?,
+            "psi" => o.psi = num(v)?,
+            _ => return Ok(false),
+        }
+        Ok(true)
+    })?;
+    Ok(o)
+}
+
+const MOVE_KEYS: [&str; 14] = [
+    "preset",
+    "profile",
+    "vmax",
+    "amax",
+    "jmax",
+    "smax",
+    "accel_time",
+    "cruise_time",
+    "decel_time",
+    "start_speed",
+    "end_speed",
+    "rho",
+    "phi",
+    "psi",
+];
+
+/// An int is microsteps; a str is read as the protocol reads it (`"-400"`, `"12.5u"`).
+fn amount(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Amount> {
+    if v.is_instance_of::<PyString>() {
+        let s: String = v.extract()?;
+        return parse_amount(s.trim()).map_err(|e| value_err(e.to_string()));
+    }
+    if v.is_instance_of::<PyInt>() && !v.is_instance_of::<PyBool>() {
+        return signed(name, v).map(Amount::Steps);
+    }
+    Err(type_err(format!(
+        "{name} is microsteps as an int, or user units as a str such as '12.5u'"
+    )))
+}
+
+fn lines(py: Python<'_>, data: Vec<String>) -> PyResult<Py<PyAny>> {
+    Ok(PyList::new(py, data)?.into_any().unbind())
+}
+
+/// `key=value` data lines as a dict of str.
+fn pairs(py: Python<'_>, data: &[String]) -> PyResult<Py<PyAny>> {
+    let d = PyDict::new(py);
+    for l in data {
+        match l.split_once('=') {
+            Some((k, v)) => d.set_item(k, v)?,
+            None => d.set_item(l, "")?,
+        }
+    }
+    Ok(d.into_any().unbind())
+}
+
+/// A connection to one board (`multistep serve`, or a real one) over TCP or a serial line.
+#[pyclass(module = "multistep")]
+pub struct Board {
+    client: Mutex<Option<Client>>,
+    endpoint: String,
+}
+
+impl Board {
+    /// Runs `f` on the client without the GIL (a move or a wait can take a while).
+    fn with<T: Send>(
+        &self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut Client) -> Result<T, multistep_controller::client::ClientError> + Send,
+    ) -> PyResult<T> {
+        let r = py.detach(|| {
+            let mut guard = self.client.lock().map_err(|_| None)?;
+            match guard.as_mut() {
+                Some(c) => f(c).map_err(Some),
+                None => Err(None),
+            }
+        });
+        r.map_err(|e| match e {
+            Some(e) => client_err(py, e),
+            None => crate::errors::closed_err(py),
+        })
+    }
+
+    fn send(&self, py: Python<'_>, cmd: Command) -> PyResult<Vec<String>> {
+        self.with(py, move |c| c.send(&cmd))
+    }
+
+    fn axes(names: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<Vec<String>> {
+        names
+            .iter()
+            .map(|a| string("axis", &a))
+            .collect::<PyResult<_>>()
+    }
+}
+
+#[pymethods]
+impl Board {
+    /// Connects to `endpoint`: `"tcp://HOST:PORT"` or `"serial:DEVICE"` (115200 8N1).
+    #[new]
+    fn new(py: Python<'_>, endpoint: &str) -> PyResult<Board> {
+        let ep: Endpoint = endpoint
+            .parse()
+            .map_err(|e: multistep_controller::CtlError| value_err(e.to_string()))?;
+        let c = py
+            .detach(|| Client::connect(&ep))
+            .map_err(|e| client_err(py, e))?;
+        Ok(Board {
+            client: Mutex::new(Some(c)),
+            endpoint: endpoint.to_string(),
+        })
+    }
+
+    /// Relative move of `axis` by `distance`: microsteps (int) or user units (`"12.5u"`).
+    /// Keywords: preset, profile, vmax (steps/s), amax (steps/s²), jmax (steps/s³),
+    /// smax (steps/s⁴), accel_time, cruise_time, decel_time (s), start_speed, end_speed
+    /// (steps/s), rho, phi, psi. Returns the board's data lines (`X target=…`).
+    #[pyo3(signature = (axis, distance, **opts))]
+    fn r#move(
+        &self,
+        py: Python<'_>,
+        axis: &str,
+        distance: &Bound<'_, PyAny>,
+        opts: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let cmd = Command::Move {
+            axis: axis.to_string(),
+            by: amount("distance", distance)?,
+            opts: move_opts("move", opts)?,
+        };
+        lines(py, self.send(py, cmd)?)
+    }
+
+    /// Absolute move of `axis` to `position` (microsteps, or `"12.5u"`); keywords as `move`.
+    #[pyo3(signature = (axis, position, **opts))]
+    fn moveto(
+        &self,
+        py: Python<'_>,
+        axis: &str,
+        position: &Bound<'_, PyAny>,
+        opts: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let cmd = Command::MoveTo {
+            axis: axis.to_string(),
+            to: amount("position", position)?,
+            opts: move_opts("moveto", opts)?,
+        };
+        lines(py, self.send(py, cmd)?)
+    }
+
+    /// Moves several axes together from the same tick: `targets` maps axis to distance
+    /// (or position with `absolute=True`); `sync=True` also ends them on the same tick.
+    #[pyo3(signature = (targets, *, absolute = false, sync = false, **opts))]
+    fn group(
+        &self,
+        py: Python<'_>,
+        targets: &Bound<'_, PyDict>,
+        absolute: bool,
+        sync: bool,
+        opts: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let mut t = Vec::new();
+        for (k, v) in targets.iter() {
+            let axis = string("axis", &k)?;
+            let a = amount(&format!("target of {axis}"), &v)?;
+            t.push((axis, a));
+        }
+        let cmd = Command::Group {
+            absolute,
+            targets: t,
+            sync,
+            opts: move_opts("group", opts)?,
+        };
+        lines(py, self.send(py, cmd)?)
+    }
+
+    /// Homes `axis` on its Hall sensor (returns when the board accepted it; `wait` for it).
+    fn home(&self, py: Python<'_>, axis: &str) -> PyResult<()> {
+        self.send(
+            py,
+            Command::Home {
+                axis: axis.to_string(),
+            },
+        )
+        .map(drop)
+    }
+
+    /// Controlled stop of `axis`, or of every axis without one.
+    #[pyo3(signature = (axis = None))]
+    fn stop(&self, py: Python<'_>, axis: Option<&str>) -> PyResult<()> {
+        self.send(
+            py,
+            Command::Stop {
+                axis: axis.map(str::to_string),
+            },
+        )
+        .map(drop)
+    }
+
+    /// Emergency stop: every axis halts on the spot; motion is refused until `reset`.
+    fn estop(&self, py: Python<'_>) -> PyResult<()> {
+        self.send(py, Command::EStop).map(drop)
+    }
+
+    /// Clears an emergency stop and faults.
+    fn reset(&self, py: Python<'_>) -> PyResult<()> {
+        self.send(py, Command::Reset).map(drop)
+    }
+
+    /// Waits until the axes (every axis without any) are idle; an axis in fault or the
+    /// `timeout` (s) raises `BoardError`.
+    #[pyo3(signature = (*axes, timeout = 600.0))]
+    fn wait(
+        &self,
+        py: Python<'_>,
+        axes: &Bound<'_, pyo3::types::PyTuple>,
+        timeout: f64,
+    ) -> PyResult<()> {
+        let axes = Self::axes(axes)?;
+        if timeout.is_nan() || timeout < 0.0 {
+            return Err(value_err(format!(
+                "timeout must be a number of seconds ≥ 0 (got {timeout})"
+            )));
+        }
+        // beyond what a Duration holds (inf included): no deadline
+        let t = Duration::try_from_secs_f64(timeout).unwrap_or(Duration::MAX);
+        self.with(py, move |c| c.wait(&axes, t))
+    }
+
+    /// Status of the axes (every axis without any): a list of dicts with the fields of
+    /// `status json` (position in microsteps, speed in steps/s, state, homed, trusted, …).
+    #[pyo3(signature = (*axes))]
+    fn status(
+        &self,
+        py: Python<'_>,
+        axes: &Bound<'_, pyo3::types::PyTuple>,
+    ) -> PyResult<Py<PyAny>> {
+        let axes = Self::axes(axes)?;
+        let st = self.with(py, move |c| c.status_of(&axes))?;
+        let text = serde_json::to_string(&st).map_err(|e| value_err(e.to_string()))?;
+        Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+    }
+
+    /// One setting of `axis` as a str, or every setting as a dict without `key`.
+    #[pyo3(signature = (axis, key = None))]
+    fn get(&self, py: Python<'_>, axis: &str, key: Option<&str>) -> PyResult<Py<PyAny>> {
+        let data = self.send(
+            py,
+            Command::Get {
+                axis: axis.to_string(),
+                key: key.map(str::to_string),
+            },
+        )?;
+        match key {
+            None => pairs(py, &data),
+            Some(k) => {
+                let v = data
+                    .iter()
+                    .find_map(|l| l.split_once('=').filter(|p| p.0 == k).map(|p| p.1))
+                    .or_else(|| data.first().map(|l| l.as_str()))
+                    .unwrap_or("");
+                Ok(PyString::new(py, v).into_any().unbind())
+            }
+        }
+    }
+
+    /// Changes one setting (stored on the board); `None` clears an optional one.
+    fn set(&self, py: Python<'_>, axis: &str, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let value = if value.is_none() {
+            "none".to_string()
+        } else if value.is_instance_of::<PyBool>() {
+            (if value.extract::<bool>()? {
+                "true"
+            } else {
+                "false"
+            })
+            .to_string()
+        } else {
+            value.str()?.to_string()
+        };
+        self.send(
+            py,
+            Command::Set {
+                axis: axis.to_string(),
+                key: key.to_string(),
+                value,
+            },
+        )
+        .map(drop)
+    }
+
+    /// Stores the current positions of `axes` (every axis without any) under `name`.
+    #[pyo3(signature = (name, *axes))]
+    fn save(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        axes: &Bound<'_, pyo3::types::PyTuple>,
+    ) -> PyResult<Py<PyAny>> {
+        let axes = Self::axes(axes)?;
+        let data = self.send(
+            py,
+            Command::Save {
+                name: name.to_string(),
+                axes,
+            },
+        )?;
+        lines(py, data)
+    }
+
+    /// Group move to the named position `name`; keywords as `move`.
+    #[pyo3(signature = (name, **opts))]
+    fn goto(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        opts: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let cmd = Command::Goto {
+            name: name.to_string(),
+            opts: move_opts("goto", opts)?,
+        };
+        lines(py, self.send(py, cmd)?)
+    }
+
+    /// The named positions, one line each (`NAME X=… Y=…`).
+    fn positions(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        lines(py, self.send(py, Command::Positions)?)
+    }
+
+    /// Deletes the named position `name`.
+    fn forget(&self, py: Python<'_>, name: &str) -> PyResult<()> {
+        self.send(
+            py,
+            Command::Forget {
+                name: name.to_string(),
+            },
+        )
+        .map(drop)
+    }
+
+    /// Stores a speed preset `name` from move keywords (profile, vmax, amax, …).
+    #[pyo3(signature = (name, **opts))]
+    fn preset(&self, py: Python<'_>, name: &str, opts: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
+        let cmd = Command::Preset {
+            name: name.to_string(),
+            opts: move_opts("preset", opts)?,
+        };
+        self.send(py, cmd).map(drop)
+    }
+
+    /// The presets, one line each (`NAME vmax=… …`).
+    fn presets(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        lines(py, self.send(py, Command::Presets)?)
+    }
+
+    /// Board facts (`board`, `version`, `axes`, `clock_hz`, `tick`, `estop`, …) as a dict.
+    fn info(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let data = self.send(py, Command::Info)?;
+        pairs(py, &data)
+    }
+
+    /// The board's firmware version line.
+    fn version(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(self.send(py, Command::Version)?.join("\n"))
+    }
+
+    /// Simulation only: the mechanics of `axis` lose `steps` steps the count does not see.
+    fn sim_slip(&self, py: Python<'_>, axis: &str, steps: &Bound<'_, PyAny>) -> PyResult<()> {
+        let steps = signed("steps", steps)?;
+        self.send(
+            py,
+            Command::SimSlip {
+                axis: axis.to_string(),
+                steps,
+            },
+        )
+        .map(drop)
+    }
+
+    /// Sends one raw protocol line; returns its data lines.
+    fn raw(&self, py: Python<'_>, line: &str) -> PyResult<Py<PyAny>> {
+        let line = line.to_string();
+        let data = self.with(py, move |c| c.request(&line))?;
+        lines(py, data)
+    }
+
+    /// Closes the connection (further calls raise `BoardConnectionError`).
+    fn close(&self) {
+        if let Ok(mut g) = self.client.lock() {
+            g.take();
+        }
+    }
+
+    fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_exc))]
+    fn __exit__(&self, _exc: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close();
+        false
+    }
+
+    /// The endpoint given to the constructor.
+    #[getter]
+    fn endpoint(&self) -> String {
+        self.endpoint.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Board('{}')", self.endpoint)
+    }
+}

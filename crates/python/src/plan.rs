@@ -1,0 +1,288 @@
+//! `multistep.plan(...)` and the `Plan` it returns: the core's edge generator writing
+//! straight into numpy arrays, whole or in chunks.
+
+use crate::args::{each_kw, number, MoveKw};
+use crate::errors::{plan_err, value_err};
+use multistep_core::{EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::PyDict;
+use std::sync::Mutex;
+
+/// Plans one move, exactly as `multistep plan` does, and returns a `Plan`.
+///
+/// Give the keywords of one mode:
+///
+/// - phase mode: `steps` with `accel_time`, `cruise_time`, `decel_time` (s);
+/// - limits mode: `steps` with `vmax` (steps/s), `amax` (steps/s²), and `jmax` (steps/s³)
+///   for `scurve`, `jmax` and `smax` (steps/s⁴) for `scurve4`;
+/// - segment mode: `segments=[(v0, T, n), …]` (steps/s, s, steps) and nothing else.
+///
+/// `profile` is the family (trapezoid, parabolic, exponential, sine, scurve, scurve4;
+/// default trapezoid), `start_speed` and `end_speed` in steps/s (default 0), `rho` the
+/// exponential time constant as a fraction of the phase time (0.25), `phi` and `psi` the
+/// S-curve jerk and snap fractions in (0, 0.5] (0.5), `clock` the tick rate in Hz (50e6).
+///
+/// Raises `PlanError` (a `ValueError`) with the command line's message for a move that
+/// cannot be planned, `TypeError` for a wrong type or an unknown keyword.
+#[pyfunction]
+#[pyo3(signature = (**kwargs))]
+#[pyo3(
+    text_signature = "(*, profile=None, steps=None, accel_time=None, cruise_time=None, \
+    decel_time=None, start_speed=None, end_speed=None, rho=None, phi=None, psi=None, \
+    segments=None, vmax=None, amax=None, jmax=None, smax=None, clock=50e6)"
+)]
+pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan> {
+    let mut mv = MoveKw::default();
+    let mut clock = DEFAULT_CLOCK_HZ;
+    each_kw("plan", kwargs, |k, v| {
+        if k == "clock" {
+            if !v.is_none() {
+                clock = number(k, v)?;
+            }
+            return Ok(true);
+        }
+        mv.set(k, v)
+    })?;
+    let spec = mv.spec();
+    let m = spec.resolve().map_err(|e| plan_err(py, e))?;
+    let profile = Profile::plan(&m).map_err(|e| plan_err(py, e))?;
+    let gen = EdgeGenerator::new(profile, clock).map_err(|e| plan_err(py, e))?;
+    Ok(Plan {
+        gen,
+        mode: MoveName::of(&m),
+        edges: PyOnceLock::new(),
+        periods: PyOnceLock::new(),
+        summary: PyOnceLock::new(),
+    })
+}
+
+/// A planned move. Edges are clock ticks (at `clock_hz`) from the start of the move.
+#[pyclass(module = "multistep", frozen)]
+pub struct Plan {
+    /// A generator at step 1; every read clones it.
+    gen: EdgeGenerator,
+    mode: MoveName,
+    edges: PyOnceLock<Py<PyArray1<u64>>>,
+    periods: PyOnceLock<Py<PyArray1<u64>>>,
+    summary: PyOnceLock<Py<PyAny>>,
+}
+
+/// A new uint64 array of `n` elements from numpy itself, so that running out of memory is
+/// numpy's `MemoryError`, not a failed allocation in Rust.
+fn empty_u64(py: Python<'_>, n: u64) -> PyResult<Bound<'_, PyArray1<u64>>> {
+    let n = usize::try_from(n).map_err(|_| value_err("the move has too many steps to hold"))?;
+    let np = py.import("numpy")?;
+    Ok(np
+        .call_method1("empty", (n, "uint64"))?
+        .cast_into::<PyArray1<u64>>()?)
+}
+
+/// Fills `out` with the next edges of `gen` (or their periods after `last`, updating it);
+/// returns how many were written. Runs without the GIL.
+fn fill(
+    py: Python<'_>,
+    gen: &mut EdgeGenerator,
+    out: &mut [u64],
+    periods: Option<&mut u64>,
+) -> usize {
+    py.detach(|| {
+        let k = gen.fill(out);
+        if let Some(last) = periods {
+            for x in &mut out[..k] {
+                let e = *x;
+                *x = e - *last;
+                *last = e;
+            }
+        }
+        k
+    })
+}
+
+fn read_only(a: &Bound<'_, PyArray1<u64>>) -> PyResult<()> {
+    a.call_method(
+        "setflags",
+        (),
+        Some(&[("write", false)].into_py_dict(a.py())?),
+    )?;
+    Ok(())
+}
+
+use pyo3::types::IntoPyDict;
+
+impl Plan {
+    fn whole(&self, py: Python<'_>, periods: bool) -> PyResult<Py<PyArray1<u64>>> {
+        let mut gen = self.gen.clone();
+        let n = gen.remaining();
+        let arr = empty_u64(py, n)?;
+        {
+            let mut rw = arr.try_readwrite()?;
+            let out = rw.as_slice_mut()?;
+            let mut last = 0u64;
+            let k = fill(py, &mut gen, out, periods.then_some(&mut last));
+            if k != out.len() {
+                return Err(value_err(format!(
+                    "the generator gave {k} edges for {} steps",
+                    out.len()
+                )));
+            }
+        }
+        read_only(&arr)?;
+        Ok(arr.unbind())
+    }
+}
+
+#[pymethods]
+impl Plan {
+    /// Edge tick of every step (uint64, read-only, length `steps`): step i's edge is the
+    /// tick nearest to its exact time, `floor(clock·t_i + ½)`.
+    #[getter]
+    fn edges(&self, py: Python<'_>) -> PyResult<Py<PyArray1<u64>>> {
+        self.edges
+            .get_or_try_init(py, || self.whole(py, false))
+            .map(|a| a.clone_ref(py))
+    }
+
+    /// Ticks between consecutive edges (uint64, read-only); the first is the first edge.
+    #[getter]
+    fn periods(&self, py: Python<'_>) -> PyResult<Py<PyArray1<u64>>> {
+        self.periods
+            .get_or_try_init(py, || self.whole(py, true))
+            .map(|a| a.clone_ref(py))
+    }
+
+    /// Edges (or periods) in arrays of at most `size` elements, for moves too large to
+    /// hold: memory stays at one chunk however long the move.
+    #[pyo3(signature = (size = 1 << 20, periods = false))]
+    fn chunks(&self, size: usize, periods: bool) -> PyResult<Chunks> {
+        if size == 0 {
+            return Err(value_err("chunk size must be at least 1"));
+        }
+        Ok(Chunks {
+            state: Mutex::new((self.gen.clone(), 0)),
+            size,
+            periods,
+        })
+    }
+
+    /// The move's summary: the same fields as `multistep plan --format json`.
+    #[getter]
+    fn summary(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let s = self
+            .summary
+            .get_or_try_init(py, || -> PyResult<Py<PyAny>> {
+                let mut gen = self.gen.clone();
+                let mode = self.mode;
+                let s = py.detach(|| PlanSummary::run(mode, &mut gen));
+                let text = serde_json::to_string(&s).map_err(|e| value_err(e.to_string()))?;
+                Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
+            })?;
+        // a copy: the cached dict stays as computed
+        Ok(s.bind(py).call_method0("copy")?.unbind())
+    }
+
+    /// Duration T of the move (s): the last step happens at T.
+    #[getter]
+    fn duration_s(&self) -> f64 {
+        self.gen.profile().duration()
+    }
+
+    /// Number of steps (edges).
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.gen.profile().steps()
+    }
+
+    /// Clock the edges are counted in (Hz).
+    #[getter]
+    fn clock_hz(&self) -> f64 {
+        self.gen.clock()
+    }
+
+    /// Mode and family, as in the summary: `trapezoid (phases)`, `scurve (limits)`, …
+    #[getter]
+    fn mode(&self) -> String {
+        self.mode.to_string()
+    }
+
+    /// Tick of the last edge, `round(clock·T)`.
+    #[getter]
+    fn last_edge_tick(&self) -> u64 {
+        self.gen.last_edge_tick()
+    }
+
+    /// Commanded speed at time `t` (steps/s; 0 outside the move).
+    fn velocity(&self, t: f64) -> f64 {
+        self.gen.profile().velocity(t)
+    }
+
+    /// Commanded position at time `t` (steps; 0 before the move, `steps` after it).
+    fn position(&self, t: f64) -> f64 {
+        self.gen.profile().position(t)
+    }
+
+    fn __len__(&self) -> usize {
+        usize::try_from(self.gen.profile().steps()).unwrap_or(usize::MAX)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Plan({}, steps={}, duration_s={}, clock_hz={})",
+            self.mode,
+            self.gen.profile().steps(),
+            self.gen.profile().duration(),
+            self.gen.clock()
+        )
+    }
+}
+
+/// Iterator over a plan's edges (or periods) in uint64 arrays of at most `size`.
+#[pyclass(module = "multistep")]
+pub struct Chunks {
+    /// The generator and the last edge so far (for periods).
+    state: Mutex<(EdgeGenerator, u64)>,
+    size: usize,
+    periods: bool,
+}
+
+#[pymethods]
+impl Chunks {
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray1<u64>>>> {
+        let mut st = self
+            .state
+            .lock()
+            .map_err(|_| value_err("the chunk iterator was poisoned by an earlier error"))?;
+        let (gen, last) = &mut *st;
+        let n = gen.remaining().min(self.size as u64);
+        if n == 0 {
+            return Ok(None);
+        }
+        let arr = empty_u64(py, n)?;
+        {
+            let mut rw = arr.try_readwrite()?;
+            let out = rw.as_slice_mut()?;
+            fill(py, gen, out, self.periods.then_some(last));
+        }
+        Ok(Some(arr))
+    }
+
+    /// Edges not yet returned.
+    #[getter]
+    fn remaining(&self) -> u64 {
+        self.state.lock().map(|s| s.0.remaining()).unwrap_or(0)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Chunks(size={}, periods={}, remaining={})",
+            self.size,
+            if self.periods { "True" } else { "False" },
+            self.remaining()
+        )
+    }
+}

@@ -1,0 +1,75 @@
+"""Shared fixtures: the `multistep` command line (the reference every binding result is
+checked against) and a real `multistep serve` board on 127.0.0.1."""
+
+import os
+import pathlib
+import shutil
+import subprocess
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+
+
+def _cli_path():
+    env = os.environ.get("MULTISTEP_BIN")
+    if env:
+        return env
+    for profile in ("release", "debug"):
+        p = REPO / "target" / profile / "multistep"
+        if p.exists():
+            return str(p)
+    found = shutil.which("multistep")
+    if found:
+        return found
+    raise RuntimeError(
+        "no multistep binary: build it (cargo build -p multistep) or set MULTISTEP_BIN"
+    )
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """Runs `multistep ARGS…`; returns the CompletedProcess (text)."""
+    exe = _cli_path()
+
+    def run(*args, check=True):
+        r = subprocess.run([exe, *map(str, args)], capture_output=True, text=True, timeout=300)
+        if check and r.returncode != 0:
+            raise AssertionError(f"multistep {' '.join(map(str, args))}: {r.stderr}")
+        return r
+
+    run.exe = exe
+    return run
+
+
+class Serve:
+    """One `multistep serve` process with a fresh database, stopped at the end."""
+
+    def __init__(self, exe, data, *extra):
+        self.proc = subprocess.Popen(
+            [exe, "serve", "--data", str(data), "--listen", "127.0.0.1:0", *extra],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        first = self.proc.stdout.readline().strip()
+        if "listening on tcp://" not in first:
+            self.proc.kill()
+            raise RuntimeError(f"serve said: {first!r} {self.proc.stderr.read()}")
+        self.endpoint = first.split("listening on ", 1)[1]
+
+    def stop(self):
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+
+
+@pytest.fixture
+def serve(cli, tmp_path):
+    """A started board (time runs 20× the wall clock); `.endpoint` is tcp://127.0.0.1:PORT."""
+    s = Serve(cli.exe, tmp_path / "board", "--time-scale", "20")
+    yield s
+    s.stop()
