@@ -250,3 +250,42 @@ fn ctl_names_a_board_that_never_answers() {
     );
     assert!(err.contains("retried for 5 s"), "{err}");
 }
+
+#[test]
+fn a_bad_multistep_font_is_named() {
+    let dir = temp_dir("font");
+    let not_a_font = dir.join("notes.txt");
+    std::fs::write(&not_a_font, "not a font").unwrap();
+    let missing = dir.join("missing.ttf");
+    let plot = dir.join("p.svg");
+    for (font, why) in [
+        (&missing, "cannot read it"),
+        (&not_a_font, "is not a usable TrueType font"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
+            .args([
+                "simulate", "--motor", "20mm", "--mode", "ideal", "--steps", "100",
+            ])
+            .args([
+                "--accel-time",
+                "0.01",
+                "--cruise-time",
+                "0",
+                "--decel-time",
+                "0.01",
+            ])
+            .arg("--plot")
+            .arg(&plot)
+            .env("MULTISTEP_FONT", font)
+            .output()
+            .unwrap();
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        let named = format!("MULTISTEP_FONT={}", font.display());
+        assert!(
+            err.starts_with("error: ") && err.contains(&named) && err.contains(why),
+            "{err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
