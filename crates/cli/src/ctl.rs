@@ -4,7 +4,7 @@
 use crate::moveargs::MoveArgs;
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Subcommand};
-use multistep_controller::client::{Client, Endpoint};
+use multistep_controller::client::{Client, ClientError, Endpoint};
 use multistep_controller::{AxisState, MoveOpts};
 use std::time::{Duration, Instant};
 
@@ -88,6 +88,31 @@ pub enum CtlCmd {
     },
 }
 
+/// How long `ctl` keeps retrying a TCP board that refuses the connection: long enough for a
+/// `multistep serve … &` started just before to open its database and listen.
+const CONNECT_PATIENCE: Duration = Duration::from_secs(5);
+
+/// Connects; a refused TCP connection is retried every 50 ms for [`CONNECT_PATIENCE`].
+fn connect_patiently(ep: &Endpoint) -> anyhow::Result<Client> {
+    let start = Instant::now();
+    loop {
+        match Client::connect(ep) {
+            Ok(c) => return Ok(c),
+            Err(ClientError::Io(e)) if e.kind() == std::io::ErrorKind::ConnectionRefused => {
+                if start.elapsed() >= CONNECT_PATIENCE {
+                    bail!(
+                        "{e} (retried for {} s: is `multistep serve` running there?)",
+                        CONNECT_PATIENCE.as_secs()
+                    );
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            Err(ClientError::Io(e)) => bail!("cannot connect: {e}"),
+            Err(e) => return Err(e.into()),
+        }
+    }
+}
+
 struct Boards {
     list: Vec<(String, Client)>,
 }
@@ -102,8 +127,9 @@ impl Boards {
             if name.is_empty() || name.contains(':') || list.iter().any(|b| b.0 == name) {
                 bail!("board name '{name}' is empty, has ':' or is given twice");
             }
-            let ep: Endpoint = ep.parse()?;
-            let c = Client::connect(&ep).with_context(|| format!("board {name} ({ep:?})"))?;
+            let endpoint: Endpoint = ep.parse()?;
+            let c =
+                connect_patiently(&endpoint).map_err(|e| anyhow!("board {name} ({ep}): {e}"))?;
             list.push((name.to_string(), c));
         }
         Ok(Boards { list })

@@ -79,6 +79,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let per_step_deg = 1.8 / sim_cfg.driver.microsteps as f64;
     let mut out_axes = Vec::new();
+    let mut plots = Vec::new();
     for (k, edges) in rises.iter().enumerate() {
         let r = simulate_edges(&motor, &sim_cfg, edges.iter().copied(), cfg.clock_hz, 1.0)?;
         let plot = args.out.join(format!("axis{k}-{}.svg", names[k]));
@@ -86,7 +87,6 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             "axis {} ({}): {} microsteps through the TDM engine, {} motor",
             k, names[k], r.steps, motor.name
         );
-        multistep_sim::plot::plot_trace(&plot.to_string_lossy(), &title, &r.trace)?;
         let st = axes[k].stats();
         out_axes.push(DemoAxis {
             axis: names[k].clone(),
@@ -98,6 +98,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             lost_steps: r.lost_steps,
             plot: plot.display().to_string(),
         });
+        plots.push((plot, title, r.trace));
     }
     let rep = DemoReport {
         motor: motor.name.clone(),
@@ -139,6 +140,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             }
             writeln!(o, "plots: {}", args.out.display())?;
         }
+    }
+    o.flush()?;
+    drop(o);
+    // The table comes first: a plot that cannot be drawn does not hide the results.
+    for (plot, title, trace) in &plots {
+        multistep_sim::plot::plot_trace(&plot.to_string_lossy(), title, trace)?;
     }
     Ok(())
 }

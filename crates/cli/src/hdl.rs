@@ -281,7 +281,7 @@ mod tests {
     }
 
     #[test]
-    fn json_row_has_the_issue_fields() {
+    fn json_row_has_the_documented_fields() {
         let v = row_json(&row(), "Yosys 0.23", Target::Xilinx, Baseline::Scaled);
         assert_eq!(v["axes"], 2);
         assert_eq!(v["tdm"]["lut"], 1200);

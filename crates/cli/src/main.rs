@@ -1,7 +1,7 @@
 //! `multistep`: the command line over the multistep libraries. Each subcommand lives in its
 //! own module and only parses, calls a library and prints.
 
-use clap::{Parser, Subcommand};
+use clap::{Command, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
@@ -49,21 +49,25 @@ enum Cmd {
     Experiment(experiment::ExperimentArgs),
 }
 
+/// Every option that takes a value accepts a negative number (`--vmax -5`), so the library,
+/// not the parser, says what is wrong with it.
+fn allow_negative_numbers(cmd: Command) -> Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(allow_negative_numbers)
+}
+
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
-        Ok(cli) => cli,
-        Err(e) => match e.kind() {
-            clap::error::ErrorKind::DisplayHelp
-            | clap::error::ErrorKind::DisplayVersion
-            | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => e.exit(),
-            _ => {
-                // One line, as scripts expect: clap's first line already starts with "error:".
-                let text = e.render().to_string();
-                eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
-                return ExitCode::from(2);
-            }
-        },
-    };
+    // clap's own rendering: the whole message with its hints (did you mean, usage) on
+    // stderr and status 2; help and version on stdout and status 0.
+    let matches = allow_negative_numbers(Cli::command()).get_matches();
+    let cli =
+        Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut Cli::command()).exit());
     let result = match &cli.cmd {
         Cmd::Demo(a) => demo::run(a),
         Cmd::Plan(a) => plan::run(a),

@@ -36,7 +36,7 @@ pub struct MoveArgs {
     #[arg(long, value_name = "F")]
     pub psi: Option<f64>,
     /// Segment mode: a constant-acceleration segment V0:T:N (steps/s, s, steps); repeat
-    #[arg(long = "segment", value_name = "V0:T:N", value_parser = parse_segment)]
+    #[arg(long = "segment", value_name = "V0:T:N", value_parser = parse_segment, allow_hyphen_values = true)]
     pub segments: Vec<Segment>,
     /// Limits mode: maximum speed (steps/s)
     #[arg(long, value_name = "V")]

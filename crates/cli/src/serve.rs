@@ -1,10 +1,11 @@
 //! `multistep serve`: one simulated controller board on TCP and optionally a serial line.
 
-use anyhow::Context;
+use anyhow::{anyhow, bail, Context};
 use clap::Args;
+use multistep_controller::CtlError;
 use multistep_controller::{service, BoardConfig, Controller};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 #[derive(Args, Debug)]
@@ -32,10 +33,14 @@ pub struct ServeArgs {
 
 pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let config = match &a.board_config {
-        Some(p) => BoardConfig::load(p)?,
+        Some(p) => load_board_config(p)?,
         None => BoardConfig::default(),
     };
-    let ctl = Arc::new(Controller::open(&config, &a.data, a.time_scale)?);
+    if let Some(dev) = &a.serial {
+        // A missing device is a mistake to stop on, not a warning behind a running board.
+        std::fs::metadata(dev).with_context(|| format!("serial device {dev}"))?;
+    }
+    let ctl = Arc::new(open_controller(&config, &a.data, a.time_scale)?);
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;
@@ -54,4 +59,48 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     out.flush()?;
     service::serve_tcp(ctl, listener)?;
     Ok(())
+}
+
+/// The board config; every error names the file, on one line.
+fn load_board_config(path: &Path) -> anyhow::Result<BoardConfig> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read board config {}", path.display()))?;
+    BoardConfig::parse(&text).map_err(|e| {
+        let msg = match e {
+            CtlError::Setting(m) => m.strip_prefix("board config: ").unwrap_or(&m).to_string(),
+            e => e.to_string(),
+        };
+        anyhow!("board config {}: {}", path.display(), without_snippet(&msg))
+    })
+}
+
+/// A TOML error's message without its source snippet (`1 | text`, `  |   ^`).
+fn without_snippet(msg: &str) -> String {
+    let snippet = |l: &str| {
+        let l = l.trim_start_matches(|c: char| c.is_ascii_digit() || c == ' ');
+        l.is_empty() || l.starts_with('|')
+    };
+    let kept: Vec<&str> = msg.lines().filter(|l| !snippet(l)).map(str::trim).collect();
+    kept.join(": ")
+}
+
+/// Opens the board on its `--data` directory; storage errors name the directory.
+fn open_controller(
+    config: &BoardConfig,
+    data: &Path,
+    time_scale: f64,
+) -> anyhow::Result<Controller> {
+    if data.exists() && !data.is_dir() {
+        bail!("--data {}: not a directory", data.display());
+    }
+    std::fs::create_dir_all(data)
+        .with_context(|| format!("--data {}: cannot create the directory", data.display()))?;
+    Controller::open(config, data, time_scale).map_err(|e| match e {
+        CtlError::Store(msg) if msg.contains("already open") => anyhow!(
+            "--data {}: {msg} (is another `multistep serve` using it?)",
+            data.display()
+        ),
+        CtlError::Store(msg) => anyhow!("--data {}: board database: {msg}", data.display()),
+        e => e.into(),
+    })
 }

@@ -1,4 +1,4 @@
-//! `multistep bench`: every implementation on every move, in the JSON shape the issue fixes.
+//! `multistep bench`: every implementation on every move, in its documented JSON shape.
 
 use std::process::{Command, Output};
 

@@ -1,4 +1,4 @@
-//! Aggregate edges/s through the TDM engine on one core: 16 axes (the figure) and
+//! Aggregate edges/s through the TDM engine on one core: 16 axes (the figure the goal names) and
 //! 64 (the most a board holds) carrying the same edges.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};

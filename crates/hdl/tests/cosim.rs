@@ -276,7 +276,7 @@ fn narrow_widths_and_other_radices() {
     }
 }
 
-/// Issue 4's goal in model and RTL: at 100 000 steps/s per axis (trapezoids 2/6/2 ms at
+/// The throughput goal in model and RTL: at 100 000 steps/s per axis (trapezoids 2/6/2 ms at
 /// 50 MHz, all started together) the core TDM model with the RTL's latencies finds the
 /// largest axis count with no underrun (>= 8); the RTL runs that many with no underrun and
 /// bit-exact edges, and one more axis underruns in both.

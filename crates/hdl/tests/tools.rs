@@ -27,7 +27,7 @@ fn verilator_lint_is_clean() {
         .unwrap_or_else(|e| panic!("narrow: {e}"));
 }
 
-/// The goal at K = 2: TDM / independent LUT ratio <= 0.66 (Xilinx 7, both
+/// The goal at K = 2 (seed 000's two-axis core: 0.66): TDM / independent LUT ratio <= 0.66 (Xilinx 7, both
 /// designs synthesized whole), and the shared calculator halves the DSP blocks.
 #[test]
 fn yosys_two_axes_lut_ratio_goal() {

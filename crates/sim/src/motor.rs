@@ -208,7 +208,7 @@ mod tests {
     use proptest::strategy::Strategy;
 
     #[test]
-    fn library_motors_load_and_match_issue_values() {
+    fn library_motors_load_with_their_datasheet_values() {
         let m = Motor::load("57mm").unwrap();
         assert_eq!(m.holding_torque, 1.26);
         assert_eq!(m.inductance, 2.5e-3);

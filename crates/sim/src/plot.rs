@@ -7,30 +7,29 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::sync::OnceLock;
 
-/// Where a sans-serif TrueType font is looked for (Debian/Ubuntu `fonts-dejavu-core` first);
-/// `MULTISTEP_FONT` overrides. Text layout needs one font; nothing else is required.
-const FONT_PATHS: [&str; 4] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-];
+/// DejaVu Sans (fonts/LICENSE), built in so plots draw on a machine with no fonts installed.
+const EMBEDDED_FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 
-/// Registers the sans-serif font plotters lays text out with (once per program).
+/// Registers the sans-serif font plotters lays text out with (once per program): the
+/// embedded DejaVu Sans, or the TrueType file named by `MULTISTEP_FONT`.
 pub fn ensure_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
-        let env = std::env::var("MULTISTEP_FONT").ok();
-        let candidates = env.iter().map(String::as_str).chain(FONT_PATHS);
-        for path in candidates {
-            if let Ok(bytes) = std::fs::read(path) {
-                // plotters keeps fonts for the life of the program.
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-                    .map_err(|_| format!("{path} is not a usable TrueType font"));
-            }
-        }
-        Err("no TrueType font found: install fonts-dejavu-core or set MULTISTEP_FONT".into())
+        let (bytes, origin): (&'static [u8], String) =
+            match std::env::var_os("MULTISTEP_FONT").filter(|p| !p.is_empty()) {
+                Some(path) => {
+                    let path = std::path::PathBuf::from(path);
+                    let bytes = std::fs::read(&path).map_err(|e| {
+                        format!("MULTISTEP_FONT={}: cannot read it: {e}", path.display())
+                    })?;
+                    // plotters keeps fonts for the life of the program.
+                    let bytes = Box::leak(bytes.into_boxed_slice());
+                    (bytes, format!("MULTISTEP_FONT={}", path.display()))
+                }
+                None => (EMBEDDED_FONT, "the embedded DejaVu Sans".into()),
+            };
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+            .map_err(|_| format!("{origin} is not a usable TrueType font"))
     })
     .clone()
 }

@@ -13,7 +13,7 @@ fn curve_limits_reproduce_seed_001_ordering() {
             assert!(json[key][fam].as_f64().unwrap().is_finite(), "{key}.{fam}");
         }
     }
-    // The damping ratio is the motor file's, not fitted, and in the range.
+    // The damping ratio is the motor file's, not fitted, and in the range 0.05–0.3.
     assert!((0.05..=0.3).contains(&r.damping_ratio));
     // Calibration: the trapezoid's limit is the calibration angle, to the bisection's 1°.
     let trap = r.max_angle_deg["trapezoid"];
