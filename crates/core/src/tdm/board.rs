@@ -17,13 +17,11 @@
 use super::calculator::Latencies;
 use super::fifo::Fifo;
 use super::pulse::{PulseShape, PulseUnit, StepPulse};
-use super::scheduler::{Policy, Queue};
+pub use super::scheduler::MAX_AXES;
+use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::profile::Profile;
-
-/// Most axes one board holds.
-pub const MAX_AXES: usize = 64;
 
 /// What a board is built from besides its axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -268,7 +266,7 @@ impl<'a> Board<'a> {
                 .max()
                 .unwrap_or(0)
             + cfg.dir_setup_ticks as u128;
-        if work >= 1 << 57 {
+        if work >= TICK_LIMIT as u128 {
             return Err(TdmError::TooLong);
         }
         for (m, a) in axes.iter_mut().enumerate() {
