@@ -7,6 +7,8 @@
 //! checked against `p((e − ½)/f) < i ≤ p((e + ½)/f)`, so every edge is the nearest tick,
 //! not only most of them. Memory is O(1); nothing allocates.
 
+use core::borrow::Borrow;
+
 use crate::accum::{float_cruise, FloatCruise, StepAccumulator};
 use crate::dd::Dd;
 use crate::error::{positive, PlanError};
@@ -35,9 +37,12 @@ fn nearest_tick(x: f64) -> (u64, f64) {
 }
 
 /// Streams the edge tick of every step of a profile, in order.
+///
+/// It owns its profile (`EdgeGenerator<Profile>`, the default: about 5 KB) or borrows it
+/// (`EdgeGenerator<&Profile>`: a few hundred bytes, and no copy of the pieces).
 #[derive(Clone, Debug)]
-pub struct EdgeGenerator {
-    profile: Profile,
+pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
+    profile: P,
     clock: f64,
     /// Next step to produce (1-based), also as f64 (u64 → f64 is slow on baseline x86-64).
     next: u64,
@@ -63,6 +68,8 @@ pub struct EdgeGenerator {
     nhist: u8,
     /// The current piece's law with its constants hoisted, if it is shaped.
     shaped: Option<ShapedLaw>,
+    /// A bound on |acceleration| over the current (Newton) piece, if one is known.
+    shaped_amax: Option<f64>,
     v_prev: f64,
     last_edge: u64,
     settled: u64,
@@ -76,20 +83,21 @@ pub struct EdgeGenerator {
     acc: StepAccumulator,
 }
 
-impl EdgeGenerator {
-    /// A generator for `profile` at `clock_hz` ticks per second.
-    pub fn new(profile: Profile, clock_hz: f64) -> Result<Self, PlanError> {
+impl<P: Borrow<Profile>> EdgeGenerator<P> {
+    /// A generator for `profile` (owned or borrowed) at `clock_hz` ticks per second.
+    pub fn new(profile: P, clock_hz: f64) -> Result<Self, PlanError> {
         let clock = positive("clock", clock_hz)?;
-        let ticks = clock * profile.duration();
+        let pr = profile.borrow();
+        let ticks = clock * pr.duration();
         if !(ticks <= MAX_TICKS) {
             return Err(PlanError::TooManyTicks {
                 ticks,
                 max: MAX_TICKS,
             });
         }
-        let cur = *profile.piece(0);
-        let last_f = profile.steps() as f64;
-        let cur_end = profile.end_of(0);
+        let cur = *pr.piece(0);
+        let last_f = pr.steps() as f64;
+        let cur_end = pr.end_of(0);
         Ok(EdgeGenerator {
             profile,
             clock,
@@ -108,6 +116,7 @@ impl EdgeGenerator {
             hist: [0.0; 3],
             nhist: 0,
             shaped: None,
+            shaped_amax: None,
             v_prev: 0.0,
             last_edge: 0,
             settled: 0,
@@ -121,7 +130,7 @@ impl EdgeGenerator {
     }
 
     pub fn profile(&self) -> &Profile {
-        &self.profile
+        self.profile.borrow()
     }
 
     pub fn clock(&self) -> f64 {
@@ -130,7 +139,7 @@ impl EdgeGenerator {
 
     /// Steps not produced yet.
     pub fn remaining(&self) -> u64 {
-        self.profile.steps() + 1 - self.next + self.run_left
+        self.profile().steps() + 1 - self.next + self.run_left
     }
 
     /// How many edges needed the double-double settle so far (a diagnostic).
@@ -140,13 +149,13 @@ impl EdgeGenerator {
 
     /// The tick of the last step: `round(f·T)`.
     pub fn last_edge_tick(&self) -> u64 {
-        Dd::mul_f64(self.clock, self.profile.duration()).round_half_up() as u64
+        Dd::mul_f64(self.clock, self.profile().duration()).round_half_up() as u64
     }
 
     /// Moves the generator so that its next item is the edge of `step` (1-based); steps
     /// beyond the move end the stream. Costs O(pieces), not O(steps).
     pub fn seek(&mut self, step: u64) {
-        self.next = step.clamp(1, self.profile.steps() + 1);
+        self.next = step.clamp(1, self.profile().steps() + 1);
         self.next_f = self.next as f64;
         self.run_left = 0;
         self.enter(0);
@@ -154,7 +163,7 @@ impl EdgeGenerator {
     }
 
     /// Turns this edge stream into a stream of periods `edge_i − edge_{i−1}`.
-    pub fn periods(self) -> Periods {
+    pub fn periods(self) -> Periods<P> {
         Periods {
             edges: self,
             last: 0,
@@ -216,8 +225,8 @@ impl EdgeGenerator {
 
     fn enter(&mut self, k: usize) {
         self.piece = k;
-        self.cur = *self.profile.piece(k);
-        self.cur_end = self.profile.end_of(k);
+        self.cur = *self.profile().piece(k);
+        self.cur_end = self.profile().end_of(k);
         let q = self.cur.quadratic();
         self.quad = q.is_some();
         (self.c1, self.c2) = q.unwrap_or((0.0, 0.0));
@@ -233,6 +242,14 @@ impl EdgeGenerator {
                 span,
             } => Some(ShapedLaw::new(shape, mirrored, base, span, self.cur.dur)),
             Law::Poly { .. } => None,
+        };
+        self.shaped_amax = match self.cur.law {
+            Law::Shaped { .. } => self.shaped.and_then(|l| l.max_abs_acceleration()),
+            // |2c2 + 6c3·τ + 12c4·τ²| on τ ∈ [0, dur], with a margin for rounding
+            Law::Poly { c2, c3, c4, .. } => {
+                let d = self.cur.dur;
+                Some(1.001 * (2.0 * c2.abs() + 6.0 * c3.abs() * d + 12.0 * c4.abs() * d * d))
+            }
         };
         self.cruise_exact = None;
         if self.cruise {
@@ -364,13 +381,26 @@ impl EdgeGenerator {
                 continue;
             }
             tau = next;
+            if let Some(amax) = self.shaped_amax {
+                // Taylor with |a| ≤ amax on the piece: the step leaves |advance − n| ≤
+                // amax·corr²/2 and v ≥ v − amax·|corr| between, so τ is within their ratio
+                let slow = v - amax * corr.abs();
+                let b = amax * corr * corr / (2.0 * slow);
+                if slow > 0.0 && b * self.clock <= 1e-7 {
+                    err_newton = 4.0 * b + 4.0 * EPS * tau;
+                    break;
+                }
+            }
             if corr.abs() * self.clock <= 1e-3 {
                 // Newton's error after this step is |a|/(2v)·corr² (quadratic convergence).
+                // |a| at τ, or a bound on it over the piece (one transcendental less)
                 let a = match &self.shaped {
-                    Some(law) => law.acceleration(tau),
-                    None => p.acceleration(tau),
-                }
-                .abs();
+                    Some(law) => match self.shaped_amax {
+                        Some(amax) => amax,
+                        None => law.acceleration(tau).abs(),
+                    },
+                    None => p.acceleration(tau).abs(),
+                };
                 err_newton = 4.0 * a / (2.0 * v) * corr * corr + 4.0 * EPS * tau;
                 break;
             }
@@ -421,7 +451,7 @@ impl EdgeGenerator {
                 return e;
             }
         }
-        let p = *self.profile.piece(k);
+        let p = *self.profile().piece(k);
         let target = Dd::new(i) - Dd::new(p.p0);
         let mut t = Dd::new(tau);
         for _ in 0..8 {
@@ -439,12 +469,12 @@ impl EdgeGenerator {
         let mut e = ((Dd::new(p.t0) + t) * f).round_half_up().max(0.0);
         let step = Dd::new(i);
         for _ in 0..1024 {
-            let below = self.profile.position_dd(Dd::new(e - 0.5) / f);
+            let below = self.profile().position_dd(Dd::new(e - 0.5) / f);
             if below >= step && e > 0.0 {
                 e -= 1.0;
                 continue;
             }
-            let above = self.profile.position_dd(Dd::new(e + 0.5) / f);
+            let above = self.profile().position_dd(Dd::new(e + 0.5) / f);
             if above < step {
                 e += 1.0;
                 continue;
@@ -455,7 +485,7 @@ impl EdgeGenerator {
     }
 }
 
-impl Iterator for EdgeGenerator {
+impl<P: Borrow<Profile>> Iterator for EdgeGenerator<P> {
     type Item = u64;
 
     #[inline]
@@ -474,7 +504,7 @@ impl Iterator for EdgeGenerator {
     }
 }
 
-impl EdgeGenerator {
+impl<P: Borrow<Profile>> EdgeGenerator<P> {
     /// The next edge. Always inlined, so that [`fill`](Self::fill) runs it in a tight loop
     /// (as `for e in generator` does) instead of calling it once per edge.
     #[inline(always)]
@@ -505,7 +535,7 @@ impl EdgeGenerator {
         self.next_f += 1.0;
         if self.cur_end < i {
             let mut k = self.piece;
-            while self.profile.end_of(k) < i && k + 1 < self.profile.len() {
+            while self.profile().end_of(k) < i && k + 1 < self.profile().len() {
                 k += 1;
             }
             self.enter(k);
@@ -526,16 +556,16 @@ impl EdgeGenerator {
     }
 }
 
-impl ExactSizeIterator for EdgeGenerator {}
+impl<P: Borrow<Profile>> ExactSizeIterator for EdgeGenerator<P> {}
 
 /// Periods between consecutive edges, starting from tick 0.
 #[derive(Clone, Debug)]
-pub struct Periods {
-    edges: EdgeGenerator,
+pub struct Periods<P: Borrow<Profile> = Profile> {
+    edges: EdgeGenerator<P>,
     last: u64,
 }
 
-impl Iterator for Periods {
+impl<P: Borrow<Profile>> Iterator for Periods<P> {
     type Item = u64;
     #[inline]
     fn next(&mut self) -> Option<u64> {
@@ -579,6 +609,31 @@ mod tests {
         // the middle of the cruise: 80000 steps/s is exactly 625 ticks per step
         let mid = &edges[1000..1300];
         assert!(mid.windows(2).all(|w| w[1] - w[0] == 625));
+    }
+
+    /// A borrowing generator holds no copy of the profile's pieces and gives the same edges.
+    #[test]
+    fn borrowed_generator_is_small_and_the_same() {
+        let own = core::mem::size_of::<EdgeGenerator>();
+        let borrowed = core::mem::size_of::<EdgeGenerator<&Profile>>();
+        std::println!("EdgeGenerator: owned {own} B, borrowed {borrowed} B");
+        assert!(
+            own > core::mem::size_of::<Profile>() && borrowed < 512,
+            "{own} {borrowed}"
+        );
+        let p = Profile::phase(&PhaseMove {
+            steps: 5000,
+            accel_time: 0.2,
+            cruise_time: 0.3,
+            decel_time: 0.2,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family: Family::Sine,
+        })
+        .unwrap();
+        let a: std::vec::Vec<u64> = EdgeGenerator::new(&p, 50e6).unwrap().collect();
+        let b: std::vec::Vec<u64> = EdgeGenerator::new(p, 50e6).unwrap().collect();
+        assert_eq!(a, b);
     }
 
     /// A 32 000 steps/s cruise between two ramps (1562.5 ticks a step, every other step on

@@ -235,6 +235,18 @@ impl ShapedLaw {
         )
     }
 
+    /// A bound on |a(τ)| over the piece where the shape's slope is bounded: `π/2` (sine)
+    /// and `1/(ρD)` (exponential, at its steep end) times `span/dur²`, with a margin for
+    /// rounding; `None` for the parabola, whose slope is unbounded at u = 0.
+    pub fn max_abs_acceleration(&self) -> Option<f64> {
+        let g = match self.shape {
+            Shape::Sine => 0.5 * core::f64::consts::PI,
+            Shape::Exponential { .. } => 1.0 / self.rho_d,
+            Shape::Parabolic => return None,
+        };
+        Some(1.001 * (self.span_slope * g).abs())
+    }
+
     /// `a(τ)`, as [`Shape::slope`] scaled.
     #[inline]
     pub fn acceleration(&self, tau: f64) -> f64 {
@@ -347,6 +359,9 @@ mod tests {
                         piece.acceleration(tau).to_bits(),
                         "{s:?} {mirrored} {tau}"
                     );
+                    if let Some(amax) = law.max_abs_acceleration() {
+                        assert!(piece.acceleration(tau).abs() <= amax, "{s:?} {tau}");
+                    }
                 }
             }
         }

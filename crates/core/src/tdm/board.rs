@@ -116,7 +116,8 @@ impl Axis {
 
     /// Back to step 0 with an empty FIFO, so the same axes can run again.
     fn reset(&mut self, depth: usize, shape: PulseShape) -> Result<(), TdmError> {
-        self.gen = EdgeGenerator::new(self.gen.profile().clone(), self.gen.clock())?;
+        // back to step 1 in place (no copy of the profile)
+        self.gen.seek(1);
         self.ahead_pos = 0;
         self.ahead_len = 0;
         self.prev_edge = 0;
