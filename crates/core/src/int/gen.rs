@@ -108,7 +108,7 @@ impl IntEdgeGenerator {
         let p = self.current();
         let e = p.edge(self.j);
         let run = (p.steps - self.j - 1).min(self.left - 2);
-        if run > 0 {
+        if run > 0 && p.is_cruise() {
             if let Some(acc) = p.cruise_accumulator(self.j + 1) {
                 self.acc = acc;
                 self.run_left = run;

@@ -146,6 +146,9 @@ pub struct IntPiece {
     pub steps: u64,
     kernel: StepKernel,
     wide: Option<WideRadicand>,
+    /// `A`, `B`, `Den`, the first step's `M` and `D − 1` in f64 (as bits, so the piece
+    /// stays `Eq`), for [`IntPiece::edge`]'s guess.
+    guess: [u64; 5],
 }
 
 fn gcd(mut x: u128, mut y: u128) -> u128 {
@@ -205,6 +208,7 @@ impl IntPiece {
             dv: 1,
         },
         wide: None,
+        guess: [0; 5],
     };
 
     /// A piece from speed `u/g` to speed `w/g` (steps/tick) over `dur` ticks, starting at
@@ -254,6 +258,8 @@ impl IntPiece {
         };
         if steps > 0 {
             piece.set_kernel(m0, m0 + (steps - 1) * den)?;
+            piece.guess =
+                [a as f64, b as f64, den as f64, m0 as f64, dur as f64 - 1.0].map(f64::to_bits);
         }
         Ok(piece)
     }
@@ -319,6 +325,12 @@ impl IntPiece {
         (m > 0).then_some(m)
     }
 
+    /// Whether the piece is at constant speed.
+    #[inline(always)]
+    pub fn is_cruise(&self) -> bool {
+        self.kernel.mode == KernelMode::Cruise
+    }
+
     /// The constant-speed edges from step j on (absolute ticks), if this is a cruise
     /// piece whose accumulator fits ([`StepKernel::cruise_accumulator`]).
     pub fn cruise_accumulator(&self, j: u64) -> Option<StepAccumulator> {
@@ -329,10 +341,48 @@ impl IntPiece {
     #[inline]
     pub fn edge(&self, j: u64) -> u64 {
         let local = match &self.wide {
-            None => self.kernel.local_edge(j),
+            None => match self.checked_guess(j) {
+                Some(e) => e,
+                None => self.kernel.local_edge(j),
+            },
             Some(w) => self.wide_local_edge(w, j),
         };
         self.t0 + local
+    }
+
+    /// The local edge of step j from an f64 guess, proved in integers: e is the edge iff
+    /// `P(e − ½) < M ≤ P(e + ½)` (`P(τ) = A·τ + B·τ²`, increasing on the piece), checked
+    /// as `2A·t + B·t² ⋚ 4M` at `t = 2e ± 1` (two multiplies each, every value below
+    /// 2^127 for `t ≤ 2D + 1` by the planning bounds). `None` (the kernel decides) when
+    /// the check fails — near a half tick — or at the piece's first and last tick; always
+    /// `None` on Cruise, whose kernel has no root.
+    #[inline(always)]
+    fn checked_guess(&self, j: u64) -> Option<u64> {
+        if self.kernel.mode == KernelMode::Cruise {
+            return None;
+        }
+        let [a, b, den, m0, last] = self.guess.map(f64::from_bits);
+        let mf = m0 + j as f64 * den;
+        // the stable root 2M/(A + √(A² + 4BM)) (no cancellation), rounded to a tick
+        let tau = 2.0 * mf / (a + crate::real::fm::sqrt((a * a + 4.0 * b * mf).max(0.0)));
+        if !(tau >= 1.0 && tau < last) {
+            return None;
+        }
+        // in range for a plain (non-saturating) conversion
+        let e = (tau + 0.5) as i64 as u64;
+        let m = self
+            .den
+            .wrapping_mul((self.first + j) as u128)
+            .wrapping_sub(self.c);
+        let m4 = (4 * m) as i128;
+        let two_a = 2 * self.a as i128;
+        let p4 = |t: u64| {
+            let t = t as i128;
+            two_a
+                .wrapping_mul(t)
+                .wrapping_add(self.b.wrapping_mul(t * t))
+        };
+        (p4(2 * e + 1) >= m4 && p4(2 * e - 1) < m4).then_some(e)
     }
 
     /// [`StepKernel::local_edge`] with a 256-bit radicand (the root is below 2^126).
@@ -398,6 +448,7 @@ mod tests {
                 let m = p.target(p.first + j).unwrap();
                 let want = brute_edge(&p, m);
                 prop_assert_eq!(p.edge(j), want, "{:?} step {}", p, j);
+                prop_assert_eq!(p.t0 + p.kernel().unwrap().local_edge(j), want);
                 prop_assert_eq!(wide.edge(j), want, "wide {:?} step {}", p, j);
             }
             // the steps are exactly those the piece covers
