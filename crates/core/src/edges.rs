@@ -372,7 +372,9 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             }
             let corr = f / v;
             let next = tau - corr;
-            if !(next > lo && next < hi) {
+            // inclusive: a guess exact to rounding gives corr = 0 and next = lo, which
+            // is converged, not a reason to bisect (to the far half of the piece)
+            if !(next >= lo && next <= hi) {
                 tau = 0.5 * (lo + hi);
                 err_newton = hi - lo;
                 if hi - lo <= 4.0 * EPS * hi {
