@@ -222,6 +222,26 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        /// Random dyadic pieces (so f64 holds them exactly) and clocks: every edge of a
+        /// window equals the exact rational nearest tick, ties down; many speeds put
+        /// steps exactly on half ticks (f/c1 with a small odd denominator).
+        #[test]
+        fn random_pieces_match_exact_rationals(
+            t0n in 0u128..1 << 20, t0k in 0u32..12, p0n in 0u128..1 << 20, p0k in 0u32..8,
+            cn in 1u128..4096, ck in 0u32..6, f in 1u128..100_000_000, skip in 0u128..1 << 30,
+        ) {
+            let (t0, p0, c1) = ((t0n, 1u128 << t0k), (p0n, 1u128 << p0k), (cn, 1u128 << ck));
+            let fl = |x: (u128, u128)| x.0 as f64 / x.1 as f64;
+            let plan = float_cruise(fl(t0), fl(p0), fl(c1), f as f64).expect("fits");
+            let i0 = p0.0 / p0.1 + 1 + skip;
+            let mut acc = plan.at(i0 as u64).unwrap();
+            for i in i0..i0 + 300 {
+                proptest::prop_assert_eq!(acc.next_edge(), reference(t0, p0, c1, f, i), "step {}", i);
+            }
+        }
+    }
+
     #[test]
     fn refuses_what_it_cannot_hold_exactly() {
         assert!(float_cruise(0.0, 0.0, 32_000.0, 50e6 + 0.5).is_none());
