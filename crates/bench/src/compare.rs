@@ -2,7 +2,7 @@
 //! the exact edges (the integer datapath, exact by construction and by the core's tests)
 //! and the exact real step times.
 
-use crate::moves::{BenchMove, CLOCK_HZ};
+use crate::moves::{BenchMove, FamilyMove, CLOCK_HZ};
 use crate::seed000::Seed000Segment;
 use crate::{austin, eiderman, rampmaker, seed000};
 use multistep_core::int::{IntEdgeGenerator, IntProfile};
@@ -83,6 +83,22 @@ pub struct Case {
     pub drift_ticks: i64,
     /// Largest |period − f·(t_i − t_{i−1})| / (f·(t_i − t_{i−1})), in %.
     pub max_period_error_pct: f64,
+    /// Instructions per edge (whole run minus planning, over the steps), when counted.
+    pub instructions_per_edge: Option<f64>,
+}
+
+/// One family move run by multistep-float (the only implementation of those families).
+#[derive(Clone, Debug, Serialize)]
+pub struct FamilyCase {
+    #[serde(rename = "move")]
+    pub mv: &'static str,
+    #[serde(rename = "impl")]
+    pub imp: &'static str,
+    pub steps: u64,
+    pub edges_per_s: f64,
+    /// Edges settled in double-double (f64 could not decide the nearest tick).
+    pub settled_edges: u64,
+    pub instructions_per_edge: Option<f64>,
 }
 
 /// Seed 000's register model of a trapezoid: accel, cruise and decel segments.
@@ -119,6 +135,17 @@ impl Sink for Vec<u64> {
     fn take(&mut self, edges: impl Iterator<Item = u64>) {
         self.clear();
         self.extend(edges);
+    }
+}
+
+/// Takes no edge: what remains of a run is planning (the fixed cost of an instruction
+/// count).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Skip;
+
+impl Sink for Skip {
+    fn take(&mut self, edges: impl Iterator<Item = u64>) {
+        black_box(edges.size_hint());
     }
 }
 
@@ -221,26 +248,34 @@ impl ChunkTimer {
     }
 }
 
-impl Sink for ChunkTimer {
-    fn take(&mut self, mut edges: impl Iterator<Item = u64>) {
-        let mut t = self.started.take().unwrap_or_else(Instant::now);
-        for k in 0.. {
-            let mut n = 0;
-            for e in edges.by_ref().take(Self::CHUNK) {
-                self.fold = self.fold.rotate_left(1) ^ e;
-                n += 1;
-            }
-            if n == 0 {
-                break;
-            }
-            let now = Instant::now();
-            let dt = (now - t).as_secs_f64();
-            t = now;
-            match self.best.get_mut(k) {
-                Some(b) => *b = b.min(dt),
-                None => self.best.push(dt),
-            }
+impl ChunkTimer {
+    fn lap(&mut self, k: usize, t: &mut Instant) {
+        let now = Instant::now();
+        let dt = (now - *t).as_secs_f64();
+        *t = now;
+        match self.best.get_mut(k) {
+            Some(b) => *b = b.min(dt),
+            None => self.best.push(dt),
         }
+    }
+}
+
+impl Sink for ChunkTimer {
+    /// One fold over the whole stream (the generators' fast loop), timing every chunk.
+    fn take(&mut self, edges: impl Iterator<Item = u64>) {
+        let mut t = self.started.take().unwrap_or_else(Instant::now);
+        let (mut n, mut fold) = (0usize, self.fold);
+        edges.for_each(|e| {
+            fold = fold.rotate_left(1) ^ e;
+            n += 1;
+            if n % Self::CHUNK == 0 {
+                self.lap(n / Self::CHUNK - 1, &mut t);
+            }
+        });
+        if n % Self::CHUNK != 0 {
+            self.lap(n / Self::CHUNK, &mut t);
+        }
+        self.fold = fold;
     }
 }
 
@@ -257,6 +292,47 @@ fn speed(imp: Impl, m: &BenchMove, opts: &Options) -> f64 {
         runs += 1;
     }
     m.steps as f64 / timer.total()
+}
+
+/// Runs a family move through multistep-float, handing its edges to `sink`.
+pub fn drive_family(m: &FamilyMove, sink: &mut impl Sink) {
+    let p = m.profile().expect("family moves plan");
+    sink.take(EdgeGenerator::new(p, CLOCK_HZ as f64).expect("family moves fit"));
+}
+
+/// Edges of a family move that f64 could not decide (settled in double-double).
+fn settled(m: &FamilyMove) -> u64 {
+    let p = m.profile().expect("family moves plan");
+    let mut g = EdgeGenerator::new(p, CLOCK_HZ as f64).expect("family moves fit");
+    black_box(g.fold_edges(0u64, |a, e| a ^ e));
+    g.settled_count()
+}
+
+/// multistep-float on every family move.
+pub fn run_families(moves: &[FamilyMove], opts: &Options) -> Vec<FamilyCase> {
+    moves
+        .iter()
+        .map(|m| {
+            let settled = settled(m);
+            let start = Instant::now();
+            let mut timer = ChunkTimer::default();
+            let mut runs = 0;
+            while start.elapsed() < opts.min_time || runs < 3 {
+                timer.start();
+                drive_family(black_box(m), &mut timer);
+                black_box(timer.fold);
+                runs += 1;
+            }
+            FamilyCase {
+                mv: m.name,
+                imp: Impl::Float.name(),
+                steps: m.steps,
+                edges_per_s: m.steps as f64 / timer.total(),
+                settled_edges: settled,
+                instructions_per_edge: None,
+            }
+        })
+        .collect()
 }
 
 /// Runs every implementation on every move.
@@ -278,6 +354,7 @@ pub fn run(moves: &[BenchMove], opts: &Options) -> Vec<Case> {
                 max_edge_error_ticks: max_err,
                 drift_ticks: drift,
                 max_period_error_pct: pct,
+                instructions_per_edge: None,
             });
         }
     }

@@ -16,13 +16,14 @@
 pub mod austin;
 pub mod compare;
 pub mod eiderman;
+pub mod icount;
 pub mod moves;
 pub mod ramp;
 pub mod rampmaker;
 pub mod seed000;
 
-pub use compare::{run, Case, Impl, Options};
-pub use moves::{BenchMove, CLOCK_HZ, MOVES};
+pub use compare::{run, run_families, Case, FamilyCase, Impl, Options};
+pub use moves::{BenchMove, FamilyMove, CLOCK_HZ, FAMILY_MOVES, MOVES};
 
 /// Edges from inter-step delays in ticks: each delay is rounded to a whole tick (a timer
 /// compare value), and the edges are their running sum — so rounding drifts.

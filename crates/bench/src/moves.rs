@@ -4,7 +4,7 @@
 //! seed 000's segment registers included, can express exactly the same move.
 
 use multistep_core::int::{IntClock, IntLimitsMove, IntProfile};
-use multistep_core::{LimitsMove, Move, Order, PlanError, Profile};
+use multistep_core::{Family, LimitsMove, Move, Order, PhaseMove, PlanError, Profile};
 use serde::Serialize;
 
 /// Seed 000's clock.
@@ -19,8 +19,10 @@ pub struct BenchMove {
     pub amax: u64,
 }
 
-/// seed 000's run (20/10/20 ms), a slow move, a fast long one, a long ramp and a triangle.
-pub const MOVES: [BenchMove; 5] = [
+/// seed 000's run (20/10/20 ms), a slow move, a fast long one, a long ramp, a triangle, and
+/// a cruise at 32 000 steps/s: 1562.5 ticks a step, every other step on an exact half tick
+/// (ramps of 0.125 s, so the float profile's times are exact too).
+pub const MOVES: [BenchMove; 6] = [
     BenchMove {
         name: "seed000-2400",
         steps: 2_400,
@@ -51,7 +53,55 @@ pub const MOVES: [BenchMove; 5] = [
         vmax: 100_000,
         amax: 500_000,
     },
+    BenchMove {
+        name: "half-tick-1M",
+        steps: 1_000_000,
+        vmax: 32_000,
+        amax: 256_000,
+    },
 ];
+
+/// A phase-mode move of one velocity family (only multistep plans these): N steps in
+/// 2 s accelerating, 6 s cruising, 2 s decelerating, from rest to rest at 50 MHz.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FamilyMove {
+    pub name: &'static str,
+    #[serde(skip)]
+    pub family: Family,
+    pub steps: u64,
+}
+
+const fn family(name: &'static str, family: Family) -> FamilyMove {
+    FamilyMove {
+        name,
+        family,
+        steps: 1_000_000,
+    }
+}
+
+/// One move per family.
+pub const FAMILY_MOVES: [FamilyMove; 6] = [
+    family("trapezoid-2/6/2", Family::Trapezoid),
+    family("parabolic-2/6/2", Family::Parabolic),
+    family("exponential-2/6/2", Family::Exponential { rho: 0.25 }),
+    family("sine-2/6/2", Family::Sine),
+    family("scurve-2/6/2", Family::SCurve { phi: 0.5 }),
+    family("scurve4-2/6/2", Family::SCurve4 { phi: 0.5, psi: 0.5 }),
+];
+
+impl FamilyMove {
+    pub fn profile(&self) -> Result<Profile, PlanError> {
+        Profile::phase(&PhaseMove {
+            steps: self.steps,
+            accel_time: 2.0,
+            cruise_time: 6.0,
+            decel_time: 2.0,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family: self.family,
+        })
+    }
+}
 
 impl BenchMove {
     /// Steps of the accel phase (= decel phase): vmax²/(2·amax).

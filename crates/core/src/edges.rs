@@ -7,11 +7,16 @@
 //! checked against `p((e − ½)/f) < i ≤ p((e + ½)/f)`, so every edge is the nearest tick,
 //! not only most of them. Memory is O(1); nothing allocates.
 
+use core::borrow::Borrow;
+
+use crate::accum::{float_cruise, FloatCruise, StepAccumulator};
 use crate::dd::Dd;
 use crate::error::{positive, PlanError};
+use crate::piece::Law;
 use crate::piece::Piece;
 use crate::profile::Profile;
 use crate::real::fm;
+use crate::shape::ShapedLaw;
 
 const EPS: f64 = f64::EPSILON;
 /// Most ticks a move may span: half-tick decisions stay meaningful in f64 and u64.
@@ -32,9 +37,12 @@ fn nearest_tick(x: f64) -> (u64, f64) {
 }
 
 /// Streams the edge tick of every step of a profile, in order.
+///
+/// It owns its profile (`EdgeGenerator<Profile>`, the default: about 5 KB) or borrows it
+/// (`EdgeGenerator<&Profile>`: a few hundred bytes, and no copy of the pieces).
 #[derive(Clone, Debug)]
-pub struct EdgeGenerator {
-    profile: Profile,
+pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
+    profile: P,
     clock: f64,
     /// Next step to produce (1-based), also as f64 (u64 → f64 is slow on baseline x86-64).
     next: u64,
@@ -58,25 +66,38 @@ pub struct EdgeGenerator {
     /// many of them are valid: the next step's Newton guess extrapolates them.
     hist: [f64; 3],
     nhist: u8,
+    /// The current piece's law with its constants hoisted, if it is shaped.
+    shaped: Option<ShapedLaw>,
+    /// A bound on |acceleration| over the current (Newton) piece, if one is known.
+    shaped_amax: Option<f64>,
     v_prev: f64,
     last_edge: u64,
     settled: u64,
+    /// The current piece's exact constant-speed sequence and the steps it may run
+    /// (inside the piece by a step and a tick on both sides, before step N).
+    cruise_exact: Option<FloatCruise>,
+    run_lo: u64,
+    run_hi: u64,
+    /// Steps the accumulator still gives before `next` (which is already past them).
+    run_left: u64,
+    acc: StepAccumulator,
 }
 
-impl EdgeGenerator {
-    /// A generator for `profile` at `clock_hz` ticks per second.
-    pub fn new(profile: Profile, clock_hz: f64) -> Result<Self, PlanError> {
+impl<P: Borrow<Profile>> EdgeGenerator<P> {
+    /// A generator for `profile` (owned or borrowed) at `clock_hz` ticks per second.
+    pub fn new(profile: P, clock_hz: f64) -> Result<Self, PlanError> {
         let clock = positive("clock", clock_hz)?;
-        let ticks = clock * profile.duration();
+        let pr = profile.borrow();
+        let ticks = clock * pr.duration();
         if !(ticks <= MAX_TICKS) {
             return Err(PlanError::TooManyTicks {
                 ticks,
                 max: MAX_TICKS,
             });
         }
-        let cur = *profile.piece(0);
-        let last_f = profile.steps() as f64;
-        let cur_end = profile.end_of(0);
+        let cur = *pr.piece(0);
+        let last_f = pr.steps() as f64;
+        let cur_end = pr.end_of(0);
         Ok(EdgeGenerator {
             profile,
             clock,
@@ -94,15 +115,22 @@ impl EdgeGenerator {
             inv_c1: 0.0,
             hist: [0.0; 3],
             nhist: 0,
+            shaped: None,
+            shaped_amax: None,
             v_prev: 0.0,
             last_edge: 0,
             settled: 0,
+            cruise_exact: None,
+            run_lo: 1,
+            run_hi: 0,
+            run_left: 0,
+            acc: StepAccumulator::default(),
         }
         .entered(0))
     }
 
     pub fn profile(&self) -> &Profile {
-        &self.profile
+        self.profile.borrow()
     }
 
     pub fn clock(&self) -> f64 {
@@ -111,7 +139,7 @@ impl EdgeGenerator {
 
     /// Steps not produced yet.
     pub fn remaining(&self) -> u64 {
-        self.profile.steps() + 1 - self.next
+        self.profile().steps() + 1 - self.next + self.run_left
     }
 
     /// How many edges needed the double-double settle so far (a diagnostic).
@@ -121,20 +149,21 @@ impl EdgeGenerator {
 
     /// The tick of the last step: `round(f·T)`.
     pub fn last_edge_tick(&self) -> u64 {
-        Dd::mul_f64(self.clock, self.profile.duration()).round_half_up() as u64
+        Dd::mul_f64(self.clock, self.profile().duration()).round_half_up() as u64
     }
 
     /// Moves the generator so that its next item is the edge of `step` (1-based); steps
     /// beyond the move end the stream. Costs O(pieces), not O(steps).
     pub fn seek(&mut self, step: u64) {
-        self.next = step.clamp(1, self.profile.steps() + 1);
+        self.next = step.clamp(1, self.profile().steps() + 1);
         self.next_f = self.next as f64;
+        self.run_left = 0;
         self.enter(0);
         self.last_edge = 0;
     }
 
     /// Turns this edge stream into a stream of periods `edge_i − edge_{i−1}`.
-    pub fn periods(self) -> Periods {
+    pub fn periods(self) -> Periods<P> {
         Periods {
             edges: self,
             last: 0,
@@ -145,7 +174,18 @@ impl EdgeGenerator {
     pub fn fill(&mut self, out: &mut [u64]) -> usize {
         let mut k = 0;
         while k < out.len() {
-            match self.step() {
+            if self.run_left > 0 {
+                let n = (self.run_left as usize).min(out.len() - k);
+                let mut acc = self.acc;
+                for slot in &mut out[k..k + n] {
+                    *slot = acc.next_edge();
+                }
+                self.acc = acc;
+                self.run_left -= n as u64;
+                k += n;
+                continue;
+            }
+            match self.step_general() {
                 Some(e) => {
                     out[k] = e;
                     k += 1;
@@ -156,6 +196,28 @@ impl EdgeGenerator {
         k
     }
 
+    /// Folds every remaining edge into `init` (what `for e in generator` and
+    /// [`Iterator::fold`] run): constant-speed runs go through the accumulator held in
+    /// local variables.
+    #[inline]
+    pub fn fold_edges<B>(&mut self, init: B, mut f: impl FnMut(B, u64) -> B) -> B {
+        let mut out = init;
+        loop {
+            if self.run_left > 0 {
+                let mut acc = self.acc;
+                for _ in 0..self.run_left {
+                    out = f(out, acc.next_edge());
+                }
+                self.acc = acc;
+                self.run_left = 0;
+            }
+            match self.step_general() {
+                Some(e) => out = f(out, e),
+                None => return out,
+            }
+        }
+    }
+
     fn entered(mut self, k: usize) -> Self {
         self.enter(k);
         self
@@ -163,8 +225,8 @@ impl EdgeGenerator {
 
     fn enter(&mut self, k: usize) {
         self.piece = k;
-        self.cur = *self.profile.piece(k);
-        self.cur_end = self.profile.end_of(k);
+        self.cur = *self.profile().piece(k);
+        self.cur_end = self.profile().end_of(k);
         let q = self.cur.quadratic();
         self.quad = q.is_some();
         (self.c1, self.c2) = q.unwrap_or((0.0, 0.0));
@@ -172,6 +234,56 @@ impl EdgeGenerator {
         self.inv_c1 = if self.cruise { 1.0 / self.c1 } else { 0.0 };
         self.nhist = 0;
         self.v_prev = 0.0;
+        self.shaped = match self.cur.law {
+            Law::Shaped {
+                shape,
+                mirrored,
+                base,
+                span,
+            } => Some(ShapedLaw::new(shape, mirrored, base, span, self.cur.dur)),
+            Law::Poly { .. } => None,
+        };
+        self.shaped_amax = match self.cur.law {
+            Law::Shaped { .. } => self.shaped.and_then(|l| l.max_abs_acceleration()),
+            // |2c2 + 6c3·τ + 12c4·τ²| on τ ∈ [0, dur], with a margin for rounding
+            Law::Poly { c2, c3, c4, .. } => {
+                let d = self.cur.dur;
+                Some(1.001 * (2.0 * c2.abs() + 6.0 * c3.abs() * d + 12.0 * c4.abs() * d * d))
+            }
+        };
+        self.cruise_exact = None;
+        if self.cruise {
+            let p = &self.cur;
+            // a step (and a tick) inside the piece on both sides, so that float rounding
+            // of its ends never matters; step N keeps its own rule
+            let margin = 1.0 + self.c1 / self.clock;
+            let lo = (p.p0 + margin).floor() + 1.0;
+            let hi = ((self.cur_end - margin).ceil() - 1.0).min(self.last_f - 1.0);
+            if lo <= hi && hi < MAX_TICKS {
+                self.cruise_exact = float_cruise(p.t0, p.p0, self.c1, self.clock);
+                (self.run_lo, self.run_hi) = (lo as u64, hi as u64);
+            }
+        }
+    }
+
+    /// Starts the accumulator at step `self.next` if the current piece runs it there.
+    #[inline]
+    fn start_run(&mut self) {
+        let Some(plan) = self.cruise_exact else {
+            return;
+        };
+        let i = self.next;
+        if i < self.run_lo || i > self.run_hi {
+            return;
+        }
+        if let Some(acc) = plan.at(i) {
+            let n = self.run_hi - i + 1;
+            self.acc = acc;
+            self.run_left = n;
+            self.last_edge = acc.edge_after(n - 1);
+            self.next = self.run_hi + 1;
+            self.next_f = self.next as f64;
+        }
     }
 
     /// Local time of step i in the current piece, its nearest tick, and whether `f·t_i` is
@@ -215,6 +327,15 @@ impl EdgeGenerator {
         (tau, tick, dist > 2.0 * (err * f + 4.0 * EPS * x) + 1e-9)
     }
 
+    /// `(p(τ) − p0, v(τ))` of the current piece `p`.
+    #[inline(always)]
+    fn advance_velocity(&self, p: &Piece, tau: f64) -> (f64, f64) {
+        match &self.shaped {
+            Some(law) => law.advance_velocity(tau),
+            None => (p.advance(tau), p.velocity(tau)),
+        }
+    }
+
     /// Safeguarded Newton on `advance(τ) = n` inside a piece (Numerical Recipes' rtsafe),
     /// started from a cubic extrapolation of the previous steps' times. Returns τ and a
     /// bound on its error (s).
@@ -227,7 +348,7 @@ impl EdgeGenerator {
             3 => 3.0 * (h[0] - h[1]) + h[2],
             1 | 2 if self.v_prev > 0.0 => h[0] + 1.0 / self.v_prev,
             _ => {
-                let v0 = p.velocity(0.0);
+                let v0 = self.advance_velocity(p, 0.0).1;
                 if v0 > 0.0 {
                     n / v0
                 } else {
@@ -241,8 +362,9 @@ impl EdgeGenerator {
         let mut err_newton = hi - lo;
         let mut v = 0.0;
         for _ in 0..200 {
-            let f = p.advance(tau) - n;
-            v = p.velocity(tau);
+            let (adv, vel) = self.advance_velocity(p, tau);
+            let f = adv - n;
+            v = vel;
             if f > 0.0 {
                 hi = tau;
             } else {
@@ -250,7 +372,9 @@ impl EdgeGenerator {
             }
             let corr = f / v;
             let next = tau - corr;
-            if !(next > lo && next < hi) {
+            // inclusive: a guess exact to rounding gives corr = 0 and next = lo, which
+            // is converged, not a reason to bisect (to the far half of the piece)
+            if !(next >= lo && next <= hi) {
                 tau = 0.5 * (lo + hi);
                 err_newton = hi - lo;
                 if hi - lo <= 4.0 * EPS * hi {
@@ -259,9 +383,26 @@ impl EdgeGenerator {
                 continue;
             }
             tau = next;
+            if let Some(amax) = self.shaped_amax {
+                // Taylor with |a| ≤ amax on the piece: the step leaves |advance − n| ≤
+                // amax·corr²/2 and v ≥ v − amax·|corr| between, so τ is within their ratio
+                let slow = v - amax * corr.abs();
+                let b = amax * corr * corr / (2.0 * slow);
+                if slow > 0.0 && b * self.clock <= 1e-7 {
+                    err_newton = 4.0 * b + 4.0 * EPS * tau;
+                    break;
+                }
+            }
             if corr.abs() * self.clock <= 1e-3 {
                 // Newton's error after this step is |a|/(2v)·corr² (quadratic convergence).
-                let a = p.acceleration(tau).abs();
+                // |a| at τ, or a bound on it over the piece (one transcendental less)
+                let a = match &self.shaped {
+                    Some(law) => match self.shaped_amax {
+                        Some(amax) => amax,
+                        None => law.acceleration(tau).abs(),
+                    },
+                    None => p.acceleration(tau).abs(),
+                };
                 err_newton = 4.0 * a / (2.0 * v) * corr * corr + 4.0 * EPS * tau;
                 break;
             }
@@ -312,7 +453,7 @@ impl EdgeGenerator {
                 return e;
             }
         }
-        let p = *self.profile.piece(k);
+        let p = *self.profile().piece(k);
         let target = Dd::new(i) - Dd::new(p.p0);
         let mut t = Dd::new(tau);
         for _ in 0..8 {
@@ -330,12 +471,12 @@ impl EdgeGenerator {
         let mut e = ((Dd::new(p.t0) + t) * f).round_half_up().max(0.0);
         let step = Dd::new(i);
         for _ in 0..1024 {
-            let below = self.profile.position_dd(Dd::new(e - 0.5) / f);
+            let below = self.profile().position_dd(Dd::new(e - 0.5) / f);
             if below >= step && e > 0.0 {
                 e -= 1.0;
                 continue;
             }
-            let above = self.profile.position_dd(Dd::new(e + 0.5) / f);
+            let above = self.profile().position_dd(Dd::new(e + 0.5) / f);
             if above < step {
                 e += 1.0;
                 continue;
@@ -346,12 +487,17 @@ impl EdgeGenerator {
     }
 }
 
-impl Iterator for EdgeGenerator {
+impl<P: Borrow<Profile>> Iterator for EdgeGenerator<P> {
     type Item = u64;
 
     #[inline]
     fn next(&mut self) -> Option<u64> {
         self.step()
+    }
+
+    #[inline]
+    fn fold<B, F: FnMut(B, u64) -> B>(mut self, init: B, f: F) -> B {
+        self.fold_edges(init, f)
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
@@ -360,11 +506,22 @@ impl Iterator for EdgeGenerator {
     }
 }
 
-impl EdgeGenerator {
+impl<P: Borrow<Profile>> EdgeGenerator<P> {
     /// The next edge. Always inlined, so that [`fill`](Self::fill) runs it in a tight loop
     /// (as `for e in generator` does) instead of calling it once per edge.
     #[inline(always)]
     fn step(&mut self) -> Option<u64> {
+        if self.run_left > 0 {
+            self.run_left -= 1;
+            return Some(self.acc.next_edge());
+        }
+        self.step_general()
+    }
+
+    /// The next edge by the general path (closed form or Newton, settled near half
+    /// ticks); may start an accumulator run for the steps after it.
+    #[inline(always)]
+    fn step_general(&mut self) -> Option<u64> {
         let i = self.next_f;
         if i >= self.last_f {
             if i > self.last_f {
@@ -380,7 +537,7 @@ impl EdgeGenerator {
         self.next_f += 1.0;
         if self.cur_end < i {
             let mut k = self.piece;
-            while self.profile.end_of(k) < i && k + 1 < self.profile.len() {
+            while self.profile().end_of(k) < i && k + 1 < self.profile().len() {
                 k += 1;
             }
             self.enter(k);
@@ -394,20 +551,23 @@ impl EdgeGenerator {
         // Edges never go backwards, even where two steps share a tick.
         let e = e.max(self.last_edge);
         self.last_edge = e;
+        if self.cruise_exact.is_some() {
+            self.start_run();
+        }
         Some(e)
     }
 }
 
-impl ExactSizeIterator for EdgeGenerator {}
+impl<P: Borrow<Profile>> ExactSizeIterator for EdgeGenerator<P> {}
 
 /// Periods between consecutive edges, starting from tick 0.
 #[derive(Clone, Debug)]
-pub struct Periods {
-    edges: EdgeGenerator,
+pub struct Periods<P: Borrow<Profile> = Profile> {
+    edges: EdgeGenerator<P>,
     last: u64,
 }
 
-impl Iterator for Periods {
+impl<P: Borrow<Profile>> Iterator for Periods<P> {
     type Item = u64;
     #[inline]
     fn next(&mut self) -> Option<u64> {
@@ -451,5 +611,90 @@ mod tests {
         // the middle of the cruise: 80000 steps/s is exactly 625 ticks per step
         let mid = &edges[1000..1300];
         assert!(mid.windows(2).all(|w| w[1] - w[0] == 625));
+    }
+
+    /// A borrowing generator holds no copy of the profile's pieces and gives the same edges.
+    #[test]
+    fn borrowed_generator_is_small_and_the_same() {
+        let own = core::mem::size_of::<EdgeGenerator>();
+        let borrowed = core::mem::size_of::<EdgeGenerator<&Profile>>();
+        std::println!("EdgeGenerator: owned {own} B, borrowed {borrowed} B");
+        assert!(
+            own > core::mem::size_of::<Profile>() && borrowed < 512,
+            "{own} {borrowed}"
+        );
+        let p = Profile::phase(&PhaseMove {
+            steps: 5000,
+            accel_time: 0.2,
+            cruise_time: 0.3,
+            decel_time: 0.2,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family: Family::Sine,
+        })
+        .unwrap();
+        let a: std::vec::Vec<u64> = EdgeGenerator::new(&p, 50e6).unwrap().collect();
+        let b: std::vec::Vec<u64> = EdgeGenerator::new(p, 50e6).unwrap().collect();
+        assert_eq!(a, b);
+    }
+
+    /// A 32 000 steps/s cruise between two ramps (1562.5 ticks a step, every other step on
+    /// an exact half tick): the float generator's exact accumulator gives the integer
+    /// datapath's edges on every step, through `next`, `fold_edges`, `fill` and `seek`.
+    #[test]
+    fn half_tick_cruise_equals_the_integer_datapath() {
+        use crate::int::{IntClock, IntEdgeGenerator, IntProfile, IntSegment};
+        use crate::profile::Segment;
+        let (ramp, cruise) = (2_000u64, 996_000u64);
+        let seg = |v0: f64, duration: f64, steps| Segment {
+            v0,
+            duration,
+            steps,
+        };
+        let p = Profile::segments(&[
+            seg(0.0, 0.125, ramp),
+            seg(32e3, 31.125, cruise),
+            seg(32e3, 0.125, ramp),
+        ])
+        .unwrap();
+        let iseg = |v0, ticks, steps| IntSegment { v0, ticks, steps };
+        let ip = IntProfile::segments(
+            &[
+                iseg(0, 6_250_000, ramp),
+                iseg(32_000, 1_556_250_000, cruise),
+                iseg(32_000, 6_250_000, ramp),
+            ],
+            IntClock::hz(50_000_000),
+        )
+        .unwrap();
+        let want: std::vec::Vec<u64> = IntEdgeGenerator::new(ip).collect();
+        let mut g = EdgeGenerator::new(p.clone(), 50e6).unwrap();
+        let got: std::vec::Vec<u64> = (&mut g).collect();
+        assert_eq!(got.len(), want.len());
+        let bad = got.iter().zip(&want).position(|(a, b)| a != b);
+        assert_eq!(
+            bad,
+            None,
+            "first difference at step {:?}",
+            bad.map(|k| k + 1)
+        );
+        assert!(g.settled_count() < 10, "{}", g.settled_count());
+        // a cruise step on a half tick: 6.25 M + 1562.5·(odd) goes down
+        assert_eq!(want[ramp as usize], 6_250_000 + 1562);
+        let mut g = EdgeGenerator::new(p.clone(), 50e6).unwrap();
+        let n = g.fold_edges(0usize, |k, e| {
+            assert_eq!(e, want[k], "fold, step {}", k + 1);
+            k + 1
+        });
+        assert_eq!(n, want.len());
+        let mut g = EdgeGenerator::new(p, 50e6).unwrap();
+        for start in [1u64, 2_001, 2_002, 500_001, 997_999, 998_001] {
+            g.seek(start);
+            let mut buf = [0u64; 37];
+            let k = g.fill(&mut buf);
+            let from = start as usize - 1;
+            assert_eq!(&buf[..k], &want[from..from + k], "seek {start}");
+            assert_eq!(g.remaining(), want.len() as u64 - start + 1 - k as u64);
+        }
     }
 }

@@ -12,6 +12,7 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod accum;
 pub mod dd;
 pub mod edges;
 pub mod error;

@@ -4,7 +4,7 @@
 //! `h(u) = g(1 − u)` and its integral `H(u) = G(1) − G(1 − u)`, written below in forms that
 //! do not cancel for small u.
 
-use crate::real::Real;
+use crate::real::{fm, Real};
 
 /// A non-polynomial velocity shape `g(u)` on `u ∈ [0, 1]`, `g(0) = 0`, `g(1) = 1`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -152,6 +152,121 @@ impl Shape {
     }
 }
 
+/// A shaped piece's law, `p(τ) − p0 = base·τ + span·G(τ/dur)`, with its per-piece
+/// constants computed once: the same f64 operations as [`Piece`](crate::piece::Piece)'s
+/// `advance`, `velocity` and `acceleration` on a `Law::Shaped`, so the same values bit
+/// for bit (the edge generator's error bounds hold unchanged), without recomputing
+/// `expm1(−1/ρ)` and `e^(−1/ρ)` on every call, and with the position and the velocity
+/// sharing their `expm1` or square root where the argument is the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapedLaw {
+    shape: Shape,
+    mirrored: bool,
+    base: f64,
+    span: f64,
+    dur: f64,
+    /// `span/dur` and `span/dur²`: velocity and acceleration scales.
+    span_rate: f64,
+    span_slope: f64,
+    /// Exponential: ρ, `D = −expm1(−1/ρ)`, `e^(−1/ρ)`, `ρ·D`.
+    rho: f64,
+    d: f64,
+    e1: f64,
+    rho_d: f64,
+}
+
+impl ShapedLaw {
+    pub fn new(shape: Shape, mirrored: bool, base: f64, span: f64, dur: f64) -> Self {
+        let rho = match shape {
+            Shape::Exponential { rho } => rho,
+            _ => 1.0,
+        };
+        let d = -fm::exp_m1(-(1.0 / rho));
+        ShapedLaw {
+            shape,
+            mirrored,
+            base,
+            span,
+            dur,
+            span_rate: span / dur,
+            span_slope: span / (dur * dur),
+            rho,
+            d,
+            e1: fm::exp(-(1.0 / rho)),
+            rho_d: rho * d,
+        }
+    }
+
+    /// `(p(τ) − p0, v(τ))`.
+    #[inline]
+    pub fn advance_velocity(&self, tau: f64) -> (f64, f64) {
+        let u = tau / self.dur;
+        let (g, h) = match (self.shape, self.mirrored) {
+            (Shape::Parabolic, false) => {
+                let r = fm::sqrt(u);
+                (2.0 / 3.0 * u * r, r)
+            }
+            (Shape::Parabolic, true) => {
+                let w = 1.0 - u;
+                let r = fm::sqrt(w);
+                (2.0 / 3.0 * u * (3.0 - 3.0 * u + u * u) / (1.0 + w * r), r)
+            }
+            (Shape::Exponential { .. }, false) => {
+                let x = u / self.rho;
+                let em = fm::exp_m1(-x);
+                let tail = if x < 0.5 { exp_tail(x) } else { em + x };
+                (self.rho * tail / self.d, -em / self.d)
+            }
+            (Shape::Exponential { .. }, true) => {
+                let x = u / self.rho;
+                let z = -((1.0 - u) / self.rho);
+                let diff = if x < 1.0 {
+                    self.e1 * fm::exp_m1(x)
+                } else {
+                    fm::exp(z) - self.e1
+                };
+                ((u - self.rho * diff) / self.d, -fm::exp_m1(z) / self.d)
+            }
+            (Shape::Sine, m) => (self.shape.integral(u, m), self.shape.rate(u, m)),
+        };
+        (
+            self.base * tau + self.span * g,
+            self.base + self.span_rate * h,
+        )
+    }
+
+    /// A bound on |a(τ)| over the piece where the shape's slope is bounded: `π/2` (sine)
+    /// and `1/(ρD)` (exponential, at its steep end) times `span/dur²`, with a margin for
+    /// rounding; `None` for the parabola, whose slope is unbounded at u = 0.
+    pub fn max_abs_acceleration(&self) -> Option<f64> {
+        let g = match self.shape {
+            Shape::Sine => 0.5 * core::f64::consts::PI,
+            Shape::Exponential { .. } => 1.0 / self.rho_d,
+            Shape::Parabolic => return None,
+        };
+        Some(1.001 * (self.span_slope * g).abs())
+    }
+
+    /// `a(τ)`, as [`Shape::slope`] scaled.
+    #[inline]
+    pub fn acceleration(&self, tau: f64) -> f64 {
+        let u = tau / self.dur;
+        let s = match self.shape {
+            Shape::Exponential { .. } => {
+                let w = if self.mirrored { 1.0 - u } else { u };
+                let d = fm::exp(-w / self.rho) / self.rho_d;
+                if self.mirrored {
+                    -d
+                } else {
+                    d
+                }
+            }
+            _ => self.shape.slope(u, self.mirrored),
+        };
+        self.span_slope * s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,6 +319,51 @@ mod tests {
             assert!((s.integral(1.0, true) - s.g1()).abs() < 1e-15);
             assert!((s.rate(1.0, false) - 1.0).abs() < 1e-15);
             assert!(s.rate(0.0, false).abs() < 1e-15);
+        }
+    }
+
+    /// The hoisted law gives the piece's values bit for bit.
+    #[test]
+    fn shaped_law_is_the_piece_bit_for_bit() {
+        use crate::piece::{Law, Piece};
+        for s in shapes() {
+            for &mirrored in &[false, true] {
+                let (base, span, dur) = (123.25, 4567.5, 0.73);
+                let piece = Piece {
+                    t0: 0.0,
+                    dur,
+                    p0: 0.0,
+                    law: Law::Shaped {
+                        shape: s,
+                        mirrored,
+                        base,
+                        span,
+                    },
+                };
+                let law = ShapedLaw::new(s, mirrored, base, span, dur);
+                for k in 0..=2000 {
+                    let tau = dur * k as f64 / 2000.0;
+                    let (a, v) = law.advance_velocity(tau);
+                    assert_eq!(
+                        a.to_bits(),
+                        piece.advance(tau).to_bits(),
+                        "{s:?} {mirrored} {tau}"
+                    );
+                    assert_eq!(
+                        v.to_bits(),
+                        piece.velocity(tau).to_bits(),
+                        "{s:?} {mirrored} {tau}"
+                    );
+                    assert_eq!(
+                        law.acceleration(tau).to_bits(),
+                        piece.acceleration(tau).to_bits(),
+                        "{s:?} {mirrored} {tau}"
+                    );
+                    if let Some(amax) = law.max_abs_acceleration() {
+                        assert!(piece.acceleration(tau).abs() <= amax, "{s:?} {tau}");
+                    }
+                }
+            }
         }
     }
 

@@ -3,7 +3,8 @@
 //! one type, so they always carry the same fields.
 
 use crate::edges::EdgeGenerator;
-use crate::profile::{Move, Order};
+use crate::profile::{Move, Order, Profile};
+use core::borrow::Borrow;
 use core::fmt;
 
 /// The mode and family of a move, shown as `trapezoid (phases)`, `scurve (limits)` or
@@ -64,17 +65,16 @@ pub struct PlanSummary {
 }
 
 impl PlanSummary {
-    /// Runs `gen` to its end from where it is and summarises the move.
-    pub fn run(mode: MoveName, gen: &mut EdgeGenerator) -> PlanSummary {
+    /// Runs `gen` to its end from where it is and summarises the move, at a few
+    /// instructions per edge on top of the generator's (constant-speed runs stay in its
+    /// accumulator loop).
+    pub fn run<P: Borrow<Profile>>(mode: MoveName, gen: &mut EdgeGenerator<P>) -> PlanSummary {
         let (vpk, apk) = gen.profile().peaks();
         let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
-        let (mut min_p, mut max_p, mut last) = (u64::MAX, 0u64, 0u64);
-        for e in &mut *gen {
+        let (min_p, max_p, last) = gen.fold_edges((u64::MAX, 0u64, 0u64), |(lo, hi, last), e| {
             let p = e - last;
-            min_p = min_p.min(p);
-            max_p = max_p.max(p);
-            last = e;
-        }
+            (lo.min(p), hi.max(p), e)
+        });
         PlanSummary {
             mode,
             steps,

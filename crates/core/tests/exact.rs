@@ -585,7 +585,7 @@ fn errors_are_typed_and_never_panic() {
 }
 
 /// Rational speeds put steps exactly on half ticks; on constant-speed pieces those ties are
-/// settled exactly and go to the earlier tick (as the integer datapath does).
+/// decided exactly and go to the earlier tick (as the integer datapath does).
 #[test]
 fn exact_ties_at_constant_speed_go_to_the_earlier_tick() {
     // 32 000 steps/s at 50 MHz: step i at 1562.5·i ticks
@@ -606,5 +606,7 @@ fn exact_ties_at_constant_speed_go_to_the_earlier_tick() {
         };
         assert_eq!(e, want, "step {i}");
     }
-    assert!(g.settled_count() >= 7_999);
+    // the exact constant-speed accumulator takes the ties at no extra cost: only the
+    // first steps of the piece go through the general path
+    assert!(g.settled_count() <= 2, "{}", g.settled_count());
 }

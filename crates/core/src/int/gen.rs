@@ -2,6 +2,7 @@
 
 use super::piece::IntPiece;
 use super::plan::IntProfile;
+use crate::accum::StepAccumulator;
 
 /// Streams the edge tick of every step of an [`IntProfile`], in order, with integer
 /// arithmetic only.
@@ -11,8 +12,10 @@ pub struct IntEdgeGenerator {
     /// The piece being played and its next step (0-based within the piece).
     piece: usize,
     j: u64,
-    /// Steps still to come.
+    /// Steps still to come, besides the `run_left` the accumulator gives first.
     left: u64,
+    run_left: u64,
+    acc: StepAccumulator,
 }
 
 impl IntEdgeGenerator {
@@ -23,6 +26,8 @@ impl IntEdgeGenerator {
             piece: 0,
             j: 0,
             left,
+            run_left: 0,
+            acc: StepAccumulator::default(),
         }
     }
 
@@ -33,9 +38,20 @@ impl IntEdgeGenerator {
     /// Writes up to `out.len()` edges; returns how many were written.
     pub fn fill(&mut self, out: &mut [u64]) -> usize {
         let mut k = 0;
-        for slot in out.iter_mut() {
-            match self.next() {
-                Some(e) => *slot = e,
+        while k < out.len() {
+            if self.run_left > 0 {
+                let n = (self.run_left as usize).min(out.len() - k);
+                let mut acc = self.acc;
+                for slot in &mut out[k..k + n] {
+                    *slot = acc.next_edge();
+                }
+                self.acc = acc;
+                self.run_left -= n as u64;
+                k += n;
+                continue;
+            }
+            match self.step_general() {
+                Some(e) => out[k] = e,
                 None => break,
             }
             k += 1;
@@ -43,17 +59,37 @@ impl IntEdgeGenerator {
         k
     }
 
+    /// Folds every remaining edge into `init`, constant-speed runs through the
+    /// accumulator held in local variables.
+    #[inline]
+    pub fn fold_edges<B>(&mut self, init: B, mut f: impl FnMut(B, u64) -> B) -> B {
+        let mut out = init;
+        loop {
+            if self.run_left > 0 {
+                let mut acc = self.acc;
+                for _ in 0..self.run_left {
+                    out = f(out, acc.next_edge());
+                }
+                self.acc = acc;
+                self.run_left = 0;
+            }
+            match self.step_general() {
+                Some(e) => out = f(out, e),
+                None => return out,
+            }
+        }
+    }
+
     #[inline(always)]
     fn current(&self) -> &IntPiece {
+        // `piece` stays below the profile's length (planning makes the steps add up)
         &self.profile.pieces()[self.piece]
     }
-}
 
-impl Iterator for IntEdgeGenerator {
-    type Item = u64;
-
-    #[inline]
-    fn next(&mut self) -> Option<u64> {
+    /// The next edge by the piece's kernel; on a cruise piece, starts the accumulator
+    /// for the piece's later steps (step N keeps its own rule).
+    #[inline(always)]
+    fn step_general(&mut self) -> Option<u64> {
         match self.left {
             0 => return None,
             // the move ends on step N (same contract as the float generator; the kernel
@@ -69,14 +105,43 @@ impl Iterator for IntEdgeGenerator {
             self.piece += 1;
             self.j = 0;
         }
-        let e = self.current().edge(self.j);
+        let p = self.current();
+        let e = p.edge(self.j);
+        let run = (p.steps - self.j - 1).min(self.left - 2);
+        if run > 0 && p.is_cruise() {
+            if let Some(acc) = p.cruise_accumulator(self.j + 1) {
+                self.acc = acc;
+                self.run_left = run;
+                self.j += run;
+                self.left -= run;
+            }
+        }
         self.j += 1;
         self.left -= 1;
         Some(e)
     }
+}
+
+impl Iterator for IntEdgeGenerator {
+    type Item = u64;
+
+    #[inline]
+    fn next(&mut self) -> Option<u64> {
+        if self.run_left > 0 {
+            self.run_left -= 1;
+            return Some(self.acc.next_edge());
+        }
+        self.step_general()
+    }
+
+    #[inline]
+    fn fold<B, F: FnMut(B, u64) -> B>(mut self, init: B, f: F) -> B {
+        self.fold_edges(init, f)
+    }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        (self.left as usize, Some(self.left as usize))
+        let n = (self.left + self.run_left) as usize;
+        (n, Some(n))
     }
 }
 

@@ -20,6 +20,7 @@
 
 use super::isqrt::isqrt_u128;
 use super::IntError;
+use crate::accum::StepAccumulator;
 use crypto_bigint::U256;
 
 /// Bits every planning quantity (Den, A, B, C, 8M) must fit in.
@@ -77,13 +78,32 @@ impl StepKernel {
         }
     }
 
-    /// The local edge tick of the j-th step of the piece.
+    /// The local edge tick of the j-th step of the piece (no root on Cruise, where it
+    /// is not used).
     #[inline]
     pub fn local_edge(&self, j: u64) -> u64 {
         let y = self.radicand(j);
+        if self.mode == KernelMode::Cruise {
+            return divide(y, self.dv);
+        }
         let root = isqrt_u128(y);
         let num = self.numerator(y, root, root * root == y);
         divide(num, self.dv)
+    }
+
+    /// On Cruise, the edges from step j on as a [`StepAccumulator`] of absolute ticks
+    /// (from `t0`): `⌊(y0 + j·dy)/dv⌋` with dy and dv reduced by their gcd, since
+    /// `⌊(g·x + r)/(g·d)⌋ = ⌊x/d⌋` for `0 ≤ r < g`. `None` on the other modes or when
+    /// the reduced divisor needs more than 63 bits.
+    pub fn cruise_accumulator(&self, j: u64, t0: u64) -> Option<StepAccumulator> {
+        if self.mode != KernelMode::Cruise {
+            return None;
+        }
+        let g = gcd(self.dy, self.dv).max(1);
+        let (dy, dv) = (self.dy / g, self.dv / g);
+        let y = (self.y0 / g).checked_add(dy.checked_mul(j as u128)?)?;
+        let t = (t0 as u128).checked_mul(dv)?;
+        StepAccumulator::new(y.checked_add(t)?, dy, dv)
     }
 }
 
@@ -126,6 +146,9 @@ pub struct IntPiece {
     pub steps: u64,
     kernel: StepKernel,
     wide: Option<WideRadicand>,
+    /// `A`, `B`, `Den`, the first step's `M` and `D − 1` in f64 (as bits, so the piece
+    /// stays `Eq`), for [`IntPiece::edge`]'s guess.
+    guess: [u64; 5],
 }
 
 fn gcd(mut x: u128, mut y: u128) -> u128 {
@@ -185,6 +208,7 @@ impl IntPiece {
             dv: 1,
         },
         wide: None,
+        guess: [0; 5],
     };
 
     /// A piece from speed `u/g` to speed `w/g` (steps/tick) over `dur` ticks, starting at
@@ -234,6 +258,8 @@ impl IntPiece {
         };
         if steps > 0 {
             piece.set_kernel(m0, m0 + (steps - 1) * den)?;
+            piece.guess =
+                [a as f64, b as f64, den as f64, m0 as f64, dur as f64 - 1.0].map(f64::to_bits);
         }
         Ok(piece)
     }
@@ -299,14 +325,64 @@ impl IntPiece {
         (m > 0).then_some(m)
     }
 
+    /// Whether the piece is at constant speed.
+    #[inline(always)]
+    pub fn is_cruise(&self) -> bool {
+        self.kernel.mode == KernelMode::Cruise
+    }
+
+    /// The constant-speed edges from step j on (absolute ticks), if this is a cruise
+    /// piece whose accumulator fits ([`StepKernel::cruise_accumulator`]).
+    pub fn cruise_accumulator(&self, j: u64) -> Option<StepAccumulator> {
+        self.kernel().and_then(|k| k.cruise_accumulator(j, self.t0))
+    }
+
     /// The edge tick of the piece's j-th step (`j < steps`).
     #[inline]
     pub fn edge(&self, j: u64) -> u64 {
         let local = match &self.wide {
-            None => self.kernel.local_edge(j),
+            None => match self.checked_guess(j) {
+                Some(e) => e,
+                None => self.kernel.local_edge(j),
+            },
             Some(w) => self.wide_local_edge(w, j),
         };
         self.t0 + local
+    }
+
+    /// The local edge of step j from an f64 guess, proved in integers: e is the edge iff
+    /// `P(e − ½) < M ≤ P(e + ½)` (`P(τ) = A·τ + B·τ²`, increasing on the piece), checked
+    /// as `2A·t + B·t² ⋚ 4M` at `t = 2e ± 1` (two multiplies each, every value below
+    /// 2^127 for `t ≤ 2D + 1` by the planning bounds). `None` (the kernel decides) when
+    /// the check fails — near a half tick — or at the piece's first and last tick; always
+    /// `None` on Cruise, whose kernel has no root.
+    #[inline(always)]
+    fn checked_guess(&self, j: u64) -> Option<u64> {
+        if self.kernel.mode == KernelMode::Cruise {
+            return None;
+        }
+        let [a, b, den, m0, last] = self.guess.map(f64::from_bits);
+        let mf = m0 + j as f64 * den;
+        // the stable root 2M/(A + √(A² + 4BM)) (no cancellation), rounded to a tick
+        let tau = 2.0 * mf / (a + crate::real::fm::sqrt((a * a + 4.0 * b * mf).max(0.0)));
+        if !(tau >= 1.0 && tau < last) {
+            return None;
+        }
+        // in range for a plain (non-saturating) conversion
+        let e = (tau + 0.5) as i64 as u64;
+        let m = self
+            .den
+            .wrapping_mul((self.first + j) as u128)
+            .wrapping_sub(self.c);
+        let m4 = (4 * m) as i128;
+        let two_a = 2 * self.a as i128;
+        let p4 = |t: u64| {
+            let t = t as i128;
+            two_a
+                .wrapping_mul(t)
+                .wrapping_add(self.b.wrapping_mul(t * t))
+        };
+        (p4(2 * e + 1) >= m4 && p4(2 * e - 1) < m4).then_some(e)
     }
 
     /// [`StepKernel::local_edge`] with a 256-bit radicand (the root is below 2^126).
@@ -372,10 +448,58 @@ mod tests {
                 let m = p.target(p.first + j).unwrap();
                 let want = brute_edge(&p, m);
                 prop_assert_eq!(p.edge(j), want, "{:?} step {}", p, j);
+                prop_assert_eq!(p.t0 + p.kernel().unwrap().local_edge(j), want);
                 prop_assert_eq!(wide.edge(j), want, "wide {:?} step {}", p, j);
             }
             // the steps are exactly those the piece covers
             prop_assert_eq!((p.first + p.steps) as u128, (p.c + p.m_end) / p.den + 1);
         }
+
+        /// Constant-speed pieces: the accumulator from any step equals the exact nearest
+        /// tick `t0 + ⌈M/A − ½⌉` (u128: ties down), in windows up to 2^32 steps on.
+        #[test]
+        fn cruise_accumulator_matches_exact_rationals(
+            t0 in 0u64..1 << 40, g in 1u128..5000, u in 1u128..100_000, s in 0u128..1 << 20,
+            far in 0u64..2, slow in 0u64..2,
+        ) {
+            // long enough for 2^32 + 3000 steps at u/g steps a tick
+            let dur = ((1u128 << 33) * g / u + 10_000) as u64 * (1 + slow);
+            let p = IntPiece::new(t0, dur, g, u, u, s).unwrap();
+            prop_assume!(p.kernel().is_some());
+            let j0 = if far == 1 { (1u64 << 32) - 7 } else { 0 };
+            prop_assume!(p.steps > j0 + 3000);
+            let mut acc = p.cruise_accumulator(j0).expect("cruise");
+            for j in j0..j0 + 3000 {
+                let m = p.target(p.first + j).unwrap();
+                // ⌈M/A − ½⌉ = ⌈(2M − A)/2A⌉
+                let (num, den) = (2 * m as i128 - p.a as i128, 2 * p.a as i128);
+                let want = p.t0 as i128 + num.div_euclid(den) + (num.rem_euclid(den) != 0) as i128;
+                let got = acc.next_edge();
+                prop_assert_eq!(got as i128, want, "{:?} step {}", p, j);
+                prop_assert_eq!(got, p.edge(j));
+            }
+        }
+    }
+
+    /// 32 000 steps/s at 50 MHz: 1562.5 ticks a step, every other step on an exact half
+    /// tick, which goes to the earlier tick.
+    #[test]
+    fn half_tick_cruise_ties_go_down() {
+        // speed u/g steps per tick = 32 000 / 50 M = 4 / 6250
+        let p = IntPiece::new(0, 50_000_000, 6250, 4, 4, 0).unwrap();
+        assert_eq!(p.steps, 32_000);
+        let mut acc = p.cruise_accumulator(0).unwrap();
+        for i in 1..=p.steps {
+            let want = if i % 2 == 1 {
+                (3125 * i - 1) / 2
+            } else {
+                3125 * i / 2
+            };
+            assert_eq!(acc.next_edge(), want, "step {i}");
+        }
+        assert!(IntPiece::new(0, 100, 1, 1, 3, 0)
+            .unwrap()
+            .cruise_accumulator(0)
+            .is_none());
     }
 }

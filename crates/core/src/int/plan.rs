@@ -199,6 +199,7 @@ impl IntProfile {
         self.end_tick
     }
 
+    #[inline(always)]
     pub fn pieces(&self) -> &[IntPiece] {
         &self.pieces[..self.len]
     }

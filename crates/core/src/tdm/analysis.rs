@@ -41,7 +41,7 @@ pub struct KMax {
 
 /// Shortest period (ticks) of a move at a clock.
 pub fn min_period_ticks(profile: &Profile, clock_hz: f64) -> Result<u64, TdmError> {
-    Ok(EdgeGenerator::new(profile.clone(), clock_hz)?
+    Ok(EdgeGenerator::new(profile, clock_hz)?
         .periods()
         .min()
         .unwrap_or(0))

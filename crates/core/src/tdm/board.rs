@@ -17,13 +17,11 @@
 use super::calculator::Latencies;
 use super::fifo::Fifo;
 use super::pulse::{PulseShape, PulseUnit, StepPulse};
-use super::scheduler::{Policy, Queue};
+pub use super::scheduler::MAX_AXES;
+use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::profile::Profile;
-
-/// Most axes one board holds.
-pub const MAX_AXES: usize = 64;
 
 /// What a board is built from besides its axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,7 +116,8 @@ impl Axis {
 
     /// Back to step 0 with an empty FIFO, so the same axes can run again.
     fn reset(&mut self, depth: usize, shape: PulseShape) -> Result<(), TdmError> {
-        self.gen = EdgeGenerator::new(self.gen.profile().clone(), self.gen.clock())?;
+        // back to step 1 in place (no copy of the profile)
+        self.gen.seek(1);
         self.ahead_pos = 0;
         self.ahead_len = 0;
         self.prev_edge = 0;
@@ -268,7 +267,7 @@ impl<'a> Board<'a> {
                 .max()
                 .unwrap_or(0)
             + cfg.dir_setup_ticks as u128;
-        if work >= 1 << 57 {
+        if work >= TICK_LIMIT as u128 {
             return Err(TdmError::TooLong);
         }
         for (m, a) in axes.iter_mut().enumerate() {

@@ -4,8 +4,19 @@
 //! (`room[m] <= t`; a finished axis has `room[m] = u64::MAX`). Both policies only choose among eligible axes; when none is eligible
 //! the calculator idles until the earliest room tick.
 
-use super::board::MAX_AXES;
 use super::TdmError;
+
+/// Most axes one board holds: one bit each in the eligible mask.
+pub const MAX_AXES: usize = 64;
+/// The eligible mask, one bit per axis.
+type AxisMask = u64;
+/// Low bits of a queue key that hold the axis index; the tick is above them.
+const AXIS_BITS: u32 = usize::BITS - (MAX_AXES - 1).leading_zeros();
+const AXIS_FIELD: u64 = (1 << AXIS_BITS) - 1;
+/// Ticks the scheduler's keys hold (one bit spare, so `(t << AXIS_BITS) | AXIS_FIELD`
+/// never reaches the `u64::MAX` end marker).
+pub const TICK_LIMIT: u64 = 1 << (u64::BITS - 1 - AXIS_BITS);
+const _: () = assert!(MAX_AXES <= AxisMask::BITS as usize && MAX_AXES <= 1 << AXIS_BITS);
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Policy {
@@ -48,8 +59,8 @@ impl Policy {
 #[derive(Clone, Debug)]
 pub struct Queue {
     /// Bit m: axis m has room and periods left.
-    eligible: u64,
-    /// `(room tick << 6) | m`, ascending from `head` to before `tail` (indices mod
+    eligible: AxisMask,
+    /// `(room tick << AXIS_BITS) | m`, ascending from `head` to before `tail` (indices mod
     /// RING). `ring[tail]` is `u64::MAX`, so the front of an empty run reads MAX and a
     /// scan from the front stops there. Every other slot holds a released key or 0: no
     /// larger than any key still to come (room ticks after the current tick go in, those
@@ -83,7 +94,7 @@ impl Queue {
             self.eligible |= 1 << m;
             return;
         }
-        let key = (room << 6) | m as u64;
+        let key = (room << AXIS_BITS) | m as u64;
         let mid = self.head + self.tail.wrapping_sub(self.head) % RING / 2;
         if key < self.ring[mid % RING] {
             self.insert_from_front(key);
@@ -130,13 +141,14 @@ impl Queue {
     /// Moves every axis with room at `t` into the eligible mask.
     #[inline]
     fn release(&mut self, t: u64) {
-        // ticks stay below 2^57 (checked by the board), so the MAX at the tail never passes
+        // ticks stay below TICK_LIMIT (checked by the board), so the MAX at the tail
+        // never passes
         loop {
             let key = self.ring[self.head];
-            if key > (t << 6) | 63 {
+            if key > (t << AXIS_BITS) | AXIS_FIELD {
                 break;
             }
-            self.eligible |= 1 << (key & 63);
+            self.eligible |= 1 << (key & AXIS_FIELD);
             self.head = (self.head + 1) % RING;
         }
     }
@@ -166,7 +178,7 @@ impl Queue {
             if self.first() == u64::MAX {
                 return None;
             }
-            t = self.first() >> 6;
+            t = self.first() >> AXIS_BITS;
             self.release(t);
         }
         let mask = self.eligible;
@@ -175,17 +187,18 @@ impl Queue {
                 // the first eligible axis at or after the pointer, wrapping around: rotated
                 // right by the pointer, axes before it sit above every axis after it
                 // (bits k…63 are clear), so no branch is needed
-                (*next + mask.rotate_right(*next as u32).trailing_zeros() as usize) % 64
+                (*next + mask.rotate_right(*next as u32).trailing_zeros() as usize)
+                    % AxisMask::BITS as usize
             }
             Policy::EarliestDeadline => {
                 // (need, axis) packed in one key: the smallest is the earliest, then lowest m
                 let (mut bits, mut best) = (mask, u64::MAX);
                 while bits != 0 {
                     let m = bits.trailing_zeros() as u64;
-                    best = best.min((need[m as usize] << 6) | m);
+                    best = best.min((need[m as usize] << AXIS_BITS) | m);
                     bits &= bits - 1;
                 }
-                (best & 63) as usize
+                (best & AXIS_FIELD) as usize
             }
         };
         *next = if m + 1 == need.len() { 0 } else { m + 1 };
