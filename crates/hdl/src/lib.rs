@@ -2,14 +2,17 @@
 //! (its period calculator runs `multistep_core::int`'s per-step kernel), a testbench
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
+mod board;
 mod emit;
 mod error;
+pub mod link;
 mod moves;
 mod params;
 pub mod report;
 pub mod testbench;
 pub mod tools;
 
+pub use board::{BoardTop, BOARD_LIBRARY, MAX_BAUD_ERROR};
 pub use emit::{Arch, Design, LIBRARY};
 pub use error::HdlError;
 pub use moves::{mode_code, AxisMove, PieceRegs};
