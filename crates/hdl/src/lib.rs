@@ -3,6 +3,7 @@
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
 mod board;
+pub mod board_sim;
 mod emit;
 mod error;
 pub mod link;
