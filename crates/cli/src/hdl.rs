@@ -6,6 +6,8 @@ use clap::{Args, Subcommand, ValueEnum};
 use multistep_hdl::report::{
     sweep, Baseline, Row, Target, PAPER_DSP_RATIO, PAPER_FF_RATIO, PAPER_LUT_RATIO,
 };
+use multistep_hdl::boards::{Board, BOARDS};
+use multistep_hdl::build::BuildReport;
 use multistep_hdl::{tools, Arch, CoreParams, Design};
 use std::io::Write;
 use std::path::PathBuf;
@@ -22,6 +24,25 @@ enum HdlCmd {
     Emit(EmitArgs),
     /// Synthesize both with yosys for each axis count and compare LUT, FF, DSP and memory use
     Report(ReportArgs),
+    /// Build a board's bitstream: emit, synthesize, place and route, pack (YoWASP flow)
+    Build(BuildArgs),
+    /// List the boards `hdl build` supports
+    Boards,
+}
+
+#[derive(Args, Debug)]
+struct BuildArgs {
+    /// Board name (see `multistep hdl boards`)
+    #[arg(long)]
+    board: String,
+    /// Axes (default: the board's largest that fits and meets timing)
+    #[arg(long)]
+    axes: Option<u32>,
+    /// Output directory (created): rtl/, the pin file, logs, the bitstream, report.json
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
+    format: ReportFormat,
 }
 
 /// Core parameters shared by both subcommands.
@@ -125,7 +146,80 @@ pub fn run(a: &HdlArgs) -> anyhow::Result<()> {
     match &a.cmd {
         HdlCmd::Emit(e) => emit(e),
         HdlCmd::Report(r) => report(r),
+        HdlCmd::Build(b) => build(b),
+        HdlCmd::Boards => boards(),
     }
+}
+
+fn boards() -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{:<12} {:<18} {:>9} {:>9} {:>5}  description",
+        "board", "device", "osc MHz", "core MHz", "axes"
+    )?;
+    for b in &BOARDS {
+        writeln!(
+            out,
+            "{:<12} {:<18} {:>9} {:>9} {:>5}  {}",
+            b.name,
+            b.device,
+            b.osc_hz / 1e6,
+            b.clock_hz() / 1e6,
+            format!("{}..{}", 1, b.max_axes),
+            b.description
+        )?;
+    }
+    Ok(())
+}
+
+fn build(a: &BuildArgs) -> anyhow::Result<()> {
+    let board = Board::by_name(&a.board)?;
+    let axes = a.axes.unwrap_or(board.default_axes);
+    let r = multistep_hdl::build::build(board, axes, &a.out)?;
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        ReportFormat::Json => writeln!(out, "{}", build_json(&r))?,
+        ReportFormat::Table => write_build_table(&mut out, &r)?,
+    }
+    Ok(())
+}
+
+/// The fields, in its order.
+fn build_json(r: &BuildReport) -> serde_json::Value {
+    serde_json::json!({
+        "board": r.board,
+        "device": r.device,
+        "axes": r.axes,
+        "clock_hz": r.clock_hz,
+        "fmax_mhz": r.fmax_mhz,
+        "timing_met": r.timing_met,
+        "lut": r.lut,
+        "ff": r.ff,
+        "dsp": r.dsp,
+        "bram": r.bram,
+        "bitstream": r.bitstream,
+        "axes_at_100k_steps_per_s": r.axes_at_100k_steps_per_s,
+    })
+}
+
+fn write_build_table(out: &mut impl Write, r: &BuildReport) -> std::io::Result<()> {
+    let pct = |u: u64, a: u64| if a == 0 { 0.0 } else { 100.0 * u as f64 / a as f64 };
+    writeln!(out, "board      {} ({})", r.board, r.device)?;
+    writeln!(out, "axes       {}", r.axes)?;
+    writeln!(
+        out,
+        "clock      {} MHz, Fmax {:.2} MHz, timing {}",
+        r.clock_hz / 1e6,
+        r.fmax_mhz,
+        if r.timing_met { "met" } else { "NOT met" }
+    )?;
+    writeln!(out, "LUT        {} of {} ({:.0} %)", r.lut, r.lut_available, pct(r.lut, r.lut_available))?;
+    writeln!(out, "FF         {}", r.ff)?;
+    writeln!(out, "DSP        {} of {}", r.dsp, r.dsp_available)?;
+    writeln!(out, "BRAM       {} of {}", r.bram, r.bram_available)?;
+    writeln!(out, "100 k/s    {} axes on one calculator", r.axes_at_100k_steps_per_s)?;
+    writeln!(out, "bitstream  {}", r.bitstream.display())
 }
 
 fn emit(a: &EmitArgs) -> anyhow::Result<()> {

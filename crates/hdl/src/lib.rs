@@ -2,10 +2,13 @@
 //! (its period calculator runs `multistep_core::int`'s per-step kernel), a testbench
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
+pub mod boards;
+pub mod build;
 mod emit;
 mod error;
 mod moves;
 mod params;
+pub mod pnr;
 pub mod report;
 pub mod testbench;
 pub mod tools;
