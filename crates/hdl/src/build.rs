@@ -5,7 +5,7 @@
 
 use crate::boards::{Board, Family, Pll};
 use crate::pnr::{place_and_route, Flow, Placed};
-use crate::{CoreParams, HdlError, Widths};
+use crate::{BoardTop, CoreParams, HdlError};
 use multistep_core::tdm::{k_max, rate_move, Axis, TdmConfig};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -53,33 +53,6 @@ pub fn axes_at_rate(params: &CoreParams, rate: f64) -> Result<usize, HdlError> {
         .collect::<Result<Vec<_>, _>>()
         .map_err(tdm)?;
     Ok(k_max(&cfg, &[m], &mut storage).map_err(tdm)?.k_max)
-}
-
-/// `.NAME(value)` parameters of `ms_board`.
-fn board_params(b: &Board, w: &Widths, axes: u32) -> String {
-    let mut v: Vec<(&str, String)> = [
-        ("K", axes),
-        ("LK", w.lk),
-        ("LS", w.ls),
-        ("LF", w.lf),
-        ("WN", w.wn),
-        ("WD", w.wd),
-        ("WQ", w.wq),
-        ("WT", w.wt),
-        ("WY", w.wy),
-        ("WK", w.wk),
-        ("RB", w.rb),
-        ("MD", w.md),
-    ]
-    .iter()
-    .map(|(k, x)| (*k, x.to_string()))
-    .collect();
-    v.push(("CLK_HZ", format!("{}", b.clock_hz() as u64)));
-    v.push(("BAUD", b.baud.to_string()));
-    v.iter()
-        .map(|(k, x)| format!(".{k}({x})"))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 /// `{zeros, sig}` padding a K-bit bus to the board's `max` wires (unused outputs low).
@@ -146,7 +119,8 @@ fn pll(b: &Board, osc: &str) -> String {
 /// The board wrapper: the board's pins (as named in its constraint file), the PLL, the
 /// reset (button or PLL not locked), and `ms_board` on the first `axes` axis wires.
 pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
-    let w = params.widths()?;
+    let top = BoardTop::new(params.clone(), b.baud);
+    let board_params = top.verilog_params()?;
     let (k, max) = (params.axes, b.max_axes);
     let m1 = max - 1;
     let (osc, reset, leds) = match b.family {
@@ -194,14 +168,13 @@ pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
          \x20   /* verilator lint_off UNUSED */\n\
          \x20   wire [{m1}:0] hall_w = hall, limit_w = limit;\n\
          \x20   /* verilator lint_on UNUSED */\n\
-         \x20   ms_board #({}) u_board (\n\
+         \x20   ms_board {board_params} u_board (\n\
          \x20       .clk(clk), .rst_n_async({rst_n}), .uart_rx(uart_rx), .uart_tx(uart_tx),\n\
          \x20       .estop_in(estop), .hall_in(hall_w[{k1}:0]), .limit_in(limit_w[{k1}:0]),\n\
          \x20       .step_out(step_k), .dir_out(dir_k), .enable_out(enable_k), .led(led_k));\n\
          \x20   assign step   = {};\n\
          \x20   assign dir    = {};\n\
          \x20   assign enable = {};\n",
-        board_params(b, &w, k),
         pad("step_k", k, max),
         pad("dir_k", k, max),
         pad("enable_k", k, max),
@@ -220,11 +193,7 @@ pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
 
 /// The Verilog of a board build: the core library, the board top and the wrapper.
 pub fn sources(b: &Board, params: &CoreParams) -> Result<Vec<(String, String)>, HdlError> {
-    params.widths()?;
-    let mut files: Vec<(String, String)> = crate::LIBRARY
-        .iter()
-        .map(|(n, t)| (n.to_string(), t.to_string()))
-        .collect();
+    let mut files = BoardTop::new(params.clone(), b.baud).files()?;
     files.push((format!("{}.v", b.top), wrapper(b, params)?));
     Ok(files)
 }
@@ -298,7 +267,7 @@ mod tests {
             let p = b.params(b.max_axes.min(2)).unwrap();
             let v = wrapper(b, &p).unwrap();
             assert!(v.contains(&format!("module {} (", b.top)), "{v}");
-            assert!(v.contains(".K(2)") && v.contains(".CLK_HZ(") && v.contains(".BAUD("));
+            assert!(v.contains(".K(2)") && v.contains(".CLK_HZ(") && v.contains(".BAUD("), "{v}");
             // every port of the constraint file is a port of the wrapper
             for line in b.constraints.1.lines() {
                 let port = if let Some(r) = line.strip_prefix("set_io ") {

@@ -2,10 +2,12 @@
 //! (its period calculator runs `multistep_core::int`'s per-step kernel), a testbench
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
+mod board;
 pub mod boards;
 pub mod build;
 mod emit;
 mod error;
+pub mod link;
 mod moves;
 mod params;
 pub mod pnr;
@@ -13,6 +15,7 @@ pub mod report;
 pub mod testbench;
 pub mod tools;
 
+pub use board::{BoardTop, BOARD_LIBRARY, MAX_BAUD_ERROR};
 pub use emit::{Arch, Design, LIBRARY};
 pub use error::HdlError;
 pub use moves::{mode_code, AxisMove, PieceRegs};
