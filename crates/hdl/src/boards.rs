@@ -139,7 +139,8 @@ pub const BOARDS: [Board; 2] = [
     },
     Board {
         name: "icebreaker",
-        description: "1BitSquared iCEBreaker with an iCE40UP5K, 12 MHz oscillator, FT2232H USB-UART",
+        description:
+            "1BitSquared iCEBreaker with an iCE40UP5K, 12 MHz oscillator, FT2232H USB-UART",
         family: Family::Ice40,
         device: "iCE40UP5K-SG48",
         nextpnr_device: &["--up5k", "--package", "sg48"],
@@ -160,8 +161,8 @@ pub const BOARDS: [Board; 2] = [
             step_bits: 16,
             tick_bits: 20,
             radicand_bits: 64,
-            kernel_bits: 40,
-            radix_bits: 2,
+            kernel_bits: 36,
+            radix_bits: 1,
             max_rate: 100_000.0,
             max_piece_s: 0.04,
         },
@@ -222,7 +223,8 @@ mod tests {
     fn every_board_has_valid_params_and_a_pll_in_range() {
         for b in &BOARDS {
             for k in 1..=b.max_axes {
-                b.params(k).unwrap_or_else(|e| panic!("{} K = {k}: {e}", b.name));
+                b.params(k)
+                    .unwrap_or_else(|e| panic!("{} K = {k}: {e}", b.name));
             }
             assert!(b.default_axes >= 1 && b.default_axes <= b.max_axes);
             let vco = b.pll.vco_hz(b.osc_hz);
@@ -247,7 +249,9 @@ mod tests {
 
     #[test]
     fn unknown_board_and_too_many_axes_are_errors() {
-        assert!(matches!(Board::by_name("nope"), Err(HdlError::Param(m)) if m.contains("icebreaker")));
+        assert!(
+            matches!(Board::by_name("nope"), Err(HdlError::Param(m)) if m.contains("icebreaker"))
+        );
         let b = Board::by_name("icebreaker").unwrap();
         assert!(b.params(b.max_axes + 1).is_err());
         assert!(b.params(0).is_err());

@@ -267,11 +267,15 @@ mod tests {
             let p = b.params(b.max_axes.min(2)).unwrap();
             let v = wrapper(b, &p).unwrap();
             assert!(v.contains(&format!("module {} (", b.top)), "{v}");
-            assert!(v.contains(".K(2)") && v.contains(".CLK_HZ(") && v.contains(".BAUD("), "{v}");
+            assert!(
+                v.contains(".K(2)") && v.contains(".CLK_HZ(") && v.contains(".BAUD("),
+                "{v}"
+            );
             // every port of the constraint file is a port of the wrapper
             for line in b.constraints.1.lines() {
                 let port = if let Some(r) = line.strip_prefix("set_io ") {
-                    r.split_whitespace().rfind(|t| !t.starts_with('-') && t.parse::<u32>().is_err() && *t != "yes")
+                    r.split_whitespace()
+                        .rfind(|t| !t.starts_with('-') && t.parse::<u32>().is_err() && *t != "yes")
                 } else if let Some(r) = line.strip_prefix("LOCATE COMP \"") {
                     r.split('"').next()
                 } else {
@@ -279,8 +283,11 @@ mod tests {
                 };
                 if let Some(port) = port {
                     let base = port.split('[').next().unwrap();
-                    assert!(v.contains(&format!(" {base},")) || v.contains(&format!(" {base}\n")),
-                        "{}: {port} not in the wrapper", b.name);
+                    assert!(
+                        v.contains(&format!(" {base},")) || v.contains(&format!(" {base}\n")),
+                        "{}: {port} not in the wrapper",
+                        b.name
+                    );
                 }
             }
         }

@@ -96,7 +96,11 @@ fn run(tool: Tool, args: &[&str], dir: &Path, log: &str) -> Result<(), HdlError>
     let text = std::fs::read_to_string(&log_path).unwrap_or_default();
     Err(HdlError::ToolFailed {
         tool: tool.exe,
-        detail: format!("{status}: {} (log: {})", first_error(&text), log_path.display()),
+        detail: format!(
+            "{status}: {} (log: {})",
+            first_error(&text),
+            log_path.display()
+        ),
     })
 }
 
@@ -325,7 +329,13 @@ mod tests {
             "fmax": {"$glbnet$clk": {"achieved": 54.25, "constraint": 50.0},
                      "$glbnet$clk_25mhz$TRELLIS_IO_IN": {"achieved": 400.0, "constraint": 25.0}}}"#;
         let p = parse_report(json, Family::Ecp5).unwrap();
-        assert_eq!(p.lut, Use { used: 8375, available: 24288 });
+        assert_eq!(
+            p.lut,
+            Use {
+                used: 8375,
+                available: 24288
+            }
+        );
         assert_eq!((p.ff, p.dsp.used, p.bram.used), (2293, 8, 0));
         assert_eq!((p.fmax_mhz, p.constraint_mhz), (54.25, 50.0));
         assert!(p.timing_met());
