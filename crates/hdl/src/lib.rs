@@ -4,11 +4,14 @@
 
 mod board;
 pub mod board_sim;
+pub mod boards;
+pub mod build;
 mod emit;
 mod error;
 pub mod link;
 mod moves;
 mod params;
+pub mod pnr;
 pub mod report;
 pub mod testbench;
 pub mod tools;
