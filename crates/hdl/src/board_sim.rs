@@ -140,7 +140,13 @@ pub struct BoardLog {
     /// Cycles of every group start (`go`) and of every start write the core took.
     pub go: Vec<u64>,
     pub start: Vec<u64>,
-    /// Per axis: cycles at which a Hall edge was accepted.
+    /// Cycles at which the board executed a request (in order).
+    pub reqs: Vec<u64>,
+    /// Per axis: the synchronized Hall and limit inputs' changes.
+    pub hall_sync: Vec<Vec<PinEvent>>,
+    pub limit_sync: Vec<Vec<PinEvent>>,
+    /// Per axis: cycles at which a Hall edge was accepted (the position is latched at
+    /// that clock edge).
     pub hall_accept: Vec<Vec<u64>>,
     /// Bytes the board sent, with the cycle each one's stop bit ended.
     pub tx: Vec<(u64, u8)>,
@@ -201,27 +207,32 @@ module tb;
         .enable_out(en), .led(led));
     integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0;
     reg [8*8-1:0] cmd;
-    reg [{k1}:0] pstep, pdir, pen;
+    reg [{k1}:0] pstep, pdir, pen, phs, pls;
     reg [7:0] rb;
     integer nrise [0:{k1}];
     reg logging = 1'b0;   // pins are logged from the end of the power-on reset
+    wire [{k1}:0] accept;
     genvar g;
     generate for (g = 0; g < {k}; g = g + 1) begin : acc
-        always @(posedge clk) if (dut.axis[g].u_io.accept) $fdisplay(f, \"hall %0d %0d\", g, cycle);
+        assign accept[g] = dut.axis[g].u_io.accept;
     end endgenerate
     // pins are sampled just before each rising edge: `cycle` is the edge they changed after
     always @(posedge clk) begin
         if (dut.go) $fdisplay(f, \"go %0d\", cycle);
         if (dut.u_core.start_wr) $fdisplay(f, \"start %0d\", cycle);
+        if (dut.req) $fdisplay(f, \"req %0d\", cycle);
         for (a = 0; a < {k}; a = a + 1) begin
+            if (accept[a]) $fdisplay(f, \"hall %0d %0d\", a, cycle);
             if (logging && step[a] !== pstep[a]) begin
                 $fdisplay(f, \"s %0d %0d %0d\", a, step[a], cycle - 1);
                 nrise[a] = nrise[a] + 1;
             end
             if (logging && dir[a] !== pdir[a]) $fdisplay(f, \"d %0d %0d %0d\", a, dir[a], cycle - 1);
             if (logging && en[a] !== pen[a]) $fdisplay(f, \"n %0d %0d %0d\", a, en[a], cycle - 1);
+            if (logging && dut.hall_s[a] !== phs[a]) $fdisplay(f, \"hs %0d %0d %0d\", a, dut.hall_s[a], cycle - 1);
+            if (logging && dut.limit_s[a] !== pls[a]) $fdisplay(f, \"ls %0d %0d %0d\", a, dut.limit_s[a], cycle - 1);
         end
-        pstep = step; pdir = dir; pen = en;
+        pstep = step; pdir = dir; pen = en; phs = dut.hall_s; pls = dut.limit_s;
         cycle = cycle + 1;
         if (cycle > {timeout}) begin
             $fdisplay(f, \"timeout %0d\", cycle);
@@ -280,10 +291,11 @@ module tb;
                     t0 = nrise[c_a] + 2 * c_b;
                     while (nrise[c_a] < t0) @(posedge clk);
                 end
-                \"h\": hall[c_a] = c_b[0];
-                \"l\": limit[c_a] = c_b[0];
+                // inputs change at a falling clock edge: no race with the sampling edge
+                \"h\": begin @(negedge clk); hall[c_a] = c_b[0]; end
+                \"l\": begin @(negedge clk); limit[c_a] = c_b[0]; end
                 \"e\": estop = c_a[0];
-                \"n\": rst_n = c_a[0];
+                \"n\": begin @(negedge clk); rst_n = c_a[0]; end
                 \"k\": $fdisplay(f, \"mark %0d %0d\", c_a, cycle);
                 default: begin $fdisplay(f, \"badscript\"); end
             endcase
@@ -347,6 +359,8 @@ fn parse(text: &str, k: usize) -> Result<BoardLog, HdlError> {
         dir: vec![Vec::new(); k],
         enable: vec![Vec::new(); k],
         hall_accept: vec![Vec::new(); k],
+        hall_sync: vec![Vec::new(); k],
+        limit_sync: vec![Vec::new(); k],
         ..Default::default()
     };
     let bad = |line: &str| HdlError::Sim(format!("unexpected testbench line {line:?}"));
@@ -370,6 +384,7 @@ fn parse(text: &str, k: usize) -> Result<BoardLog, HdlError> {
             Some("sx") => log.step_during_estop_ns.push((num(1)?, num(2)?)),
             Some("go") => log.go.push(num(1)?),
             Some("start") => log.start.push(num(1)?),
+            Some("req") => log.reqs.push(num(1)?),
             Some("end") => log.end_cycle = num(1)?,
             Some("mark") => log.marks.push((num(1)? as u32, num(2)?)),
             Some("t") => log.tx.push((num(2)?, num(1)? as u8)),
@@ -380,7 +395,7 @@ fn parse(text: &str, k: usize) -> Result<BoardLog, HdlError> {
                     .ok_or_else(|| bad(line))?
                     .push(num(2)?);
             }
-            Some(p @ ("s" | "d" | "n")) => {
+            Some(p @ ("s" | "d" | "n" | "hs" | "ls")) => {
                 let a = num(1)? as usize;
                 let ev = PinEvent {
                     level: num(2)? == 1,
@@ -389,7 +404,9 @@ fn parse(text: &str, k: usize) -> Result<BoardLog, HdlError> {
                 let list = match p {
                     "s" => &mut log.step,
                     "d" => &mut log.dir,
-                    _ => &mut log.enable,
+                    "n" => &mut log.enable,
+                    "hs" => &mut log.hall_sync,
+                    _ => &mut log.limit_sync,
                 };
                 list.get_mut(a).ok_or_else(|| bad(line))?.push(ev);
             }
