@@ -698,3 +698,13 @@ fn session_changes_on_reset() {
         v(s3)
     );
 }
+
+/// `verilator --lint-only -Wall` is clean for the board at K = 1, 2, 5 and 8.
+#[test]
+fn board_lint_is_clean() {
+    for k in [1, 2, 5, 8] {
+        let dir = tempfile::tempdir().unwrap();
+        multistep_hdl::board_sim::lint(&board(params(k), 3_000_000), dir.path())
+            .unwrap_or_else(|e| panic!("K = {k}: {e}"));
+    }
+}
