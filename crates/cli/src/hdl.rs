@@ -14,6 +14,8 @@ use multistep_hdl::{tools, Arch, CoreParams, Design, HdlError};
 use std::io::Write;
 use std::path::PathBuf;
 
+mod regs;
+
 #[derive(Args, Debug)]
 pub struct HdlArgs {
     #[command(subcommand)]
@@ -30,6 +32,8 @@ enum HdlCmd {
     Build(BuildArgs),
     /// List the boards `hdl build` supports
     Boards,
+    /// Print the link frames and register writes that load a move into a board and start it
+    Regs(regs::RegsArgs),
 }
 
 #[derive(Args, Debug)]
@@ -215,6 +219,7 @@ pub fn run(a: &HdlArgs) -> anyhow::Result<()> {
         HdlCmd::Report(r) => report(r),
         HdlCmd::Build(b) => build(b),
         HdlCmd::Boards => boards(),
+        HdlCmd::Regs(r) => regs::run(r),
     }
 }
 

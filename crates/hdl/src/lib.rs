@@ -3,6 +3,7 @@
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
 mod board;
+pub mod board_sim;
 pub mod boards;
 pub mod build;
 mod emit;

@@ -665,6 +665,89 @@ pub fn move_frames(
     Ok(requests(&w, seq))
 }
 
+/// A move given in plan's units (steps/s, s) as `multistep_core::int`'s integer move on a
+/// `clock_hz` clock: trapezoid moves only (phases, segments or limits), every speed a whole
+/// number of steps/s and every time a whole number of ticks (to 1e-6), else an error
+/// saying which value.
+pub fn int_profile(
+    mv: &multistep_core::Move<'_>,
+    clock_hz: u64,
+) -> Result<multistep_core::int::IntProfile, LinkError> {
+    use multistep_core::int::{IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
+    use multistep_core::{Family, Move, Order};
+    let whole = |x: f64, what: &str| -> Result<u64, LinkError> {
+        let r = x.round();
+        if !x.is_finite() || x < 0.0 || (x - r).abs() > 1e-6 || r >= 2f64.powi(63) {
+            return Err(LinkError::Move(format!(
+                "{what} {x} is not a whole number (the board's planner is integer)"
+            )));
+        }
+        Ok(r as u64)
+    };
+    let ticks = |s: f64, what: &str| {
+        whole(s * clock_hz as f64, &format!("{what} {s} s is")).map_err(|_| {
+            LinkError::Move(format!(
+                "{what} {s} s is not a whole number of ticks at {clock_hz} Hz"
+            ))
+        })
+    };
+    let clock = IntClock::hz(clock_hz);
+    let plan = |r: Result<IntProfile, multistep_core::int::IntError>| {
+        r.map_err(|e| LinkError::Move(format!("the integer planner: {e}")))
+    };
+    match mv {
+        Move::Phase(m) => {
+            if m.family != Family::Trapezoid {
+                return Err(LinkError::Move(format!(
+                    "the board runs trapezoids only, not {:?}",
+                    m.family
+                )));
+            }
+            plan(IntProfile::phase(
+                &IntPhaseMove {
+                    steps: m.steps,
+                    accel_ticks: ticks(m.accel_time, "accel time")?,
+                    cruise_ticks: ticks(m.cruise_time, "cruise time")?,
+                    decel_ticks: ticks(m.decel_time, "decel time")?,
+                    start_speed: whole(m.start_speed, "start speed")?,
+                    end_speed: whole(m.end_speed, "end speed")?,
+                },
+                clock,
+            ))
+        }
+        Move::Segments(segs) => {
+            let v: Result<Vec<IntSegment>, LinkError> = segs
+                .iter()
+                .map(|g| {
+                    Ok(IntSegment {
+                        v0: whole(g.v0, "segment start speed")?,
+                        ticks: ticks(g.duration, "segment time")?,
+                        steps: g.steps,
+                    })
+                })
+                .collect();
+            plan(IntProfile::segments(&v?, clock))
+        }
+        Move::Limits(m) => {
+            if m.order != Order::Trapezoid || m.jmax.is_some() || m.smax.is_some() {
+                return Err(LinkError::Move(
+                    "the board runs trapezoids only (no jerk or snap limit)".into(),
+                ));
+            }
+            plan(IntProfile::limits(
+                &IntLimitsMove {
+                    steps: m.steps,
+                    vmax: whole(m.vmax, "vmax")?,
+                    amax: whole(m.amax, "amax")?,
+                    start_speed: whole(m.start_speed, "start speed")?,
+                    end_speed: whole(m.end_speed, "end speed")?,
+                },
+                clock,
+            ))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
