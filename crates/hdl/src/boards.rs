@@ -84,9 +84,9 @@ pub struct Board {
     pub family: Family,
     /// The FPGA's part number.
     pub device: &'static str,
-    /// nextpnr's device and package options.
+    /// nextpnr's device, package and placer options.
     #[serde(skip)]
-    pub nextpnr_device: &'static [&'static str],
+    pub nextpnr_args: &'static [&'static str],
     /// The board oscillator (Hz).
     pub osc_hz: f64,
     pub pll: Pll,
@@ -111,7 +111,7 @@ pub const BOARDS: [Board; 2] = [
         description: "Radiona ULX3S with an LFE5U-25F, 25 MHz oscillator, FT231X USB-UART",
         family: Family::Ecp5,
         device: "LFE5U-25F-6BG381C",
-        nextpnr_device: &["--25k", "--package", "CABGA381", "--speed", "6"],
+        nextpnr_args: &["--25k", "--package", "CABGA381", "--speed", "6"],
         osc_hz: 25e6,
         // ecppll -i 25 -o 50: VCO 600 MHz
         pll: Pll::Ehxplll {
@@ -143,7 +143,8 @@ pub const BOARDS: [Board; 2] = [
             "1BitSquared iCEBreaker with an iCE40UP5K, 12 MHz oscillator, FT2232H USB-UART",
         family: Family::Ice40,
         device: "iCE40UP5K-SG48",
-        nextpnr_device: &["--up5k", "--package", "sg48"],
+        // the simulated-annealing placer: HeAP's legaliser stalls on this full a device
+        nextpnr_args: &["--up5k", "--package", "sg48", "--placer", "sa"],
         osc_hz: 12e6,
         // icepll -i 12 -o 24
         pll: Pll::Pll40Pad {
@@ -156,12 +157,12 @@ pub const BOARDS: [Board; 2] = [
         default_axes: 2,
         baud: 1_000_000,
         core: BoardCore {
-            fifo_depth: 4,
+            fifo_depth: 2,
             pieces: 4,
-            step_bits: 16,
+            step_bits: 14,
             tick_bits: 20,
-            radicand_bits: 64,
-            kernel_bits: 36,
+            radicand_bits: 56,
+            kernel_bits: 30,
             radix_bits: 1,
             max_rate: 100_000.0,
             max_piece_s: 0.04,

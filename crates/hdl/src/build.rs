@@ -215,7 +215,7 @@ pub fn build(b: &Board, axes: u32, out: &Path) -> Result<BuildReport, HdlError> 
     std::fs::write(&cpath, ctext).map_err(|e| HdlError::io(&cpath, e))?;
     let flow = Flow {
         family: b.family,
-        device: b.nextpnr_device,
+        nextpnr_args: b.nextpnr_args,
         top: b.top,
         sources: files.iter().map(|(n, _)| format!("rtl/{n}")).collect(),
         constraints: Some(cname.to_string()),
@@ -297,5 +297,43 @@ mod tests {
     fn one_calculator_serves_the_documented_axes_at_100k() {
         let ulx3s = Board::by_name("ulx3s-25f").unwrap();
         assert!(axes_at_rate(&ulx3s.params(8).unwrap(), 100e3).unwrap() >= 8);
+    }
+}
+
+#[cfg(test)]
+mod move_fit {
+    use crate::boards::BOARDS;
+    use crate::AxisMove;
+    use multistep_core::int::{IntClock, IntPhaseMove, IntProfile};
+
+    /// Trapezoids (whole-millisecond phases, up to the board's longest piece) fit every
+    /// board's widths: the narrower iCE40 radicand and kernels still take them.
+    #[test]
+    fn trapezoids_fit_every_board() {
+        for b in &BOARDS {
+            let p = b.params(b.max_axes).unwrap();
+            let hz = p.clock_hz as u64;
+            let ms = |t: f64| (t * hz as f64 / 1000.0) as u64;
+            for (steps, a, c, d) in [
+                (800, 2.0, 6.0, 2.0),
+                (4000, 10.0, 35.0, 10.0),
+                (100, 5.0, 10.0, 5.0),
+                (2000, 20.0, 30.0, 20.0),
+                (50, 10.0, 0.0, 10.0),
+                (1, 1.0, 0.0, 1.0),
+            ] {
+                let m = IntPhaseMove {
+                    steps,
+                    accel_ticks: ms(a),
+                    cruise_ticks: ms(c),
+                    decel_ticks: ms(d),
+                    start_speed: 0,
+                    end_speed: 0,
+                };
+                let prof = IntProfile::phase(&m, IntClock::hz(hz)).unwrap();
+                AxisMove::from_profile(&prof, false, &p)
+                    .unwrap_or_else(|e| panic!("{}: {m:?}: {e}", b.name));
+            }
+        }
     }
 }

@@ -118,8 +118,8 @@ fn first_error(log: &str) -> String {
 #[derive(Clone, Debug)]
 pub struct Flow<'a> {
     pub family: Family,
-    /// nextpnr's device and package options, e.g. `--25k --package CABGA381 --speed 6`.
-    pub device: &'a [&'a str],
+    /// nextpnr's device, package and placer options, e.g. `--25k --package CABGA381 --speed 6`.
+    pub nextpnr_args: &'a [&'a str],
     pub top: &'a str,
     /// Verilog files, relative to the work directory.
     pub sources: Vec<String>,
@@ -171,7 +171,7 @@ pub fn place_and_route(flow: &Flow, dir: &Path) -> Result<Placed, HdlError> {
     );
     run(YOSYS, &["-q", "-p", &script], dir, "yosys.log")?;
     let freq = format!("{}", flow.clock_hz / 1e6);
-    let mut args: Vec<&str> = flow.device.to_vec();
+    let mut args: Vec<&str> = flow.nextpnr_args.to_vec();
     args.extend([
         "--json",
         "netlist.json",

@@ -280,7 +280,7 @@ pub fn place(
     paths.push(top);
     let flow = crate::pnr::Flow {
         family,
-        device: board.nextpnr_device,
+        nextpnr_args: board.nextpnr_args,
         top: "ms_place_top",
         sources: file_names_of(&paths),
         constraints: None,
