@@ -90,8 +90,12 @@ impl Host {
 /// link, `rounds` groups one after the other: every STEP rise at `go + edge + TICK0`, the
 /// 50 % falls, DIR pins, replies, and the readback (state, position, period) after each.
 fn link_moves(k: u32, rounds: u32, seed: u64, baud: u32, ticks: u64) {
-    let name = format!("board-k{k}");
-    let p = params(k);
+    link_moves_on(params(k), &format!("board-k{k}"), rounds, seed, baud, ticks);
+}
+
+fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, ticks: u64) {
+    let k = p.axes;
+    let name = name.to_string();
     let b = board(p.clone(), baud);
     let mut rng = Rng(seed);
     let interval = p.widths().unwrap().latencies().interval();
@@ -227,6 +231,15 @@ fn two_axes_two_rounds_at_three_megabaud() {
 #[test]
 fn eight_axes() {
     link_moves(8, 1, 0x0b0a_0008, 12_500_000, 100_000);
+}
+
+/// The iCEBreaker build's widths (radix 2, 56-bit radicand, 30-bit kernels, FIFO depth
+/// 2, 24 MHz) at its most axes, K = 4, with a 6 Mbaud host link (4 clocks per bit).
+#[test]
+fn icebreaker_widths_four_axes() {
+    let b = multistep_hdl::boards::Board::by_name("icebreaker").unwrap();
+    let p = b.params(b.max_axes).unwrap();
+    link_moves_on(p, "board-ice", 1, 0x0b0a_1ce4, 6_000_000, 20_000);
 }
 
 /// The core TDM model with a pulse shape and DIR setup time: rises and falls from its
