@@ -753,3 +753,38 @@ fn board_lint_is_clean() {
             .unwrap_or_else(|e| panic!("K = {k}: {e}"));
     }
 }
+
+/// One group at a time: a start while another group waits for its start (here: for its
+/// DIR setup time) is refused and the waiting group runs exactly; the refused axis starts
+/// afterwards.
+#[test]
+fn start_while_a_group_waits_is_refused() {
+    let name = "board-pending";
+    let p = params(2);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, _, _) = search_move(&p, 60);
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::DirSetup), 20_000);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.writes(&move_writes(&p, 1, &cm, 0).unwrap());
+    let first = h.write(Reg::Board(BoardReg::Start), 0b01);
+    let second = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let third = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let log = run(&b, &h.s, name, 2_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    assert_eq!(rep[first].status, Status::Ok);
+    assert_eq!(
+        rep[second].status,
+        Status::Busy,
+        "{name}: start while a group waits"
+    );
+    assert_eq!(rep[third].status, Status::Ok);
+    assert_eq!(log.go.len(), 2, "{name}: two group starts");
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    for (a, go) in [(0usize, log.go[0]), (1, log.go[1])] {
+        let rises: Vec<u64> = log.rises(a, true).iter().map(|c| c - go - TICK0).collect();
+        assert_eq!(rises, want, "{name}: axis {a}");
+    }
+}
