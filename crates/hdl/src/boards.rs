@@ -161,8 +161,8 @@ pub const BOARDS: [Board; 2] = [
             pieces: 4,
             step_bits: 14,
             tick_bits: 20,
-            radicand_bits: 56,
-            kernel_bits: 30,
+            radicand_bits: 48,
+            kernel_bits: 26,
             radix_bits: 1,
             max_rate: 100_000.0,
             max_piece_s: 0.04,
@@ -177,10 +177,10 @@ impl Board {
     pub fn by_name(name: &str) -> Result<&'static Board, HdlError> {
         BOARDS.iter().find(|b| b.name == name).ok_or_else(|| {
             let names: Vec<&str> = BOARDS.iter().map(|b| b.name).collect();
-            HdlError::Param(format!(
-                "unknown board {name:?} (boards: {})",
-                names.join(", ")
-            ))
+            HdlError::UnknownBoard {
+                name: name.to_string(),
+                known: names.join(", "),
+            }
         })
     }
 
@@ -251,7 +251,7 @@ mod tests {
     #[test]
     fn unknown_board_and_too_many_axes_are_errors() {
         assert!(
-            matches!(Board::by_name("nope"), Err(HdlError::Param(m)) if m.contains("icebreaker"))
+            matches!(Board::by_name("nope"), Err(HdlError::UnknownBoard { known, .. }) if known.contains("icebreaker"))
         );
         let b = Board::by_name("icebreaker").unwrap();
         assert!(b.params(b.max_axes + 1).is_err());

@@ -20,6 +20,9 @@ pub enum HdlError {
         tool: &'static str,
         package: &'static str,
     },
+    /// `--board` names no supported board.
+    #[error("unknown board {name:?} (boards: {known})")]
+    UnknownBoard { name: String, known: String },
     /// A flow tool from PyPI (YoWASP) is not installed.
     #[error("{tool} not found on PATH: install it with `pip install {package}` (see .ci/run for the pinned version)")]
     PipToolMissing {
