@@ -233,8 +233,8 @@ fn eight_axes() {
     link_moves(8, 1, 0x0b0a_0008, 12_500_000, 100_000);
 }
 
-/// The iCEBreaker build's widths (radix 2, 56-bit radicand, 30-bit kernels, FIFO depth
-/// 2, 24 MHz) at its most axes, K = 4, with a 6 Mbaud host link (4 clocks per bit).
+/// The iCEBreaker build's core (its narrow widths, radix 2, FIFO depth 2, 24 MHz, from
+/// `boards.rs`) at its most axes, K = 4, with a 6 Mbaud host link (4 clocks per bit).
 #[test]
 fn icebreaker_widths_four_axes() {
     let b = multistep_hdl::boards::Board::by_name("icebreaker").unwrap();
