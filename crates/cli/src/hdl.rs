@@ -3,12 +3,18 @@
 
 use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
+use multistep_hdl::boards::Family;
+use multistep_hdl::boards::{Board, BOARDS};
+use multistep_hdl::build::BuildReport;
+use multistep_hdl::pnr::Placed;
 use multistep_hdl::report::{
-    sweep, Baseline, Row, Target, PAPER_DSP_RATIO, PAPER_FF_RATIO, PAPER_LUT_RATIO,
+    place, sweep, Baseline, Row, Target, PAPER_DSP_RATIO, PAPER_FF_RATIO, PAPER_LUT_RATIO,
 };
-use multistep_hdl::{tools, Arch, CoreParams, Design};
+use multistep_hdl::{tools, Arch, CoreParams, Design, HdlError};
 use std::io::Write;
 use std::path::PathBuf;
+
+mod regs;
 
 #[derive(Args, Debug)]
 pub struct HdlArgs {
@@ -22,6 +28,27 @@ enum HdlCmd {
     Emit(EmitArgs),
     /// Synthesize both with yosys for each axis count and compare LUT, FF, DSP and memory use
     Report(ReportArgs),
+    /// Build a board's bitstream: emit, synthesize, place and route, pack (YoWASP flow)
+    Build(BuildArgs),
+    /// List the boards `hdl build` supports
+    Boards,
+    /// Print the link frames and register writes that load a move into a board and start it
+    Regs(regs::RegsArgs),
+}
+
+#[derive(Args, Debug)]
+struct BuildArgs {
+    /// Board name (see `multistep hdl boards`)
+    #[arg(long)]
+    board: String,
+    /// Axes (default: the board's largest that fits and meets timing)
+    #[arg(long)]
+    axes: Option<u32>,
+    /// Output directory (created): rtl/, the pin file, logs, the bitstream, report.json
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
+    format: ReportFormat,
 }
 
 /// Core parameters shared by both subcommands.
@@ -117,15 +144,170 @@ struct ReportArgs {
     /// Working directory for yosys (default: a fresh temporary directory)
     #[arg(long)]
     work: Option<PathBuf>,
+    /// Also place and route (iCE40 UP5K, ECP5 LFE5U-25F) the TDM core and the K independent
+    /// cores of each row with the YoWASP flow: a "fits / Fmax" column and placed LUTs (slow)
+    #[arg(long)]
+    pnr: bool,
     #[command(flatten)]
     core: CoreArgs,
+}
+
+/// A row's place-and-route result, or why it has none.
+#[derive(Debug)]
+struct PlacedRow {
+    tdm: Result<Placed, String>,
+    independent: Result<Placed, String>,
+}
+
+impl PlacedRow {
+    fn fits(&self) -> String {
+        fits_fmax(&self.tdm)
+    }
+    fn lut_ratio(&self) -> Option<f64> {
+        match (&self.tdm, &self.independent) {
+            (Ok(t), Ok(i)) if i.lut.used > 0 => Some(t.lut.used as f64 / i.lut.used as f64),
+            _ => None,
+        }
+    }
+}
+
+/// "yes, 54.3 MHz" / "yes, 28.1 MHz < 50" / "no: ICESTORM_LC 7216 of 5280 (137 %)".
+fn fits_fmax(r: &Result<Placed, String>) -> String {
+    match r {
+        Ok(p) if p.timing_met() => format!("yes, {:.1} MHz", p.fmax_mhz),
+        Ok(p) => format!("yes, {:.1} MHz < {}", p.fmax_mhz, p.constraint_mhz),
+        Err(e) => format!("no: {e}"),
+    }
+}
+
+fn place_rows(
+    base: &CoreParams,
+    rows: &[Row],
+    family: Family,
+    work: &std::path::Path,
+) -> anyhow::Result<Vec<PlacedRow>> {
+    let one =
+        |p: &CoreParams, arch: Arch, dir: PathBuf| -> anyhow::Result<Result<Placed, String>> {
+            let d = Design::new(p, arch)?;
+            Ok(match place(&d, family, &dir) {
+                Ok(placed) => Ok(placed),
+                Err(HdlError::DoesNotFit(m)) => Err(m),
+                Err(e) => return Err(e.into()),
+            })
+        };
+    rows.iter()
+        .map(|r| {
+            let p = CoreParams {
+                axes: r.axes,
+                ..base.clone()
+            };
+            Ok(PlacedRow {
+                tdm: one(&p, Arch::Tdm, work.join(format!("pnr-tdm-{}", r.axes)))?,
+                independent: one(
+                    &p,
+                    Arch::Independent,
+                    work.join(format!("pnr-indep-{}", r.axes)),
+                )?,
+            })
+        })
+        .collect()
 }
 
 pub fn run(a: &HdlArgs) -> anyhow::Result<()> {
     match &a.cmd {
         HdlCmd::Emit(e) => emit(e),
         HdlCmd::Report(r) => report(r),
+        HdlCmd::Build(b) => build(b),
+        HdlCmd::Boards => boards(),
+        HdlCmd::Regs(r) => regs::run(r),
     }
+}
+
+fn boards() -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{:<12} {:<18} {:>9} {:>9} {:>5}  description",
+        "board", "device", "osc MHz", "core MHz", "axes"
+    )?;
+    for b in &BOARDS {
+        writeln!(
+            out,
+            "{:<12} {:<18} {:>9} {:>9} {:>5}  {}",
+            b.name,
+            b.device,
+            b.osc_hz / 1e6,
+            b.clock_hz() / 1e6,
+            format!("{}..{}", 1, b.max_axes),
+            b.description
+        )?;
+    }
+    Ok(())
+}
+
+fn build(a: &BuildArgs) -> anyhow::Result<()> {
+    let board = Board::by_name(&a.board)?;
+    let axes = a.axes.unwrap_or(board.default_axes);
+    let r = multistep_hdl::build::build(board, axes, &a.out)?;
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        ReportFormat::Json => writeln!(out, "{}", build_json(&r))?,
+        ReportFormat::Table => write_build_table(&mut out, &r)?,
+    }
+    Ok(())
+}
+
+/// The fields, in its order.
+fn build_json(r: &BuildReport) -> serde_json::Value {
+    serde_json::json!({
+        "board": r.board,
+        "device": r.device,
+        "axes": r.axes,
+        "clock_hz": r.clock_hz,
+        "fmax_mhz": r.fmax_mhz,
+        "timing_met": r.timing_met,
+        "lut": r.lut,
+        "ff": r.ff,
+        "dsp": r.dsp,
+        "bram": r.bram,
+        "bitstream": r.bitstream,
+        "axes_at_100k_steps_per_s": r.axes_at_100k_steps_per_s,
+    })
+}
+
+fn write_build_table(out: &mut impl Write, r: &BuildReport) -> std::io::Result<()> {
+    let pct = |u: u64, a: u64| {
+        if a == 0 {
+            0.0
+        } else {
+            100.0 * u as f64 / a as f64
+        }
+    };
+    writeln!(out, "board      {} ({})", r.board, r.device)?;
+    writeln!(out, "axes       {}", r.axes)?;
+    writeln!(
+        out,
+        "clock      {} MHz, Fmax {:.2} MHz, timing {}",
+        r.clock_hz / 1e6,
+        r.fmax_mhz,
+        if r.timing_met { "met" } else { "NOT met" }
+    )?;
+    writeln!(
+        out,
+        "LUT        {} of {} ({:.0} %)",
+        r.lut,
+        r.lut_available,
+        pct(r.lut, r.lut_available)
+    )?;
+    writeln!(out, "FF         {}", r.ff)?;
+    writeln!(out, "DSP        {} of {}", r.dsp, r.dsp_available)?;
+    writeln!(out, "BRAM       {} of {}", r.bram, r.bram_available)?;
+    writeln!(
+        out,
+        "100 k/s    {} axes on one calculator",
+        r.axes_at_100k_steps_per_s
+    )?;
+    writeln!(out, "bitstream  {}", r.bitstream.display())
 }
 
 fn emit(a: &EmitArgs) -> anyhow::Result<()> {
@@ -170,7 +352,21 @@ fn report(a: &ReportArgs) -> anyhow::Result<()> {
             tmp
         }
     };
+    let family = match target {
+        Target::Ice40 => Some(Family::Ice40),
+        Target::Ecp5 => Some(Family::Ecp5),
+        Target::Xilinx => None,
+    };
+    if a.pnr && family.is_none() {
+        anyhow::bail!(
+            "--pnr places on iCE40 or ECP5 only (no open place and route for Xilinx 7-series)"
+        );
+    }
     let rows = sweep(&a.core.params(1), &a.axes, target, baseline, &work).context("synthesis")?;
+    let placed = match family.filter(|_| a.pnr) {
+        Some(f) => Some(place_rows(&a.core.params(1), &rows, f, &work).context("place and route")?),
+        None => None,
+    };
     if a.work.is_none() {
         let _ = std::fs::remove_dir_all(&work);
     }
@@ -179,11 +375,57 @@ fn report(a: &ReportArgs) -> anyhow::Result<()> {
         ReportFormat::Json => {
             let v: Vec<serde_json::Value> = rows
                 .iter()
-                .map(|r| row_json(r, &version, target, baseline))
+                .enumerate()
+                .map(|(i, r)| {
+                    let mut v = row_json(r, &version, target, baseline);
+                    if let Some(p) = placed.as_ref().map(|p| &p[i]) {
+                        v["placed"] = serde_json::json!({
+                            "fits_fmax": p.fits(),
+                            "tdm": p.tdm.as_ref().ok(),
+                            "independent": p.independent.as_ref().ok(),
+                            "lut_ratio": p.lut_ratio(),
+                        });
+                    }
+                    v
+                })
                 .collect();
             writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
         }
-        ReportFormat::Table => write_table(&mut out, &rows, &version, target, baseline)?,
+        ReportFormat::Table => {
+            write_table(&mut out, &rows, &version, target, baseline)?;
+            if let Some(p) = &placed {
+                write_placed(&mut out, &rows, p)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn write_placed(out: &mut impl Write, rows: &[Row], placed: &[PlacedRow]) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "place and route (YoWASP nextpnr, the core behind a 4-pin shift-register bus):"
+    )?;
+    writeln!(
+        out,
+        "{:>4} | {:<40} | {:>8} | {:<40} | {:>8} | {:>9}",
+        "K", "TDM fits / Fmax", "TDM LUT", "independent fits / Fmax", "ind. LUT", "LUT ratio"
+    )?;
+    for (r, p) in rows.iter().zip(placed) {
+        let lut = |x: &Result<Placed, String>| {
+            x.as_ref()
+                .map_or("-".to_string(), |p| p.lut.used.to_string())
+        };
+        writeln!(
+            out,
+            "{:>4} | {:<40} | {:>8} | {:<40} | {:>8} | {:>9}",
+            r.axes,
+            p.fits(),
+            lut(&p.tdm),
+            fits_fmax(&p.independent),
+            lut(&p.independent),
+            p.lut_ratio().map_or("-".to_string(), |x| format!("{x:.3}"))
+        )?;
     }
     Ok(())
 }

@@ -80,3 +80,70 @@ fn bad_parameters_fail_before_writing() {
         assert!(!out.exists(), "{args:?} wrote files");
     }
 }
+
+#[test]
+fn boards_lists_every_board() {
+    let o = multistep(&["hdl", "boards"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("ulx3s-25f") && text.contains("LFE5U-25F-6BG381C"),
+        "{text}"
+    );
+    assert!(
+        text.contains("icebreaker") && text.contains("iCE40UP5K-SG48"),
+        "{text}"
+    );
+}
+
+#[test]
+fn build_refuses_bad_boards_and_axes_before_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let o = out.to_str().unwrap();
+    for (args, msg) in [
+        (
+            vec!["hdl", "build", "--board", "nope", "--out", o],
+            "unknown board \"nope\"",
+        ),
+        (
+            vec![
+                "hdl",
+                "build",
+                "--board",
+                "icebreaker",
+                "--axes",
+                "5",
+                "--out",
+                o,
+            ],
+            "1..=4 axes, got 5",
+        ),
+        (
+            vec![
+                "hdl",
+                "build",
+                "--board",
+                "ulx3s-25f",
+                "--axes",
+                "0",
+                "--out",
+                o,
+            ],
+            "got 0",
+        ),
+        (
+            vec!["hdl", "report", "--axes", "2", "--pnr", "--work", o],
+            "iCE40 or ECP5",
+        ),
+    ] {
+        let r = multistep(&args);
+        assert_eq!(r.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            err.starts_with("error:") && err.contains(msg) && err.lines().count() == 1,
+            "{args:?}: {err}"
+        );
+        assert!(!out.exists(), "{args:?} wrote files");
+    }
+}

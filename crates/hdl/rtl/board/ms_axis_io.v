@@ -1,0 +1,120 @@
+// ms_axis_io: one axis's pins and counters around the core.
+//  - STEP: the core's STEP one clock later (50 % duty), or with a fixed width (`width` != 0)
+//    high for exactly `width` clocks from each of the core's rises (the core TDM model's
+//    PulseShape::Fixed); forced low at once (combinationally) by `kill_pin` (the e-stop
+//    input) and from the next clock by `kill` (the synchronized e-stop) and `halt`.
+//  - the position counter: +1 / -1 (by DIR) at every STEP rise of the core that is not cut
+//    by `kill` or `halt` (one cut only by `kill_pin`, in the synchronizer's 2 clocks, is
+//    counted); the period meter: clocks between the last two rises (0 before the second).
+//  - Hall and limit inputs (synchronized and made active-high by the caller): debounced;
+//    at the accepted Hall edge the position is latched and the flag set.
+//  - output levels: STEP, DIR, ENABLE active high when their `lvl_*` bit is 1.
+module ms_axis_io #(
+    parameter WD = 24
+) (
+    input  wire          clk,
+    input  wire          rst,
+    input  wire          core_step,
+    input  wire          dir,        // the latched DIR bit (1 = position counts up)
+    input  wire          start,      // this axis starts a move: clear the period meter
+    input  wire          halt,
+    input  wire          kill,       // the e-stop, synchronized: STEP low at the next clock
+    input  wire          kill_pin,   // the e-stop input itself: gates the STEP pin only
+    input  wire [WD-1:0] width,      // 0: 50 % duty; else the fixed STEP high time
+    input  wire [WD-1:0] debounce,
+    input  wire          hall,       // active-high, synchronized
+    input  wire          limit,      // active-high, synchronized
+    input  wire          pos_wr,
+    input  wire [31:0]   pos_in,
+    input  wire          hall_clr,
+    input  wire          en,
+    input  wire          lvl_step,
+    input  wire          lvl_dir,
+    input  wire          lvl_en,
+    output wire          step_pin,
+    output wire          dir_pin,
+    output wire          en_pin,
+    output reg  [31:0]   pos,
+    output reg  [31:0]   hall_pos,
+    output reg           hall_flag,
+    output wire          hall_lvl,
+    output wire          hall_edge,  // one clock at the accepted Hall edge
+    output wire          limit_lvl,
+    output wire          limit_edge,
+    output reg  [WD-1:0] period
+);
+    reg          core_d;   // the core's STEP one clock ago
+    reg          s;        // STEP, active high, before the e-stop gate
+    reg [WD-1:0] hc;       // clocks of a fixed-width pulse left after this one
+    reg [WD-1:0] pc;       // clocks since the last rise (saturating)
+    reg          have;     // a rise since the start
+    initial begin
+        core_d = 1'b0;
+        s = 1'b0;
+        hc = {WD{1'b0}};
+        pos = 32'd0;
+        hall_flag = 1'b0;
+        period = {WD{1'b0}};
+        pc = {WD{1'b0}};
+        have = 1'b0;
+    end
+    wire rise  = core_step && !core_d;
+    wire fixed = (width != {WD{1'b0}});
+    always @(posedge clk) begin
+        core_d <= core_step;
+        if (rst || halt || kill) begin
+            s  <= 1'b0;
+            hc <= {WD{1'b0}};
+        end else if (!fixed) begin
+            s <= core_step;
+        end else if (rise) begin
+            s  <= 1'b1;
+            hc <= width - 1'b1;
+        end else if (hc != {WD{1'b0}}) begin
+            hc <= hc - 1'b1;
+        end else begin
+            s <= 1'b0;
+        end
+    end
+    // a rise that reaches the pin
+    wire out_rise = rise && !(rst || halt || kill);
+    always @(posedge clk) begin
+        if (rst) pos <= 32'd0;
+        else if (pos_wr) pos <= pos_in;
+        else if (out_rise) pos <= dir ? pos + 1'b1 : pos - 1'b1;
+    end
+    always @(posedge clk) begin
+        if (rst || start) begin
+            have   <= 1'b0;
+            period <= {WD{1'b0}};
+            pc     <= {WD{1'b0}};
+        end else begin
+            if (out_rise) begin
+                if (have) period <= pc;
+                have <= 1'b1;
+                pc   <= {{(WD-1){1'b0}}, 1'b1};
+            end else if (pc != {WD{1'b1}}) begin
+                pc <= pc + 1'b1;
+            end
+        end
+    end
+    wire accept;
+    /* verilator lint_off PINCONNECTEMPTY */
+    ms_debounce #(.W(WD)) u_hall (.clk(clk), .rst(rst), .d(hall), .ticks(debounce),
+        .q(hall_lvl), .accept(accept), .rise(hall_edge));
+    ms_debounce #(.W(WD)) u_limit (.clk(clk), .rst(rst), .d(limit), .ticks(debounce),
+        .q(limit_lvl), .accept(), .rise(limit_edge));
+    /* verilator lint_on PINCONNECTEMPTY */
+    // latched in the clock the edge is accepted: the rises up to the one before
+    always @(posedge clk) begin
+        if (rst || hall_clr) hall_flag <= 1'b0;
+        if (accept) begin
+            hall_pos  <= pos;
+            hall_flag <= 1'b1;
+        end
+    end
+    // the only use of the unsynchronized e-stop: a gate, no flip-flop sees it
+    assign step_pin = (s && !kill && !kill_pin) ? lvl_step : !lvl_step;
+    assign dir_pin  = dir ? lvl_dir : !lvl_dir;
+    assign en_pin   = en ? lvl_en : !lvl_en;
+endmodule

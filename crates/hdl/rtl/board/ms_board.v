@@ -1,0 +1,138 @@
+// ms_board: the board top level around ms_core (docs/HDL.md, "The board"). The host talks
+// to the registers (ms_regs) over a UART (8N1, BAUD) in request/reply frames (ms_link);
+// the per-board wrapper adds the PLL (clk is the core clock, CLK_HZ) and the pins.
+// Asynchronous inputs pass two-flop synchronizers; the e-stop input also forces every
+// STEP pin inactive combinationally, before its synchronizer, and latches.
+module ms_board #(
+    parameter K        = 2,
+    parameter LK       = 1,
+    parameter LS       = 2,
+    parameter LF       = 4,
+    parameter WN       = 20,
+    parameter WD       = 24,
+    parameter WQ       = 24,
+    parameter WT       = 27,
+    parameter WY       = 128,
+    parameter WK       = 68,
+    parameter RB       = 2,
+    parameter MD       = 16,
+    parameter AW       = 7,
+    parameter CLK_HZ   = 50000000,
+    parameter BAUD     = 3000000,
+    parameter ESTOP_ACTIVE = 1,        // the level of estop_in that stops (1: high)
+    parameter VERSION  = 16'h0001
+) (
+    input  wire         clk,
+    input  wire         rst_n_async,
+    input  wire         uart_rx,
+    output wire         uart_tx,
+    input  wire         estop_in,
+    input  wire [K-1:0] hall_in,
+    input  wire [K-1:0] limit_in,
+    output wire [K-1:0] step_out,
+    output wire [K-1:0] dir_out,
+    output wire [K-1:0] enable_out,
+    output wire [3:0]   led
+);
+    localparam DIV = (CLK_HZ + BAUD / 2) / BAUD;
+
+    wire rst;
+    ms_reset u_reset (.clk(clk), .rst_n_async(rst_n_async), .rst(rst));
+
+    // ---- synchronizers ----
+    wire         rx_s, estop_s;
+    wire [K-1:0] hall_s, limit_s;
+    ms_sync #(.W(1), .INIT(1)) u_sync_rx (.clk(clk), .d(uart_rx), .q(rx_s));
+    ms_sync #(.W(1), .INIT(ESTOP_ACTIVE)) u_sync_estop (.clk(clk), .d(estop_in), .q(estop_s));
+    ms_sync #(.W(K), .INIT(0)) u_sync_hall (.clk(clk), .d(hall_in), .q(hall_s));
+    ms_sync #(.W(K), .INIT(0)) u_sync_limit (.clk(clk), .d(limit_in), .q(limit_s));
+    wire estop_raw = (estop_in == ESTOP_ACTIVE[0]);   // unsynchronized: only gates STEP
+    wire estop_act = (estop_s == ESTOP_ACTIVE[0]);
+
+    // ---- UART and framing ----
+    wire       rx_valid, rx_ferr, rx_busy;
+    wire [7:0] rx_byte;
+    ms_uart_rx #(.DIV(DIV)) u_rx (.clk(clk), .rst(rst), .rx(rx_s), .valid(rx_valid),
+        .data(rx_byte), .frame_err(rx_ferr), .busy(rx_busy));
+    wire        tx_start, tx_busy;
+    wire [7:0]  tx_byte;
+    ms_uart_tx #(.DIV(DIV)) u_tx (.clk(clk), .rst(rst), .start(tx_start), .data(tx_byte),
+        .tx(uart_tx), .busy(tx_busy));
+    wire        req, req_wr, bad_frame;
+    wire [15:0] req_addr;
+    wire [31:0] req_data, rsp_data;
+    wire [7:0]  rsp_status;
+    // a gap of 4 character times ends a frame
+    ms_link #(.GAP(DIV * 40)) u_link (.clk(clk), .rst(rst), .rx_valid(rx_valid),
+        .rx_byte(rx_byte), .req(req), .req_wr(req_wr), .req_addr(req_addr),
+        .req_data(req_data), .rsp_status(rsp_status), .rsp_data(rsp_data),
+        .tx_start(tx_start), .tx_byte(tx_byte), .tx_busy(tx_busy), .bad_frame(bad_frame));
+
+    // ---- registers and core ----
+    wire          core_wr, go, ready, pending, estop;
+    wire [AW-1:0] core_addr;
+    wire [31:0]   core_data;
+    wire [K-1:0]  step, dir, busy, underrun, halt, divert, start_ax, dir_q, enable;
+    wire [K-1:0]  pos_wr, hall_clr, hall_flag, hall_lvl, hall_edge, limit_lvl, limit_edge;
+    wire [K*LS-1:0] div_slot;
+    wire [WD-1:0] pulse_width, debounce;
+    wire [5:0]    levels;
+    wire [K*32-1:0] pos, hall_pos;
+    wire [K*WD-1:0] period;
+    ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
+              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD)) u_regs (
+        .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
+        .req_data(req_data), .rsp_status(rsp_status), .rsp_data(rsp_data),
+        .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
+        .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
+        .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
+        .start_ax(start_ax), .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
+        .enable(enable), .levels(levels), .pos_wr(pos_wr), .hall_clr(hall_clr),
+        .pos(pos), .hall_pos(hall_pos), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
+        .hall_edge(hall_edge), .limit_lvl(limit_lvl), .limit_edge(limit_edge),
+        .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
+        .bad_frame(bad_frame));
+    ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
+              .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
+        .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
+        .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
+        .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun));
+
+    // ---- per axis ----
+    wire kill = estop_act || estop;
+    wire en_off = levels[5] && estop;
+    genvar a;
+    generate
+        for (a = 0; a < K; a = a + 1) begin : axis
+            ms_axis_io #(.WD(WD)) u_io (
+                .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
+                .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
+                .width(pulse_width),
+                .debounce(debounce), .hall(hall_s[a] == levels[3]),
+                .limit(limit_s[a] == levels[4]), .pos_wr(pos_wr[a]), .pos_in(req_data),
+                .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),
+                .lvl_dir(levels[1]), .lvl_en(levels[2]), .step_pin(step_out[a]),
+                .dir_pin(dir_out[a]), .en_pin(enable_out[a]), .pos(pos[a*32 +: 32]),
+                .hall_pos(hall_pos[a*32 +: 32]), .hall_flag(hall_flag[a]),
+                .hall_lvl(hall_lvl[a]), .hall_edge(hall_edge[a]), .limit_lvl(limit_lvl[a]),
+                .limit_edge(limit_edge[a]), .period(period[a*WD +: WD]));
+        end
+    endgenerate
+
+    // LEDs: 0 heartbeat (about 1.5 Hz), 1 any axis busy, 2 e-stop latched, 3 link activity
+    reg [24:0] beat;
+    reg [19:0] act;
+    initial begin
+        beat = 25'd0;
+        act = 20'd0;
+    end
+    always @(posedge clk) begin
+        beat <= beat + 1'b1;
+        if (rx_busy) act <= {20{1'b1}};
+        else if (act != 20'd0) act <= act - 1'b1;
+    end
+    assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
+    /* verilator lint_off UNUSED */
+    wire unused = rx_ferr;
+    /* verilator lint_on UNUSED */
+endmodule

@@ -1,0 +1,120 @@
+// ms_link: the host link's framing. A request is 11 bytes:
+//     0xA5, seq, cmd, addr[7:0], addr[15:8], data[7:0] .. data[31:24], crc[15:8], crc[7:0]
+// cmd 0x01 reads the register at addr, 0x02 writes data to it; the CRC is CRC-16/CCITT-FALSE
+// over the first 9 bytes (ms_crc16). A reply is 9 bytes:
+//     0x5A, seq, status, data[7:0] .. data[31:24], crc[15:8], crc[7:0]
+// with the request's seq, the status (0 ok; ms_regs has the codes) and the data read (0
+// for a write). Bytes before a 0xA5 are skipped; a frame with a gap of more than GAP clocks
+// between bytes is dropped without a reply (so a host resynchronizes by pausing). A frame
+// with a bad CRC or command gets a reply with that status and is not executed. Replies
+// are shorter than requests, so a host may send requests back to back.
+module ms_link #(
+    parameter GAP = 1024
+) (
+    input  wire        clk,
+    input  wire        rst,
+    input  wire        rx_valid,
+    input  wire [7:0]  rx_byte,
+    output reg         req,        // one clock: execute {req_wr, req_addr, req_data}
+    output reg         req_wr,
+    output reg  [15:0] req_addr,
+    output reg  [31:0] req_data,
+    input  wire [7:0]  rsp_status, // the clock after req
+    input  wire [31:0] rsp_data,
+    output wire        tx_start,
+    output wire [7:0]  tx_byte,
+    input  wire        tx_busy,
+    output reg         bad_frame   // one clock: a frame failed its CRC or command check
+);
+    localparam [7:0] SYNC_REQ = 8'hA5, SYNC_RSP = 8'h5A;
+    localparam [7:0] ST_CRC = 8'h01, ST_CMD = 8'h02;
+
+    // ---- receive ----
+    reg  [3:0]  idx;      // bytes of the frame so far
+    reg  [15:0] crc;
+    reg  [7:0]  seq, cmd;
+    reg  [15:0] gap;
+    /* verilator lint_off UNUSED */
+    reg  [63:0] body;     // addr and data bytes, shifted in (the low 16 bits unused)
+    /* verilator lint_on UNUSED */
+    wire [15:0] crc_rx;
+    ms_crc16 u_crc_rx (.crc(idx == 4'd0 ? 16'hFFFF : crc), .data(rx_byte), .next(crc_rx));
+    reg         exec;     // the clock after req: build the reply
+    reg         reply;    // load a reply {seq, status, data}
+    reg  [7:0]  r_seq, r_st;
+    reg  [31:0] r_data;
+    initial begin
+        idx = 4'd0;
+        req = 1'b0;
+        exec = 1'b0;
+        reply = 1'b0;
+        bad_frame = 1'b0;
+    end
+    always @(posedge clk) begin
+        req       <= 1'b0;
+        exec      <= req;
+        reply     <= 1'b0;
+        bad_frame <= 1'b0;
+        if (rst) begin
+            idx <= 4'd0;
+            gap <= 16'd0;
+        end else if (rx_valid) begin
+            gap <= 16'd0;
+            crc <= crc_rx;
+            if (idx == 4'd0) begin
+                if (rx_byte == SYNC_REQ) idx <= 4'd1;
+            end else begin
+                idx <= (idx == 4'd10) ? 4'd0 : idx + 1'b1;
+                if (idx == 4'd1) seq <= rx_byte;
+                if (idx == 4'd2) cmd <= rx_byte;
+                if (idx >= 4'd3 && idx <= 4'd8) body <= {rx_byte, body[63:8]};
+                if (idx == 4'd10) begin
+                    r_seq <= seq;
+                    if (crc_rx != 16'd0 || (cmd != 8'h01 && cmd != 8'h02)) begin
+                        reply     <= 1'b1;
+                        bad_frame <= 1'b1;
+                        r_st      <= (crc_rx != 16'd0) ? ST_CRC : ST_CMD;
+                        r_data    <= 32'd0;
+                    end else begin
+                        req      <= 1'b1;
+                        req_wr   <= (cmd == 8'h02);
+                        req_addr <= body[31:16];
+                        req_data <= body[63:32];
+                    end
+                end
+            end
+        end else if (idx != 4'd0) begin
+            if (gap == GAP[15:0]) idx <= 4'd0;
+            else gap <= gap + 1'b1;
+        end
+        if (exec) begin
+            reply  <= 1'b1;
+            r_st   <= rsp_status;
+            r_data <= rsp_data;
+        end
+    end
+
+    // ---- transmit: 7 bytes from the buffer, then the CRC ----
+    reg  [55:0] tbuf;
+    reg  [3:0]  tidx;     // bytes sent; 9 = idle
+    reg  [15:0] tcrc;
+    wire [15:0] crc_tx;
+    initial tidx = 4'd9;
+    assign tx_byte  = (tidx == 4'd7) ? tcrc[15:8] : (tidx == 4'd8) ? tcrc[7:0] : tbuf[7:0];
+    assign tx_start = !rst && (tidx != 4'd9) && !tx_busy && !reply;
+    ms_crc16 u_crc_tx (.crc(tidx == 4'd0 ? 16'hFFFF : tcrc), .data(tbuf[7:0]), .next(crc_tx));
+    always @(posedge clk) begin
+        if (rst) begin
+            tidx <= 4'd9;
+        end else if (reply) begin
+            tbuf <= {r_data, r_st, r_seq, SYNC_RSP};
+            tidx <= 4'd0;
+        end else if (tx_start) begin
+            tidx <= tidx + 1'b1;
+            if (tidx < 4'd7) begin
+                tcrc <= crc_tx;
+                tbuf <= {8'h00, tbuf[55:8]};
+            end
+        end
+    end
+endmodule

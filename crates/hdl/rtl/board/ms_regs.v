@@ -1,0 +1,290 @@
+// ms_regs: the board's registers behind the host link (docs/HDL.md, "Host link"). A
+// request {req_wr, req_addr, req_data} is executed in its clock; its status and read data
+// are valid in the next. A request that fails a check changes nothing.
+//   0x0000-0x0012  board registers     0x1000 | a  the core's bus word a (write only)
+//   0x2000 | axis << 4 | r              axis registers
+// Status: 0 ok, 3 unknown register (or the wrong direction), 4 busy (the write would
+// change a running move), 5 e-stop latched, 6 bad value. (1 and 2 are ms_link's.)
+module ms_regs #(
+    parameter K       = 2,
+    parameter LK      = 1,
+    parameter LS      = 2,
+    parameter AW      = 7,
+    parameter WD      = 24,
+    parameter LF      = 4,
+    parameter WN      = 20,
+    parameter WY      = 128,
+    parameter WK      = 68,
+    parameter RB      = 2,
+    parameter VERSION = 16'h0001,
+    parameter CLK_HZ  = 50000000,
+    parameter BAUD    = 3000000
+) (
+    input  wire          clk,
+    input  wire          rst,
+    input  wire          req,
+    input  wire          req_wr,
+    input  wire [15:0]   req_addr,
+    input  wire [31:0]   req_data,
+    output reg  [7:0]    rsp_status,
+    output reg  [31:0]   rsp_data,
+    // the core
+    output reg           core_wr,
+    output reg  [AW-1:0] core_addr,
+    output reg  [31:0]   core_data,
+    input  wire [K-1:0]  core_busy,
+    input  wire [K-1:0]  core_underrun,
+    input  wire [K-1:0]  core_dir,
+    input  wire          core_pending,
+    input  wire          core_ready,
+    output wire          go,
+    output wire [K-1:0]  halt,
+    output reg  [K-1:0]  divert,
+    output wire [K*LS-1:0] div_slot,
+    // the axes
+    output reg  [K-1:0]  start_ax,   // one clock: these axes start (with the core's start write)
+    output reg  [K-1:0]  dir_q,      // DIR, latched at the start
+    output reg  [WD-1:0] pulse_width,
+    output reg  [WD-1:0] debounce,
+    output reg  [K-1:0]  enable,
+    output reg  [5:0]    levels,     // active levels: STEP, DIR, ENABLE, Hall, limit; e-stop drops ENABLE
+    output reg  [K-1:0]  pos_wr,
+    output reg  [K-1:0]  hall_clr,
+    input  wire [K*32-1:0] pos,
+    input  wire [K*32-1:0] hall_pos,
+    input  wire [K-1:0]  hall_flag,
+    input  wire [K-1:0]  hall_lvl,
+    input  wire [K-1:0]  hall_edge,
+    input  wire [K-1:0]  limit_lvl,
+    input  wire [K-1:0]  limit_edge,
+    input  wire [K*WD-1:0] period,
+    // board
+    input  wire          estop_in,   // the e-stop input, synchronized, active high
+    output reg           estop,      // latched
+    input  wire          rx_line,    // the UART input, synchronized (session capture)
+    input  wire          bad_frame
+);
+    localparam [7:0] OK = 8'd0, E_ADDR = 8'd3, E_BUSY = 8'd4, E_ESTOP = 8'd5, E_VALUE = 8'd6;
+    localparam [31:0] AXES_MASK = (K == 32) ? 32'hFFFF_FFFF : ((32'd1 << K) - 1);
+
+    reg [31:0]   dir_setup;
+    reg [K-1:0]  hall_stop, limit_stop, stopped, estopped, stop_req;
+    reg [LS-1:0] slot [0:K-1];
+    reg [31:0]   free;         // free-running clock count (never reset)
+    reg [31:0]   session;
+    reg          have_session;
+    reg [15:0]   bad_frames;
+    reg [31:0]   setup_cnt;    // clocks since the last start write
+    reg [31:0]   setup_need;   // the go may come this many clocks after it
+    initial begin
+        free = 32'd0;
+        have_session = 1'b0;
+        session = 32'd0;
+        estop = 1'b0;
+        core_wr = 1'b0;
+        divert = {K{1'b0}};
+        setup_cnt = 32'd0;
+        setup_need = 32'd0;
+    end
+
+    genvar g;
+    generate
+        for (g = 0; g < K; g = g + 1) begin : slots
+            assign div_slot[g*LS +: LS] = slot[g];
+        end
+    endgenerate
+
+    // ---- decode ----
+    wire        is_board = (req_addr[15:12] == 4'h0);
+    wire        is_core  = (req_addr[15:12] == 4'h1);
+    wire        is_axis  = (req_addr[15:12] == 4'h2);
+    wire [7:0]  breg     = req_addr[7:0];
+    wire [5:0]  ax       = req_addr[9:4];
+    wire [3:0]  areg     = req_addr[3:0];
+    wire        ax_ok    = is_axis && ({26'd0, ax} < K) && (req_addr[11:10] == 2'b00);
+    wire        any_busy = |core_busy;
+    wire        ax_busy  = core_busy[ax[LK-1:0]];
+    wire [K-1:0] mask    = req_data[K-1:0];
+    // the core's bus: {cmd, axis, word}
+    wire        c_cmd    = req_addr[AW-1];
+    wire [4:0]  c_word   = req_addr[4:0];
+    wire [5:0]  c_ax     = {{(6-LK){1'b0}}, req_addr[AW-2:5]};
+    wire        c_ok     = is_core && (req_addr[11:AW] == 0) &&
+                           (c_cmd ? (c_word <= 5'd1 && {26'd0, c_ax} < K) : (c_word <= 5'd16));
+    wire        c_busy   = c_cmd && core_busy[c_ax[LK-1:0]];
+    integer n, i;
+    always @(*) begin
+        n = 0;
+        for (i = 0; i < K; i = i + 1) n = n + {31'd0, mask[i]};
+    end
+
+    // ---- read data ----
+    reg [31:0] rd;
+    reg        rd_ok;
+    wire [2:0] state_code =
+        estopped[ax[LK-1:0]] ? 3'd4 : stopped[ax[LK-1:0]] ? 3'd3 : core_underrun[ax[LK-1:0]] ? 3'd2 :
+        core_busy[ax[LK-1:0]] ? 3'd1 : 3'd0;
+    always @(*) begin
+        rd = 32'd0;
+        rd_ok = 1'b1;
+        if (is_board) begin
+            case (breg)
+                8'h00: rd = {16'h4D53, VERSION[15:0]};
+                8'h01: rd = {K[7:0], LF[7:0], LS[7:0], RB[7:0]};
+                8'h02: rd = {WN[7:0], WD[7:0], WY[7:0], WK[7:0]};
+                8'h03: rd = CLK_HZ;
+                8'h04: rd = BAUD;
+                8'h05: rd = session;
+                8'h06: rd = {bad_frames, 13'd0, core_pending, estop_in, estop};
+                8'h07: rd = {{(32-K){1'b0}}, core_busy};
+                8'h08: rd = {31'd0, estop};
+                8'h0B: rd = {{(32-WD){1'b0}}, pulse_width};
+                8'h0C: rd = dir_setup;
+                8'h0D: rd = {{(32-WD){1'b0}}, debounce};
+                8'h0E: rd = {{(32-K){1'b0}}, enable};
+                8'h0F: rd = {26'd0, levels};
+                8'h10: rd = {{(32-K){1'b0}}, hall_stop};
+                8'h11: rd = {{(32-K){1'b0}}, limit_stop};
+                default: rd_ok = 1'b0;
+            endcase
+            if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
+        end else if (ax_ok) begin
+            case (areg)
+                4'h0: rd = {21'd0, core_dir[ax[LK-1:0]], limit_lvl[ax[LK-1:0]], hall_lvl[ax[LK-1:0]],
+                            hall_flag[ax[LK-1:0]], estopped[ax[LK-1:0]], stopped[ax[LK-1:0]],
+                            core_underrun[ax[LK-1:0]], core_busy[ax[LK-1:0]], state_code};
+                4'h1: rd = pos[ax[LK-1:0]*32 +: 32];
+                4'h2: rd = hall_pos[ax[LK-1:0]*32 +: 32];
+                4'h3: rd = {{(32-WD){1'b0}}, period[ax[LK-1:0]*WD +: WD]};
+                4'h4: rd = {{(32-LS){1'b0}}, slot[ax[LK-1:0]]};
+                default: rd_ok = 1'b0;
+            endcase
+        end else begin
+            rd_ok = 1'b0;
+        end
+    end
+
+    // ---- write checks: the status of a write ----
+    reg [7:0] wst;
+    always @(*) begin
+        wst = E_ADDR;
+        if (is_board && req_addr[11:8] == 4'h0) begin
+            case (breg)
+                8'h08: wst = (req_data[0] == 1'b0 && estop_in) ? E_ESTOP : OK;
+                8'h09: wst = (mask == {K{1'b0}} || (req_data & ~AXES_MASK) != 32'd0) ? E_VALUE
+                           : estop ? E_ESTOP
+                           // one group at a time: a pending group keeps its members
+                           : (core_pending || (mask & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
+                8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12:
+                    wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE : OK;
+                8'h0B, 8'h0C, 8'h0F: wst = any_busy ? E_BUSY : OK;
+                8'h0D: wst = OK;
+                default: wst = E_ADDR;
+            endcase
+        end else if (ax_ok) begin
+            case (areg)
+                4'h1, 4'h4: wst = ax_busy ? E_BUSY : OK;
+                default: wst = E_ADDR;
+            endcase
+        end else if (c_ok) begin
+            wst = c_busy ? E_BUSY : OK;
+        end
+    end
+    wire wr_ok = req && req_wr && (wst == OK);
+    wire w_board = wr_ok && is_board;
+    wire w_axis  = wr_ok && ax_ok;
+
+    // ---- registers ----
+    always @(posedge clk) begin
+        free <= free + 1'b1;
+        core_wr  <= 1'b0;
+        start_ax <= {K{1'b0}};
+        pos_wr   <= {K{1'b0}};
+        hall_clr <= {K{1'b0}};
+        stop_req <= {K{1'b0}};
+        divert   <= hall_edge & hall_stop & core_busy;
+        if (req) begin
+            rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
+            rsp_data   <= (req_wr || !rd_ok) ? 32'd0 : rd;
+        end
+        if (rst) begin
+            estop        <= 1'b0;
+            have_session <= 1'b0;
+            bad_frames   <= 16'd0;
+            pulse_width  <= {WD{1'b0}};
+            dir_setup    <= 32'd0;
+            debounce     <= {WD{1'b0}};
+            enable       <= {K{1'b0}};
+            levels       <= 6'b111111;
+            hall_stop    <= {K{1'b0}};
+            limit_stop   <= {K{1'b0}};
+            stopped      <= {K{1'b0}};
+            estopped     <= {K{1'b0}};
+            dir_q        <= {K{1'b0}};
+            setup_need   <= 32'd0;
+            for (i = 0; i < K; i = i + 1) slot[i] <= {LS{1'b0}};
+        end else begin
+            // the session: the clock count at the first start bit after a reset
+            if (!have_session && !rx_line) begin
+                have_session <= 1'b1;
+                session      <= free;
+            end
+            if (bad_frame && bad_frames != 16'hFFFF) bad_frames <= bad_frames + 1'b1;
+            if (estop_in || (w_board && breg == 8'h08 && req_data[0])) estop <= 1'b1;
+            else if (w_board && breg == 8'h08) estop <= 1'b0;
+            if (estop_in || estop) estopped <= estopped | core_busy;
+            stopped <= stopped | (limit_edge & limit_stop & core_busy)
+                               | (hall_edge & hall_stop & core_busy);
+            if (w_board) begin
+                case (breg)
+                    8'h09: begin
+                        core_wr    <= 1'b1;
+                        core_addr  <= {1'b1, {(AW-6){1'b0}}, 5'd2};
+                        core_data  <= req_data;
+                        start_ax   <= mask;
+                        dir_q      <= (dir_q & ~mask) | (core_dir & mask);
+                        stopped    <= stopped & ~mask;
+                        estopped   <= estopped & ~mask;
+                        setup_need <= dir_setup + n + 2;
+                    end
+                    8'h0A: begin
+                        stop_req <= mask;
+                        stopped  <= stopped | (mask & core_busy);
+                    end
+                    8'h0B: pulse_width <= req_data[WD-1:0];
+                    8'h0C: dir_setup   <= req_data;
+                    8'h0D: debounce    <= req_data[WD-1:0];
+                    8'h0E: enable      <= mask;
+                    8'h0F: levels      <= req_data[5:0];
+                    8'h10: hall_stop   <= mask;
+                    8'h11: limit_stop  <= mask;
+                    8'h12: begin
+                        hall_clr <= mask;
+                        stopped  <= stopped & ~mask;
+                        estopped <= estopped & ~mask;
+                    end
+                    default: ;
+                endcase
+            end
+            if (w_axis) begin
+                if (areg == 4'h1) pos_wr[ax[LK-1:0]] <= 1'b1;
+                if (areg == 4'h4) slot[ax[LK-1:0]] <= req_data[LS-1:0];
+            end
+            if (wr_ok && is_core) begin
+                core_wr   <= 1'b1;
+                core_addr <= req_addr[AW-1:0];
+                core_data <= req_data;
+            end
+        end
+    end
+    // the DIR setup: the group goes no earlier than dir_setup + n + 2 clocks after the
+    // start write (n axes), as the core TDM model's start = max(dir_setup, prefill) from
+    // its tick 0, which is n + 2 clocks after the start write (docs/HDL.md, "Tick 0")
+    always @(posedge clk) begin
+        if (w_board && breg == 8'h09) setup_cnt <= 32'd0;
+        else if (setup_cnt != 32'hFFFF_FFFF) setup_cnt <= setup_cnt + 1'b1;
+    end
+    assign go = core_ready && (setup_cnt >= setup_need) && !estop && !estop_in;
+    assign halt = (rst || estop || estop_in) ? {K{1'b1}}
+                 : (stop_req | (limit_edge & limit_stop));
+endmodule

@@ -1,0 +1,161 @@
+//! The board top level `ms_board` (`rtl/board/`): the core behind a UART host link, with
+//! e-stop, ENABLE, DIR setup, pulse width, Hall and limit inputs. A per-board wrapper (PLL
+//! and pins) instantiates it with [`BoardTop::verilog_params`].
+
+use crate::{CoreParams, HdlError, Widths, LIBRARY};
+
+/// The board modules, one small module per file (besides [`LIBRARY`], the core's).
+pub const BOARD_LIBRARY: [(&str, &str); 10] = [
+    ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
+    ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
+    ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
+    ("ms_uart_tx.v", include_str!("../rtl/board/ms_uart_tx.v")),
+    ("ms_crc16.v", include_str!("../rtl/board/ms_crc16.v")),
+    ("ms_link.v", include_str!("../rtl/board/ms_link.v")),
+    ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
+    ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
+    ("ms_regs.v", include_str!("../rtl/board/ms_regs.v")),
+    ("ms_board.v", include_str!("../rtl/board/ms_board.v")),
+];
+
+/// Most a UART bit time may be off the nominal baud (the receiver samples once per bit,
+/// at its middle, so 10 bits tolerate about 5 % between both ends; half of it is ours).
+pub const MAX_BAUD_ERROR: f64 = 0.025;
+
+/// What `ms_board` is built with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoardTop {
+    /// The core; its clock is the board clock (a whole number of Hz).
+    pub core: CoreParams,
+    /// UART baud.
+    pub baud: u32,
+    /// The e-stop input's active level (true: high stops).
+    pub estop_active_high: bool,
+}
+
+impl BoardTop {
+    pub fn new(core: CoreParams, baud: u32) -> BoardTop {
+        BoardTop {
+            core,
+            baud,
+            estop_active_high: true,
+        }
+    }
+
+    /// Checks the core and the link parameters.
+    pub fn widths(&self) -> Result<Widths, HdlError> {
+        let w = self.core.widths()?;
+        let hz = self.core.clock_hz;
+        if hz.fract() != 0.0 || hz > f64::from(u32::MAX) {
+            return Err(HdlError::Param(format!(
+                "the board clock must be a whole number of Hz below 2^32, got {hz}"
+            )));
+        }
+        if self.baud == 0 || self.div() < 4 || self.div() > 0xFFFF {
+            return Err(HdlError::Param(format!(
+                "baud {} needs 4..=65535 clocks per bit at {hz} Hz",
+                self.baud
+            )));
+        }
+        let err = self.baud_error();
+        if err > MAX_BAUD_ERROR {
+            return Err(HdlError::Param(format!(
+                "baud {} is {:.1} % off at {hz} Hz ({} clocks per bit; at most {} %)",
+                self.baud,
+                err * 100.0,
+                self.div(),
+                MAX_BAUD_ERROR * 100.0
+            )));
+        }
+        Ok(w)
+    }
+
+    /// Clocks per UART bit: CLK_HZ / BAUD rounded (`ms_board.v`).
+    pub fn div(&self) -> u32 {
+        let hz = self.core.clock_hz as u64;
+        let b = u64::from(self.baud.max(1));
+        ((hz + b / 2) / b) as u32
+    }
+
+    /// The relative error of the board's bit time against the nominal one.
+    pub fn baud_error(&self) -> f64 {
+        let exact = self.core.clock_hz / f64::from(self.baud.max(1));
+        (f64::from(self.div()) - exact).abs() / exact
+    }
+
+    /// `ms_board`'s parameters and their values.
+    pub fn param_list(&self) -> Result<Vec<(&'static str, u32)>, HdlError> {
+        let w = self.widths()?;
+        Ok(vec![
+            ("K", self.core.axes),
+            ("LK", w.lk),
+            ("LS", w.ls),
+            ("LF", w.lf),
+            ("WN", w.wn),
+            ("WD", w.wd),
+            ("WQ", w.wq),
+            ("WT", w.wt),
+            ("WY", w.wy),
+            ("WK", w.wk),
+            ("RB", w.rb),
+            ("MD", w.md),
+            ("AW", w.aw),
+            ("CLK_HZ", self.core.clock_hz as u32),
+            ("BAUD", self.baud),
+            ("ESTOP_ACTIVE", u32::from(self.estop_active_high)),
+            ("VERSION", u32::from(crate::link::crate_version())),
+        ])
+    }
+
+    /// `#(.K(..), …)` for an `ms_board` instance.
+    pub fn verilog_params(&self) -> Result<String, HdlError> {
+        Ok(format!(
+            "#({})",
+            self.param_list()?
+                .iter()
+                .map(|(k, v)| format!(".{k}({v})"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+    }
+
+    /// Every Verilog file of the board (the core's library and the board's), checked first.
+    pub fn files(&self) -> Result<Vec<(String, String)>, HdlError> {
+        self.widths()?;
+        Ok(LIBRARY
+            .iter()
+            .chain(BOARD_LIBRARY.iter())
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn three_megabaud_at_the_default_clock() {
+        let b = BoardTop::new(CoreParams::default(), 3_000_000);
+        assert_eq!(b.div(), 17);
+        assert!(b.baud_error() < 0.021);
+        assert!(b.widths().is_ok());
+        let slow = BoardTop::new(
+            CoreParams {
+                clock_hz: 10e6,
+                max_rate: 100e3,
+                ..Default::default()
+            },
+            3_000_000,
+        );
+        assert!(
+            matches!(slow.widths(), Err(HdlError::Param(_))),
+            "3 clocks per bit"
+        );
+        let off = BoardTop::new(CoreParams::default(), 3_030_303);
+        assert!(
+            off.baud_error() > MAX_BAUD_ERROR,
+            "16.5 clocks per bit, 17 used: 3 %"
+        );
+    }
+}

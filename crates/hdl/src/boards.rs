@@ -1,0 +1,260 @@
+//! The boards `multistep hdl build` targets: device, oscillator, PLL, core clock, the core
+//! widths that fit, and the pin constraint file (`crates/hdl/boards/`). One table, [`BOARDS`].
+
+use crate::{CoreParams, HdlError};
+use serde::Serialize;
+
+/// FPGA family: which synthesis command, place-and-router and packer a board uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Family {
+    /// Lattice ECP5: `synth_ecp5`, nextpnr-ecp5, ecppack.
+    Ecp5,
+    /// Lattice iCE40: `synth_ice40 -dsp`, nextpnr-ice40, icepack.
+    Ice40,
+}
+
+/// PLL dividers from the board oscillator to the core clock.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Pll {
+    /// ECP5 EHXPLLL, feedback from CLKOP: f_out = f_in · CLKFB_DIV / CLKI_DIV, VCO =
+    /// f_out · CLKOP_DIV (400–800 MHz). Dividers from `ecppll -i IN -o OUT`.
+    Ehxplll {
+        clki_div: u32,
+        clkfb_div: u32,
+        clkop_div: u32,
+        clkop_cphase: u32,
+    },
+    /// iCE40 SB_PLL40_PAD, simple feedback: f_out = f_in · (DIVF + 1) / ((DIVR + 1) ·
+    /// 2^DIVQ), PFD = f_in / (DIVR + 1) (10–133 MHz), VCO 533–1066 MHz. From `icepll`.
+    Pll40Pad {
+        divr: u32,
+        divf: u32,
+        divq: u32,
+        filter_range: u32,
+    },
+}
+
+impl Pll {
+    /// The output frequency for an input of `f_in` Hz.
+    pub fn output_hz(&self, f_in: f64) -> f64 {
+        match *self {
+            Pll::Ehxplll {
+                clki_div,
+                clkfb_div,
+                ..
+            } => f_in * f64::from(clkfb_div) / f64::from(clki_div),
+            Pll::Pll40Pad {
+                divr, divf, divq, ..
+            } => f_in * f64::from(divf + 1) / (f64::from(divr + 1) * f64::from(1u32 << divq)),
+        }
+    }
+
+    /// The VCO frequency for an input of `f_in` Hz.
+    pub fn vco_hz(&self, f_in: f64) -> f64 {
+        match *self {
+            Pll::Ehxplll { clkop_div, .. } => self.output_hz(f_in) * f64::from(clkop_div),
+            Pll::Pll40Pad { divq, .. } => self.output_hz(f_in) * f64::from(1u32 << divq),
+        }
+    }
+}
+
+/// Core widths for a board: what fits its device at its clock (see docs/HDL.md).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct BoardCore {
+    pub fifo_depth: u32,
+    pub pieces: u32,
+    pub step_bits: u32,
+    pub tick_bits: u32,
+    pub radicand_bits: u32,
+    pub kernel_bits: u32,
+    pub radix_bits: u32,
+    /// Highest step rate the core is checked for (steps/s).
+    pub max_rate: f64,
+    /// Longest piece (s).
+    pub max_piece_s: f64,
+}
+
+/// One supported board.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Board {
+    /// The name `--board` takes.
+    pub name: &'static str,
+    pub description: &'static str,
+    pub family: Family,
+    /// The FPGA's part number.
+    pub device: &'static str,
+    /// nextpnr's device, package and placer options.
+    #[serde(skip)]
+    pub nextpnr_args: &'static [&'static str],
+    /// The board oscillator (Hz).
+    pub osc_hz: f64,
+    pub pll: Pll,
+    /// Axes the pinout has wires for (the most `--axes` takes).
+    pub max_axes: u32,
+    /// Axes of `hdl build` when `--axes` is not given: the most that fit and meet timing.
+    pub default_axes: u32,
+    /// Host link rate (baud, 8N1) through the board's USB-UART.
+    pub baud: u32,
+    pub core: BoardCore,
+    /// The pin constraint file: its name and text (`crates/hdl/boards/`).
+    #[serde(skip)]
+    pub constraints: (&'static str, &'static str),
+    /// The generated wrapper's top module.
+    pub top: &'static str,
+}
+
+/// Every supported board.
+pub const BOARDS: [Board; 2] = [
+    Board {
+        name: "ulx3s-25f",
+        description: "Radiona ULX3S with an LFE5U-25F, 25 MHz oscillator, FT231X USB-UART",
+        family: Family::Ecp5,
+        device: "LFE5U-25F-6BG381C",
+        nextpnr_args: &["--25k", "--package", "CABGA381", "--speed", "6"],
+        osc_hz: 25e6,
+        // ecppll -i 25 -o 50: VCO 600 MHz
+        pll: Pll::Ehxplll {
+            clki_div: 1,
+            clkfb_div: 2,
+            clkop_div: 12,
+            clkop_cphase: 5,
+        },
+        max_axes: 8,
+        default_axes: 8,
+        baud: 3_000_000,
+        core: BoardCore {
+            fifo_depth: 16,
+            pieces: 4,
+            step_bits: 20,
+            tick_bits: 24,
+            radicand_bits: 128,
+            kernel_bits: 68,
+            radix_bits: 2,
+            max_rate: 200_000.0,
+            max_piece_s: 0.3,
+        },
+        constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
+        top: "ms_ulx3s_top",
+    },
+    Board {
+        name: "icebreaker",
+        description:
+            "1BitSquared iCEBreaker with an iCE40UP5K, 12 MHz oscillator, FT2232H USB-UART",
+        family: Family::Ice40,
+        device: "iCE40UP5K-SG48",
+        // the simulated-annealing placer: HeAP's legaliser stalls on this full a device
+        nextpnr_args: &["--up5k", "--package", "sg48", "--placer", "sa"],
+        osc_hz: 12e6,
+        // icepll -i 12 -o 24
+        pll: Pll::Pll40Pad {
+            divr: 0,
+            divf: 63,
+            divq: 5,
+            filter_range: 1,
+        },
+        max_axes: 4,
+        default_axes: 2,
+        baud: 1_000_000,
+        core: BoardCore {
+            fifo_depth: 2,
+            pieces: 4,
+            step_bits: 14,
+            tick_bits: 20,
+            radicand_bits: 48,
+            kernel_bits: 26,
+            radix_bits: 1,
+            max_rate: 100_000.0,
+            max_piece_s: 0.04,
+        },
+        constraints: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
+        top: "ms_icebreaker_top",
+    },
+];
+
+impl Board {
+    /// The board named `name`, or a parameter error listing the boards.
+    pub fn by_name(name: &str) -> Result<&'static Board, HdlError> {
+        BOARDS.iter().find(|b| b.name == name).ok_or_else(|| {
+            let names: Vec<&str> = BOARDS.iter().map(|b| b.name).collect();
+            HdlError::UnknownBoard {
+                name: name.to_string(),
+                known: names.join(", "),
+            }
+        })
+    }
+
+    /// The core clock: the PLL's output (Hz).
+    pub fn clock_hz(&self) -> f64 {
+        self.pll.output_hz(self.osc_hz)
+    }
+
+    /// The core parameters of this board with `axes` axes, checked against its pinout.
+    pub fn params(&self, axes: u32) -> Result<CoreParams, HdlError> {
+        if axes == 0 || axes > self.max_axes {
+            return Err(HdlError::Param(format!(
+                "{} has wires for 1..={} axes, got {axes}",
+                self.name, self.max_axes
+            )));
+        }
+        let c = self.core;
+        let p = CoreParams {
+            axes,
+            fifo_depth: c.fifo_depth,
+            pieces: c.pieces,
+            step_bits: c.step_bits,
+            tick_bits: c.tick_bits,
+            radicand_bits: c.radicand_bits,
+            kernel_bits: c.kernel_bits,
+            radix_bits: c.radix_bits,
+            clock_hz: self.clock_hz(),
+            max_rate: c.max_rate,
+            max_piece_s: c.max_piece_s,
+        };
+        p.widths()?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_board_has_valid_params_and_a_pll_in_range() {
+        for b in &BOARDS {
+            for k in 1..=b.max_axes {
+                b.params(k)
+                    .unwrap_or_else(|e| panic!("{} K = {k}: {e}", b.name));
+            }
+            assert!(b.default_axes >= 1 && b.default_axes <= b.max_axes);
+            let vco = b.pll.vco_hz(b.osc_hz);
+            match b.pll {
+                Pll::Ehxplll { .. } => assert!((400e6..=800e6).contains(&vco), "{vco}"),
+                Pll::Pll40Pad { divr, .. } => {
+                    assert!((533e6..=1066e6).contains(&vco), "{vco}");
+                    let pfd = b.osc_hz / f64::from(divr + 1);
+                    assert!((10e6..=133e6).contains(&pfd), "{pfd}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn plls_give_the_documented_clocks() {
+        let ulx3s = Board::by_name("ulx3s-25f").unwrap();
+        assert_eq!(ulx3s.clock_hz(), 50e6);
+        let ice = Board::by_name("icebreaker").unwrap();
+        assert_eq!(ice.clock_hz(), 24e6);
+    }
+
+    #[test]
+    fn unknown_board_and_too_many_axes_are_errors() {
+        assert!(
+            matches!(Board::by_name("nope"), Err(HdlError::UnknownBoard { known, .. }) if known.contains("icebreaker"))
+        );
+        let b = Board::by_name("icebreaker").unwrap();
+        assert!(b.params(b.max_axes + 1).is_err());
+        assert!(b.params(0).is_err());
+    }
+}

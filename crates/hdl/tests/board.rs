@@ -1,0 +1,790 @@
+//! Co-simulation of the whole board (`ms_board`, UART included) in Icarus Verilog, driven
+//! by the Rust host link (`multistep_hdl::link`): frames in, replies decoded, every STEP
+//! edge against `multistep_core::int`. Needs `iverilog` (a missing tool fails).
+
+mod common;
+
+use common::{params, random_move, random_move_of, IntMove, Rng, CLOCK, HZ};
+use multistep_core::int::{IntEdgeGenerator, IntProfile, IntSegment};
+use multistep_core::tdm::{Axis, Board, PulseShape, TdmConfig};
+use multistep_hdl::board_sim::{simulate, BoardLog, Script};
+use multistep_hdl::link::{
+    move_writes, start_write, stop_ramp_writes, AxisReg, AxisRun, AxisState, BoardReg, BuildId,
+    Command, Levels, Reg, Reply, Request, Status,
+};
+use multistep_hdl::{AxisMove, BoardTop, CoreParams};
+
+/// Clocks from the group's `go` to a STEP pin's rise at move tick t: the pin rises after
+/// clock edge go + t + TICK0 (the pulse unit's register and the pin's register).
+const TICK0: u64 = 1;
+
+fn board(p: CoreParams, baud: u32) -> BoardTop {
+    BoardTop::new(p, baud)
+}
+
+fn run(b: &BoardTop, s: &Script, name: &str, timeout: u64) -> BoardLog {
+    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
+    // MS_BOARD_KEEP=1 keeps the simulation directory (its path is printed)
+    let path = if std::env::var_os("MS_BOARD_KEEP").is_some() {
+        let p = dir.keep();
+        eprintln!("{name}: {}", p.display());
+        p
+    } else {
+        dir.path().to_path_buf()
+    };
+    simulate(b, s, &path, timeout).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// The replies, which must all decode and answer `reqs` in order.
+fn answers(log: &BoardLog, reqs: &[Request], name: &str) -> Vec<Reply> {
+    let got: Vec<Reply> = log
+        .replies()
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|e| panic!("{name}: {e}")))
+        .collect();
+    assert_eq!(got.len(), reqs.len(), "{name}: reply count");
+    for (r, q) in got.iter().zip(reqs) {
+        assert_eq!(r.seq, q.seq, "{name}: reply order");
+    }
+    got
+}
+
+/// A script that sends `reqs` back to back and waits for the replies.
+struct Host {
+    s: Script,
+    reqs: Vec<Request>,
+    seq: u8,
+}
+
+impl Host {
+    fn new() -> Host {
+        Host {
+            s: Script::new(),
+            reqs: Vec::new(),
+            seq: 0,
+        }
+    }
+    fn write(&mut self, reg: Reg, data: u32) -> usize {
+        let r = Request::write(self.seq, reg, data);
+        self.push(r)
+    }
+    fn read(&mut self, reg: Reg) -> usize {
+        let r = Request::read(self.seq, reg);
+        self.push(r)
+    }
+    fn push(&mut self, r: Request) -> usize {
+        self.seq = self.seq.wrapping_add(1);
+        self.s.send(&r);
+        self.reqs.push(r);
+        self.reqs.len() - 1
+    }
+    fn writes(&mut self, ws: &[multistep_hdl::link::RegWrite]) {
+        for w in ws {
+            self.write(w.reg, w.data);
+        }
+    }
+}
+
+/// Moves of every kind (segment chains, phase and limits trapezoids, with random start
+/// and end speeds; axis a of round r runs kind (r·K + a) mod 3) on K axes through the
+/// link, `rounds` groups one after the other: every STEP rise at `go + edge + TICK0`, the
+/// 50 % falls, DIR pins, replies, and the readback (state, position, period) after each.
+fn link_moves(k: u32, rounds: u32, seed: u64, baud: u32, ticks: u64) {
+    link_moves_on(params(k), &format!("board-k{k}"), rounds, seed, baud, ticks);
+}
+
+fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, ticks: u64) {
+    let k = p.axes;
+    let name = name.to_string();
+    let b = board(p.clone(), baud);
+    let mut rng = Rng(seed);
+    let interval = p.widths().unwrap().latencies().interval();
+    let vmax = (50_000_000 / (interval * u64::from(k) * 3 / 2)).min(150_000);
+    let mut h = Host::new();
+    let id = [
+        h.read(Reg::Board(BoardReg::Id)),
+        h.read(Reg::Board(BoardReg::Config)),
+        h.read(Reg::Board(BoardReg::Widths)),
+        h.read(Reg::Board(BoardReg::ClockHz)),
+        h.read(Reg::Board(BoardReg::Baud)),
+    ];
+    let mut all = Vec::new();
+    for r in 0..rounds {
+        let moves: Vec<(IntMove, AxisMove)> = (0..k)
+            .map(|a| random_move_of(&mut rng, &p, vmax, ticks, u64::from(r * k + a)))
+            .collect();
+        for (a, (_, m)) in moves.iter().enumerate() {
+            h.writes(&move_writes(&p, a as u32, m, 0).unwrap());
+        }
+        let all_axes = ((1u64 << k) - 1) as u32;
+        let s = start_write(all_axes);
+        h.write(s.reg, s.data);
+        h.s.sync().idle();
+        let reads: Vec<[usize; 3]> = (0..k)
+            .map(|a| {
+                [
+                    h.read(Reg::Axis(a, AxisReg::State)),
+                    h.read(Reg::Axis(a, AxisReg::Position)),
+                    h.read(Reg::Axis(a, AxisReg::Period)),
+                ]
+            })
+            .collect();
+        h.s.sync();
+        all.push((moves, reads));
+    }
+    let log = run(&b, &h.s, &name, 30_000_000);
+    let rep = answers(&log, &h.reqs, &name);
+    for (i, r) in rep.iter().enumerate() {
+        assert_eq!(r.status, Status::Ok, "{name}: request {i} {:?}", h.reqs[i]);
+    }
+    let bid = BuildId::decode(
+        rep[id[0]].data,
+        rep[id[1]].data,
+        rep[id[2]].data,
+        rep[id[3]].data,
+        rep[id[4]].data,
+    )
+    .unwrap();
+    assert_eq!(bid, BuildId::of(&p, baud).unwrap(), "{name}: build id");
+    assert_eq!(
+        log.go.len(),
+        rounds as usize,
+        "{name}: one group start per round"
+    );
+    let mut position = vec![0i64; k as usize];
+    for (r, (moves, reads)) in all.iter().enumerate() {
+        let go = log.go[r];
+        let end = log.go.get(r + 1).copied().unwrap_or(u64::MAX);
+        let window = |v: Vec<u64>| -> Vec<u64> {
+            v.iter()
+                .filter(|&&c| c > go && c < end)
+                .map(|c| c - go - TICK0)
+                .collect()
+        };
+        for (a, (im, m)) in moves.iter().enumerate() {
+            let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
+            assert_eq!(
+                window(log.rises(a, true)),
+                want,
+                "{name}: round {r} axis {a} edges ({im:?})"
+            );
+            assert_eq!(
+                window(log.rises(a, false)),
+                half_interval_falls(&want),
+                "{name}: round {r} axis {a} falls"
+            );
+            let st = rep[reads[a][0]].data;
+            assert_eq!(st & 7, 0, "{name}: axis {a} idle after the move ({st:#x})");
+            let n = want.len() as i64;
+            position[a] += if m.dir { n } else { -n };
+            let pos = rep[reads[a][1]].data as i32 as i64;
+            assert_eq!(pos, position[a], "{name}: round {r} axis {a} position");
+            let last = want.len() - 1;
+            let per = if last > 0 {
+                want[last] - want[last - 1]
+            } else {
+                0
+            };
+            assert_eq!(
+                u64::from(rep[reads[a][2]].data),
+                per,
+                "{name}: axis {a} period"
+            );
+            // the DIR pin during the move: its level at the group's start
+            let dir_level = log.dir[a]
+                .iter()
+                .filter(|e| e.cycle <= go)
+                .last()
+                .is_some_and(|e| e.level);
+            assert_eq!(dir_level, m.dir, "{name}: round {r} axis {a} DIR pin");
+        }
+    }
+}
+
+/// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
+/// tick), the last pulse for half of the last interval.
+fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
+    let mut prev = 0;
+    (0..rises.len())
+        .map(|k| {
+            let interval = rises
+                .get(k + 1)
+                .map_or(rises[k] - prev, |next| next - rises[k]);
+            prev = rises[k];
+            rises[k] + (interval / 2).max(1)
+        })
+        .collect()
+}
+
+#[test]
+fn one_axis_three_kinds_at_three_megabaud() {
+    link_moves(1, 3, 0x0b0a_0001, 3_000_000, 60_000);
+}
+
+#[test]
+fn two_axes_two_rounds_at_three_megabaud() {
+    link_moves(2, 2, 0x0b0a_0002, 3_000_000, 80_000);
+}
+
+/// The ULX3S build's K = 8, with a 12.5 Mbaud host link (4 clocks per bit) to keep the
+/// loading short.
+#[test]
+fn eight_axes() {
+    link_moves(8, 1, 0x0b0a_0008, 12_500_000, 100_000);
+}
+
+/// The iCEBreaker build's core (its narrow widths, radix 2, FIFO depth 2, 24 MHz, from
+/// `boards.rs`) at its most axes, K = 4, with a 6 Mbaud host link (4 clocks per bit).
+#[test]
+fn icebreaker_widths_four_axes() {
+    let b = multistep_hdl::boards::Board::by_name("icebreaker").unwrap();
+    let p = b.params(b.max_axes).unwrap();
+    link_moves_on(p, "board-ice", 1, 0x0b0a_1ce4, 6_000_000, 20_000);
+}
+
+/// The core TDM model with a pulse shape and DIR setup time: rises and falls from its
+/// start, and its start tick.
+fn model(
+    p: &CoreParams,
+    moves: &[IntMove],
+    pulse: PulseShape,
+    dir_setup: u64,
+) -> (Vec<Vec<(u64, u64)>>, u64) {
+    let w = p.widths().unwrap();
+    let mut axes: Vec<Axis> = moves
+        .iter()
+        .map(|m| Axis::new(m.float_profile(), HZ as f64).unwrap())
+        .collect();
+    let cfg = TdmConfig {
+        clock_hz: HZ as f64,
+        fifo_depth: p.fifo_depth as usize,
+        latencies: w.latencies(),
+        pulse,
+        dir_setup_ticks: dir_setup,
+        ..Default::default()
+    };
+    let board = Board::new(cfg, &mut axes).unwrap();
+    let start = board.start_tick();
+    let mut pulses = vec![Vec::new(); moves.len()];
+    let rep = board.run(|sp| pulses[sp.axis].push((sp.rise - start, sp.fall - start)));
+    assert_eq!(rep.underruns, 0);
+    for v in &mut pulses {
+        v.sort_unstable();
+    }
+    (pulses, start)
+}
+
+/// A fixed STEP width and a DIR setup time longer than the prefill, with STEP, DIR and
+/// ENABLE active low: pins against the core TDM model with `PulseShape::Fixed` and
+/// `dir_setup_ticks` (rises, falls, the group's start), DIR before the first STEP.
+#[test]
+fn fixed_pulse_width_dir_setup_and_active_low_pins() {
+    let name = "board-pulse";
+    let (k, width, setup) = (2u32, 7u32, 5_000u64);
+    let p = params(k);
+    let b = board(p.clone(), 3_000_000);
+    let mut rng = Rng(0x0b0a_0077);
+    let moves: Vec<(IntMove, AxisMove)> = (0..k)
+        .map(|_| random_move(&mut rng, &p, 120_000, 60_000))
+        .collect();
+    let low = Levels {
+        step: false,
+        dir: false,
+        enable: false,
+        ..Levels::default()
+    };
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::PulseWidth), width);
+    h.write(Reg::Board(BoardReg::DirSetup), setup as u32);
+    h.write(Reg::Board(BoardReg::Levels), low.bits());
+    h.write(Reg::Board(BoardReg::Enable), 0b11);
+    for (a, (_, m)) in moves.iter().enumerate() {
+        h.writes(&move_writes(&p, a as u32, m, width).unwrap());
+    }
+    h.write(Reg::Board(BoardReg::Start), 0b11);
+    h.s.sync().idle();
+    let log = run(&b, &h.s, name, 5_000_000);
+    for (i, r) in answers(&log, &h.reqs, name).iter().enumerate() {
+        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
+    }
+    let ints: Vec<IntMove> = moves.iter().map(|m| m.0.clone()).collect();
+    let (pulses, start) = model(
+        &p,
+        &ints,
+        PulseShape::Fixed {
+            ticks: u64::from(width),
+        },
+        setup,
+    );
+    assert_eq!(
+        start, setup,
+        "{name}: the setup time is longer than the prefill"
+    );
+    assert_eq!((log.go.len(), log.start.len()), (1, 1));
+    let (go, s) = (log.go[0], log.start[0]);
+    assert_eq!(
+        go - s,
+        u64::from(k) + 2 + start,
+        "{name}: group start = model's + K + 2"
+    );
+    for (a, (im, m)) in moves.iter().enumerate() {
+        let idle = log.step[a][0];
+        assert!(
+            idle.level && idle.cycle < s,
+            "{name}: STEP idles high when active low"
+        );
+        let after_go = |v: Vec<u64>| -> Vec<u64> {
+            v.iter()
+                .filter(|&&c| c > go)
+                .map(|c| c - go - TICK0)
+                .collect()
+        };
+        let rises = after_go(log.rises(a, false));
+        let falls = after_go(log.rises(a, true));
+        let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
+        assert_eq!(rises, want, "{name}: axis {a} edges");
+        let fixed: Vec<u64> = want.iter().map(|r| r + u64::from(width)).collect();
+        assert_eq!(falls, fixed, "{name}: axis {a} falls");
+        let model_rises: Vec<u64> = pulses[a].iter().map(|p| p.0).collect();
+        let model_falls: Vec<u64> = pulses[a].iter().map(|p| p.1).collect();
+        // the float model may put a tie one tick later (see cosim.rs); count them
+        let ties = model_rises
+            .iter()
+            .zip(&rises)
+            .filter(|(m, r)| m != r)
+            .count();
+        assert!(
+            ties * 1000 <= rises.len(),
+            "{name}: axis {a} model ties {ties}"
+        );
+        for (mf, (mr, r)) in model_falls.iter().zip(model_rises.iter().zip(&rises)) {
+            assert_eq!(mf - mr, u64::from(width), "{name}: model pulse width");
+            assert!(
+                mr == r || *mr == r + 1,
+                "{name}: axis {a} model rise {mr} vs {r}"
+            );
+        }
+        // DIR (active low: the pin is the inverted bit) changed before the start write's
+        // go by at least the setup time
+        let d = log.dir[a].last().expect("DIR pin set at start");
+        assert_eq!(d.level, !m.dir, "{name}: axis {a} DIR pin active low");
+        let first = log.rises(a, false)[0];
+        assert!(first - d.cycle > setup, "{name}: axis {a} DIR setup");
+        let en = log.enable[a].last().expect("ENABLE pin set");
+        assert!(!en.level, "{name}: ENABLE active low");
+    }
+}
+
+/// A constant-speed move (the Hall search of a homing) at 100 k steps/s, and its stop
+/// ramp from 100 k steps/s to 0 in 100 steps.
+fn search_move(p: &CoreParams, steps: u64) -> (IntProfile, AxisMove, IntProfile, AxisMove) {
+    let cruise = IntProfile::segments(
+        &[IntSegment {
+            v0: 100_000,
+            ticks: steps * 500,
+            steps,
+        }],
+        CLOCK,
+    )
+    .unwrap();
+    let ramp = IntProfile::segments(
+        &[IntSegment {
+            v0: 100_000,
+            ticks: 100_000,
+            steps: 100,
+        }],
+        CLOCK,
+    )
+    .unwrap();
+    let cm = AxisMove::from_profile(&cruise, true, p).unwrap();
+    let rm = AxisMove::from_profile(&ramp, true, p).unwrap();
+    (cruise, cm, ramp, rm)
+}
+
+/// Hall glitches shorter than the debounce are never accepted; the accepted edge latches
+/// the position exactly and runs the stop ramp from the last computed edge; then a limit
+/// edge stops a second move at once.
+#[test]
+fn hall_debounce_latch_stop_ramp_and_limit() {
+    let name = "board-hall";
+    let deb = 200u32;
+    let p = params(1);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, ramp, rm) = search_move(&p, 400);
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::Debounce), deb);
+    h.write(Reg::Board(BoardReg::HallStop), 1);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.writes(&stop_ramp_writes(&p, 0, 3, &rm.pieces[0]).unwrap());
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().steps(0, 60);
+    h.s.hall(0, true)
+        .wait(u64::from(deb) / 2)
+        .hall(0, false)
+        .steps(0, 20);
+    h.s.hall(0, true)
+        .wait(u64::from(deb) - 1)
+        .hall(0, false)
+        .steps(0, 20);
+    h.s.mark(1)
+        .hall(0, true)
+        .wait(u64::from(deb) + 10)
+        .mark(2)
+        .idle();
+    let st1 = h.read(Reg::Axis(0, AxisReg::State));
+    let hp = h.read(Reg::Axis(0, AxisReg::HallPosition));
+    let pos1 = h.read(Reg::Axis(0, AxisReg::Position));
+    // the second move: Hall released (accepted low), limit stop only
+    h.s.hall(0, false).wait(u64::from(deb) + 10);
+    h.write(Reg::Board(BoardReg::Clear), 1);
+    h.write(Reg::Board(BoardReg::HallStop), 0);
+    h.write(Reg::Board(BoardReg::LimitStop), 1);
+    h.write(Reg::Axis(0, AxisReg::Position), 0);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().steps(0, 50).mark(3).limit(0, true).idle();
+    let st2 = h.read(Reg::Axis(0, AxisReg::State));
+    let pos2 = h.read(Reg::Axis(0, AxisReg::Position));
+    h.s.sync();
+    let log = run(&b, &h.s, name, 3_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    for (i, r) in rep.iter().enumerate() {
+        assert_eq!(r.status, Status::Ok, "{name}: request {i} {:?}", h.reqs[i]);
+    }
+    // the synchronized input: high for deb/2 and deb - 1 clocks (glitches), then for good;
+    // exactly one accepted Hall edge, the debounce after it rose
+    let hs = &log.hall_sync[0];
+    let highs: Vec<u64> = hs
+        .chunks(2)
+        .filter(|c| c.len() == 2)
+        .map(|c| c[1].cycle - c[0].cycle)
+        .collect();
+    assert_eq!(
+        highs[..2],
+        [u64::from(deb) / 2, u64::from(deb) - 1],
+        "{name}: glitches"
+    );
+    assert_eq!(log.hall_accept[0].len(), 1, "{name}: glitches accepted");
+    let acc = log.hall_accept[0][0];
+    assert_eq!(acc, hs[4].cycle + u64::from(deb), "{name}: accept cycle");
+    assert_eq!(log.go.len(), 2);
+    // move 1: the cruise's edges, then the ramp from the last computed one
+    let go = log.go[0];
+    let move1: Vec<u64> = log
+        .rises(0, true)
+        .iter()
+        .filter(|&&c| c < log.go[1])
+        .map(|c| c - go - TICK0)
+        .collect();
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    let n0 = move1.iter().zip(&want).take_while(|(a, b)| a == b).count();
+    let latched = log.rises(0, true).iter().filter(|&&c| c < acc).count();
+    assert_eq!(rep[hp].data as usize, latched, "{name}: latched position");
+    assert!(
+        n0 > latched && n0 <= latched + p.fifo_depth as usize + 2,
+        "{name}: ramp after step {n0}, Hall at {latched}"
+    );
+    let base = want[n0 - 1];
+    let ramp_edges: Vec<u64> = IntEdgeGenerator::new(ramp).map(|e| base + e).collect();
+    assert_eq!(move1[n0..], ramp_edges[..], "{name}: the stop ramp");
+    assert_eq!(
+        rep[pos1].data as usize,
+        n0 + 100,
+        "{name}: position after the ramp"
+    );
+    let s1 = AxisState::decode(rep[st1].data).unwrap();
+    assert!(
+        s1.hall_flag && s1.stopped && !s1.busy && s1.run == AxisRun::Stopped,
+        "{s1:?}"
+    );
+    // move 2: stopped by the limit: no rise after the accepted edge (+ the pin register)
+    let lim_acc = log.limit_sync[0][0].cycle + u64::from(deb);
+    let move2 = log
+        .rises(0, true)
+        .iter()
+        .filter(|&&c| c > log.go[1])
+        .count();
+    let late = log
+        .rises(0, true)
+        .iter()
+        .filter(|&&c| c > lim_acc + 1)
+        .count();
+    assert_eq!(late, 0, "{name}: a STEP after the limit");
+    assert_eq!(
+        rep[pos2].data as usize, move2,
+        "{name}: position after the limit"
+    );
+    assert!(move2 < 400 && move2 >= 50);
+    let s2 = AxisState::decode(rep[st2].data).unwrap();
+    assert!(
+        s2.stopped && s2.limit && s2.run == AxisRun::Stopped,
+        "{s2:?}"
+    );
+}
+
+/// The e-stop input stops STEP at once (combinationally, between clock edges) and
+/// latches; start and clear are refused while it is latched / active; after the clear a
+/// move runs exactly; the e-stop register stops STEP at the clock after its request.
+#[test]
+fn estop_pin_and_register() {
+    let name = "board-estop";
+    let p = params(1);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, _, _) = search_move(&p, 300);
+    let mut h = Host::new();
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.write(Reg::Board(BoardReg::Enable), 1);
+    h.write(Reg::Board(BoardReg::Start), 1);
+    // land inside a STEP pulse (high 250 of 500 ticks), off the clock edge
+    h.s.sync()
+        .steps(0, 40)
+        .wait(100)
+        .delay_ns(7)
+        .estop(true)
+        .wait(50);
+    let st = h.read(Reg::Axis(0, AxisReg::State));
+    let clr = h.write(Reg::Board(BoardReg::Estop), 0);
+    let start = h.write(Reg::Board(BoardReg::Start), 1);
+    let status = h.read(Reg::Board(BoardReg::Status));
+    h.s.sync().estop(false).wait(10);
+    let clr2 = h.write(Reg::Board(BoardReg::Estop), 0);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().idle();
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().steps(0, 30);
+    let reg_stop = h.write(Reg::Board(BoardReg::Estop), 1);
+    h.s.sync().wait(2000);
+    let st3 = h.read(Reg::Axis(0, AxisReg::State));
+    h.s.sync();
+    let log = run(&b, &h.s, name, 3_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    let want_status = |i: usize, s: Status| assert_eq!(rep[i].status, s, "{name}: request {i}");
+    want_status(clr, Status::Estop);
+    want_status(start, Status::Estop);
+    want_status(clr2, Status::Ok);
+    want_status(reg_stop, Status::Ok);
+    assert_eq!(
+        rep[status].data & 7,
+        0b011,
+        "{name}: latched, input active, no group"
+    );
+    let s = AxisState::decode(rep[st].data).unwrap();
+    assert!(s.estopped && !s.busy && s.run == AxisRun::Estopped, "{s:?}");
+    // the pin e-stop: STEP fell in the same nanosecond, nothing rose until the next go
+    let (lvl, t_e) = log.estop_ns[log.estop_ns.iter().position(|e| e.0).unwrap()];
+    assert!(lvl);
+    assert_eq!(
+        log.step_during_estop_ns.first(),
+        Some(&(0, t_e)),
+        "{name}: STEP at the e-stop"
+    );
+    let e_cycle = t_e / 20;
+    let rises = log.rises(0, true);
+    assert!(
+        !rises.iter().any(|&c| c > e_cycle && c < log.go[1]),
+        "{name}: STEP after e-stop"
+    );
+    assert!(rises.iter().filter(|&&c| c < e_cycle).count() >= 40);
+    // the move after the clear is exact
+    let go = log.go[1];
+    let second: Vec<u64> = rises
+        .iter()
+        .filter(|&&c| c > go && c < log.go[2])
+        .map(|c| c - go - TICK0)
+        .collect();
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    assert_eq!(second, want, "{name}: the move after the clear");
+    // the register e-stop: the request executes at clock edge R; STEP is inactive after
+    // edge R + 1 at the latest and never rises again
+    let r = log.reqs[reg_stop];
+    let falls = log.rises(0, false);
+    assert!(
+        !rises.iter().any(|&c| c > r),
+        "{name}: STEP after the e-stop write"
+    );
+    let last_rise = *rises.last().unwrap();
+    let last_fall = *falls.last().unwrap();
+    assert!(
+        last_fall > last_rise && (last_fall <= r + 1 || last_fall < r),
+        "{name}: fall {last_fall}, request {r}"
+    );
+    let s3 = AxisState::decode(rep[st3].data).unwrap();
+    assert!(s3.estopped && s3.run == AxisRun::Estopped);
+    // the e-stop dropped ENABLE (its default level setting)
+    let en = log.enable[0].last().unwrap();
+    assert!(
+        !en.level && en.cycle >= r,
+        "{name}: ENABLE dropped by the e-stop"
+    );
+}
+
+/// Bad frames get an error reply and change nothing: a bad CRC, an unknown command, an
+/// unknown register, writes that would corrupt the running move; garbage without a sync
+/// byte and a truncated frame get no reply. The move's edges are exact throughout.
+#[test]
+fn bad_frames_are_rejected_and_change_nothing() {
+    let name = "board-bad";
+    let p = params(1);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, _, _) = search_move(&p, 300);
+    let w = p.widths().unwrap();
+    let mut h = Host::new();
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().steps(0, 10);
+    let before = h.read(Reg::Board(BoardReg::PulseWidth));
+    // a bad CRC and an unknown command (raw frames, each answered)
+    let mut f = Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5).encode();
+    f[10] ^= 0x40;
+    h.s.bytes(&f).expect_reply();
+    h.reqs
+        .push(Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5));
+    h.seq += 1;
+    let mut c = Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5);
+    let mut cf = c.encode();
+    cf[2] = 0x07;
+    let crc = multistep_hdl::link::crc16(&cf[..9]).to_be_bytes();
+    cf[9..].copy_from_slice(&crc);
+    h.s.bytes(&cf).expect_reply();
+    c.command = Command::Write;
+    h.reqs.push(c);
+    h.seq += 1;
+    let first_bad = h.reqs.len() - 2;
+    let unknown = h.read(Reg::Board(BoardReg::Start)); // write only
+    let ro = h.write(Reg::Board(BoardReg::Id), 1);
+    let nowhere = h.read(Reg::Axis(5, AxisReg::State));
+    let mut busy = vec![
+        h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 0)), 0),
+        h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 1)), 0),
+        h.write(Reg::Axis(0, AxisReg::Position), 77),
+        h.write(Reg::Axis(0, AxisReg::StopSlot), 2),
+        h.write(Reg::Board(BoardReg::PulseWidth), 5),
+        h.write(Reg::Board(BoardReg::Start), 1),
+    ];
+    let bad_mask = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync();
+    // garbage without a sync byte, and a truncated frame ended by a pause: no replies
+    h.s.bytes(&[0x00, 0x5A, 0xFF, 0x13]);
+    h.s.bytes(&Request::read(99, Reg::Board(BoardReg::Id)).encode()[..6])
+        .wait(4000);
+    let after = h.read(Reg::Board(BoardReg::PulseWidth));
+    let status = h.read(Reg::Board(BoardReg::Status));
+    h.s.sync().idle();
+    let pos = h.read(Reg::Axis(0, AxisReg::Position));
+    let slot = h.read(Reg::Axis(0, AxisReg::StopSlot));
+    h.s.sync();
+    let log = run(&b, &h.s, name, 3_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    assert_eq!(rep[first_bad].status, Status::BadCrc);
+    assert_eq!(rep[first_bad + 1].status, Status::BadCommand);
+    for i in [unknown, ro, nowhere] {
+        assert_eq!(rep[i].status, Status::BadAddress, "{name}: request {i}");
+    }
+    busy.push(usize::MAX);
+    for &i in &busy[..busy.len() - 1] {
+        assert_eq!(
+            rep[i].status,
+            Status::Busy,
+            "{name}: request {i} {:?}",
+            h.reqs[i]
+        );
+    }
+    assert_eq!(rep[bad_mask].status, Status::BadValue);
+    assert_eq!(
+        (rep[before].data, rep[after].data),
+        (0, 0),
+        "{name}: pulse width unchanged"
+    );
+    assert_eq!(rep[status].data >> 16, 2, "{name}: two bad frames counted");
+    assert_eq!(
+        (rep[pos].data, rep[slot].data),
+        (300, 0),
+        "{name}: position and slot"
+    );
+    let go = log.go[0];
+    let rises: Vec<u64> = log.rises(0, true).iter().map(|c| c - go - TICK0).collect();
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    assert_eq!(rises, want, "{name}: the move is untouched");
+    assert_eq!(log.go.len(), 1);
+}
+
+/// The session value changes at every reset (it is the clock count at the first start
+/// bit after it), and the reset restores the registers' defaults.
+#[test]
+fn session_changes_on_reset() {
+    let name = "board-session";
+    let b = board(params(1), 3_000_000);
+    let mut h = Host::new();
+    let s1 = h.read(Reg::Board(BoardReg::Session));
+    h.write(Reg::Board(BoardReg::PulseWidth), 9);
+    let pw1 = h.read(Reg::Board(BoardReg::PulseWidth));
+    h.s.sync().reset_n(false).wait(3).reset_n(true).wait(333);
+    let s2 = h.read(Reg::Board(BoardReg::Session));
+    let pw2 = h.read(Reg::Board(BoardReg::PulseWidth));
+    let s2b = h.read(Reg::Board(BoardReg::Session));
+    h.s.sync().reset_n(false).wait(3).reset_n(true).wait(1000);
+    let s3 = h.read(Reg::Board(BoardReg::Session));
+    h.s.sync();
+    let log = run(&b, &h.s, name, 1_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    let v = |i: usize| rep[i].data;
+    assert_eq!(
+        (v(pw1), v(pw2)),
+        (9, 0),
+        "{name}: reset restores the defaults"
+    );
+    assert_eq!(v(s2), v(s2b), "{name}: constant within a session");
+    assert!(
+        v(s1) != v(s2) && v(s2) != v(s3) && v(s1) != v(s3),
+        "{name}: {} {} {}",
+        v(s1),
+        v(s2),
+        v(s3)
+    );
+}
+
+/// `verilator --lint-only -Wall` is clean for the board at K = 1, 2, 5 and 8.
+#[test]
+fn board_lint_is_clean() {
+    for k in [1, 2, 5, 8] {
+        let dir = tempfile::tempdir().unwrap();
+        multistep_hdl::board_sim::lint(&board(params(k), 3_000_000), dir.path())
+            .unwrap_or_else(|e| panic!("K = {k}: {e}"));
+    }
+}
+
+/// One group at a time: a start while another group waits for its start (here: for its
+/// DIR setup time) is refused and the waiting group runs exactly; the refused axis starts
+/// afterwards.
+#[test]
+fn start_while_a_group_waits_is_refused() {
+    let name = "board-pending";
+    let p = params(2);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, _, _) = search_move(&p, 60);
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::DirSetup), 20_000);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.writes(&move_writes(&p, 1, &cm, 0).unwrap());
+    let first = h.write(Reg::Board(BoardReg::Start), 0b01);
+    let second = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let third = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let log = run(&b, &h.s, name, 2_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    assert_eq!(rep[first].status, Status::Ok);
+    assert_eq!(
+        rep[second].status,
+        Status::Busy,
+        "{name}: start while a group waits"
+    );
+    assert_eq!(rep[third].status, Status::Ok);
+    assert_eq!(log.go.len(), 2, "{name}: two group starts");
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    for (a, go) in [(0usize, log.go[0]), (1, log.go[1])] {
+        let rises: Vec<u64> = log.rises(a, true).iter().map(|c| c - go - TICK0).collect();
+        assert_eq!(rises, want, "{name}: axis {a}");
+    }
+}
