@@ -24,6 +24,7 @@ pub mod real;
 pub mod shape;
 pub mod spec;
 pub mod tdm;
+pub mod track;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
 pub use error::PlanError;
@@ -32,6 +33,7 @@ pub use profile::{
 };
 pub use shape::Shape;
 pub use spec::MoveSpec;
+pub use track::{Rate, TrackError, TrackLimits, Tracker};
 
 /// Seed 000's clock: 50 MHz.
 pub const DEFAULT_CLOCK_HZ: f64 = 50_000_000.0;
