@@ -17,6 +17,8 @@ pub struct PlanArgs {
     /// Output: table (summary), csv (every edge) or json (summary)
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+    #[command(flatten)]
+    pub track: crate::track::TrackArgs,
 }
 
 #[derive(Serialize, Debug)]
@@ -35,6 +37,9 @@ pub struct PlanSummary {
 }
 
 pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
+    if args.track.track.is_some() {
+        return crate::track::run(&args.track, &args.mv, args.clock, args.format);
+    }
     let profile = args.mv.plan()?;
     let mut gen = EdgeGenerator::new(profile, args.clock)?;
     let stdout = std::io::stdout();
