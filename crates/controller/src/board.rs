@@ -2,7 +2,7 @@
 //! store. Time is explicit — every method takes the board tick `now` — so the same code runs
 //! in real time under [`crate::Controller`] and in virtual time in tests.
 
-use crate::axis::{AxisSettings, AxisState, AxisStatus};
+use crate::axis::{AxisSettings, AxisState, AxisStatus, MAX_POSITION};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
@@ -107,6 +107,40 @@ pub struct Board {
     now: u64,
     /// Problems met while advancing (store failures), reported by `info`.
     warnings: Vec<String>,
+    work_budget: Option<u64>,
+    work: u64,
+    max_advance_work: u64,
+    /// Simulated mechanics and sensors stand behind the axes (always, in this build).
+    simulated: bool,
+}
+
+/// The stored settings of an axis, brought into range; `None` (use the board config) if
+/// there are none or they cannot be read. What was changed goes to `warnings`.
+fn stored_settings(store: &Store, axis: &str, warnings: &mut Vec<String>) -> Option<AxisSettings> {
+    let mut s = match store.settings(axis) {
+        Ok(s) => s?,
+        Err(e) => {
+            warnings.push(format!(
+                "axis {axis}: stored settings unreadable ({e}); using the board config"
+            ));
+            return None;
+        }
+    };
+    for note in s.clamp_to_ranges() {
+        warnings.push(format!("axis {axis}: stored {note}"));
+    }
+    match s.validate() {
+        Ok(()) => {
+            let _ = store.put_settings(axis, &s);
+            Some(s)
+        }
+        Err(e) => {
+            warnings.push(format!(
+                "axis {axis}: stored settings refused ({e}); using the board config"
+            ));
+            None
+        }
+    }
 }
 
 impl Board {
@@ -116,8 +150,9 @@ impl Board {
         config.validate()?;
         let clock_hz = config.board.clock_hz;
         let mut axes = Vec::new();
+        let mut warnings = Vec::new();
         for ac in &config.axes {
-            let settings = match store.settings(&ac.name)? {
+            let settings = match stored_settings(&store, &ac.name, &mut warnings) {
                 Some(s) => s,
                 None => ac.settings.clone(),
             };
@@ -159,8 +194,35 @@ impl Board {
             store,
             estopped: false,
             now: 0,
-            warnings: Vec::new(),
+            warnings,
+            work_budget: None,
+            work: 0,
+            max_advance_work: 0,
+            simulated: true,
         })
+    }
+
+    /// Limits the work of one `advance` (steps plus sensor events): past it the board's
+    /// clock falls behind the wall clock instead of holding every command up. `None`
+    /// (the default, for virtual time) advances all the way.
+    pub fn set_work_budget(&mut self, budget: Option<u64>) {
+        self.work_budget = budget;
+    }
+
+    /// Work done so far (steps plus sensor events), and the most any one advance did.
+    pub fn work(&self) -> (u64, u64) {
+        (self.work, self.max_advance_work)
+    }
+
+    /// This board as a hardware backend will be: no simulated mechanics behind it, so the
+    /// simulation's own commands (`sim …`) are refused.
+    pub fn without_simulation(mut self) -> Board {
+        self.simulated = false;
+        self
+    }
+
+    pub fn is_simulated(&self) -> bool {
+        self.simulated
     }
 
     pub fn name(&self) -> &str {
@@ -202,12 +264,60 @@ impl Board {
     // ---- time ----------------------------------------------------------------------------
 
     /// Runs every axis up to tick `now`: steps, sensor, homing phases, persistence.
+    /// With a work budget the run goes in slices short enough that one slice costs at most
+    /// an eighth of the budget, and stops after the slice that uses it up.
     pub fn advance(&mut self, now: u64) {
         let now = now.max(self.now);
-        for i in 0..self.axes.len() {
-            self.advance_axis(i, now);
+        let Some(budget) = self.work_budget else {
+            let w0 = self.work_done();
+            for i in 0..self.axes.len() {
+                self.advance_axis(i, now);
+            }
+            self.now = now;
+            self.note_work(w0);
+            return;
+        };
+        let w0 = self.work_done();
+        let slice = self.slice_ticks(budget / 8);
+        while self.now < now && self.work_done() - w0 < budget {
+            let until = now.min(self.now.saturating_add(slice));
+            for i in 0..self.axes.len() {
+                self.advance_axis(i, until);
+            }
+            self.now = until;
         }
-        self.now = now;
+        self.note_work(w0);
+    }
+
+    /// Steps taken plus sensor events handled, over the board's life.
+    fn work_done(&self) -> u64 {
+        self.work + self.axes.iter().map(|a| a.hall.work).sum::<u64>()
+    }
+
+    fn note_work(&mut self, w0: u64) {
+        let total = self.work_done();
+        self.max_advance_work = self.max_advance_work.max(total - w0);
+    }
+
+    /// Ticks in which the moving axes do at most `work` steps and sensor events: an axis
+    /// steps at most vmax per second (every move is checked against it), each step makes at
+    /// most one sensor edge with up to 2·bounce_count+1 toggles, and glitches come at
+    /// glitch_rate (two events each; 10× for the randomness of a Poisson process).
+    fn slice_ticks(&self, work: u64) -> u64 {
+        let rate: f64 = self
+            .axes
+            .iter()
+            .filter(|a| a.motion.is_some())
+            .map(|a| {
+                let s = &a.settings;
+                s.vmax.max(s.home_speed) * (2.0 + 2.0 * s.sim.bounce_count as f64)
+                    + 20.0 * s.sim.glitch_rate
+            })
+            .sum();
+        if rate <= 0.0 {
+            return u64::MAX;
+        }
+        ((work.max(1) as f64 / rate) * self.clock_hz).clamp(1.0, 1e18) as u64
     }
 
     fn advance_axis(&mut self, i: usize, now: u64) {
@@ -224,6 +334,8 @@ impl Board {
             match next {
                 Some(e) if e <= now => {
                     m.src.take();
+                    self.work += 1;
+                    let ax = &mut self.axes[i];
                     ax.count += m.dir;
                     ax.sim_pos += m.dir;
                     let ev = ax.hall.step(e, ax.count, ax.sim_pos);
@@ -514,10 +626,12 @@ impl Board {
             Amount::Steps(n) => Ok(n),
             Amount::Units(u) => {
                 let x = (u * self.axes[i].settings.steps_per_unit).round();
-                if x.abs() < 9.0e15 {
+                if x.abs() <= MAX_POSITION as f64 {
                     Ok(x as i64)
                 } else {
-                    Err(CtlError::syntax(format!("{u} units is out of range")))
+                    Err(CtlError::syntax(format!(
+                        "{u} units is {x:e} microsteps, outside ±{MAX_POSITION}"
+                    )))
                 }
             }
         }
@@ -530,29 +644,31 @@ impl Board {
         let ax = &self.axes[i];
         let n = self.amount_steps(i, amount)?;
         if let Some(p) = ax.period() {
-            return Ok(shortest(if absolute { n - ax.count } else { n }, p));
+            // Reduced first: no overflow whatever n is (the count is already in [0, p)).
+            let r = n.rem_euclid(p);
+            return Ok(shortest(if absolute { r - ax.count } else { r }, p));
         }
+        // i128: a target of i64::MIN or a sum that overflows is reported as it is.
         let target = if absolute {
-            Some(n)
+            n as i128
         } else {
-            ax.count.checked_add(n)
+            ax.count as i128 + n as i128
         };
         let s = &ax.settings;
-        let show = |o: Option<i64>, none: &str| o.map_or(none.to_string(), |x| x.to_string());
-        match target {
-            Some(t)
-                if !matches!(s.soft_min, Some(lo) if t < lo)
-                    && !matches!(s.soft_max, Some(hi) if t > hi) =>
-            {
-                Ok(t - ax.count)
-            }
-            _ => Err(CtlError::OutOfLimits {
+        let max = MAX_POSITION as i128;
+        let (lo, hi) = (
+            s.soft_min.map_or(-max, |x| x as i128).max(-max),
+            s.soft_max.map_or(max, |x| x as i128).min(max),
+        );
+        if target < lo || target > hi {
+            return Err(CtlError::OutOfLimits {
                 axis: ax.name.clone(),
-                target: target.unwrap_or(i64::MAX),
-                min: show(s.soft_min, "-inf"),
-                max: show(s.soft_max, "inf"),
-            }),
+                target,
+                min: lo.to_string(),
+                max: hi.to_string(),
+            });
         }
+        Ok(target as i64 - ax.count)
     }
 
     fn resolve_opts(&self, opts: &MoveOpts) -> Result<MoveOpts, CtlError> {
@@ -924,9 +1040,19 @@ impl Board {
 
     /// Simulation: the mechanics lose `steps` steps that the count does not see.
     pub fn sim_slip(&mut self, axis: &str, steps: i64, now: u64) -> Result<(), CtlError> {
+        if !self.simulated {
+            return Err(CtlError::NotSimulated);
+        }
         self.advance(now);
         let i = self.index(axis)?;
-        self.axes[i].sim_pos += steps;
+        let to = self.axes[i].sim_pos as i128 + steps as i128;
+        if to.abs() > 2 * MAX_POSITION as i128 {
+            return Err(CtlError::Setting(format!(
+                "the simulated mechanics stay within ±{}",
+                2 * MAX_POSITION
+            )));
+        }
+        self.axes[i].sim_pos = to as i64;
         self.persist(i);
         Ok(())
     }

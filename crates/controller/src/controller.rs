@@ -27,6 +27,10 @@ impl SimClock {
     }
 }
 
+/// Most simulation work (steps plus sensor events) one lock of the board may do: a few
+/// milliseconds. Past it the simulated clock falls behind, and no command waits long.
+pub const WORK_BUDGET: u64 = 100_000;
+
 pub struct Controller {
     board: Arc<Mutex<Board>>,
     clock: SimClock,
@@ -47,7 +51,26 @@ impl Controller {
                 "time scale must be in (0, 10000] (got {time_scale})"
             )));
         }
-        let board = Board::open(config, Store::open(data)?)?;
+        Controller::open_store(config, Store::open(data)?, time_scale)
+    }
+
+    /// Runs the board on an already opened store (see [`Store::open_or_reset`]).
+    pub fn open_store(
+        config: &BoardConfig,
+        store: Store,
+        time_scale: f64,
+    ) -> Result<Controller, CtlError> {
+        if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
+            return Err(CtlError::Setting(format!(
+                "time scale must be in (0, 10000] (got {time_scale})"
+            )));
+        }
+        let mut board = Board::open(config, store)?;
+        // Stored values brought into range, said once at start-up (and kept for `info`).
+        for w in board.warnings() {
+            eprintln!("warning: {w}");
+        }
+        board.set_work_budget(Some(WORK_BUDGET));
         let clock = SimClock {
             t0: Instant::now(),
             ticks_per_s: board.clock_hz() * time_scale,
