@@ -63,6 +63,8 @@ struct Axis {
     move_end: Option<u64>,
     /// A moving marker is on disk.
     marked: bool,
+    /// The (from, target) of that marker.
+    marker: Option<(i64, i64)>,
     /// Direction of the last move (+1/-1), for the DIR line level.
     last_dir: i64,
 }
@@ -151,6 +153,7 @@ impl Board {
         let clock_hz = config.board.clock_hz;
         let mut axes = Vec::new();
         let mut warnings = Vec::new();
+        let sim = store.sim();
         for ac in &config.axes {
             let settings = match stored_settings(&store, &ac.name, &mut warnings) {
                 Some(s) => s,
@@ -173,13 +176,19 @@ impl Board {
                 move_start: None,
                 move_end: None,
                 marked: false,
+                marker: None,
                 last_dir: 1,
             };
             if let Some(m) = rec.moving {
-                // Died mid-move: the count says `from`, the mechanics are somewhere on the
-                // way (the simulation puts them halfway). Untrusted until homed.
+                // Died mid-move: the count says `from`; the mechanics stayed where they were
+                // (last written down while moving, else where the move began). Untrusted
+                // until homed.
                 axis.count = m.from;
-                axis.sim_pos = m.from + (m.target - m.from) / 2;
+                if let Some(sm) = sim.get(&ac.name) {
+                    if (sm.from, sm.target) == (m.from, m.target) {
+                        axis.sim_pos = sm.sim_position;
+                    }
+                }
                 axis.homed = false;
                 axis.trusted = false;
                 store.put_axis(&axis.name, &axis.record(None))?;
@@ -444,6 +453,7 @@ impl Board {
             target: m.target,
         });
         ax.marked = marker.is_some();
+        ax.marker = marker.as_ref().map(|m| (m.from, m.target));
         if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
         }
@@ -598,6 +608,7 @@ impl Board {
             target,
         }));
         ax.marked = true;
+        ax.marker = Some((ax.count, target));
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
             ax.marked = false;
             ax.motion = None;
@@ -1055,6 +1066,32 @@ impl Board {
         self.axes[i].sim_pos = to as i64;
         self.persist(i);
         Ok(())
+    }
+
+    /// Writes down where the simulated mechanics of the moving axes are (see
+    /// [`crate::store::SimMechanics`]); the service calls it often while axes move.
+    pub fn save_sim(&mut self) {
+        let m: BTreeMap<String, crate::store::SimMechanics> = self
+            .axes
+            .iter()
+            .filter(|a| a.motion.is_some())
+            .filter_map(|a| {
+                let (from, target) = a.marker?;
+                Some((
+                    a.name.clone(),
+                    crate::store::SimMechanics {
+                        from,
+                        target,
+                        sim_position: a.sim_pos,
+                    },
+                ))
+            })
+            .collect();
+        if let Err(e) = self.store.put_sim(&m) {
+            if self.warnings.len() < 100 {
+                self.warnings.push(e.to_string());
+            }
+        }
     }
 
     pub fn warnings(&self) -> &[String] {

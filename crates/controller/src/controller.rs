@@ -31,6 +31,9 @@ impl SimClock {
 /// milliseconds. Past it the simulated clock falls behind, and no command waits long.
 pub const WORK_BUDGET: u64 = 100_000;
 
+/// How often the simulated mechanics of moving axes are written down (wall time).
+pub const SIM_SAVE_PERIOD: Duration = Duration::from_millis(50);
+
 pub struct Controller {
     board: Arc<Mutex<Board>>,
     clock: SimClock,
@@ -82,11 +85,16 @@ impl Controller {
             std::thread::Builder::new()
                 .name("board-ticker".into())
                 .spawn(move || {
+                    let mut saved = Instant::now();
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = lock(&board);
                         if b.busy() {
                             b.advance(clock.now());
+                            if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {
+                                b.save_sim();
+                                saved = Instant::now();
+                            }
                         }
                     }
                 })
