@@ -6,7 +6,7 @@ use crate::axis::{AxisSettings, AxisState, AxisStatus, MAX_POSITION};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_group, start_move, stop_profile, StepSource};
+use crate::motion::{start_move, start_timed, stop_profile, StepSource};
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::tdm::TdmConfig;
@@ -15,6 +15,31 @@ use std::collections::BTreeMap;
 
 mod preview;
 pub use preview::PlannedAxis;
+
+/// Most steps (summed over its axes) of one move or group: the TDM engine times every
+/// edge before the move starts (about 40 ns each), so this bounds the time a move takes
+/// to start (about 4 s at most, outside the board lock).
+pub const MAX_TIMED_STEPS: u64 = 100_000_000;
+
+/// A group move planned and waiting for its TDM timing and start.
+pub struct PendingGroup {
+    plan: Vec<(usize, i64)>,
+    profiles: Vec<Option<Profile>>,
+    /// Count and settings of each axis when planned; the start checks they still hold.
+    before: Vec<(i64, AxisSettings)>,
+    tdm: TdmConfig,
+}
+
+impl PendingGroup {
+    /// Runs the TDM engine over the group (none needed when nothing moves).
+    pub fn time(&self) -> Result<Option<multistep_core::tdm::Report>, CtlError> {
+        let moving: Vec<Profile> = self.profiles.iter().flatten().cloned().collect();
+        if moving.is_empty() {
+            return Ok(None);
+        }
+        crate::motion::tdm_report(&moving, &self.tdm).map(Some)
+    }
+}
 
 /// Phases of homing (seed 002 §2.3, with the usual back-off and slow re-approach).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -291,7 +316,11 @@ impl Board {
         while self.now < now && self.work_done() - w0 < budget {
             let until = now.min(self.now.saturating_add(slice));
             for i in 0..self.axes.len() {
-                self.advance_axis(i, until);
+                if self.axes[i].motion.is_some() {
+                    // Looking at an axis is work too, even in a slice without events.
+                    self.work += 1;
+                    self.advance_axis(i, until);
+                }
             }
             self.now = until;
         }
@@ -310,7 +339,7 @@ impl Board {
 
     /// Ticks in which the moving axes do at most `work` steps and sensor events: an axis
     /// steps at most vmax per second (every move is checked against it), each step makes at
-    /// most one sensor edge with up to 2·bounce_count+1 toggles, and glitches come at
+    /// most one sensor edge with up to 2·bounce_count toggles (two events each), and glitches come at
     /// glitch_rate (two events each; 10× for the randomness of a Poisson process).
     fn slice_ticks(&self, work: u64) -> u64 {
         let rate: f64 = self
@@ -319,7 +348,7 @@ impl Board {
             .filter(|a| a.motion.is_some())
             .map(|a| {
                 let s = &a.settings;
-                s.vmax.max(s.home_speed) * (2.0 + 2.0 * s.sim.bounce_count as f64)
+                s.vmax.max(s.home_speed) * (2.0 + 4.0 * s.sim.bounce_count as f64)
                     + 20.0 * s.sim.glitch_rate
             })
             .sum();
@@ -777,14 +806,66 @@ impl Board {
         opts: &MoveOpts,
         now: u64,
     ) -> Result<Vec<i64>, CtlError> {
+        let pending = self.plan_group_move(targets, absolute, sync, opts, now)?;
+        let report = pending.time()?;
+        self.start_group_move(pending, report.as_ref(), now)
+    }
+
+    /// The first half of [`Board::group_move`]: plans the group from the positions now.
+    /// Its TDM timing ([`PendingGroup::time`]) needs no board, so a service can run it
+    /// without holding the board up, then call [`Board::start_group_move`].
+    pub fn plan_group_move(
+        &mut self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+        now: u64,
+    ) -> Result<PendingGroup, CtlError> {
         self.advance(now);
         let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        let before = plan
+            .iter()
+            .map(|&(i, _)| (self.axes[i].count, self.axes[i].settings.clone()))
+            .collect();
+        Ok(PendingGroup {
+            plan,
+            profiles,
+            before,
+            tdm: self.tdm,
+        })
+    }
+
+    /// The second half of [`Board::group_move`]: starts a planned, timed group, unless an
+    /// axis of it moved, changed or was stopped meanwhile (then nothing starts).
+    pub fn start_group_move(
+        &mut self,
+        pending: PendingGroup,
+        report: Option<&multistep_core::tdm::Report>,
+        now: u64,
+    ) -> Result<Vec<i64>, CtlError> {
+        self.advance(now);
+        let PendingGroup {
+            plan,
+            profiles,
+            before,
+            ..
+        } = pending;
+        for (&(i, _), (count, settings)) in plan.iter().zip(&before) {
+            self.check_can_move(i)?;
+            let ax = &self.axes[i];
+            if ax.count != *count || ax.settings != *settings {
+                return Err(CtlError::Busy {
+                    axis: ax.name.clone(),
+                    state: "changed while the move was being timed; send it again",
+                });
+            }
+        }
         // One TDM run times the whole group: one start tick for every axis.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
-        let (start, mut sources) = if moving.is_empty() {
-            (self.now, Vec::new())
-        } else {
-            start_group(&moving, &self.tdm, self.now)?
+        let (start, mut sources) = match report {
+            Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, self.now)?,
+            _ => (self.now, Vec::new()),
         };
         sources.reverse();
         let mut out = Vec::new();

@@ -131,7 +131,8 @@ impl Controller {
         absolute: bool,
         opts: &MoveOpts,
     ) -> Result<i64, CtlError> {
-        self.with_board(|b, now| b.move_axis(axis, amount, absolute, opts, now))
+        self.group_move(&[(axis.to_string(), amount)], absolute, false, opts)
+            .map(|t| t[0])
     }
     pub fn group_move(
         &self,
@@ -140,7 +141,11 @@ impl Controller {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<Vec<i64>, CtlError> {
-        self.with_board(|b, now| b.group_move(targets, absolute, sync, opts, now))
+        // The TDM timing runs with the board free: estop and other clients do not wait on it.
+        let pending =
+            self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
+        let report = pending.time()?;
+        self.with_board(|b, now| b.start_group_move(pending, report.as_ref(), now))
     }
     pub fn home(&self, axis: &str) -> Result<(), CtlError> {
         self.with_board(|b, now| b.home(axis, now))

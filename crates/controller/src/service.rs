@@ -289,9 +289,11 @@ pub fn serve_serial_with(
     line_timeout: Duration,
 ) -> Result<(), CtlError> {
     let mut port = open_serial(device)?;
+    let mut log = RateLimitedLog::new(Duration::from_secs(10));
     loop {
-        if let Err(e) = serial_session(&ctl, port, line_timeout) {
-            eprintln!("serial {device}: {e}; opening it again");
+        match serial_session(&ctl, port, line_timeout) {
+            Ok(()) => log.log(&format!("serial {device}: hung up; opening it again")),
+            Err(e) => log.log(&format!("serial {device}: {e}; opening it again")),
         }
         port = loop {
             std::thread::sleep(Duration::from_millis(100));
