@@ -2,6 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
+use multistep_controller::store::Store;
 use multistep_controller::{service, BoardConfig, Controller};
 use std::io::Write;
 use std::path::PathBuf;
@@ -26,6 +27,39 @@ pub struct ServeArgs {
     pub time_scale: f64,
     #[command(flatten)]
     pub http: multistep_web::HttpArgs,
+    #[command(flatten)]
+    pub line: LineArgs,
+}
+
+/// Who may connect to the line protocol over TCP, how many at once, and for how long.
+#[derive(Args, Debug)]
+pub struct LineArgs {
+    /// Allow --listen on a non-loopback address (needs --listen-token)
+    #[arg(long)]
+    pub listen_allow_remote: bool,
+    /// Access token TCP clients must send first (`auth TOKEN`), 16 to 256 characters;
+    /// falls back to the MULTISTEP_LISTEN_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_LISTEN_TOKEN",
+        hide_env_values = true
+    )]
+    pub listen_token: Option<String>,
+    /// Most TCP clients at once (1 to 1024); one more gets one error line and is closed
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_clients: usize,
+    /// Close a TCP client that sends no complete line for this many seconds (1 to 86400)
+    #[arg(long, value_name = "S", default_value_t = 600)]
+    pub idle_timeout: u64,
+    /// Close a TCP client whose line is not complete this many seconds after it began; on
+    /// the serial line, drop a line that pauses this long (1 to 3600)
+    #[arg(long, value_name = "S", default_value_t = 10)]
+    pub line_timeout: u64,
+    /// If the database is damaged, move it aside (the new name is printed) and start a new,
+    /// empty board instead of refusing to start
+    #[arg(long)]
+    pub reset_damaged_data: bool,
 }
 
 pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
@@ -33,14 +67,24 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         Some(p) => BoardConfig::load(p)?,
         None => BoardConfig::default(),
     };
-    let ctl = Arc::new(Controller::open(&config, &a.data, a.time_scale)?);
+    let l = &a.line;
+    service::check_listen(&a.listen, l.listen_allow_remote, l.listen_token.as_deref())?;
+    let limits = service::Limits::new(l.max_clients, l.idle_timeout, l.line_timeout)?;
+    let (store, aside) = Store::open_or_reset(&a.data, l.reset_damaged_data)?;
+    if let Some(p) = aside {
+        eprintln!(
+            "warning: the damaged database was moved to {}; starting a new board",
+            p.display()
+        );
+    }
+    let ctl = Arc::new(Controller::open_store(&config, store, a.time_scale)?);
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;
     if let Some(dev) = &a.serial {
         let (ctl, dev) = (ctl.clone(), dev.clone());
         std::thread::spawn(move || {
-            if let Err(e) = service::serve_serial(ctl, &dev) {
+            if let Err(e) = service::serve_serial_with(ctl, &dev, limits.line_timeout) {
                 eprintln!("error: {e}");
             }
         });
@@ -49,6 +93,10 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let mut out = std::io::stdout();
     writeln!(out, "board {} listening on tcp://{addr}", config.board.name)?;
     out.flush()?;
-    service::serve_tcp(ctl, listener)?;
+    let opts = service::TcpOptions {
+        limits,
+        token: l.listen_token.clone(),
+    };
+    service::serve_tcp_with(ctl, listener, opts)?;
     Ok(())
 }
