@@ -311,6 +311,8 @@ impl Cruise {
 }
 
 /// What the axis is doing now.
+// The ramp's generator is large, but boxing would allocate (the crate is no_std, no alloc).
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Stage {
     /// A ramp started at tick `start`, step `base`, towards `target`.
