@@ -462,6 +462,9 @@ impl AxisState {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AxisStatus {
     pub axis: String,
+    /// The axis's 0-based number on its board (accepted wherever its name is).
+    #[serde(default)]
+    pub number: usize,
     /// Counted position (microsteps).
     pub position: i64,
     /// `position / steps_per_unit`.
@@ -497,7 +500,7 @@ impl AxisStatus {
     pub fn line(&self) -> String {
         let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
         format!(
-            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={}",
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} num={}",
             self.axis,
             self.position,
             self.units,
@@ -509,6 +512,7 @@ impl AxisStatus {
             self.sensor as u8,
             opt(self.drift),
             self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
+            self.number,
         )
     }
 }

@@ -288,10 +288,12 @@ impl Board {
         }
     }
 
+    /// An axis by name or, when no axis has that name, by its 0-based number on the board.
     fn index(&self, name: &str) -> Result<usize, CtlError> {
         self.axes
             .iter()
             .position(|a| a.name == name)
+            .or_else(|| axis_number(name).filter(|&i| i < self.axes.len()))
             .ok_or_else(|| CtlError::UnknownAxis(name.to_string()))
     }
 
@@ -1016,6 +1018,7 @@ impl Board {
                     .map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
                 AxisStatus {
                     axis: ax.name.clone(),
+                    number: i,
                     position: ax.count,
                     units: ax.count as f64 / ax.settings.steps_per_unit,
                     state: ax.state,
@@ -1056,7 +1059,9 @@ impl Board {
         }
         let mut s = self.axes[i].settings.clone();
         s.set(key, value)?;
-        self.store.put_settings(axis, &s)?;
+        // stored under the name, also when the axis was given by number
+        let name = self.axes[i].name.clone();
+        self.store.put_settings(&name, &s)?;
         let clock = self.clock_hz;
         let ax = &mut self.axes[i];
         ax.hall = Axis::make_hall(&s, clock);
@@ -1196,5 +1201,15 @@ impl StepSource for Stopped {
     }
     fn steps_left(&self) -> u64 {
         0
+    }
+}
+
+/// A motor number: plain decimal digits (no sign, no leading zeros), as in `move 3 100`.
+fn axis_number(word: &str) -> Option<usize> {
+    let plain = word.bytes().all(|b| b.is_ascii_digit()) && (word == "0" || !word.starts_with('0'));
+    if plain && word.len() <= 4 {
+        word.parse().ok()
+    } else {
+        None
     }
 }
