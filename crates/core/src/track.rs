@@ -622,3 +622,49 @@ impl Iterator for Tracker {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wide_products_shift_exactly() {
+        assert_eq!(mul_shr(12345, 67890, 0), Some(12345 * 67890));
+        assert_eq!(mul_shr(u128::MAX, 2, 0), None);
+        assert_eq!(mul_shr(1 << 127, 1 << 127, 254), Some(1));
+        // (2^128 − 1)² = 2^256 − 2^129 + 1
+        assert_eq!(mul_shr(u128::MAX, u128::MAX, 128), Some(u128::MAX - 1));
+        assert_eq!(mul_shr(u128::MAX, u128::MAX, 129), Some(u128::MAX >> 1));
+        assert_eq!(mul_shr(3 << 100, 5 << 90, 190), Some(15));
+    }
+
+    /// Origins with a fraction of 100 bits: a hair above a half tick rounds up, exactly a
+    /// half tick (the earlier tick) and a hair below round down.
+    #[test]
+    fn origin_fractions_of_many_bits_decide_half_ticks() {
+        let rate = Rate::new(1, 1).unwrap(); // 100 ticks per step at 100 Hz
+        for (frac, bits, extra) in [
+            ((1u128 << 99) + 1, 100, 1),
+            (1 << 99, 100, 0),
+            (1, 1, 0),
+            ((1 << 99) - 1, 100, 0),
+            ((3 << 98) + 1, 100, 1),
+            (u128::MAX >> 4, 124, 1),
+        ] {
+            let mut c = Cruise::new(100, rate, 7, frac, bits).unwrap();
+            for k in 1..5u64 {
+                assert_eq!(
+                    c.next_edge(),
+                    Some(7 + 100 * k + extra),
+                    "{frac:x}/2^{bits}"
+                );
+            }
+        }
+        // 2.5 ticks per step from ½ + ε: ⌈2.5k + ε⌉; from exactly ½: ⌈2.5k⌉
+        for (frac, want) in [((1u128 << 99) + 1, [3, 6, 8, 11]), (1 << 99, [3, 5, 8, 10])] {
+            let mut c = Cruise::new(100, Rate::new(40, 1).unwrap(), 0, frac, 100).unwrap();
+            let got: [u64; 4] = core::array::from_fn(|_| c.next_edge().unwrap());
+            assert_eq!(got, want);
+        }
+    }
+}

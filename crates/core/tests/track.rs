@@ -7,6 +7,7 @@
 use multistep_core::dd::Dd;
 use multistep_core::track::TrackSegment;
 use multistep_core::{EdgeGenerator, Profile, Rate, TrackError, TrackLimits, Tracker};
+use proptest::prelude::*;
 
 const F: u64 = 50_000_000;
 
@@ -30,31 +31,85 @@ struct CruiseRef {
 }
 
 impl CruiseRef {
-    /// `⌈X₀ + k·f·den/num − ½⌉` in one division: numerator and denominator times 2^(b+1)·num.
+    /// `⌈X₀ + k·f·den/num − ½⌉` in one division: numerator and denominator times 2^(b+1)·num
+    /// (when that fits in u128, else [`CruiseRef::edge_wide`]).
     fn edge(&self, k: u64) -> u64 {
-        let s = 1u128 << self.b;
-        let d = 2 * s * self.num;
-        let x = (2 * s * self.num * self.o + 2 * self.num * self.c)
-            .checked_add(
-                (k as u128)
-                    .checked_mul(F as u128 * self.den)
-                    .and_then(|v| v.checked_mul(2 * s))
-                    .expect("reference overflow"),
-            )
-            .unwrap()
-            - s * self.num;
-        x.div_ceil(d) as u64
+        let direct = || {
+            let s = 1u128.checked_shl(self.b)?;
+            let d = (2 * s).checked_mul(self.num)?;
+            let x = d
+                .checked_mul(self.o)?
+                .checked_add(2 * self.num * self.c)?
+                .checked_add(
+                    (k as u128)
+                        .checked_mul(F as u128 * self.den)?
+                        .checked_mul(2 * s)?,
+                )?
+                - s * self.num;
+            Some(x.div_ceil(d) as u64)
+        };
+        direct().unwrap_or_else(|| self.edge_wide(k))
     }
 
-    /// Steps of this cruise with edge ≤ t: k ≤ (t + ½ − X₀)·num/(f·den).
+    /// The same in 256-bit compares: k·f·den = n·num + ρ, then `⌈c/2^b + ρ/num − ½⌉` is 0, 1
+    /// or 2 by comparing `2c·num + 2ρ·2^b` with `num·2^b` and `3·num·2^b`.
+    fn edge_wide(&self, k: u64) -> u64 {
+        let kp = k as u128 * (F as u128 * self.den);
+        let (n, rho) = (kp / self.num, kp % self.num);
+        let lhs = Wide::mul(2 * self.c, self.num).add(Wide::mul(2 * rho, 1).shl(self.b));
+        let half = Wide::mul(self.num, 1).shl(self.b);
+        let three_halves = Wide::mul(3 * self.num, 1).shl(self.b);
+        let extra = if lhs <= half {
+            0
+        } else if lhs <= three_halves {
+            1
+        } else {
+            2
+        };
+        (self.o + n + extra) as u64
+    }
+
+    /// Steps of this cruise with edge ≤ t (edges are non-decreasing: a binary search).
     fn count_to(&self, t: u64) -> u64 {
-        let s = 1u128 << self.b;
-        let top = (2 * t as u128 + 1) * s;
-        let x0 = 2 * s * self.o + 2 * self.c;
-        if top < x0 {
-            return 0;
+        let (mut lo, mut hi) = (0u64, 1u64 << 40);
+        while lo < hi {
+            let mid = lo + (hi - lo).div_ceil(2);
+            if self.edge(mid) <= t {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
         }
-        ((top - x0) * self.num / (2 * s * F as u128 * self.den)) as u64
+        lo
+    }
+}
+
+/// A 256-bit unsigned integer as (high, low) halves: just what the reference needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Wide(u128, u128);
+
+impl Wide {
+    fn mul(a: u128, b: u128) -> Wide {
+        let m = u64::MAX as u128;
+        let (a1, a0, b1, b0) = (a >> 64, a & m, b >> 64, b & m);
+        let (p00, p01, p10, p11) = (a0 * b0, a0 * b1, a1 * b0, a1 * b1);
+        let (mid, carry_mid) = p01.overflowing_add(p10);
+        let (lo, carry_lo) = p00.overflowing_add(mid << 64);
+        Wide(
+            p11 + (mid >> 64) + ((carry_mid as u128) << 64) + carry_lo as u128,
+            lo,
+        )
+    }
+    fn add(self, o: Wide) -> Wide {
+        let (lo, c) = self.1.overflowing_add(o.1);
+        Wide(self.0 + o.0 + c as u128, lo)
+    }
+    fn shl(self, b: u32) -> Wide {
+        match b {
+            0 => self,
+            1..=127 => Wide((self.0 << b) | (self.1 >> (128 - b)), self.1 << b),
+            _ => Wide(self.1 << (b - 128), 0),
+        }
     }
 }
 
@@ -400,4 +455,38 @@ fn bad_input_is_one_typed_error() {
     let mut tr = Tracker::new(1e6, l, 0.0, r).unwrap();
     assert_eq!(tr.set_rate(fast), Err(TrackError::TooFast));
     assert_eq!(tr.rate(), r, "a refused change leaves the rate");
+}
+
+/// A random exact rate between 0.5 and 2·10⁵ steps/s with a denominator up to 2^24.
+fn any_rate() -> impl Strategy<Value = Rate> {
+    (0.5f64..2e5, 1u128..(1 << 24))
+        .prop_map(|(r, den)| Rate::new(((r * den as f64) as u128).max(1), den).unwrap())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Random rates, start speeds and limits (short ramps give origins with many fraction
+    /// bits): every edge exact through a ramp, a cruise, a rate change and a stop.
+    #[test]
+    fn random_tracking_is_exact(r1 in any_rate(), r2 in any_rate(), start in 0.0f64..3.0,
+                                amax_x in 0.5f64..1e4, scurve in any::<bool>(),
+                                samples_step in 10_000u64..10_000_000) {
+        let v1 = r1.to_f64();
+        let amax = v1 * amax_x;
+        let limits = TrackLimits { amax, jmax: scurve.then_some(amax * 20.0) };
+        let mut tr = Tracker::new(F as f64, limits, start * v1, r1).unwrap();
+        let mut ck = Checker::new(amax);
+        let mut samples = (1..).map(|k| k * samples_step);
+        let mut until = |ck: &Checker, n: u64| ck.last + n * (F as f64 / v1.min(r2.to_f64())) as u64;
+        let end = until(&ck, 3000);
+        ck.run(&mut tr, end, &mut samples);
+        tr.set_rate(r2).unwrap();
+        let end = until(&ck, 3000).max(ck.last + F / 10);
+        ck.run(&mut tr, end, &mut samples);
+        tr.stop().unwrap();
+        ck.run(&mut tr, u64::MAX, &mut samples);
+        prop_assert!(tr.next().is_none());
+        prop_assert!(ck.cruise_edges > 0);
+    }
 }
