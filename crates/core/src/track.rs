@@ -397,14 +397,30 @@ impl Tracker {
     }
 
     /// Changes the rate from the last step produced: a ramp from the current speed (a stop
-    /// when `rate` is zero), then a cruise at `rate`. During a ramp the change waits for
-    /// the ramp's end, so every ramp keeps its acceleration (and jerk) within the limits.
+    /// when `rate` is zero), then a cruise at `rate`. During a trapezoid ramp the new ramp
+    /// starts at once from the speed at the last step (acceleration may jump, and stays
+    /// within amax); during an S-curve ramp the change waits for the ramp's end, so jerk
+    /// stays within jmax (the latest such change wins).
     pub fn set_rate(&mut self, rate: Rate) -> Result<(), TrackError> {
         // plan it now so a bad rate is refused at once
         let _ = self.plan_ramp(self.speed, rate)?;
-        if let Stage::Ramp { .. } = self.stage {
-            self.pending = Some(rate);
-            return Ok(());
+        if let Stage::Ramp {
+            gen, start, base, ..
+        } = &self.stage
+        {
+            if self.limits.jmax.is_some() {
+                self.pending = Some(rate);
+                return Ok(());
+            }
+            let p = gen.profile();
+            let tau = if self.steps > *base {
+                (self.last_edge - start) as f64 / self.clock as f64
+            } else {
+                0.0
+            };
+            let v = p.velocity(tau.min(p.duration())).max(0.0);
+            let _ = self.plan_ramp(v, rate)?;
+            self.speed = v;
         }
         self.begin(rate)
     }

@@ -490,3 +490,35 @@ proptest! {
         prop_assert!(ck.cruise_edges > 0);
     }
 }
+
+/// A change during a trapezoid ramp starts at once, from the speed at the last step; a stop
+/// during a ramp takes the shortest distance amax allows.
+#[test]
+fn changes_during_a_trapezoid_ramp_start_at_once() {
+    let limits = TrackLimits {
+        amax: 1000.0,
+        jmax: None,
+    };
+    let mut tr = Tracker::new(F as f64, limits, 0.0, Rate::new(10_000, 1).unwrap()).unwrap();
+    let mut ck = Checker::new(limits.amax);
+    ck.run(&mut tr, 3 * F, &mut core::iter::empty());
+    let v = 1000.0 * ck.last as f64 / F as f64; // the ramp's speed at its last step
+    tr.set_rate(Rate::new(5_000, 1).unwrap()).unwrap();
+    let p = tr.ramp_profile().expect("a new ramp at once");
+    assert!(
+        (p.velocity(0.0) - v).abs() < 1e-3 * v,
+        "{} vs {v}",
+        p.velocity(0.0)
+    );
+    ck.run(&mut tr, ck.last + F / 2, &mut core::iter::empty());
+    let (steps, v) = (ck.steps, 1000.0 * (3.0 + 0.5));
+    tr.stop().unwrap();
+    ck.run(&mut tr, u64::MAX, &mut core::iter::empty());
+    let braking = (ck.steps - steps) as f64;
+    let least = v * v / (2.0 * limits.amax);
+    assert!(
+        braking >= least - 1.0 && braking <= least + 2.0,
+        "{braking} vs {least}"
+    );
+    assert!(tr.next().is_none());
+}
