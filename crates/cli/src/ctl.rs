@@ -13,6 +13,15 @@ pub struct CtlArgs {
     /// A board: NAME=tcp://HOST:PORT or NAME=serial:DEVICE (repeat for several boards)
     #[arg(long = "board", value_name = "NAME=ENDPOINT", required = true)]
     pub boards: Vec<String>,
+    /// Access token for boards on TCP that want one (`serve --listen-token`); falls back to
+    /// the MULTISTEP_LISTEN_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_LISTEN_TOKEN",
+        hide_env_values = true
+    )]
+    pub token: Option<String>,
     #[command(subcommand)]
     pub cmd: CtlCmd,
 }
@@ -118,7 +127,7 @@ struct Boards {
 }
 
 impl Boards {
-    fn connect(specs: &[String]) -> anyhow::Result<Boards> {
+    fn connect(specs: &[String], token: Option<&str>) -> anyhow::Result<Boards> {
         let mut list: Vec<(String, Client)> = Vec::new();
         for s in specs {
             let (name, ep) = s.split_once('=').ok_or_else(|| {
@@ -128,8 +137,12 @@ impl Boards {
                 bail!("board name '{name}' is empty, has ':' or is given twice");
             }
             let endpoint: Endpoint = ep.parse()?;
-            let c =
+            let mut c =
                 connect_patiently(&endpoint).map_err(|e| anyhow!("board {name} ({ep}): {e}"))?;
+            if let (Some(t), Endpoint::Tcp(_)) = (token, &endpoint) {
+                c.authenticate(t)
+                    .with_context(|| format!("board {name}: authentication"))?;
+            }
             list.push((name.to_string(), c));
         }
         Ok(Boards { list })
@@ -196,7 +209,7 @@ fn print_lines(lines: &[String]) {
 }
 
 pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
-    let mut boards = Boards::connect(&a.boards)?;
+    let mut boards = Boards::connect(&a.boards, a.token.as_deref())?;
     match &a.cmd {
         CtlCmd::Move {
             axis,

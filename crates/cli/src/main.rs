@@ -15,6 +15,7 @@ mod plan;
 mod serve;
 mod simulate;
 mod tdm;
+mod track;
 
 #[derive(Parser, Debug)]
 #[command(

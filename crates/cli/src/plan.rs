@@ -16,9 +16,14 @@ pub struct PlanArgs {
     /// Output: table (summary), csv (every edge) or json (summary)
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+    #[command(flatten)]
+    pub track: crate::track::TrackArgs,
 }
 
 pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
+    if args.track.track.is_some() {
+        return crate::track::run(&args.track, &args.mv, args.clock, args.format);
+    }
     let spec = args.mv.spec();
     let mv = spec.resolve()?;
     let profile = Profile::plan(&mv)?;

@@ -3,6 +3,7 @@
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
 use multistep_controller::CtlError;
+use multistep_controller::store::Store;
 use multistep_controller::{service, BoardConfig, Controller};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -29,6 +30,39 @@ pub struct ServeArgs {
     pub http: multistep_web::HttpArgs,
     #[command(flatten)]
     pub alpaca: multistep_alpaca::AlpacaArgs,
+    #[command(flatten)]
+    pub line: LineArgs,
+}
+
+/// Who may connect to the line protocol over TCP, how many at once, and for how long.
+#[derive(Args, Debug)]
+pub struct LineArgs {
+    /// Allow --listen on a non-loopback address (needs --listen-token)
+    #[arg(long)]
+    pub listen_allow_remote: bool,
+    /// Access token TCP clients must send first (`auth TOKEN`), 16 to 256 characters;
+    /// falls back to the MULTISTEP_LISTEN_TOKEN environment variable
+    #[arg(
+        long,
+        value_name = "TOKEN",
+        env = "MULTISTEP_LISTEN_TOKEN",
+        hide_env_values = true
+    )]
+    pub listen_token: Option<String>,
+    /// Most TCP clients at once (1 to 1024); one more gets one error line and is closed
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_clients: usize,
+    /// Close a TCP client that sends no complete line for this many seconds (1 to 86400)
+    #[arg(long, value_name = "S", default_value_t = 600)]
+    pub idle_timeout: u64,
+    /// Close a TCP client whose line is not complete this many seconds after it began; on
+    /// the serial line, drop a line that pauses this long (1 to 3600)
+    #[arg(long, value_name = "S", default_value_t = 10)]
+    pub line_timeout: u64,
+    /// If the database is damaged, move it aside (the new name is printed) and start a new,
+    /// empty board instead of refusing to start
+    #[arg(long)]
+    pub reset_damaged_data: bool,
 }
 
 pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
@@ -36,11 +70,15 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         Some(p) => load_board_config(p)?,
         None => BoardConfig::default(),
     };
+    let l = &a.line;
+    service::check_listen(&a.listen, l.listen_allow_remote, l.listen_token.as_deref())?;
+    let limits = service::Limits::new(l.max_clients, l.idle_timeout, l.line_timeout)?;
     if let Some(dev) = &a.serial {
         // A missing device is a mistake to stop on, not a warning behind a running board.
         std::fs::metadata(dev).with_context(|| format!("serial device {dev}"))?;
     }
-    let ctl = Arc::new(open_controller(&config, &a.data, a.time_scale)?);
+    let store = open_store(&a.data, l.reset_damaged_data)?;
+    let ctl = Arc::new(Controller::open_store(&config, store, a.time_scale)?);
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;
@@ -48,7 +86,7 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     if let Some(dev) = &a.serial {
         let (ctl, dev) = (ctl.clone(), dev.clone());
         std::thread::spawn(move || {
-            if let Err(e) = service::serve_serial(ctl, &dev) {
+            if let Err(e) = service::serve_serial_with(ctl, &dev, limits.line_timeout) {
                 eprintln!("error: {e}");
             }
         });
@@ -57,7 +95,11 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let mut out = std::io::stdout();
     writeln!(out, "board {} listening on tcp://{addr}", config.board.name)?;
     out.flush()?;
-    service::serve_tcp(ctl, listener)?;
+    let opts = service::TcpOptions {
+        limits,
+        token: l.listen_token.clone(),
+    };
+    service::serve_tcp_with(ctl, listener, opts)?;
     Ok(())
 }
 
@@ -84,23 +126,27 @@ fn without_snippet(msg: &str) -> String {
     kept.join(": ")
 }
 
-/// Opens the board on its `--data` directory; storage errors name the directory.
-fn open_controller(
-    config: &BoardConfig,
-    data: &Path,
-    time_scale: f64,
-) -> anyhow::Result<Controller> {
+/// Opens the board's database in its `--data` directory (moving a damaged one aside when
+/// `reset_damaged` is set); storage errors name the directory.
+fn open_store(data: &Path, reset_damaged: bool) -> anyhow::Result<Store> {
     if data.exists() && !data.is_dir() {
         bail!("--data {}: not a directory", data.display());
     }
     std::fs::create_dir_all(data)
         .with_context(|| format!("--data {}: cannot create the directory", data.display()))?;
-    Controller::open(config, data, time_scale).map_err(|e| match e {
+    let (store, aside) = Store::open_or_reset(data, reset_damaged).map_err(|e| match e {
         CtlError::Store(msg) if msg.contains("already open") => anyhow!(
             "--data {}: {msg} (is another `multistep serve` using it?)",
             data.display()
         ),
         CtlError::Store(msg) => anyhow!("--data {}: board database: {msg}", data.display()),
         e => e.into(),
-    })
+    })?;
+    if let Some(p) = aside {
+        eprintln!(
+            "warning: the damaged database was moved to {}; starting a new board",
+            p.display()
+        );
+    }
+    Ok(store)
 }

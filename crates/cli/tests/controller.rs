@@ -17,11 +17,30 @@ struct Server {
 
 impl Server {
     fn start(data: &Path, config: Option<&Path>, time_scale: f64, extra: &[&str]) -> Server {
+        Server::start_with(
+            data,
+            config,
+            time_scale,
+            extra,
+            "127.0.0.1:0",
+            Stdio::inherit(),
+        )
+    }
+
+    /// With the listen address and where stderr goes given.
+    fn start_with(
+        data: &Path,
+        config: Option<&Path>,
+        time_scale: f64,
+        extra: &[&str],
+        listen: &str,
+        stderr: Stdio,
+    ) -> Server {
         let mut cmd = Command::new(BIN);
         cmd.args([
             "serve",
             "--listen",
-            "127.0.0.1:0",
+            listen,
             "--time-scale",
             &time_scale.to_string(),
         ])
@@ -29,7 +48,7 @@ impl Server {
         .arg(data)
         .args(extra)
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit());
+        .stderr(stderr);
         if let Some(c) = config {
             cmd.arg("--board-config").arg(c);
         }
@@ -38,7 +57,9 @@ impl Server {
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut first)
             .unwrap();
-        let addr = first.trim().rsplit("tcp://").next().unwrap().to_string();
+        let addr = first.trim().rsplit("tcp://").next().unwrap();
+        // A board listening on every interface is reached here over loopback.
+        let addr = addr.replace("0.0.0.0:", "127.0.0.1:");
         assert!(addr.contains(':'), "serve said: {first}");
         Server { child, addr }
     }
@@ -485,4 +506,558 @@ fn ctl_talks_to_a_board_over_a_serial_line() {
         t.join().unwrap();
     }
     drop((board_s, host_s));
+}
+
+// ---- hardening: limits, partial lines, authentication, damaged data, crash recovery ----
+
+/// Reads one connection to its end (the board closes it): everything it said.
+fn read_all(s: &mut std::net::TcpStream) -> String {
+    s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    let mut out = String::new();
+    let _ = s.read_to_string(&mut out);
+    out
+}
+
+/// `multistep serve ARGS` that is expected to exit: (code, stderr). Killed after 60 s.
+fn serve_exits(args: &[&str], data: &Path) -> (Option<i32>, String) {
+    let mut child = Command::new(BIN)
+        .arg("serve")
+        .arg("--data")
+        .arg(data)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let code = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st.code();
+        }
+        if t0.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (code, err)
+}
+
+fn refused(r: Result<Vec<String>, ClientError>) -> (u16, String) {
+    match r {
+        Err(ClientError::Refused(r)) => (r.code, r.message),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+}
+
+#[test]
+fn settings_out_of_range_are_refused_and_one_stored_by_an_older_build_is_clamped() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    {
+        let mut srv = Server::start(&data, None, 10.0, &[]);
+        let mut c = srv.client();
+        for (key, value) in [
+            ("sim.bounce_count", "4294967295"),
+            ("sim.bounce_count", "101"),
+            ("steps_per_unit", "1e-320"),
+            ("vmax", "1e7"),
+            ("home_search", "18446744073709551615"),
+            ("debounce", "1e300"),
+        ] {
+            let (code, msg) = refused(c.request(&format!("set X {key} {value}")));
+            assert_eq!(code, 9, "set X {key} {value}: {msg}");
+            assert!(msg.contains(key), "{msg}");
+        }
+        assert_eq!(
+            c.request("get X sim.bounce_count").unwrap(),
+            ["sim.bounce_count=0"]
+        );
+        c.request("set X sim.bounce_count 100").unwrap();
+        srv.kill9();
+    }
+    // An older build stored a value out of today's range: the board starts, says so once,
+    // and uses the nearest allowed value.
+    {
+        let store = multistep_controller::store::Store::open(&data).unwrap();
+        let mut s = store.settings("X").unwrap().unwrap();
+        s.sim.bounce_count = u32::MAX;
+        s.sim.bounce_time = 0.01;
+        s.sim.sensor_at = -50;
+        store.put_settings("X", &s).unwrap();
+    }
+    let log = dir.path().join("stderr.txt");
+    let srv = Server::start_with(
+        &data,
+        None,
+        10.0,
+        &[],
+        "127.0.0.1:0",
+        Stdio::from(std::fs::File::create(&log).unwrap()),
+    );
+    let mut c = srv.client();
+    assert_eq!(
+        c.request("get X sim.bounce_count").unwrap(),
+        ["sim.bounce_count=100"]
+    );
+    let err = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        err.contains(
+            "warning: axis X: stored sim.bounce_count 4294967295 is outside [0, 100]; using 100"
+        ),
+        "{err}"
+    );
+    assert!(c
+        .request("info")
+        .unwrap()
+        .iter()
+        .any(|l| l.contains("sim.bounce_count")));
+    // Crossing the bouncing sensor works and the board stays responsive.
+    c.request("move X -200").unwrap();
+    let x = wait_idle(&mut c, "X");
+    assert_eq!(x.position, -200);
+}
+
+#[test]
+fn no_setting_in_range_makes_estop_or_any_command_slow() {
+    let dir = tempfile::tempdir().unwrap();
+    // The heaviest simulation the ranges allow, run 10 000 times faster than the wall clock:
+    // far more work than the machine can do in real time.
+    let srv = Server::start(dir.path(), None, 10_000.0, &[]);
+    let mut c = srv.client();
+    for a in ["X", "Y", "Z", "A"] {
+        for (k, v) in [
+            ("vmax", "1e6"),
+            ("amax", "1e9"),
+            ("sim.sensor_width", "1"),
+            ("sim.bounce_count", "100"),
+            ("sim.bounce_time", "1"),
+            ("sim.glitch_rate", "1e4"),
+            ("sim.glitch_max", "1"),
+            ("sim.glitch_gap", "0"),
+        ] {
+            c.request(&format!("set {a} {k} {v}")).unwrap();
+        }
+        c.request(&format!("set {a} period 2")).unwrap();
+    }
+    c.request("group move X=1 Y=1 Z=1 A=1").unwrap();
+    for a in ["X", "Y", "Z", "A"] {
+        wait_idle(&mut c, a);
+        c.request(&format!("set {a} period none")).unwrap();
+        c.request(&format!("move {a} 20000000 vmax=200000"))
+            .unwrap();
+    }
+    let mut slowest = Duration::ZERO;
+    for _ in 0..20 {
+        std::thread::sleep(Duration::from_millis(20));
+        let t0 = Instant::now();
+        c.request("status").unwrap();
+        slowest = slowest.max(t0.elapsed());
+    }
+    let t0 = Instant::now();
+    c.request("estop").unwrap();
+    let estop = t0.elapsed();
+    // Generous bounds (the machine is shared); without the work budget these take minutes.
+    assert!(estop < Duration::from_secs(3), "estop took {estop:?}");
+    assert!(slowest < Duration::from_secs(3), "status took {slowest:?}");
+    let st = c.status().unwrap();
+    assert!(st.iter().all(|s| s.state != AxisState::Moving), "{st:?}");
+    // A move too long to time quickly is refused rather than holding the board up.
+    c.request("reset").unwrap();
+    let (code, msg) = refused(c.request("move X 900000000000"));
+    assert_eq!(code, 15, "{msg}");
+}
+
+#[test]
+fn a_line_cut_off_by_a_disconnect_is_never_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let srv = Server::start(dir.path(), None, 10.0, &[]);
+    for partial in [&b"move Y 12"[..], b"set Y vmax 3", b"version\nmove Y 5"] {
+        let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
+        s.write_all(partial).unwrap();
+        s.shutdown(std::net::Shutdown::Write).unwrap();
+        let out = read_all(&mut s);
+        let complete = partial.iter().filter(|&&b| b == b'\n').count();
+        assert_eq!(out.matches("ok\n").count(), complete, "{out:?}");
+    }
+    let mut c = srv.client();
+    assert_eq!(status(&mut c, "Y").position, 0);
+    assert_eq!(c.request("get Y vmax").unwrap(), ["vmax=4000.0"]);
+}
+
+/// A pseudo-terminal master opened close-on-exec, so that no process spawned meanwhile
+/// holds it: closing it hangs the line up.
+struct Pty {
+    master: std::fs::File,
+    slave: String,
+}
+
+impl Pty {
+    fn open() -> Pty {
+        use std::os::fd::FromRawFd;
+        // SAFETY: plain libc calls on a descriptor this function owns.
+        unsafe {
+            let fd = libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY | libc::O_CLOEXEC);
+            assert!(fd >= 0, "posix_openpt");
+            assert_eq!(libc::grantpt(fd), 0);
+            assert_eq!(libc::unlockpt(fd), 0);
+            let mut name = [0 as libc::c_char; 128];
+            assert_eq!(libc::ptsname_r(fd, name.as_mut_ptr(), name.len()), 0);
+            let slave = std::ffi::CStr::from_ptr(name.as_ptr())
+                .to_str()
+                .unwrap()
+                .to_string();
+            Pty {
+                master: std::fs::File::from_raw_fd(fd),
+                slave,
+            }
+        }
+    }
+
+    /// Reads until `want` and a newline have come (30 s at most).
+    fn read_until(&mut self, want: &str) -> String {
+        use std::os::fd::AsRawFd;
+        let mut got = String::new();
+        let t0 = Instant::now();
+        while !(got.contains(want) && got.ends_with('\n')) {
+            assert!(
+                t0.elapsed() < Duration::from_secs(30),
+                "no '{want}': {got:?}"
+            );
+            let mut p = libc::pollfd {
+                fd: self.master.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            // SAFETY: one valid pollfd.
+            if unsafe { libc::poll(&mut p, 1, 100) } == 1 && p.revents & libc::POLLIN != 0 {
+                let mut buf = [0u8; 1024];
+                if let Ok(n) = self.master.read(&mut buf) {
+                    got.push_str(&String::from_utf8_lossy(&buf[..n]));
+                }
+            }
+        }
+        got
+    }
+}
+
+#[test]
+fn a_paused_partial_serial_line_is_dropped_and_a_hang_up_drops_it_too() {
+    let dir = tempfile::tempdir().unwrap();
+    // The board opens the device by a name that is pointed at a new pseudo-terminal when
+    // the first one hangs up: a cable unplugged and plugged in again.
+    let link = dir.path().join("tty");
+    let mut pty = Pty::open();
+    std::os::unix::fs::symlink(&pty.slave, &link).unwrap();
+    let link_s = link.to_str().unwrap().to_string();
+    let srv = Server::start(
+        &dir.path().join("data"),
+        None,
+        10.0,
+        &["--serial", &link_s, "--line-timeout", "1"],
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    pty.master.write_all(b"version\n").unwrap();
+    pty.read_until("ok\n");
+    // A host that sent half a line, went away and came back: the pause drops the half.
+    pty.master.write_all(b"move X 1").unwrap();
+    std::thread::sleep(Duration::from_millis(1800));
+    pty.master.write_all(b"0\n").unwrap();
+    let got = pty.read_until("error:");
+    assert!(got.starts_with("error:3 unknown command '0'"), "{got:?}");
+    // Half a line, then the line hangs up and a new one comes on the same name.
+    pty.master.write_all(b"move X 1").unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    drop(pty);
+    std::fs::remove_file(&link).unwrap();
+    let mut pty = Pty::open();
+    std::os::unix::fs::symlink(&pty.slave, &link).unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    pty.master.write_all(b"0\n").unwrap();
+    let got = pty.read_until("error:");
+    assert!(got.starts_with("error:3 unknown command '0'"), "{got:?}");
+    let mut c = srv.client();
+    assert_eq!(status(&mut c, "X").position, 0, "no partial line was run");
+}
+
+const TOKEN: &str = "s3cret-token-0123456789";
+
+#[test]
+fn the_line_protocol_off_loopback_needs_the_flag_and_a_token() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let (code, err) = serve_exits(&["--listen", "0.0.0.0:0"], &data);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.starts_with("error:") && err.contains("--listen-allow-remote"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let (code, err) = serve_exits(&["--listen", "0.0.0.0:0", "--listen-allow-remote"], &data);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("--listen-token"), "{err}");
+    let (code, err) = serve_exits(
+        &[
+            "--listen",
+            "0.0.0.0:0",
+            "--listen-allow-remote",
+            "--listen-token",
+            "short",
+        ],
+        &data,
+    );
+    assert_eq!(code, Some(2));
+    assert!(err.contains("16 to 256"), "{err}");
+
+    let srv = Server::start_with(
+        &data,
+        None,
+        10.0,
+        &["--listen-allow-remote", "--listen-token", TOKEN],
+        "0.0.0.0:0",
+        Stdio::inherit(),
+    );
+    // Without `auth` first: one error line, closed, nothing run.
+    let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
+    s.write_all(b"move X 10\nmove X 10\n").unwrap();
+    let out = read_all(&mut s);
+    assert!(
+        out.starts_with("error:16 authentication required"),
+        "{out:?}"
+    );
+    assert_eq!(out.lines().count(), 1, "{out:?}");
+    let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
+    s.write_all(b"auth not-the-token-at-all\nmove X 10\n")
+        .unwrap();
+    let out = read_all(&mut s);
+    assert!(out.starts_with("error:16 wrong token"), "{out:?}");
+    assert_eq!(out.lines().count(), 1, "{out:?}");
+    // With it, the connection is a normal one.
+    let mut c = srv.client();
+    c.authenticate(TOKEN).unwrap();
+    assert_eq!(status(&mut c, "X").position, 0);
+    // ctl passes the token; without it ctl fails with the board's refusal.
+    let boards = [format!("b=tcp://{}", srv.addr)];
+    let (code, out, err) = run_ctl(&boards, &["--token", TOKEN, "move", "X", "10"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(out, "X target=10\n");
+    let (code, _, err) = run_ctl(&boards, &["move", "X", "10"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("error:16"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+}
+
+#[test]
+fn clients_are_capped_and_idle_or_dribbling_clients_are_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let srv = Server::start(
+        dir.path(),
+        None,
+        10.0,
+        &[
+            "--max-clients",
+            "2",
+            "--idle-timeout",
+            "3",
+            "--line-timeout",
+            "1",
+        ],
+    );
+    let mut a = srv.client();
+    let mut b = srv.client();
+    a.request("version").unwrap();
+    b.request("version").unwrap();
+    let mut third = std::net::TcpStream::connect(&srv.addr).unwrap();
+    let out = read_all(&mut third);
+    assert!(
+        out.starts_with("error:17 too many clients (at most 2)"),
+        "{out:?}"
+    );
+    assert_eq!(out.lines().count(), 1);
+    drop(b);
+    // The slot comes back once the board sees the client gone.
+    let t0 = Instant::now();
+    let mut slowloris = loop {
+        let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
+        s.write_all(b"version\n").unwrap();
+        let mut r = BufReader::new(s.try_clone().unwrap());
+        let mut l = String::new();
+        r.read_line(&mut l).unwrap();
+        if l.starts_with("multistep-controller") {
+            r.read_line(&mut l).unwrap();
+            break s;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "{l}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    // A line that never ends closes its connection, unrun, even while bytes trickle in.
+    let t0 = Instant::now();
+    for b in b"move X" {
+        if slowloris.write_all(&[*b]).is_err() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let out = read_all(&mut slowloris);
+    assert!(
+        out.contains("error:17 line not completed within 1 s"),
+        "{out:?}"
+    );
+    assert!(t0.elapsed() < Duration::from_secs(30));
+    // An idle client is closed after the idle timeout with one line.
+    let mut idle = std::net::TcpStream::connect(&srv.addr).unwrap();
+    let t0 = Instant::now();
+    let out = read_all(&mut idle);
+    assert!(out.starts_with("error:17 idle for 3 s"), "{out:?}");
+    assert!(t0.elapsed() >= Duration::from_secs(2), "{:?}", t0.elapsed());
+    // The first client, also idle by now, went the same way; a new one is served.
+    let _ = a.request("version");
+    let mut c = srv.client();
+    assert_eq!(status(&mut c, "X").position, 0);
+    let (code, err) = serve_exits(
+        &["--listen", "127.0.0.1:0", "--max-clients", "0"],
+        dir.path(),
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("max clients must be in [1, 1024]"), "{err}");
+}
+
+#[test]
+fn a_damaged_database_gives_one_error_line_and_a_fresh_start_needs_a_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    {
+        let mut srv = Server::start(&data, None, 10.0, &[]);
+        let mut c = srv.client();
+        c.request("set X vmax 1234").unwrap();
+        c.request("save here").unwrap();
+        srv.kill9();
+    }
+    let db = data.join("board.redb");
+    let full = std::fs::read(&db).unwrap();
+    let listen = ["--listen", "127.0.0.1:0"];
+    for (what, bytes) in [
+        ("truncated", &full[..full.len() / 2]),
+        ("empty", &full[..0]),
+    ] {
+        std::fs::write(&db, bytes).unwrap();
+        let (code, err) = serve_exits(&listen, &data);
+        assert_eq!(code, Some(2), "{what}: {err}");
+        assert_eq!(err.lines().count(), 1, "{what}: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains("damaged"),
+            "{what}: {err}"
+        );
+        assert!(
+            err.contains("--reset-damaged-data") && !err.contains("panicked"),
+            "{err}"
+        );
+        assert_eq!(
+            std::fs::read(&db).unwrap(),
+            bytes,
+            "{what}: the file is left as it was"
+        );
+    }
+    // With the flag: the damaged file is kept aside under the name printed.
+    std::fs::write(&db, &full[..full.len() / 2]).unwrap();
+    let log = dir.path().join("stderr.txt");
+    let srv = Server::start_with(
+        &data,
+        None,
+        10.0,
+        &["--reset-damaged-data"],
+        "127.0.0.1:0",
+        Stdio::from(std::fs::File::create(&log).unwrap()),
+    );
+    let mut c = srv.client();
+    assert_eq!(
+        c.request("get X vmax").unwrap(),
+        ["vmax=4000.0"],
+        "a new board"
+    );
+    let err = std::fs::read_to_string(&log).unwrap();
+    let aside = err
+        .split("moved to ")
+        .nth(1)
+        .and_then(|r| r.split(';').next())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert_eq!(std::fs::read(aside).unwrap(), &full[..full.len() / 2]);
+}
+
+#[test]
+fn after_kill_9_during_homing_the_mechanics_are_where_they_were_and_homing_works() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write_config(
+        dir.path(),
+        "[[axis]]\nname = \"X\"\nhome_speed = 2000.0\n[axis.sim]\nsensor_at = -60000\n",
+    );
+    let data = dir.path().join("data");
+    let mut srv = Server::start(&data, Some(&cfg), 20.0, &[]);
+    let mut c = srv.client();
+    c.request("home X").unwrap();
+    // 2000 steps/s × 20: the sensor is 1.5 s away; kill half a second in.
+    std::thread::sleep(Duration::from_millis(500));
+    let before = status(&mut c, "X");
+    assert_eq!(before.state, AxisState::Homing);
+    std::thread::sleep(Duration::from_millis(100));
+    srv.kill9();
+    let srv = Server::start(&data, Some(&cfg), 20.0, &[]);
+    let mut c = srv.client();
+    let x = status(&mut c, "X");
+    assert!(!x.homed && !x.trusted);
+    assert!(
+        x.sim_position <= before.sim_position && x.sim_position > -60000,
+        "the mechanics came back at {} (seen at {} before the kill)",
+        x.sim_position,
+        before.sim_position
+    );
+    c.request("home X").unwrap();
+    let x = wait_idle(&mut c, "X");
+    assert!(x.homed && x.trusted && x.fault.is_none(), "{x:?}");
+    assert_eq!(x.position, 0);
+    assert!((x.sim_position + 60000).abs() <= 1, "{x:?}");
+}
+
+#[test]
+fn small_protocol_edges_crlf_limit_and_the_most_negative_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let srv = Server::start(dir.path(), None, 10.0, &[]);
+    let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
+    // A 4096-byte comment line: the same answer with LF and CRLF; 4097 bytes is too long.
+    let mut input = Vec::new();
+    for end in [&b"\n"[..], b"\r\n"] {
+        input.push(b'#');
+        input.extend(std::iter::repeat_n(b'x', 4095));
+        input.extend_from_slice(end);
+    }
+    input.push(b'#');
+    input.extend(std::iter::repeat_n(b'x', 4096));
+    input.extend_from_slice(b"\r\n");
+    input.extend_from_slice(b"moveto X -9223372036854775808\nmove X 9223372036854775807\n");
+    s.write_all(&input).unwrap();
+    s.shutdown(std::net::Shutdown::Write).unwrap();
+    let out = read_all(&mut s);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(
+        lines[..3],
+        ["ok", "ok", "error:1 line is longer than 4096 bytes"],
+        "{out}"
+    );
+    assert!(
+        lines[3].starts_with("error:5 target -9223372036854775808 is outside"),
+        "{out}"
+    );
+    assert!(
+        lines[4].starts_with("error:5 target 9223372036854775807 is outside"),
+        "{out}"
+    );
+    assert_eq!(lines.len(), 5, "{out}");
 }

@@ -107,60 +107,250 @@ impl Default for AxisSettings {
     }
 }
 
+/// Largest position, distance or offset anywhere on a board (microsteps): ±10^15, well
+/// inside what an f64 holds exactly, so unit conversions and sums never overflow an i64.
+pub const MAX_POSITION: i64 = 1_000_000_000_000_000;
+
+/// The allowed range of one numeric setting (inclusive at both ends).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub key: &'static str,
+    pub min: f64,
+    pub max: f64,
+}
+
+const P: f64 = MAX_POSITION as f64;
+
+/// Every numeric setting and its range (docs/PROTOCOL.md lists the same table). The upper
+/// bounds keep every command's work small: the simulation's cost per step, per sensor edge
+/// and per second of motion is bounded by them.
+pub const RANGES: &[Range] = &[
+    Range {
+        key: "microsteps",
+        min: 1.0,
+        max: 256.0,
+    },
+    Range {
+        key: "steps_per_unit",
+        min: 1e-6,
+        max: 1e9,
+    },
+    Range {
+        key: "vmax",
+        min: 1e-3,
+        max: 1e6,
+    },
+    Range {
+        key: "amax",
+        min: 1e-3,
+        max: 1e9,
+    },
+    Range {
+        key: "jmax",
+        min: 1e-3,
+        max: 1e13,
+    },
+    Range {
+        key: "smax",
+        min: 1e-3,
+        max: 1e17,
+    },
+    Range {
+        key: "soft_min",
+        min: -P,
+        max: P,
+    },
+    Range {
+        key: "soft_max",
+        min: -P,
+        max: P,
+    },
+    Range {
+        key: "period",
+        min: 1.0,
+        max: P,
+    },
+    Range {
+        key: "home_offset",
+        min: -P,
+        max: P,
+    },
+    Range {
+        key: "home_dir",
+        min: -1.0,
+        max: 1.0,
+    },
+    Range {
+        key: "debounce",
+        min: 1e-6,
+        max: 10.0,
+    },
+    Range {
+        key: "home_speed",
+        min: 1e-3,
+        max: 1e6,
+    },
+    Range {
+        key: "home_slow_speed",
+        min: 1e-3,
+        max: 1e6,
+    },
+    Range {
+        key: "home_backoff",
+        min: 1.0,
+        max: 1e9,
+    },
+    Range {
+        key: "home_search",
+        min: 1.0,
+        max: P,
+    },
+    Range {
+        key: "sim.sensor_at",
+        min: -P,
+        max: P,
+    },
+    Range {
+        key: "sim.sensor_width",
+        min: 1.0,
+        max: P,
+    },
+    Range {
+        key: "sim.bounce_count",
+        min: 0.0,
+        max: 100.0,
+    },
+    Range {
+        key: "sim.bounce_time",
+        min: 0.0,
+        max: 1.0,
+    },
+    Range {
+        key: "sim.glitch_rate",
+        min: 0.0,
+        max: 1e4,
+    },
+    Range {
+        key: "sim.glitch_max",
+        min: 0.0,
+        max: 1.0,
+    },
+    Range {
+        key: "sim.glitch_gap",
+        min: 0.0,
+        max: 3600.0,
+    },
+];
+
+impl Range {
+    pub fn contains(&self, v: f64) -> bool {
+        v.is_finite() && v >= self.min && v <= self.max
+    }
+}
+
+/// A number as the docs print it: integers without a fraction, big ones in e-notation.
+pub fn show_bound(v: f64) -> String {
+    if v.abs() >= 1e7 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 impl AxisSettings {
-    /// Checks the values that the rest of the controller relies on.
+    /// The numeric settings by key, `None` for an unset optional one.
+    fn numbers(&self) -> Vec<(&'static str, Option<f64>)> {
+        let s = &self.sim;
+        vec![
+            ("microsteps", Some(self.microsteps as f64)),
+            ("steps_per_unit", Some(self.steps_per_unit)),
+            ("vmax", Some(self.vmax)),
+            ("amax", Some(self.amax)),
+            ("jmax", self.jmax),
+            ("smax", self.smax),
+            ("soft_min", self.soft_min.map(|x| x as f64)),
+            ("soft_max", self.soft_max.map(|x| x as f64)),
+            ("period", self.period.map(|x| x as f64)),
+            ("home_offset", Some(self.home_offset as f64)),
+            ("home_dir", Some(self.home_dir as f64)),
+            ("debounce", Some(self.debounce)),
+            ("home_speed", Some(self.home_speed)),
+            ("home_slow_speed", Some(self.home_slow_speed)),
+            ("home_backoff", Some(self.home_backoff as f64)),
+            ("home_search", Some(self.home_search as f64)),
+            ("sim.sensor_at", Some(s.sensor_at as f64)),
+            ("sim.sensor_width", Some(s.sensor_width as f64)),
+            ("sim.bounce_count", Some(s.bounce_count as f64)),
+            ("sim.bounce_time", Some(s.bounce_time)),
+            ("sim.glitch_rate", Some(s.glitch_rate)),
+            ("sim.glitch_max", Some(s.glitch_max)),
+            ("sim.glitch_gap", Some(s.glitch_gap)),
+        ]
+    }
+
+    /// Checks every setting against its range and the values against each other.
     pub fn validate(&self) -> Result<(), CtlError> {
         let bad = |m: String| Err(CtlError::Setting(m));
-        let pos = |name: &str, v: f64| -> Result<(), CtlError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(CtlError::Setting(format!(
-                    "{name} must be a positive number (got {v})"
-                )))
+        for (key, v) in self.numbers() {
+            let Some(v) = v else { continue };
+            let r = range_of(key);
+            if !r.contains(v) {
+                return bad(format!(
+                    "{key} must be in [{}, {}] (got {v})",
+                    show_bound(r.min),
+                    show_bound(r.max)
+                ));
             }
-        };
-        pos("steps_per_unit", self.steps_per_unit)?;
-        pos("vmax", self.vmax)?;
-        pos("amax", self.amax)?;
-        pos("debounce", self.debounce)?;
-        pos("home_speed", self.home_speed)?;
-        pos("home_slow_speed", self.home_slow_speed)?;
-        if let Some(j) = self.jmax {
-            pos("jmax", j)?;
-        }
-        if let Some(s) = self.smax {
-            pos("smax", s)?;
         }
         if self.home_dir != 1 && self.home_dir != -1 {
             return bad(format!("home_dir must be -1 or 1 (got {})", self.home_dir));
-        }
-        if self.period == Some(0) {
-            return bad("period must be at least 1 microstep".into());
         }
         if let (Some(lo), Some(hi)) = (self.soft_min, self.soft_max) {
             if lo > hi {
                 return bad(format!("soft_min {lo} is above soft_max {hi}"));
             }
         }
-        if self.home_backoff == 0 || self.home_search == 0 {
-            return bad("home_backoff and home_search must be at least 1".into());
-        }
-        let s = &self.sim;
-        if s.sensor_width == 0 {
-            return bad("sim.sensor_width must be at least 1".into());
-        }
-        for (name, v) in [
-            ("sim.bounce_time", s.bounce_time),
-            ("sim.glitch_rate", s.glitch_rate),
-            ("sim.glitch_max", s.glitch_max),
-            ("sim.glitch_gap", s.glitch_gap),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be a number ≥ 0 (got {v})"));
+        multistep_core::Family::parse(&self.profile, None, None, None)?;
+        Ok(())
+    }
+
+    /// Brings every numeric setting into its range (values stored by an older build that
+    /// checked less); returns one line per value changed.
+    pub fn clamp_to_ranges(&mut self) -> Vec<String> {
+        let mut notes = Vec::new();
+        for (key, v) in self.numbers() {
+            let Some(v) = v else { continue };
+            let r = range_of(key);
+            if r.contains(v) {
+                continue;
+            }
+            let to = if v.is_nan() || v < r.min {
+                r.min
+            } else {
+                r.max
+            };
+            let text = if to.fract() == 0.0 && to.abs() < 1e16 {
+                format!("{}", to as i64)
+            } else {
+                format!("{to:e}")
+            };
+            if self.set_unchecked(key, &text).is_ok() {
+                notes.push(format!(
+                    "{key} {v} is outside [{}, {}]; using {text}",
+                    show_bound(r.min),
+                    show_bound(r.max)
+                ));
             }
         }
-        multistep_core::Family::parse(&self.profile, None, None, None)?;
+        notes
+    }
+
+    /// `set` without the final check (clamping one value while others are still out).
+    fn set_unchecked(&mut self, key: &str, value: &str) -> Result<(), CtlError> {
+        let mut v = serde_json::to_value(&*self)?;
+        let slot = lookup_mut(&mut v, key).ok_or_else(|| unknown_key(key))?;
+        *slot = serde_json::from_str(value)?;
+        *self = serde_json::from_value(v)?;
         Ok(())
     }
 
@@ -206,6 +396,13 @@ impl AxisSettings {
         *self = new;
         Ok(())
     }
+}
+
+fn range_of(key: &str) -> Range {
+    *RANGES
+        .iter()
+        .find(|r| r.key == key)
+        .expect("every numeric setting has a range")
 }
 
 fn unknown_key(key: &str) -> CtlError {
@@ -265,6 +462,9 @@ impl AxisState {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AxisStatus {
     pub axis: String,
+    /// The axis's 0-based number on its board (accepted wherever its name is).
+    #[serde(default)]
+    pub number: usize,
     /// Counted position (microsteps).
     pub position: i64,
     /// `position / steps_per_unit`.
@@ -300,7 +500,7 @@ impl AxisStatus {
     pub fn line(&self) -> String {
         let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
         format!(
-            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={}",
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} num={}",
             self.axis,
             self.position,
             self.units,
@@ -312,6 +512,7 @@ impl AxisStatus {
             self.sensor as u8,
             opt(self.drift),
             self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
+            self.number,
         )
     }
 }

@@ -2,11 +2,11 @@
 //! store. Time is explicit — every method takes the board tick `now` — so the same code runs
 //! in real time under [`crate::Controller`] and in virtual time in tests.
 
-use crate::axis::{AxisSettings, AxisState, AxisStatus};
+use crate::axis::{AxisSettings, AxisState, AxisStatus, MAX_POSITION};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_group, start_move, stop_profile, StepSource};
+use crate::motion::{start_move, start_timed, stop_profile, StepSource};
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::tdm::TdmConfig;
@@ -15,6 +15,31 @@ use std::collections::BTreeMap;
 
 mod preview;
 pub use preview::PlannedAxis;
+
+/// Most steps (summed over its axes) of one move or group: the TDM engine times every
+/// edge before the move starts (about 40 ns each), so this bounds the time a move takes
+/// to start (about 4 s at most, outside the board lock).
+pub const MAX_TIMED_STEPS: u64 = 100_000_000;
+
+/// A group move planned and waiting for its TDM timing and start.
+pub struct PendingGroup {
+    plan: Vec<(usize, i64)>,
+    profiles: Vec<Option<Profile>>,
+    /// Count and settings of each axis when planned; the start checks they still hold.
+    before: Vec<(i64, AxisSettings)>,
+    tdm: TdmConfig,
+}
+
+impl PendingGroup {
+    /// Runs the TDM engine over the group (none needed when nothing moves).
+    pub fn time(&self) -> Result<Option<multistep_core::tdm::Report>, CtlError> {
+        let moving: Vec<Profile> = self.profiles.iter().flatten().cloned().collect();
+        if moving.is_empty() {
+            return Ok(None);
+        }
+        crate::motion::tdm_report(&moving, &self.tdm).map(Some)
+    }
+}
 
 /// Phases of homing (seed 002 §2.3, with the usual back-off and slow re-approach).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,6 +88,8 @@ struct Axis {
     move_end: Option<u64>,
     /// A moving marker is on disk.
     marked: bool,
+    /// The (from, target) of that marker.
+    marker: Option<(i64, i64)>,
     /// Direction of the last move (+1/-1), for the DIR line level.
     last_dir: i64,
 }
@@ -107,6 +134,40 @@ pub struct Board {
     now: u64,
     /// Problems met while advancing (store failures), reported by `info`.
     warnings: Vec<String>,
+    work_budget: Option<u64>,
+    work: u64,
+    max_advance_work: u64,
+    /// Simulated mechanics and sensors stand behind the axes (always, in this build).
+    simulated: bool,
+}
+
+/// The stored settings of an axis, brought into range; `None` (use the board config) if
+/// there are none or they cannot be read. What was changed goes to `warnings`.
+fn stored_settings(store: &Store, axis: &str, warnings: &mut Vec<String>) -> Option<AxisSettings> {
+    let mut s = match store.settings(axis) {
+        Ok(s) => s?,
+        Err(e) => {
+            warnings.push(format!(
+                "axis {axis}: stored settings unreadable ({e}); using the board config"
+            ));
+            return None;
+        }
+    };
+    for note in s.clamp_to_ranges() {
+        warnings.push(format!("axis {axis}: stored {note}"));
+    }
+    match s.validate() {
+        Ok(()) => {
+            let _ = store.put_settings(axis, &s);
+            Some(s)
+        }
+        Err(e) => {
+            warnings.push(format!(
+                "axis {axis}: stored settings refused ({e}); using the board config"
+            ));
+            None
+        }
+    }
 }
 
 impl Board {
@@ -116,8 +177,10 @@ impl Board {
         config.validate()?;
         let clock_hz = config.board.clock_hz;
         let mut axes = Vec::new();
+        let mut warnings = Vec::new();
+        let sim = store.sim();
         for ac in &config.axes {
-            let settings = match store.settings(&ac.name)? {
+            let settings = match stored_settings(&store, &ac.name, &mut warnings) {
                 Some(s) => s,
                 None => ac.settings.clone(),
             };
@@ -138,13 +201,19 @@ impl Board {
                 move_start: None,
                 move_end: None,
                 marked: false,
+                marker: None,
                 last_dir: 1,
             };
             if let Some(m) = rec.moving {
-                // Died mid-move: the count says `from`, the mechanics are somewhere on the
-                // way (the simulation puts them halfway). Untrusted until homed.
+                // Died mid-move: the count says `from`; the mechanics stayed where they were
+                // (last written down while moving, else where the move began). Untrusted
+                // until homed.
                 axis.count = m.from;
-                axis.sim_pos = m.from + (m.target - m.from) / 2;
+                if let Some(sm) = sim.get(&ac.name) {
+                    if (sm.from, sm.target) == (m.from, m.target) {
+                        axis.sim_pos = sm.sim_position;
+                    }
+                }
                 axis.homed = false;
                 axis.trusted = false;
                 store.put_axis(&axis.name, &axis.record(None))?;
@@ -159,8 +228,35 @@ impl Board {
             store,
             estopped: false,
             now: 0,
-            warnings: Vec::new(),
+            warnings,
+            work_budget: None,
+            work: 0,
+            max_advance_work: 0,
+            simulated: true,
         })
+    }
+
+    /// Limits the work of one `advance` (steps plus sensor events): past it the board's
+    /// clock falls behind the wall clock instead of holding every command up. `None`
+    /// (the default, for virtual time) advances all the way.
+    pub fn set_work_budget(&mut self, budget: Option<u64>) {
+        self.work_budget = budget;
+    }
+
+    /// Work done so far (steps plus sensor events), and the most any one advance did.
+    pub fn work(&self) -> (u64, u64) {
+        (self.work, self.max_advance_work)
+    }
+
+    /// This board as a hardware backend will be: no simulated mechanics behind it, so the
+    /// simulation's own commands (`sim …`) are refused.
+    pub fn without_simulation(mut self) -> Board {
+        self.simulated = false;
+        self
+    }
+
+    pub fn is_simulated(&self) -> bool {
+        self.simulated
     }
 
     pub fn name(&self) -> &str {
@@ -192,22 +288,76 @@ impl Board {
         }
     }
 
+    /// An axis by name or, when no axis has that name, by its 0-based number on the board.
     fn index(&self, name: &str) -> Result<usize, CtlError> {
         self.axes
             .iter()
             .position(|a| a.name == name)
+            .or_else(|| axis_number(name).filter(|&i| i < self.axes.len()))
             .ok_or_else(|| CtlError::UnknownAxis(name.to_string()))
     }
 
     // ---- time ----------------------------------------------------------------------------
 
     /// Runs every axis up to tick `now`: steps, sensor, homing phases, persistence.
+    /// With a work budget the run goes in slices short enough that one slice costs at most
+    /// an eighth of the budget, and stops after the slice that uses it up.
     pub fn advance(&mut self, now: u64) {
         let now = now.max(self.now);
-        for i in 0..self.axes.len() {
-            self.advance_axis(i, now);
+        let Some(budget) = self.work_budget else {
+            let w0 = self.work_done();
+            for i in 0..self.axes.len() {
+                self.advance_axis(i, now);
+            }
+            self.now = now;
+            self.note_work(w0);
+            return;
+        };
+        let w0 = self.work_done();
+        let slice = self.slice_ticks(budget / 8);
+        while self.now < now && self.work_done() - w0 < budget {
+            let until = now.min(self.now.saturating_add(slice));
+            for i in 0..self.axes.len() {
+                if self.axes[i].motion.is_some() {
+                    // Looking at an axis is work too, even in a slice without events.
+                    self.work += 1;
+                    self.advance_axis(i, until);
+                }
+            }
+            self.now = until;
         }
-        self.now = now;
+        self.note_work(w0);
+    }
+
+    /// Steps taken plus sensor events handled, over the board's life.
+    fn work_done(&self) -> u64 {
+        self.work + self.axes.iter().map(|a| a.hall.work).sum::<u64>()
+    }
+
+    fn note_work(&mut self, w0: u64) {
+        let total = self.work_done();
+        self.max_advance_work = self.max_advance_work.max(total - w0);
+    }
+
+    /// Ticks in which the moving axes do at most `work` steps and sensor events: an axis
+    /// steps at most vmax per second (every move is checked against it), each step makes at
+    /// most one sensor edge with up to 2·bounce_count toggles (two events each), and glitches come at
+    /// glitch_rate (two events each; 10× for the randomness of a Poisson process).
+    fn slice_ticks(&self, work: u64) -> u64 {
+        let rate: f64 = self
+            .axes
+            .iter()
+            .filter(|a| a.motion.is_some())
+            .map(|a| {
+                let s = &a.settings;
+                s.vmax.max(s.home_speed) * (2.0 + 4.0 * s.sim.bounce_count as f64)
+                    + 20.0 * s.sim.glitch_rate
+            })
+            .sum();
+        if rate <= 0.0 {
+            return u64::MAX;
+        }
+        ((work.max(1) as f64 / rate) * self.clock_hz).clamp(1.0, 1e18) as u64
     }
 
     fn advance_axis(&mut self, i: usize, now: u64) {
@@ -224,6 +374,8 @@ impl Board {
             match next {
                 Some(e) if e <= now => {
                     m.src.take();
+                    self.work += 1;
+                    let ax = &mut self.axes[i];
                     ax.count += m.dir;
                     ax.sim_pos += m.dir;
                     let ev = ax.hall.step(e, ax.count, ax.sim_pos);
@@ -332,6 +484,7 @@ impl Board {
             target: m.target,
         });
         ax.marked = marker.is_some();
+        ax.marker = marker.as_ref().map(|m| (m.from, m.target));
         if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
         }
@@ -486,6 +639,7 @@ impl Board {
             target,
         }));
         ax.marked = true;
+        ax.marker = Some((ax.count, target));
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
             ax.marked = false;
             ax.motion = None;
@@ -514,10 +668,12 @@ impl Board {
             Amount::Steps(n) => Ok(n),
             Amount::Units(u) => {
                 let x = (u * self.axes[i].settings.steps_per_unit).round();
-                if x.abs() < 9.0e15 {
+                if x.abs() <= MAX_POSITION as f64 {
                     Ok(x as i64)
                 } else {
-                    Err(CtlError::syntax(format!("{u} units is out of range")))
+                    Err(CtlError::syntax(format!(
+                        "{u} units is {x:e} microsteps, outside ±{MAX_POSITION}"
+                    )))
                 }
             }
         }
@@ -530,29 +686,31 @@ impl Board {
         let ax = &self.axes[i];
         let n = self.amount_steps(i, amount)?;
         if let Some(p) = ax.period() {
-            return Ok(shortest(if absolute { n - ax.count } else { n }, p));
+            // Reduced first: no overflow whatever n is (the count is already in [0, p)).
+            let r = n.rem_euclid(p);
+            return Ok(shortest(if absolute { r - ax.count } else { r }, p));
         }
+        // i128: a target of i64::MIN or a sum that overflows is reported as it is.
         let target = if absolute {
-            Some(n)
+            n as i128
         } else {
-            ax.count.checked_add(n)
+            ax.count as i128 + n as i128
         };
         let s = &ax.settings;
-        let show = |o: Option<i64>, none: &str| o.map_or(none.to_string(), |x| x.to_string());
-        match target {
-            Some(t)
-                if !matches!(s.soft_min, Some(lo) if t < lo)
-                    && !matches!(s.soft_max, Some(hi) if t > hi) =>
-            {
-                Ok(t - ax.count)
-            }
-            _ => Err(CtlError::OutOfLimits {
+        let max = MAX_POSITION as i128;
+        let (lo, hi) = (
+            s.soft_min.map_or(-max, |x| x as i128).max(-max),
+            s.soft_max.map_or(max, |x| x as i128).min(max),
+        );
+        if target < lo || target > hi {
+            return Err(CtlError::OutOfLimits {
                 axis: ax.name.clone(),
-                target: target.unwrap_or(i64::MAX),
-                min: show(s.soft_min, "-inf"),
-                max: show(s.soft_max, "inf"),
-            }),
+                target,
+                min: lo.to_string(),
+                max: hi.to_string(),
+            });
         }
+        Ok(target as i64 - ax.count)
     }
 
     fn resolve_opts(&self, opts: &MoveOpts) -> Result<MoveOpts, CtlError> {
@@ -650,14 +808,66 @@ impl Board {
         opts: &MoveOpts,
         now: u64,
     ) -> Result<Vec<i64>, CtlError> {
+        let pending = self.plan_group_move(targets, absolute, sync, opts, now)?;
+        let report = pending.time()?;
+        self.start_group_move(pending, report.as_ref(), now)
+    }
+
+    /// The first half of [`Board::group_move`]: plans the group from the positions now.
+    /// Its TDM timing ([`PendingGroup::time`]) needs no board, so a service can run it
+    /// without holding the board up, then call [`Board::start_group_move`].
+    pub fn plan_group_move(
+        &mut self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+        now: u64,
+    ) -> Result<PendingGroup, CtlError> {
         self.advance(now);
         let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        let before = plan
+            .iter()
+            .map(|&(i, _)| (self.axes[i].count, self.axes[i].settings.clone()))
+            .collect();
+        Ok(PendingGroup {
+            plan,
+            profiles,
+            before,
+            tdm: self.tdm,
+        })
+    }
+
+    /// The second half of [`Board::group_move`]: starts a planned, timed group, unless an
+    /// axis of it moved, changed or was stopped meanwhile (then nothing starts).
+    pub fn start_group_move(
+        &mut self,
+        pending: PendingGroup,
+        report: Option<&multistep_core::tdm::Report>,
+        now: u64,
+    ) -> Result<Vec<i64>, CtlError> {
+        self.advance(now);
+        let PendingGroup {
+            plan,
+            profiles,
+            before,
+            ..
+        } = pending;
+        for (&(i, _), (count, settings)) in plan.iter().zip(&before) {
+            self.check_can_move(i)?;
+            let ax = &self.axes[i];
+            if ax.count != *count || ax.settings != *settings {
+                return Err(CtlError::Busy {
+                    axis: ax.name.clone(),
+                    state: "changed while the move was being timed; send it again",
+                });
+            }
+        }
         // One TDM run times the whole group: one start tick for every axis.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
-        let (start, mut sources) = if moving.is_empty() {
-            (self.now, Vec::new())
-        } else {
-            start_group(&moving, &self.tdm, self.now)?
+        let (start, mut sources) = match report {
+            Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, self.now)?,
+            _ => (self.now, Vec::new()),
         };
         sources.reverse();
         let mut out = Vec::new();
@@ -808,6 +1018,7 @@ impl Board {
                     .map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
                 AxisStatus {
                     axis: ax.name.clone(),
+                    number: i,
                     position: ax.count,
                     units: ax.count as f64 / ax.settings.steps_per_unit,
                     state: ax.state,
@@ -848,7 +1059,9 @@ impl Board {
         }
         let mut s = self.axes[i].settings.clone();
         s.set(key, value)?;
-        self.store.put_settings(axis, &s)?;
+        // stored under the name, also when the axis was given by number
+        let name = self.axes[i].name.clone();
+        self.store.put_settings(&name, &s)?;
         let clock = self.clock_hz;
         let ax = &mut self.axes[i];
         ax.hall = Axis::make_hall(&s, clock);
@@ -924,11 +1137,47 @@ impl Board {
 
     /// Simulation: the mechanics lose `steps` steps that the count does not see.
     pub fn sim_slip(&mut self, axis: &str, steps: i64, now: u64) -> Result<(), CtlError> {
+        if !self.simulated {
+            return Err(CtlError::NotSimulated);
+        }
         self.advance(now);
         let i = self.index(axis)?;
-        self.axes[i].sim_pos += steps;
+        let to = self.axes[i].sim_pos as i128 + steps as i128;
+        if to.abs() > 2 * MAX_POSITION as i128 {
+            return Err(CtlError::Setting(format!(
+                "the simulated mechanics stay within ±{}",
+                2 * MAX_POSITION
+            )));
+        }
+        self.axes[i].sim_pos = to as i64;
         self.persist(i);
         Ok(())
+    }
+
+    /// Writes down where the simulated mechanics of the moving axes are (see
+    /// [`crate::store::SimMechanics`]); the service calls it often while axes move.
+    pub fn save_sim(&mut self) {
+        let m: BTreeMap<String, crate::store::SimMechanics> = self
+            .axes
+            .iter()
+            .filter(|a| a.motion.is_some())
+            .filter_map(|a| {
+                let (from, target) = a.marker?;
+                Some((
+                    a.name.clone(),
+                    crate::store::SimMechanics {
+                        from,
+                        target,
+                        sim_position: a.sim_pos,
+                    },
+                ))
+            })
+            .collect();
+        if let Err(e) = self.store.put_sim(&m) {
+            if self.warnings.len() < 100 {
+                self.warnings.push(e.to_string());
+            }
+        }
     }
 
     pub fn warnings(&self) -> &[String] {
@@ -952,5 +1201,15 @@ impl StepSource for Stopped {
     }
     fn steps_left(&self) -> u64 {
         0
+    }
+}
+
+/// A motor number: plain decimal digits (no sign, no leading zeros), as in `move 3 100`.
+fn axis_number(word: &str) -> Option<usize> {
+    let plain = word.bytes().all(|b| b.is_ascii_digit()) && (word == "0" || !word.starts_with('0'));
+    if plain && word.len() <= 4 {
+        word.parse().ok()
+    } else {
+        None
     }
 }

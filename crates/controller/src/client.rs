@@ -79,6 +79,11 @@ impl Client {
         }
     }
 
+    /// Sends `auth TOKEN` (a board listening off loopback wants it as the first line).
+    pub fn authenticate(&mut self, token: &str) -> Result<(), ClientError> {
+        self.request(&format!("auth {token}")).map(|_| ())
+    }
+
     /// Sends one command line; returns its data lines, or the board's refusal.
     pub fn request(&mut self, line: &str) -> Result<Vec<String>, ClientError> {
         if line.contains('\n') {

@@ -107,10 +107,17 @@ impl BoardConfig {
                 self.axes.len()
             )));
         }
-        if !(self.board.clock_hz.is_finite() && self.board.clock_hz >= 1e3) {
-            return Err(CtlError::Setting(
-                "board.clock_hz must be at least 1000".into(),
-            ));
+        if !(self.board.clock_hz.is_finite() && (1e3..=1e9).contains(&self.board.clock_hz)) {
+            return Err(CtlError::Setting(format!(
+                "board.clock_hz must be in [1000, 1e9] (got {})",
+                self.board.clock_hz
+            )));
+        }
+        if !(1..=1024).contains(&self.board.fifo_depth) {
+            return Err(CtlError::Setting(format!(
+                "board.fifo_depth must be in [1, 1024] (got {})",
+                self.board.fifo_depth
+            )));
         }
         for (i, a) in self.axes.iter().enumerate() {
             if !valid_axis_name(&a.name) {

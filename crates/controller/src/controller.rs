@@ -27,6 +27,13 @@ impl SimClock {
     }
 }
 
+/// Most simulation work (steps plus sensor events) one lock of the board may do: a few
+/// milliseconds. Past it the simulated clock falls behind, and no command waits long.
+pub const WORK_BUDGET: u64 = 100_000;
+
+/// How often the simulated mechanics of moving axes are written down (wall time).
+pub const SIM_SAVE_PERIOD: Duration = Duration::from_millis(50);
+
 pub struct Controller {
     board: Arc<Mutex<Board>>,
     clock: SimClock,
@@ -47,7 +54,26 @@ impl Controller {
                 "time scale must be in (0, 10000] (got {time_scale})"
             )));
         }
-        let board = Board::open(config, Store::open(data)?)?;
+        Controller::open_store(config, Store::open(data)?, time_scale)
+    }
+
+    /// Runs the board on an already opened store (see [`Store::open_or_reset`]).
+    pub fn open_store(
+        config: &BoardConfig,
+        store: Store,
+        time_scale: f64,
+    ) -> Result<Controller, CtlError> {
+        if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
+            return Err(CtlError::Setting(format!(
+                "time scale must be in (0, 10000] (got {time_scale})"
+            )));
+        }
+        let mut board = Board::open(config, store)?;
+        // Stored values brought into range, said once at start-up (and kept for `info`).
+        for w in board.warnings() {
+            eprintln!("warning: {w}");
+        }
+        board.set_work_budget(Some(WORK_BUDGET));
         let clock = SimClock {
             t0: Instant::now(),
             ticks_per_s: board.clock_hz() * time_scale,
@@ -59,11 +85,16 @@ impl Controller {
             std::thread::Builder::new()
                 .name("board-ticker".into())
                 .spawn(move || {
+                    let mut saved = Instant::now();
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = lock(&board);
                         if b.busy() {
                             b.advance(clock.now());
+                            if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {
+                                b.save_sim();
+                                saved = Instant::now();
+                            }
                         }
                     }
                 })
@@ -100,7 +131,8 @@ impl Controller {
         absolute: bool,
         opts: &MoveOpts,
     ) -> Result<i64, CtlError> {
-        self.with_board(|b, now| b.move_axis(axis, amount, absolute, opts, now))
+        self.group_move(&[(axis.to_string(), amount)], absolute, false, opts)
+            .map(|t| t[0])
     }
     pub fn group_move(
         &self,
@@ -109,7 +141,11 @@ impl Controller {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<Vec<i64>, CtlError> {
-        self.with_board(|b, now| b.group_move(targets, absolute, sync, opts, now))
+        // The TDM timing runs with the board free: estop and other clients do not wait on it.
+        let pending =
+            self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
+        let report = pending.time()?;
+        self.with_board(|b, now| b.start_group_move(pending, report.as_ref(), now))
     }
     pub fn home(&self, axis: &str) -> Result<(), CtlError> {
         self.with_board(|b, now| b.home(axis, now))

@@ -15,7 +15,7 @@ pub enum CtlError {
     #[error("target {target} is outside the soft limits [{min}, {max}] of axis {axis}")]
     OutOfLimits {
         axis: String,
-        target: i64,
+        target: i128,
         min: String,
         max: String,
     },
@@ -39,6 +39,12 @@ pub enum CtlError {
     TooFast(String),
     #[error("timing: {0}")]
     Timing(String),
+    #[error("{0}")]
+    Unauthorized(String),
+    #[error("{0}")]
+    Connection(String),
+    #[error("'sim' commands exist only on a simulated board")]
+    NotSimulated,
 }
 
 impl CtlError {
@@ -60,6 +66,9 @@ impl CtlError {
             CtlError::Io(_) => 13,
             CtlError::TooFast(_) => 14,
             CtlError::Timing(_) => 15,
+            CtlError::Unauthorized(_) => 16,
+            CtlError::Connection(_) => 17,
+            CtlError::NotSimulated => 18,
         }
     }
 

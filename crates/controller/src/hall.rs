@@ -12,7 +12,6 @@
 use crate::axis::SimSettings;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use std::collections::VecDeque;
 
 /// A level change confirmed by the debounce filter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,7 +40,7 @@ pub struct HallSim {
     rng: StdRng,
     // Noise: the glitch in progress or next to come, as [start, end) ticks.
     glitch: (u64, u64),
-    bounces: VecDeque<u64>,
+    burst: Burst,
     present: bool,
     flips: bool,
     // Filter state.
@@ -52,6 +51,19 @@ pub struct HallSim {
     filtered: bool,
     debounce_ticks: u64,
     now: u64,
+    /// Noise events handled so far (the board's measure of its own work).
+    pub work: u64,
+}
+
+/// The contact bounce after one real edge: `left` toggles still to come, uniform in
+/// (start, end] and drawn one at a time in time order, so memory stays constant whatever
+/// the bounce count.
+#[derive(Clone, Debug, Default)]
+struct Burst {
+    next: Option<u64>,
+    left: u64,
+    at: f64,
+    end: f64,
 }
 
 impl HallSim {
@@ -75,7 +87,7 @@ impl HallSim {
             glitch_gap_ticks: ticks(sim.glitch_gap),
             rng: StdRng::seed_from_u64(sim.seed),
             glitch: (u64::MAX, u64::MAX),
-            bounces: VecDeque::new(),
+            burst: Burst::default(),
             present: false,
             flips: false,
             raw: false,
@@ -84,6 +96,7 @@ impl HallSim {
             filtered: false,
             debounce_ticks: ticks(debounce_s).max(1),
             now: 0,
+            work: 0,
         }
     }
 
@@ -102,7 +115,7 @@ impl HallSim {
         self.now = tick;
         self.present = self.in_window(true_pos);
         self.flips = false;
-        self.bounces.clear();
+        self.burst = Burst::default();
         self.raw = self.present;
         self.filtered = self.present;
         self.raw_since = tick;
@@ -120,7 +133,10 @@ impl HallSim {
         if let Some(gap) = self.glitch_mean_gap {
             // Exponential gaps (a Poisson process of glitches); lengths up to glitch_max.
             let u: f64 = self.rng.gen_range(f64::EPSILON..1.0);
-            let quiet = self.glitch_gap_ticks + (-u.ln() * gap) as u64 + 1;
+            let quiet = self
+                .glitch_gap_ticks
+                .saturating_add((-u.ln() * gap) as u64)
+                .saturating_add(1);
             let start = after.saturating_add(quiet);
             let len = self.rng.gen_range(1..=self.glitch_max_ticks);
             self.glitch = (start, start.saturating_add(len));
@@ -133,7 +149,7 @@ impl HallSim {
         } else {
             self.glitch.0
         };
-        g.min(self.bounces.front().copied().unwrap_or(u64::MAX))
+        g.min(self.burst.next.unwrap_or(u64::MAX))
     }
 
     fn flips_glitch_active(&self) -> bool {
@@ -191,9 +207,12 @@ impl HallSim {
                 return Some(ev);
             }
             self.now = next;
-            if self.bounces.front() == Some(&next) {
-                self.bounces.pop_front();
+            self.work += 1;
+            // Toggles on the same tick cancel in pairs; the level is looked at once.
+            while self.burst.next == Some(next) {
                 self.flips = !self.flips;
+                self.draw_bounce();
+                self.work += 1;
             }
             if self.glitch.1 == next {
                 self.schedule_glitch(next);
@@ -206,6 +225,26 @@ impl HallSim {
         self.check_filter(until)
     }
 
+    /// The next bounce toggle: the smallest of `left` uniform times in (at, end] is
+    /// at + (end − at)·(1 − u^(1/left)) (order statistics), drawn without storing the rest.
+    fn draw_bounce(&mut self) {
+        let b = &mut self.burst;
+        if b.left == 0 {
+            b.next = None;
+            return;
+        }
+        let u: f64 = self.rng.gen_range(f64::EPSILON..1.0);
+        let x = b.at + (b.end - b.at) * (1.0 - u.powf(1.0 / b.left as f64));
+        b.left -= 1;
+        b.at = x.clamp(b.at, b.end);
+        let floor = b.next.unwrap_or(0);
+        b.next = Some(
+            (b.at.ceil() as u64)
+                .max(floor)
+                .min((b.end as u64).max(floor)),
+        );
+    }
+
     /// The axis steps at `tick` to `true_pos` (call `advance(tick, …)` first).
     pub fn step(&mut self, tick: u64, count: i64, true_pos: i64) -> Option<FilteredEdge> {
         self.now = tick;
@@ -213,20 +252,18 @@ impl HallSim {
         if present != self.present {
             self.present = present;
             // Contact bounce: an even number of extra toggles soon after the real edge.
+            // A new edge ends the bounce of the previous one.
+            self.flips = false;
+            self.burst = Burst::default();
             if self.bounce_count > 0 && self.bounce_ticks > 0 {
-                let pairs = self.rng.gen_range(0..=self.bounce_count);
-                let mut times: Vec<u64> = (0..2 * pairs)
-                    .map(|_| tick + self.rng.gen_range(1..=self.bounce_ticks))
-                    .collect();
-                times.sort_unstable();
-                times.dedup();
-                if times.len() % 2 == 1 {
-                    times.pop();
-                }
-                // Toggles merge into the queue in time order.
-                let mut all: Vec<u64> = self.bounces.drain(..).chain(times).collect();
-                all.sort_unstable();
-                self.bounces = all.into();
+                let pairs = self.rng.gen_range(0..=self.bounce_count) as u64;
+                self.burst = Burst {
+                    next: Some(tick + 1),
+                    left: 2 * pairs,
+                    at: tick as f64,
+                    end: tick.saturating_add(self.bounce_ticks) as f64,
+                };
+                self.draw_bounce();
             }
         }
         self.apply_level(tick, count, true_pos)

@@ -6,6 +6,7 @@
 //! over TCP and serial lines. [`Controller`] is the one API: the protocol, the host
 //! client and any other front end call its methods.
 
+pub mod access;
 pub mod axis;
 pub mod board;
 pub mod client;

@@ -82,6 +82,16 @@ pub fn start_group(
     now: u64,
 ) -> Result<(u64, Vec<Box<dyn StepSource>>), CtlError> {
     let report = tdm_report(profiles, cfg)?;
+    start_timed(profiles, &report, cfg, now)
+}
+
+/// [`start_group`] with the TDM run already done (it may run without the board locked).
+pub fn start_timed(
+    profiles: &[Profile],
+    report: &tdm::Report,
+    cfg: &TdmConfig,
+    now: u64,
+) -> Result<(u64, Vec<Box<dyn StepSource>>), CtlError> {
     if report.underruns > 0 {
         return Err(CtlError::Timing(format!(
             "the TDM calculator cannot keep up with this group: {} underruns, last edge {} ticks late",

@@ -1,13 +1,74 @@
-//! Serving the line protocol: a TCP listener with one thread per client, and optionally a
-//! serial line. Each line gets exactly one reply, whatever it contains.
+//! Serving the line protocol: a TCP listener with one thread per client (capped, with
+//! timeouts and, off loopback, a token), and optionally a serial line. Each complete line
+//! gets exactly one reply, whatever it contains; a line cut off is never run.
 
+use crate::access::same_token;
 use crate::controller::Controller;
 use crate::error::CtlError;
-use crate::protocol::{read_line, Line, Reply, MAX_LINE};
-use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
+use crate::protocol::{auth_token, Line, LineReader, Reply, MAX_LINE};
+use std::io::{BufReader, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// Connection limits of the TCP side (and the line timeout of the serial side).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Limits {
+    /// Most TCP clients at once; one more is answered one `error:17` line and closed.
+    pub max_clients: usize,
+    /// A TCP client that sends no complete line for this long is closed.
+    pub idle_timeout: Duration,
+    /// A TCP line not completed this long after its first byte closes the connection
+    /// (slowloris); on the serial line, a pause this long inside a line drops the line.
+    pub line_timeout: Duration,
+}
+
+/// Ranges of the limits, in clients and seconds.
+pub const MAX_CLIENTS_RANGE: (usize, usize) = (1, 1024);
+pub const IDLE_TIMEOUT_RANGE: (u64, u64) = (1, 86_400);
+pub const LINE_TIMEOUT_RANGE: (u64, u64) = (1, 3_600);
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_clients: 64,
+            idle_timeout: Duration::from_secs(600),
+            line_timeout: Duration::from_secs(10),
+        }
+    }
+}
+
+impl Limits {
+    /// Limits from whole numbers (clients, seconds), each checked against its range.
+    pub fn new(max_clients: usize, idle_s: u64, line_s: u64) -> Result<Limits, CtlError> {
+        let check = |name: &str, v: u64, (lo, hi): (u64, u64)| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(CtlError::Setting(format!(
+                    "{name} must be in [{lo}, {hi}] (got {v})"
+                )))
+            }
+        };
+        let (lo, hi) = MAX_CLIENTS_RANGE;
+        check("max clients", max_clients as u64, (lo as u64, hi as u64))?;
+        check("idle timeout", idle_s, IDLE_TIMEOUT_RANGE)?;
+        check("line timeout", line_s, LINE_TIMEOUT_RANGE)?;
+        Ok(Limits {
+            max_clients,
+            idle_timeout: Duration::from_secs(idle_s),
+            line_timeout: Duration::from_secs(line_s),
+        })
+    }
+}
+
+/// How the TCP side serves: its limits, and the token every client must send first.
+#[derive(Clone, Debug, Default)]
+pub struct TcpOptions {
+    pub limits: Limits,
+    pub token: Option<String>,
+}
 
 /// Answers lines from `input` on `output` until end of input or a write error.
 pub fn serve_stream<R: Read, W: Write>(
@@ -16,88 +77,275 @@ pub fn serve_stream<R: Read, W: Write>(
     mut output: W,
 ) -> std::io::Result<()> {
     let mut input = BufReader::with_capacity(MAX_LINE, input);
-    serve_lines(ctl, &mut input, &mut output)
-}
-
-fn serve_lines(
-    ctl: &Controller,
-    input: &mut impl BufRead,
-    output: &mut impl Write,
-) -> std::io::Result<()> {
+    let mut lines = LineReader::new();
     loop {
-        let reply = match read_line(input)? {
+        let reply = match lines.read(&mut input)? {
             Line::Eof => return Ok(()),
-            Line::TooLong => Reply::err(CtlError::LineTooLong { max: MAX_LINE }),
-            Line::Text(bytes) => ctl.execute_bytes(&bytes),
+            line => answer(ctl, line),
         };
-        output.write_all(reply.to_text().as_bytes())?;
-        output.flush()?;
+        send(&mut output, &reply)?;
     }
 }
 
-/// Accepts clients on `listener` forever, one thread each.
+fn answer(ctl: &Controller, line: Line) -> Reply {
+    match line {
+        Line::Eof => Reply::ok(Vec::new()),
+        Line::TooLong => Reply::err(CtlError::LineTooLong { max: MAX_LINE }),
+        // Nothing to authenticate against here (serial, or a board without a token).
+        Line::Text(b) if auth_token(&b).is_some() => Reply::ok(Vec::new()),
+        Line::Text(b) => ctl.execute_bytes(&b),
+    }
+}
+
+fn send(out: &mut impl Write, reply: &Reply) -> std::io::Result<()> {
+    out.write_all(reply.to_text().as_bytes())?;
+    out.flush()
+}
+
+/// Accepts clients on `listener` forever with the default limits and no token.
 pub fn serve_tcp(ctl: Arc<Controller>, listener: TcpListener) -> std::io::Result<()> {
+    serve_tcp_with(ctl, listener, TcpOptions::default())
+}
+
+/// Accepts clients forever, one thread each, at most `limits.max_clients` at once.
+pub fn serve_tcp_with(
+    ctl: Arc<Controller>,
+    listener: TcpListener,
+    opts: TcpOptions,
+) -> std::io::Result<()> {
+    let opts = Arc::new(opts);
+    let clients = Arc::new(AtomicUsize::new(0));
+    let mut accept_log = RateLimitedLog::new(Duration::from_secs(10));
     for conn in listener.incoming() {
         let stream = match conn {
             Ok(s) => s,
             Err(e) if e.kind() == ErrorKind::Interrupted => continue,
             Err(e) => {
-                eprintln!("accept: {e}");
+                accept_log.log(&format!("accept: {e}"));
+                // Out of file descriptors, accept fails at once again: do not spin.
+                std::thread::sleep(Duration::from_millis(50));
                 continue;
             }
         };
-        let ctl = ctl.clone();
-        std::thread::spawn(move || {
-            let _ = stream.set_nodelay(true);
-            if let Ok(read) = stream.try_clone() {
-                let _ = serve_stream(&ctl, read, &stream);
-            }
-        });
+        let _ = stream.set_nodelay(true);
+        if clients.fetch_add(1, Ordering::SeqCst) >= opts.limits.max_clients {
+            clients.fetch_sub(1, Ordering::SeqCst);
+            refuse(
+                stream,
+                &format!(
+                    "too many clients (at most {}); try again later",
+                    opts.limits.max_clients
+                ),
+            );
+            continue;
+        }
+        let slot = Slot(clients.clone());
+        let (ctl, opts) = (ctl.clone(), opts.clone());
+        let spawned = std::thread::Builder::new()
+            .name("tcp-client".into())
+            .spawn(move || {
+                let _slot = slot;
+                let _ = serve_client(&ctl, &stream, &opts);
+            });
+        if let Err(e) = spawned {
+            accept_log.log(&format!("cannot start a client thread: {e}"));
+        }
     }
     Ok(())
 }
 
-/// A serial port read as a blocking stream: read timeouts are not the end of input.
-struct Patient(Box<dyn serialport::SerialPort>);
+/// A client's place in the count; given back when its thread ends.
+struct Slot(Arc<AtomicUsize>);
 
-impl Read for Patient {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        loop {
-            match self.0.read(buf) {
-                Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => {
-                    continue
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+/// Sends one `error:17` line without waiting on the client, and closes.
+fn refuse(stream: TcpStream, why: &str) {
+    let _ = stream.set_nonblocking(true);
+    let mut s = &stream;
+    let _ = send(&mut s, &Reply::err(CtlError::Connection(why.into())));
+    let _ = stream.shutdown(std::net::Shutdown::Both);
+}
+
+/// One TCP client: authentication first if a token is set, then one reply per complete
+/// line, until it closes, idles out or dribbles a line for too long.
+fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std::io::Result<()> {
+    let lim = &opts.limits;
+    stream.set_write_timeout(Some(lim.idle_timeout.min(Duration::from_secs(30))))?;
+    let mut out = stream;
+    let mut input = BufReader::with_capacity(MAX_LINE, stream);
+    let mut lines = LineReader::new();
+    let mut authed = opts.token.is_none();
+    let mut last_line = Instant::now();
+    loop {
+        let (deadline, why) = match lines.partial_since() {
+            Some(t) => (
+                t + lim.line_timeout,
+                format!(
+                    "line not completed within {} s; closing",
+                    lim.line_timeout.as_secs()
+                ),
+            ),
+            None => (
+                last_line + lim.idle_timeout,
+                format!("idle for {} s; closing", lim.idle_timeout.as_secs()),
+            ),
+        };
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return send(&mut out, &Reply::err(CtlError::Connection(why)));
+        }
+        stream.set_read_timeout(Some(left.max(Duration::from_millis(5))))?;
+        let line = match lines.read(&mut input) {
+            Ok(Line::Eof) => return Ok(()),
+            Ok(l) => l,
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => continue,
+            Err(e) => return Err(e),
+        };
+        last_line = Instant::now();
+        let token = match &line {
+            Line::Text(b) => auth_token(b),
+            _ => None,
+        };
+        let reply = match (token, &opts.token) {
+            (Some(got), Some(want)) => {
+                if same_token(got, want) {
+                    authed = true;
+                    Reply::ok(Vec::new())
+                } else {
+                    let r = Reply::err(CtlError::Unauthorized("wrong token; closing".into()));
+                    return send(&mut out, &r);
                 }
-                // A pseudo-terminal whose other side is closed reads as an I/O error; wait
-                // for it to be opened again, as a board waits on an unplugged cable.
-                Err(e) if e.raw_os_error() == Some(5) => {
-                    std::thread::sleep(Duration::from_millis(50))
-                }
-                other => return other,
             }
+            (None, Some(_)) if !authed => {
+                let r = Reply::err(CtlError::Unauthorized(
+                    "authentication required: the first line must be 'auth TOKEN'; closing".into(),
+                ));
+                return send(&mut out, &r);
+            }
+            _ => answer(ctl, line),
+        };
+        send(&mut out, &reply)?;
+    }
+}
+
+/// At most one line per `every`; the lines held back are counted in the next one.
+struct RateLimitedLog {
+    every: Duration,
+    last: Option<Instant>,
+    held: u64,
+}
+
+impl RateLimitedLog {
+    fn new(every: Duration) -> Self {
+        RateLimitedLog {
+            every,
+            last: None,
+            held: 0,
+        }
+    }
+
+    fn log(&mut self, msg: &str) {
+        let now = Instant::now();
+        if self
+            .last
+            .is_some_and(|t| now.duration_since(t) < self.every)
+        {
+            self.held += 1;
+            return;
+        }
+        if self.held > 0 {
+            eprintln!("{msg} (and {} more like it)", self.held);
+        } else {
+            eprintln!("{msg}");
+        }
+        self.last = Some(now);
+        self.held = 0;
+    }
+}
+
+/// Serves the protocol on a serial device (115200 8N1) with the default line timeout.
+pub fn serve_serial(ctl: Arc<Controller>, device: &str) -> Result<(), CtlError> {
+    serve_serial_with(ctl, device, Limits::default().line_timeout)
+}
+
+fn open_serial(device: &str) -> Result<Box<dyn serialport::SerialPort>, CtlError> {
+    serialport::new(device, 115_200)
+        .timeout(Duration::from_millis(200))
+        .open()
+        .map_err(|e| CtlError::Io(format!("cannot open serial device {device}: {e}")))
+}
+
+/// Serves a serial device until it fails to open the first time. When the line hangs up
+/// (the other side closed, the device went away) the partial line is dropped and the device
+/// is opened again by name, as a board waits on an unplugged cable.
+pub fn serve_serial_with(
+    ctl: Arc<Controller>,
+    device: &str,
+    line_timeout: Duration,
+) -> Result<(), CtlError> {
+    let mut port = open_serial(device)?;
+    let mut log = RateLimitedLog::new(Duration::from_secs(10));
+    loop {
+        match serial_session(&ctl, port, line_timeout) {
+            Ok(()) => log.log(&format!("serial {device}: hung up; opening it again")),
+            Err(e) => log.log(&format!("serial {device}: {e}; opening it again")),
+        }
+        port = loop {
+            std::thread::sleep(Duration::from_millis(100));
+            if let Ok(p) = open_serial(device) {
+                break p;
+            }
+        };
+    }
+}
+
+/// Reads as a plain stream: a hang-up (EIO, as a pseudo-terminal whose other side closed
+/// reads) is the end of input.
+struct SerialIn(Box<dyn serialport::SerialPort>);
+
+impl Read for SerialIn {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match self.0.read(buf) {
+            Err(e) if e.raw_os_error() == Some(5) || e.kind() == ErrorKind::BrokenPipe => Ok(0),
+            other => other,
         }
     }
 }
 
-/// Serves the protocol on a serial device (115200 8N1) until it fails.
-pub fn serve_serial(ctl: Arc<Controller>, device: &str) -> Result<(), CtlError> {
-    let port = serialport::new(device, 115_200)
-        .timeout(Duration::from_millis(200))
-        .open()
-        .map_err(|e| CtlError::Io(format!("cannot open serial device {device}: {e}")))?;
-    let out = port.try_clone().map_err(|e| CtlError::Io(e.to_string()))?;
-    let mut out = Patient(out);
-    serve_stream(&ctl, Patient(port), WriteHalf(&mut out))
-        .map_err(|e| CtlError::Io(format!("serial {device}: {e}")))
-}
-
-struct WriteHalf<'a>(&'a mut Patient);
-
-impl Write for WriteHalf<'_> {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0 .0.write(buf)
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.0 .0.flush()
+/// One open period of the serial device; ends (Ok) on hang-up.
+fn serial_session(
+    ctl: &Controller,
+    port: Box<dyn serialport::SerialPort>,
+    line_timeout: Duration,
+) -> std::io::Result<()> {
+    let mut out = port.try_clone()?;
+    let mut input = BufReader::with_capacity(MAX_LINE, SerialIn(port));
+    let mut lines = LineReader::new();
+    loop {
+        let line = match lines.read(&mut input) {
+            Ok(Line::Eof) => return Ok(()),
+            Ok(l) => l,
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                // A host that went away mid-line and came back must not complete it.
+                if lines
+                    .partial_last_byte()
+                    .is_some_and(|t| t.elapsed() >= line_timeout)
+                {
+                    lines.discard();
+                }
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        match send(&mut out, &answer(ctl, line)) {
+            Err(e) if e.raw_os_error() == Some(5) => return Ok(()),
+            other => other?,
+        }
     }
 }
 
@@ -111,4 +359,24 @@ pub fn connect(addr: &str) -> std::io::Result<TcpStream> {
     let s = TcpStream::connect(addr)?;
     s.set_nodelay(true)?;
     Ok(s)
+}
+
+/// Checks a TCP listen address and token by the shared rule (loopback unless
+/// `allow_remote` with a token); the error names the `serve` flags.
+pub fn check_listen(addr: &str, allow_remote: bool, token: Option<&str>) -> Result<(), CtlError> {
+    use crate::access::{check, Refusal, MIN_TOKEN_LEN};
+    check(addr, allow_remote, token).map(|_| ()).map_err(|r| {
+        CtlError::Setting(match r {
+            Refusal::RemoteNotAllowed => format!(
+                "{addr} is not a loopback address; serving the line protocol to other machines needs --listen-allow-remote and --listen-token"
+            ),
+            Refusal::TokenRequired => format!(
+                "--listen-allow-remote needs an access token (--listen-token, at least {MIN_TOKEN_LEN} characters)"
+            ),
+            Refusal::BadToken => format!(
+                "the access token must be {MIN_TOKEN_LEN} to 256 printable ASCII characters without spaces"
+            ),
+            Refusal::Unresolved(e) => format!("cannot listen on {addr}: {e}"),
+        })
+    })
 }

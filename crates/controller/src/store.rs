@@ -7,10 +7,10 @@
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::protocol::MoveOpts;
-use redb::{Database, ReadableTable, TableDefinition};
+use redb::{Database, DatabaseError, ReadableTable, StorageError, TableDefinition};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const SETTINGS: TableDefinition<&str, &str> = TableDefinition::new("settings");
 const AXES: TableDefinition<&str, &str> = TableDefinition::new("axes");
@@ -41,19 +41,135 @@ pub type NamedPosition = BTreeMap<String, i64>;
 
 pub struct Store {
     db: Database,
+    dir: PathBuf,
+}
+
+/// Where the simulated mechanics of a moving axis were lately (a file beside the database,
+/// rewritten often while axes move): after a crash they come back there, as a real axis's
+/// mechanics stay where they stopped. Tied to the moving marker it was written under.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimMechanics {
+    pub from: i64,
+    pub target: i64,
+    pub sim_position: i64,
+}
+
+/// The file of [`SimMechanics`] records.
+pub const SIM_FILE: &str = "sim-mechanics.json";
+
+/// Opens the file and reads every record once, so damage shows now and not mid-run.
+/// redb may panic on some damaged files; that is caught and reported as damage too.
+fn try_open(path: &Path) -> Result<Store, Failure> {
+    if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
+        return Err(Failure::Damaged("the file is empty (0 bytes)".into()));
+    }
+    let quiet = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let r = std::panic::catch_unwind(|| -> Result<Store, Failure> {
+        let db = match Database::create(path) {
+            Ok(db) => db,
+            Err(DatabaseError::DatabaseAlreadyOpen) => {
+                return Err(Failure::Other(CtlError::Store(format!(
+                    "{} is in use by another process",
+                    path.display()
+                ))))
+            }
+            Err(DatabaseError::UpgradeRequired(v)) => {
+                return Err(Failure::Other(CtlError::Store(format!(
+                    "{} is in redb file format {v}, which needs an upgrade",
+                    path.display()
+                ))))
+            }
+            Err(DatabaseError::Storage(StorageError::Io(e)))
+                if e.kind() != std::io::ErrorKind::UnexpectedEof =>
+            {
+                return Err(Failure::Other(CtlError::Store(format!(
+                    "cannot open {}: {e}",
+                    path.display()
+                ))))
+            }
+            Err(e) => return Err(Failure::Damaged(e.to_string())),
+        };
+        let tx = db.begin_write().map_err(CtlError::from)?;
+        for t in [SETTINGS, AXES, PRESETS, NAMED] {
+            tx.open_table(t).map_err(CtlError::from)?;
+        }
+        tx.commit().map_err(CtlError::from)?;
+        let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        let store = Store { db, dir };
+        for t in [SETTINGS, AXES, PRESETS, NAMED] {
+            store.all::<serde_json::Value>(t)?;
+        }
+        Ok(store)
+    });
+    std::panic::set_hook(quiet);
+    match r {
+        Ok(r) => r,
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "the database library gave up reading it".into());
+            Err(Failure::Damaged(msg))
+        }
+    }
+}
+
+/// The database file inside a board's data directory.
+pub const DB_FILE: &str = "board.redb";
+
+/// Why opening failed: a damaged file (which a fresh start may move aside) or not.
+enum Failure {
+    Damaged(String),
+    Other(CtlError),
+}
+
+impl From<CtlError> for Failure {
+    fn from(e: CtlError) -> Self {
+        Failure::Damaged(e.to_string())
+    }
 }
 
 impl Store {
+    /// Opens (or creates) the board's database in `dir`. A damaged file is refused with
+    /// one clear error, never opened as a new board.
     pub fn open(dir: &Path) -> Result<Store, CtlError> {
+        Store::open_or_reset(dir, false).map(|(s, _)| s)
+    }
+
+    /// As [`Store::open`]; with `reset`, a damaged file is renamed aside (the new name is
+    /// returned) and a new, empty board database takes its place.
+    pub fn open_or_reset(dir: &Path, reset: bool) -> Result<(Store, Option<PathBuf>), CtlError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CtlError::Store(format!("cannot create {}: {e}", dir.display())))?;
-        let db = Database::create(dir.join("board.redb"))?;
-        let tx = db.begin_write()?;
-        for t in [SETTINGS, AXES, PRESETS, NAMED] {
-            tx.open_table(t)?;
+        let path = dir.join(DB_FILE);
+        match try_open(&path) {
+            Ok(s) => Ok((s, None)),
+            Err(Failure::Other(e)) => Err(e),
+            Err(Failure::Damaged(why)) if !reset => Err(CtlError::Store(format!(
+                "the board database {} is damaged ({why}); nothing was changed. Restore it from a \
+                 backup, or start with --reset-damaged-data to move it aside and begin a new board",
+                path.display()
+            ))),
+            Err(Failure::Damaged(_)) => {
+                let stamp = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                let aside = dir.join(format!("{DB_FILE}.damaged-{stamp}"));
+                std::fs::rename(&path, &aside).map_err(|e| {
+                    CtlError::Store(format!("cannot move {} aside: {e}", path.display()))
+                })?;
+                match try_open(&path) {
+                    Ok(s) => Ok((s, Some(aside))),
+                    Err(Failure::Other(e)) => Err(e),
+                    Err(Failure::Damaged(why)) => Err(CtlError::Store(format!(
+                        "a new database at {} failed: {why}",
+                        path.display()
+                    ))),
+                }
+            }
         }
-        tx.commit()?;
-        Ok(Store { db })
     }
 
     fn get<T: DeserializeOwned>(
@@ -102,6 +218,25 @@ impl Store {
         let found = tx.open_table(t)?.remove(key)?.is_some();
         tx.commit()?;
         Ok(found)
+    }
+
+    /// Replaces the simulated mechanics file (write, then rename: never half written).
+    /// Not synced to disk: it only has to survive the process, not the machine.
+    pub fn put_sim(&self, m: &BTreeMap<String, SimMechanics>) -> Result<(), CtlError> {
+        let tmp = self.dir.join(format!("{SIM_FILE}.tmp"));
+        let json = serde_json::to_string(m)?;
+        std::fs::write(&tmp, json)
+            .and_then(|_| std::fs::rename(&tmp, self.dir.join(SIM_FILE)))
+            .map_err(|e| CtlError::Store(format!("{SIM_FILE}: {e}")))
+    }
+
+    /// The simulated mechanics file; empty if missing or unreadable (then the mechanics
+    /// come back where their move started).
+    pub fn sim(&self) -> BTreeMap<String, SimMechanics> {
+        std::fs::read_to_string(self.dir.join(SIM_FILE))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or_default()
     }
 
     pub fn settings(&self, axis: &str) -> Result<Option<AxisSettings>, CtlError> {

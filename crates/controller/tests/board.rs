@@ -425,3 +425,63 @@ fn with_a_debounce_shorter_than_the_glitches_homing_goes_wrong() {
     }
     assert!(wrong >= 10, "only {wrong} of 20 homings went wrong");
 }
+
+#[test]
+fn sim_commands_belong_to_the_simulated_board_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = config(vec![("X", AxisSettings::default())]);
+    let mut sim = open(dir.path(), &c);
+    assert!(sim.is_simulated());
+    sim.sim_slip("X", 5, 0).unwrap();
+    assert_eq!(st(&mut sim, "X").sim_position, 5);
+    drop(sim);
+    let mut hw = open(dir.path(), &c).without_simulation();
+    let e = hw.sim_slip("X", 5, 0).unwrap_err();
+    assert!(matches!(e, CtlError::NotSimulated), "{e}");
+    assert_eq!(e.code(), 18);
+    assert_eq!(st(&mut hw, "X").sim_position, 5, "nothing changed");
+}
+
+#[test]
+fn a_work_budget_bounds_each_advance_and_the_clock_catches_up_later() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = AxisSettings {
+        vmax: 1e6,
+        amax: 1e9,
+        sim: SimSettings {
+            sensor_width: 1,
+            bounce_count: 100,
+            bounce_time: 1.0,
+            glitch_rate: 1e4,
+            glitch_max: 1.0,
+            glitch_gap: 0.0,
+            ..SimSettings::default()
+        },
+        period: Some(2),
+        ..AxisSettings::default()
+    };
+    let c = config(vec![("X", s.clone()), ("Y", s)]);
+    let mut b = open(dir.path(), &c);
+    b.set_work_budget(Some(10_000));
+    b.group_move(
+        &[("X".into(), Amount::Steps(1)), ("Y".into(), Amount::Steps(1))],
+        false,
+        false,
+        &MoveOpts::default(),
+        0,
+    )
+    .unwrap();
+    // Every step crosses the sensor edge (period 2, width 1) with bounce and glitches.
+    b.set("X", "period", "none", 1).unwrap_err(); // busy
+    let far = 1_000_000_000u64;
+    b.advance(far);
+    let (_, most) = b.work();
+    assert!(most <= 2 * 10_000, "one advance did {most} units of work");
+    let mut calls = 0;
+    while b.now() < far || b.busy() {
+        b.advance(far);
+        calls += 1;
+        assert!(calls < 1_000_000, "the clock never caught up");
+    }
+    assert!(b.work().1 <= 2 * 10_000);
+}

@@ -26,6 +26,7 @@ pub mod shape;
 pub mod spec;
 pub mod summary;
 pub mod tdm;
+pub mod track;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
 pub use error::PlanError;
@@ -35,6 +36,7 @@ pub use profile::{
 pub use shape::Shape;
 pub use spec::MoveSpec;
 pub use summary::{MoveName, PlanSummary};
+pub use track::{Rate, TrackError, TrackLimits, Tracker};
 
 /// Seed 000's clock: 50 MHz.
 pub const DEFAULT_CLOCK_HZ: f64 = 50_000_000.0;

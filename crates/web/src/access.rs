@@ -14,8 +14,8 @@ pub struct HttpOptions {
     pub token: Option<String>,
 }
 
-/// Shortest accepted token: long enough that guessing is not a plan.
-pub const MIN_TOKEN_LEN: usize = 16;
+pub use multistep_controller::access::MIN_TOKEN_LEN;
+use multistep_controller::access::{same_token, valid_token};
 
 #[derive(Debug, thiserror::Error)]
 pub enum WebError {
@@ -52,12 +52,8 @@ impl HttpOptions {
             })?
             .collect();
         let loopback = !addrs.is_empty() && addrs.iter().all(|a| a.ip().is_loopback());
-        if let Some(t) = &self.token {
-            let ok =
-                (MIN_TOKEN_LEN..=256).contains(&t.len()) && t.bytes().all(|b| b.is_ascii_graphic());
-            if !ok {
-                return Err(WebError::BadToken);
-            }
+        if self.token.as_deref().is_some_and(|t| !valid_token(t)) {
+            return Err(WebError::BadToken);
         }
         if !loopback {
             if !self.allow_remote {
@@ -82,15 +78,10 @@ impl Access {
         }
         match (&self.token, token) {
             (None, _) => true,
-            (Some(want), Some(got)) => same(want.as_bytes(), got.as_bytes()),
+            (Some(want), Some(got)) => same_token(want, got),
             (Some(_), None) => false,
         }
     }
-}
-
-/// Compares without stopping at the first difference, so timing tells nothing.
-fn same(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 /// `localhost`, `127.x.y.z` or `[::1]`, with or without a port.

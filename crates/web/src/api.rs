@@ -8,19 +8,26 @@ use multistep_controller::protocol::{self, Command};
 use multistep_controller::{Controller, CtlError};
 use serde::Deserialize;
 use serde_json::{json, Value};
+use std::collections::HashMap;
 use std::io::Read;
+use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use tiny_http::{Header, Method, Request, Response};
 
 /// Largest request body accepted (a protocol line is at most 4 KiB).
 const MAX_BODY: u64 = 16 * 1024;
 /// Most event streams open at once (each holds a thread).
 const MAX_STREAMS: usize = 32;
+/// Most event streams from one client address: one client cannot take every slot, so the
+/// operator's page finds one free.
+const MAX_STREAMS_PER_CLIENT: usize = 4;
 
 pub struct Ctx {
     boards: Vec<BoardLink>,
     access: Access,
     streams: AtomicUsize,
+    per_client: Mutex<HashMap<IpAddr, usize>>,
 }
 
 impl Ctx {
@@ -29,6 +36,7 @@ impl Ctx {
             boards,
             access,
             streams: AtomicUsize::new(0),
+            per_client: Mutex::new(HashMap::new()),
         }
     }
 }
@@ -102,6 +110,12 @@ fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
+/// `Bearer TOKEN`, the scheme in any case (RFC 7235: schemes are case-insensitive).
+fn bearer_token(v: &str) -> Option<&str> {
+    let (scheme, token) = v.trim().split_once(' ')?;
+    scheme.eq_ignore_ascii_case("bearer").then(|| token.trim())
+}
+
 fn header_value<'r>(req: &'r Request, name: &str) -> Option<&'r str> {
     req.headers()
         .iter()
@@ -113,7 +127,7 @@ pub fn handle(mut req: Request, ctx: &Ctx) {
     let (path, query) = split_url(req.url());
     let (path, query) = (path.to_string(), query.to_string());
     let token = header_value(&req, "Authorization")
-        .and_then(|v| v.strip_prefix("Bearer "))
+        .and_then(bearer_token)
         .map(str::to_string)
         .or_else(|| query_param(&query, "token"));
     if !ctx
@@ -237,19 +251,100 @@ fn preview_json(c: &Controller, line: &str) -> Value {
 }
 
 fn stream_events(req: Request, ctx: &Ctx) {
-    if ctx.streams.fetch_add(1, Ordering::SeqCst) >= MAX_STREAMS {
-        ctx.streams.fetch_sub(1, Ordering::SeqCst);
+    let peer = req.remote_addr().map(|a| a.ip());
+    let Some(_slot) = StreamSlot::take(ctx, peer) else {
         let _ = req.respond(fail(503, "too many open event streams"));
         return;
-    }
+    };
     let mut out = req.into_writer();
     let _ = events::stream(&ctx.boards, &mut *out);
-    ctx.streams.fetch_sub(1, Ordering::SeqCst);
+}
+
+/// One open event stream, counted in total and per client address until dropped.
+struct StreamSlot<'c> {
+    ctx: &'c Ctx,
+    peer: Option<IpAddr>,
+}
+
+impl<'c> StreamSlot<'c> {
+    fn take(ctx: &'c Ctx, peer: Option<IpAddr>) -> Option<StreamSlot<'c>> {
+        let mut per = ctx.per_client.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(ip) = peer {
+            let n = per.entry(ip).or_insert(0);
+            if *n >= MAX_STREAMS_PER_CLIENT {
+                return None;
+            }
+            *n += 1;
+        }
+        if ctx.streams.fetch_add(1, Ordering::SeqCst) >= MAX_STREAMS {
+            ctx.streams.fetch_sub(1, Ordering::SeqCst);
+            if let Some(ip) = peer {
+                release(&mut per, ip);
+            }
+            return None;
+        }
+        Some(StreamSlot { ctx, peer })
+    }
+}
+
+fn release(per: &mut HashMap<IpAddr, usize>, ip: IpAddr) {
+    if let Some(n) = per.get_mut(&ip) {
+        *n -= 1;
+        if *n == 0 {
+            per.remove(&ip);
+        }
+    }
+}
+
+impl Drop for StreamSlot<'_> {
+    fn drop(&mut self) {
+        self.ctx.streams.fetch_sub(1, Ordering::SeqCst);
+        if let Some(ip) = self.peer {
+            let mut per = self
+                .ctx
+                .per_client
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            release(&mut per, ip);
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bearer_scheme_is_case_insensitive() {
+        assert_eq!(bearer_token("Bearer abc"), Some("abc"));
+        assert_eq!(bearer_token("bearer abc"), Some("abc"));
+        assert_eq!(bearer_token("BEARER  abc "), Some("abc"));
+        assert_eq!(bearer_token("Basic abc"), None);
+        assert_eq!(bearer_token("Bearerabc"), None);
+    }
+
+    #[test]
+    fn one_client_cannot_take_every_event_stream() {
+        let ctx = Ctx::new(
+            Vec::new(),
+            Access {
+                token: None,
+                loopback: true,
+            },
+        );
+        let greedy: IpAddr = "10.0.0.7".parse().unwrap();
+        let operator: IpAddr = "10.0.0.8".parse().unwrap();
+        let held: Vec<_> = (0..40)
+            .filter_map(|_| StreamSlot::take(&ctx, Some(greedy)))
+            .collect();
+        assert_eq!(held.len(), MAX_STREAMS_PER_CLIENT);
+        let page = StreamSlot::take(&ctx, Some(operator));
+        assert!(page.is_some(), "the operator's page still gets a stream");
+        drop(held);
+        drop(page);
+        assert_eq!(ctx.streams.load(Ordering::SeqCst), 0);
+        assert!(ctx.per_client.lock().unwrap().is_empty());
+    }
 
     #[test]
     fn query_parameters_are_decoded() {

@@ -40,6 +40,14 @@ impl Board {
             self.check_can_move(i)?;
             plan.push((i, self.delta(i, *amount, absolute)?));
         }
+        // The TDM engine times every edge of the group before it starts: bound that work.
+        let total: u128 = plan.iter().map(|p| p.1.unsigned_abs() as u128).sum();
+        if total > super::MAX_TIMED_STEPS as u128 {
+            return Err(CtlError::Timing(format!(
+                "the move is {total} steps in all, more than the {} one move or group may have; split it",
+                super::MAX_TIMED_STEPS
+            )));
+        }
         let profiles = if sync {
             self.plan_sync(&plan, opts)?
         } else {

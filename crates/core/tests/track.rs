@@ -1,0 +1,524 @@
+//! Open-ended motion against exact references written here in integers: every cruise edge
+//! is recomputed as `⌈X₀ + k·f·den/num − ½⌉` by one u128 division (no accumulator), the
+//! cruise origin X₀ is recomputed from the ramp's f64 duration, every ramp edge is checked
+//! against the ramp profile shifted to its start, and positions at sampled ticks are
+//! closed forms (cruise) or ⌊p(t + ½ tick)⌋ (ramp).
+
+use multistep_core::dd::Dd;
+use multistep_core::track::TrackSegment;
+use multistep_core::{EdgeGenerator, Profile, Rate, TrackError, TrackLimits, Tracker};
+use proptest::prelude::*;
+
+const F: u64 = 50_000_000;
+
+/// `x = m · 2^e`, m an integer (x > 0, normal).
+fn decompose(x: f64) -> (u128, i32) {
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i32;
+    assert!(e > 0, "subnormal");
+    (((bits & ((1 << 52) - 1)) | (1 << 52)) as u128, e - 1075)
+}
+
+/// The exact cruise reference: origin X₀ = o + c/2^b ticks, step k ≥ 1 at X₀ + k·f·den/num.
+#[derive(Clone, Copy, Debug)]
+struct CruiseRef {
+    num: u128,
+    den: u128,
+    start_step: u64,
+    o: u128,
+    c: u128,
+    b: u32,
+}
+
+impl CruiseRef {
+    /// `⌈X₀ + k·f·den/num − ½⌉` in one division: numerator and denominator times 2^(b+1)·num
+    /// (when that fits in u128, else [`CruiseRef::edge_wide`]).
+    fn edge(&self, k: u64) -> u64 {
+        let direct = || {
+            let s = 1u128.checked_shl(self.b)?;
+            let d = (2 * s).checked_mul(self.num)?;
+            let x = d
+                .checked_mul(self.o)?
+                .checked_add(2 * self.num * self.c)?
+                .checked_add(
+                    (k as u128)
+                        .checked_mul(F as u128 * self.den)?
+                        .checked_mul(2 * s)?,
+                )?
+                - s * self.num;
+            Some(x.div_ceil(d) as u64)
+        };
+        direct().unwrap_or_else(|| self.edge_wide(k))
+    }
+
+    /// The same in 256-bit compares: k·f·den = n·num + ρ, then `⌈c/2^b + ρ/num − ½⌉` is 0, 1
+    /// or 2 by comparing `2c·num + 2ρ·2^b` with `num·2^b` and `3·num·2^b`.
+    fn edge_wide(&self, k: u64) -> u64 {
+        let kp = k as u128 * (F as u128 * self.den);
+        let (n, rho) = (kp / self.num, kp % self.num);
+        let lhs = Wide::mul(2 * self.c, self.num).add(Wide::mul(2 * rho, 1).shl(self.b));
+        let half = Wide::mul(self.num, 1).shl(self.b);
+        let three_halves = Wide::mul(3 * self.num, 1).shl(self.b);
+        let extra = if lhs <= half {
+            0
+        } else if lhs <= three_halves {
+            1
+        } else {
+            2
+        };
+        (self.o + n + extra) as u64
+    }
+
+    /// Steps of this cruise with edge ≤ t (edges are non-decreasing: a binary search).
+    fn count_to(&self, t: u64) -> u64 {
+        let (mut lo, mut hi) = (0u64, 1u64 << 40);
+        while lo < hi {
+            let mid = lo + (hi - lo).div_ceil(2);
+            if self.edge(mid) <= t {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        lo
+    }
+}
+
+/// A 256-bit unsigned integer as (high, low) halves: just what the reference needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Wide(u128, u128);
+
+impl Wide {
+    fn mul(a: u128, b: u128) -> Wide {
+        let m = u64::MAX as u128;
+        let (a1, a0, b1, b0) = (a >> 64, a & m, b >> 64, b & m);
+        let (p00, p01, p10, p11) = (a0 * b0, a0 * b1, a1 * b0, a1 * b1);
+        let (mid, carry_mid) = p01.overflowing_add(p10);
+        let (lo, carry_lo) = p00.overflowing_add(mid << 64);
+        Wide(
+            p11 + (mid >> 64) + ((carry_mid as u128) << 64) + carry_lo as u128,
+            lo,
+        )
+    }
+    fn add(self, o: Wide) -> Wide {
+        let (lo, c) = self.1.overflowing_add(o.1);
+        Wide(self.0 + o.0 + c as u128, lo)
+    }
+    fn shl(self, b: u32) -> Wide {
+        match b {
+            0 => self,
+            1..=127 => Wide((self.0 << b) | (self.1 >> (128 - b)), self.1 << b),
+            _ => Wide(self.1 << (b - 128), 0),
+        }
+    }
+}
+
+/// Streams a tracker, checking every edge, and the position at every sample tick.
+struct Checker {
+    ramp: Option<(EdgeGenerator, Profile, u64, u64)>,
+    cruise: Option<CruiseRef>,
+    last: u64,
+    steps: u64,
+    edges: u64,
+    amax: f64,
+    ramp_edges: u64,
+    cruise_edges: u64,
+    samples: u64,
+}
+
+impl Checker {
+    fn new(amax: f64) -> Self {
+        Checker {
+            ramp: None,
+            cruise: None,
+            last: 0,
+            steps: 0,
+            edges: 0,
+            amax,
+            ramp_edges: 0,
+            cruise_edges: 0,
+            samples: 0,
+        }
+    }
+
+    /// Position at tick `t` by the references of the segment now running (t between the
+    /// last edge and the next).
+    fn reference_position(&self, t: u64) -> u64 {
+        if let Some(c) = &self.cruise {
+            return c.start_step + c.count_to(t);
+        }
+        let (_, p, start, base) = self.ramp.as_ref().unwrap();
+        let tau = Dd::new((t - start) as f64 + 0.5) / Dd::new(F as f64);
+        base + p.position_dd(tau).hi.floor() as u64
+    }
+
+    /// Which segment the references describe: (ramp?, its first step).
+    fn segment_id(&self) -> (bool, u64) {
+        match (&self.ramp, &self.cruise) {
+            (_, Some(c)) => (false, c.start_step),
+            (Some((_, _, _, b)), None) => (true, *b),
+            (None, None) => (false, u64::MAX),
+        }
+    }
+
+    /// Runs until the edge after `until` (or the stream's end), checking samples on the way:
+    /// a sample between two edges of one segment must equal that segment's closed form.
+    fn run(&mut self, tr: &mut Tracker, until: u64, samples: &mut impl Iterator<Item = u64>) {
+        let mut next_sample = samples.next();
+        let mut between = Vec::new();
+        loop {
+            let Some(e) = tr.next() else { break };
+            between.clear();
+            while let Some(s) = next_sample.filter(|&s| s < e) {
+                if s >= self.last {
+                    between.push(s);
+                }
+                next_sample = samples.next();
+            }
+            let (before, steps_before) = (self.segment_id(), self.steps);
+            self.check(tr, e);
+            if self.segment_id() == before {
+                for &s in &between {
+                    assert_eq!(
+                        steps_before,
+                        self.reference_position(s),
+                        "position at tick {s}"
+                    );
+                    self.samples += 1;
+                }
+            }
+            if e > until {
+                break;
+            }
+        }
+    }
+
+    fn check(&mut self, tr: &Tracker, e: u64) {
+        self.steps += 1;
+        self.edges += 1;
+        assert_eq!(tr.steps(), self.steps);
+        assert!(e > self.last || self.steps == 1, "edges go forward");
+        match tr.segment() {
+            TrackSegment::Ramp {
+                start_tick,
+                start_step,
+            } => {
+                self.cruise = None;
+                let fresh = !matches!(&self.ramp, Some((_, _, s, b)) if *s == start_tick && *b == start_step);
+                if fresh {
+                    let p = tr.ramp_profile().unwrap().clone();
+                    let (_, a) = p.peaks();
+                    assert!(a <= self.amax * (1.0 + 1e-12), "ramp accel {a} > amax");
+                    let g = EdgeGenerator::new(p.clone(), F as f64).unwrap();
+                    self.ramp = Some((g, p, start_tick, start_step));
+                }
+                let (g, p, start, base) = self.ramp.as_mut().unwrap();
+                // the ramp is its profile shifted to its start tick and step
+                assert_eq!(
+                    Some(e - *start),
+                    g.next(),
+                    "ramp edge of step {}",
+                    self.steps
+                );
+                let i = (self.steps - *base) as f64;
+                let t = |x: f64| Dd::new(x) / Dd::new(F as f64);
+                let lo = p.position_dd(t((e - *start) as f64 - 0.5)).hi;
+                let hi = p.position_dd(t((e - *start) as f64 + 0.5)).hi;
+                assert!(lo < i + 1e-9 && i <= hi + 1e-9, "nearest tick of ramp step");
+                self.ramp_edges += 1;
+            }
+            TrackSegment::Cruise {
+                rate,
+                start_step,
+                origin_tick,
+                frac_num,
+                frac_bits,
+            } => {
+                if self.cruise.map_or(true, |c| c.start_step != start_step) {
+                    // the origin is the ramp's start + f·T exactly (or the start itself)
+                    if let Some((_, p, start, base)) = self.ramp.take() {
+                        assert_eq!(start_step, base + p.steps());
+                        let (m, ex) = decompose(p.duration());
+                        let s = (-ex) as u32;
+                        assert!(frac_bits <= s);
+                        let lhs = ((origin_tick - start) as u128 * (1u128 << s))
+                            + (frac_num << (s - frac_bits));
+                        assert_eq!(lhs, F as u128 * m, "cruise origin = ramp start + f·T");
+                        let last_ramp = start as f64 + (F as f64 * p.duration()).round();
+                        assert!(
+                            self.last as f64 == last_ramp,
+                            "last ramp edge is round(f·T)"
+                        );
+                    } else {
+                        assert_eq!((frac_num, frac_bits), (0, 0));
+                        assert_eq!(origin_tick, self.last);
+                    }
+                    self.cruise = Some(CruiseRef {
+                        num: rate.num(),
+                        den: rate.den(),
+                        start_step,
+                        o: origin_tick as u128,
+                        c: frac_num,
+                        b: frac_bits,
+                    });
+                }
+                let c = self.cruise.unwrap();
+                assert_eq!(
+                    e,
+                    c.edge(self.steps - c.start_step),
+                    "cruise step {}",
+                    self.steps
+                );
+                self.cruise_edges += 1;
+            }
+            TrackSegment::Stopped => panic!("an edge while stopped"),
+        }
+        self.last = e;
+    }
+}
+
+fn hours(h: u64) -> u64 {
+    h * 3600 * F
+}
+
+/// 15.041″/s on 4,000,000 microsteps per revolution (1,296,000″): 4e6·15.041/1.296e6.
+fn sidereal() -> Rate {
+    Rate::new(4_000_000 * 15_041, 1_296_000 * 1000).unwrap()
+}
+
+#[test]
+fn sidereal_rate_is_exact() {
+    let r = sidereal();
+    assert_eq!((r.num(), r.den()), (15041, 324));
+    assert!((r.to_f64() - 46.422_839_506_172_84).abs() < 1e-12);
+    assert_eq!(Rate::parse("15041/324").unwrap(), r);
+    assert_eq!(
+        Rate::parse(" 31999.9 ").unwrap(),
+        Rate::new(319_999, 10).unwrap()
+    );
+    assert_eq!(Rate::parse("3.2e4").unwrap(), Rate::new(32_000, 1).unwrap());
+    assert_eq!(Rate::parse("46.5/1.5").unwrap(), Rate::new(31, 1).unwrap());
+    assert_eq!(Rate::from_f64(0.1).unwrap().to_f64(), 0.1);
+    assert_eq!(Rate::from_f64(0.1).unwrap().den(), 1 << 55);
+    for bad in ["", "abc", "1..2", "-3", "1/0", "1/", "nan", "1e99999"] {
+        assert!(Rate::parse(bad).is_err(), "{bad:?}");
+    }
+    assert!(matches!(Rate::parse("x1"), Err(TrackError::BadRate(_))));
+}
+
+#[test]
+fn sidereal_24_hours_exact_from_rest() {
+    let limits = TrackLimits {
+        amax: 200.0,
+        jmax: None,
+    };
+    let mut tr = Tracker::new(F as f64, limits, 0.0, sidereal()).unwrap();
+    let mut ck = Checker::new(limits.amax);
+    // sample every 7 minutes and a few odd ticks
+    let mut samples = (0..)
+        .map(|k: u64| k * 420 * F + k * 12_345 % F)
+        .take_while(|&t| t < hours(24));
+    ck.run(&mut tr, hours(24), &mut samples);
+    assert!(ck.ramp_edges > 0 && ck.cruise_edges > 4_000_000);
+    assert!(ck.samples > 200, "{} samples", ck.samples);
+    // 0 ticks of accumulated error: the last edge is the nearest tick to the exact time
+    let c = ck.cruise.unwrap();
+    let k = ck.steps - c.start_step;
+    let exact2 = |e: u64| {
+        // 2^(b+1)·num·(e − X₀ − k·f·den/num) as a signed integer
+        let s = 1i128 << c.b;
+        (2 * s * c.num as i128) * (e as i128 - c.o as i128)
+            - 2 * c.num as i128 * c.c as i128
+            - 2 * s * (k as i128) * (F as i128) * c.den as i128
+    };
+    let err = exact2(ck.last);
+    let half = (1i128 << c.b) * c.num as i128;
+    assert!(-half <= err && err < half, "last edge within half a tick");
+}
+
+#[test]
+fn fast_rate_one_hour_exact() {
+    let limits = TrackLimits {
+        amax: 64_000.0,
+        jmax: None,
+    };
+    let rate = Rate::parse("31999.9").unwrap();
+    let mut tr = Tracker::new(F as f64, limits, 1000.0, rate).unwrap();
+    let mut ck = Checker::new(limits.amax);
+    let mut samples = (0..)
+        .map(|k: u64| k * 9 * F + 7 * k)
+        .take_while(|&t| t < hours(1));
+    ck.run(&mut tr, hours(1), &mut samples);
+    assert!(ck.cruise_edges > 115_000_000);
+    assert!(ck.samples > 300, "{} samples", ck.samples);
+}
+
+#[test]
+fn rate_changes_while_tracking_stay_exact() {
+    let limits = TrackLimits {
+        amax: 5_000.0,
+        jmax: None,
+    };
+    let mut tr = Tracker::new(F as f64, limits, 0.0, sidereal()).unwrap();
+    let mut ck = Checker::new(limits.amax);
+    let mut none = core::iter::empty();
+    let mut samples = (1..).map(|k: u64| k * 3_333_331);
+    ck.run(&mut tr, F * 60, &mut samples);
+    // faster, a change during the ramp (waits for its end), slower, stop, restart
+    let plan: [(&str, u64); 6] = [
+        ("319999/10", 5),
+        ("1234.5678", 0),
+        ("1000/3", 20),
+        ("0", 10),
+        ("7", 30),
+        ("15041/324", 60),
+    ];
+    for (rate, secs) in plan {
+        tr.set_rate(Rate::parse(rate).unwrap()).unwrap();
+        if secs == 0 {
+            continue;
+        }
+        let until = ck.last + secs * F;
+        ck.run(&mut tr, until, &mut samples);
+        assert_eq!(tr.rate(), Rate::parse(rate).unwrap());
+        if rate == "0" {
+            assert!(tr.next().is_none(), "stopped");
+            assert!(matches!(tr.segment(), TrackSegment::Stopped));
+        }
+    }
+    ck.run(&mut tr, ck.last + 30 * F, &mut none);
+    assert!(
+        ck.ramp_edges > 1000 && ck.cruise_edges > 5_000 && ck.samples > 100,
+        "{} {} {}",
+        ck.ramp_edges,
+        ck.cruise_edges,
+        ck.samples
+    );
+}
+
+#[test]
+fn scurve_ramps_and_no_ramp_start() {
+    let limits = TrackLimits {
+        amax: 2_000.0,
+        jmax: Some(20_000.0),
+    };
+    // already at the rate: a cruise from tick 0
+    let r = Rate::parse("100").unwrap();
+    let mut tr = Tracker::new(F as f64, limits, 100.0, r).unwrap();
+    let edges: Vec<u64> = (&mut tr).take(3).collect();
+    assert_eq!(edges, [500_000, 1_000_000, 1_500_000]);
+    let mut ck = Checker::new(limits.amax);
+    ck.last = 1_500_000;
+    ck.steps = 3;
+    ck.cruise = Some(CruiseRef {
+        num: 100,
+        den: 1,
+        start_step: 0,
+        o: 0,
+        c: 0,
+        b: 0,
+    });
+    tr.set_rate(Rate::parse("2500.25").unwrap()).unwrap();
+    ck.cruise = None;
+    ck.run(&mut tr, ck.last + 5 * F, &mut core::iter::empty());
+    tr.stop().unwrap();
+    ck.run(&mut tr, u64::MAX, &mut core::iter::empty());
+    assert!(tr.next().is_none());
+}
+
+#[test]
+fn bad_input_is_one_typed_error() {
+    let l = TrackLimits {
+        amax: 100.0,
+        jmax: None,
+    };
+    let r = Rate::parse("10").unwrap();
+    assert!(matches!(
+        Tracker::new(1.5, l, 0.0, r),
+        Err(TrackError::BadClock(_))
+    ));
+    let bad_a = TrackLimits { amax: 0.0, ..l };
+    assert!(matches!(
+        Tracker::new(1e6, bad_a, 0.0, r),
+        Err(TrackError::BadAmax(_))
+    ));
+    assert!(matches!(
+        Tracker::new(1e6, l, -1.0, r),
+        Err(TrackError::BadStartSpeed(_))
+    ));
+    // a period under two ticks
+    let fast = Rate::parse("600000").unwrap();
+    assert_eq!(
+        Tracker::new(1e6, l, 0.0, fast).err(),
+        Some(TrackError::TooFast)
+    );
+    let mut tr = Tracker::new(1e6, l, 0.0, r).unwrap();
+    assert_eq!(tr.set_rate(fast), Err(TrackError::TooFast));
+    assert_eq!(tr.rate(), r, "a refused change leaves the rate");
+}
+
+/// A random exact rate between 0.5 and 2·10⁵ steps/s with a denominator up to 2^24.
+fn any_rate() -> impl Strategy<Value = Rate> {
+    (0.5f64..2e5, 1u128..(1 << 24))
+        .prop_map(|(r, den)| Rate::new(((r * den as f64) as u128).max(1), den).unwrap())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Random rates, start speeds and limits (short ramps give origins with many fraction
+    /// bits): every edge exact through a ramp, a cruise, a rate change and a stop.
+    #[test]
+    fn random_tracking_is_exact(r1 in any_rate(), r2 in any_rate(), start in 0.0f64..3.0,
+                                amax_x in 0.5f64..1e4, scurve in any::<bool>(),
+                                samples_step in 10_000u64..10_000_000) {
+        let v1 = r1.to_f64();
+        let amax = v1 * amax_x;
+        let limits = TrackLimits { amax, jmax: scurve.then_some(amax * 20.0) };
+        let mut tr = Tracker::new(F as f64, limits, start * v1, r1).unwrap();
+        let mut ck = Checker::new(amax);
+        let mut samples = (1..).map(|k| k * samples_step);
+        let mut until = |ck: &Checker, n: u64| ck.last + n * (F as f64 / v1.min(r2.to_f64())) as u64;
+        let end = until(&ck, 3000);
+        ck.run(&mut tr, end, &mut samples);
+        tr.set_rate(r2).unwrap();
+        let end = until(&ck, 3000).max(ck.last + F / 10);
+        ck.run(&mut tr, end, &mut samples);
+        tr.stop().unwrap();
+        ck.run(&mut tr, u64::MAX, &mut samples);
+        prop_assert!(tr.next().is_none());
+        prop_assert!(ck.cruise_edges > 0);
+    }
+}
+
+/// A change during a trapezoid ramp starts at once, from the speed at the last step; a stop
+/// during a ramp takes the shortest distance amax allows.
+#[test]
+fn changes_during_a_trapezoid_ramp_start_at_once() {
+    let limits = TrackLimits {
+        amax: 1000.0,
+        jmax: None,
+    };
+    let mut tr = Tracker::new(F as f64, limits, 0.0, Rate::new(10_000, 1).unwrap()).unwrap();
+    let mut ck = Checker::new(limits.amax);
+    ck.run(&mut tr, 3 * F, &mut core::iter::empty());
+    let v = 1000.0 * ck.last as f64 / F as f64; // the ramp's speed at its last step
+    tr.set_rate(Rate::new(5_000, 1).unwrap()).unwrap();
+    let p = tr.ramp_profile().expect("a new ramp at once");
+    assert!(
+        (p.velocity(0.0) - v).abs() < 1e-3 * v,
+        "{} vs {v}",
+        p.velocity(0.0)
+    );
+    ck.run(&mut tr, ck.last + F / 2, &mut core::iter::empty());
+    let (steps, v) = (ck.steps, 1000.0 * (3.0 + 0.5));
+    tr.stop().unwrap();
+    ck.run(&mut tr, u64::MAX, &mut core::iter::empty());
+    let braking = (ck.steps - steps) as f64;
+    let least = v * v / (2.0 * limits.amax);
+    assert!(
+        braking >= least - 1.0 && braking <= least + 2.0,
+        "{braking} vs {least}"
+    );
+    assert!(tr.next().is_none());
+}
