@@ -135,7 +135,7 @@ fn open_store(data: &Path, reset_damaged: bool) -> anyhow::Result<Store> {
     std::fs::create_dir_all(data)
         .with_context(|| format!("--data {}: cannot create the directory", data.display()))?;
     let (store, aside) = Store::open_or_reset(data, reset_damaged).map_err(|e| match e {
-        CtlError::Store(msg) if msg.contains("already open") => anyhow!(
+        CtlError::Store(msg) if msg.contains("in use by another process") => anyhow!(
             "--data {}: {msg} (is another `multistep serve` using it?)",
             data.display()
         ),
