@@ -132,6 +132,120 @@ fn check_limit(name: &'static str, v: Option<f64>, family: &'static str) -> Resu
     }
 }
 
+/// Steps covered by `vs → vp → ve` with no cruise.
+fn distance(l: &Limits, vs: f64, vp: f64, ve: f64) -> f64 {
+    change(l, vs, vp).distance(vs, vp) + change(l, vp, ve).distance(vp, ve)
+}
+
+/// Largest `x` in `[lo, hi]` with `below(x)`, given `below(lo)` and not `below(hi)`.
+fn bisect(mut lo: f64, mut hi: f64, below: impl Fn(f64) -> bool) -> f64 {
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if below(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// Grid points tried when looking for a dip below both end speeds.
+const DIP_GRID: usize = 256;
+
+/// The peak (or valley) speed of the time-optimal move `vs → vp → (cruise) → ve` in `n`
+/// steps, or the fewest steps any such move needs.
+///
+/// With `vp ≥ max(vs, ve)` the covered distance grows with `vp`, and the fastest move is
+/// the largest `vp` that fits. When even the direct change `vs → ve` needs more than `n`
+/// steps, a jerk-limited move can still fit by slowing below both end speeds first: a
+/// change from a lower speed covers fewer steps while jerk, not acceleration, dominates
+/// it. The distance is not monotone below `min(vs, ve)`, so the valley is found on a grid
+/// (refining every grid minimum) and the largest valley speed that fits is kept: the
+/// highest valley is the fastest one (higher speed everywhere, no cruise).
+fn peak_speed(l: &Limits, n: f64, vs: f64, ve: f64, vmax: f64) -> Result<f64, f64> {
+    let dist = |vp: f64| distance(l, vs, vp, ve);
+    let vlo = vs.max(ve);
+    if dist(vmax) <= n {
+        return Ok(vmax);
+    }
+    let direct = dist(vlo);
+    if direct <= n {
+        if l.order == 2 {
+            // vp² − vs² + vp² − ve² = 2·amax·N
+            let vp = fm::sqrt((2.0 * l.amax * n + vs * vs + ve * ve) / 2.0);
+            return Ok(vp.clamp(vlo, vmax));
+        }
+        return Ok(bisect(vlo, vmax, |v| dist(v) <= n));
+    }
+    // A constant-acceleration change covers (v0² − v1²)/2a whatever the path: no dip helps.
+    let vmin = vs.min(ve);
+    if l.order == 2 || vmin <= 0.0 {
+        return Err(direct);
+    }
+    // Scan down from vmin; the first grid point that fits bounds the highest fitting valley.
+    let at = |k: usize| vmin * (DIP_GRID - k) as f64 / DIP_GRID as f64;
+    let mut fewest = direct;
+    let mut prev = direct;
+    for k in 1..=DIP_GRID {
+        let v = at(k);
+        let d = dist(v);
+        if d <= n {
+            return Ok(bisect(v, at(k - 1), |x| dist(x) <= n));
+        }
+        // a grid minimum (d below both neighbours) may hide a narrow window that fits
+        let next = if k < DIP_GRID {
+            dist(at(k + 1))
+        } else {
+            f64::INFINITY
+        };
+        if d <= prev && d <= next {
+            let (v_best, d_best) = golden_min(&dist, at((k + 1).min(DIP_GRID)), at(k - 1));
+            fewest = fewest.min(d_best);
+            if d_best <= n {
+                return Ok(bisect(v_best, at(k - 1), |x| dist(x) <= n));
+            }
+        }
+        fewest = fewest.min(d);
+        prev = d;
+    }
+    Err(fewest)
+}
+
+/// Golden-section search for the minimum of `f` on `[a, b]`: `(argmin, min)`.
+fn golden_min(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
+    const R: f64 = 0.618_033_988_749_894_8;
+    let mut c = b - R * (b - a);
+    let mut d = a + R * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..80 {
+        if fc <= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - R * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + R * (b - a);
+            fd = f(d);
+        }
+        if b - a <= 1e-15 * b {
+            break;
+        }
+    }
+    if fc <= fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
 pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
     if m.steps == 0 {
         return Err(PlanError::NoSteps);
@@ -179,39 +293,12 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
         order,
     };
     let n = m.steps as f64;
-    let dist = |vp: f64| change(&l, vs, vp).distance(vs, vp) + change(&l, vp, ve).distance(vp, ve);
-    let vlo = vs.max(ve);
-    let vp = if dist(vmax) <= n {
-        vmax
-    } else {
-        let need = dist(vlo);
-        if need > n {
-            return Err(PlanError::TooShortForLimits {
-                steps: m.steps,
-                start_speed: vs,
-                end_speed: ve,
-                needed: need,
-            });
-        }
-        if order == 2 {
-            // vp² − vs² + vp² − ve² = 2·amax·N
-            fm::sqrt((2.0 * amax * n + vs * vs + ve * ve) / 2.0).clamp(vlo, vmax)
-        } else {
-            let (mut lo, mut hi) = (vlo, vmax);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
-                    break;
-                }
-                if dist(mid) <= n {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            lo
-        }
-    };
+    let vp = peak_speed(&l, n, vs, ve, vmax).map_err(|needed| PlanError::TooShortForLimits {
+        steps: m.steps,
+        start_speed: vs,
+        end_speed: ve,
+        needed,
+    })?;
     let up = change(&l, vs, vp);
     let down = change(&l, vp, ve);
     let cruise = if vp > 0.0 {

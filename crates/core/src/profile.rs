@@ -138,6 +138,50 @@ pub struct LimitsMove {
     pub end_speed: f64,
 }
 
+impl LimitsMove {
+    /// A trapezoid from rest to rest: `n` steps under `vmax` (steps/s) and `amax` (steps/s²).
+    pub const fn trapezoid(steps: u64, vmax: f64, amax: f64) -> Self {
+        LimitsMove {
+            steps,
+            order: Order::Trapezoid,
+            vmax,
+            amax,
+            jmax: None,
+            smax: None,
+            start_speed: 0.0,
+            end_speed: 0.0,
+        }
+    }
+
+    /// A jerk-limited S-curve from rest to rest (`jmax` in steps/s³).
+    pub const fn scurve(steps: u64, vmax: f64, amax: f64, jmax: f64) -> Self {
+        LimitsMove {
+            order: Order::SCurve,
+            jmax: Some(jmax),
+            ..LimitsMove::trapezoid(steps, vmax, amax)
+        }
+    }
+
+    /// A snap-limited 4th-order S-curve from rest to rest (`smax` in steps/s⁴).
+    pub const fn scurve4(steps: u64, vmax: f64, amax: f64, jmax: f64, smax: f64) -> Self {
+        LimitsMove {
+            order: Order::SCurve4,
+            jmax: Some(jmax),
+            smax: Some(smax),
+            ..LimitsMove::trapezoid(steps, vmax, amax)
+        }
+    }
+
+    /// The same move starting at `start` and ending at `end` steps/s.
+    pub const fn with_speeds(self, start: f64, end: f64) -> Self {
+        LimitsMove {
+            start_speed: start,
+            end_speed: end,
+            ..self
+        }
+    }
+}
+
 /// A move in any of the three modes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Move<'a> {
@@ -331,8 +375,13 @@ impl Profile {
         match m {
             Move::Phase(p) => Profile::phase(p),
             Move::Segments(s) => Profile::segments(s),
-            Move::Limits(l) => limits::plan(l),
+            Move::Limits(l) => Profile::limits(l),
         }
+    }
+
+    /// Limits mode: the time-optimal move of its order that never exceeds a limit.
+    pub fn limits(m: &LimitsMove) -> Result<Profile, PlanError> {
+        limits::plan(m)
     }
 
     /// Phase mode: `vm` follows from N = vs·Ta + (vm−vs)·Ta·G1 + vm·Tb + ve·Tc + (vm−ve)·Tc·G1.
