@@ -64,6 +64,11 @@ pub enum PlanError {
     TooManyTicks { ticks: f64, max: f64 },
     #[error("a move takes one of: phase times (accel/cruise/decel), limits (vmax/amax) or segments; {0}")]
     AmbiguousMode(&'static str),
+    #[error(
+        "the planned pieces end at step {reached}, not on step {steps} (the move's values are \
+         too far apart for f64)"
+    )]
+    MissesLastStep { reached: f64, steps: u64 },
     #[error("missing {0}")]
     Missing(&'static str),
 }

@@ -201,6 +201,9 @@ pub struct Profile {
     duration: f64,
 }
 
+/// How far (in units of ε·N) the pieces may end from step N.
+const END_TOLERANCE: f64 = 8.0;
+
 /// Appends pieces, carrying time and position forward.
 pub(crate) struct Builder {
     pieces: [Piece; MAX_PIECES],
@@ -306,7 +309,16 @@ impl Builder {
         if self.len == 0 || !(self.t > 0.0) {
             return Err(PlanError::ZeroDuration);
         }
-        // The move ends on step N by definition; absorb rounding in the last end.
+        // The move ends on step N by definition. The pieces reach N up to the rounding of
+        // their own coefficients (measured: at most 2.5·ε·N over the test suites); anything
+        // more is a planning error, never silently absorbed.
+        let n = steps as f64;
+        if !((self.p - n).abs() <= END_TOLERANCE * f64::EPSILON * n) {
+            return Err(PlanError::MissesLastStep {
+                reached: self.p,
+                steps,
+            });
+        }
         self.ends[self.len - 1] = steps as f64;
         Ok(Profile {
             pieces: self.pieces,
@@ -579,5 +591,24 @@ impl Profile {
             }
         }
         (vmax, amax)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finish_refuses_pieces_that_miss_step_n() {
+        let cruise = |b: &mut Builder, v: f64| b.cruise(v, 1.0).unwrap();
+        let mut b = Builder::new();
+        cruise(&mut b, 10.0);
+        assert!(b.finish(10).is_ok());
+        let mut b = Builder::new();
+        cruise(&mut b, 10.0 + 1e-12);
+        assert!(matches!(
+            b.finish(10),
+            Err(PlanError::MissesLastStep { steps: 10, .. })
+        ));
     }
 }

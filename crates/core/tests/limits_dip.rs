@@ -92,11 +92,15 @@ fn reference(l: &Lim, n: f64, vs: f64, ve: f64, vmax: f64) -> Option<f64> {
         }
     };
     let feasible = |v: f64| shape(l, vs, v, ve).0 <= n;
-    for k in 0..=K {
-        consider(&mut best, at(k));
+    // the grid, with the end speeds as grid points: the distance has kinks there, and the
+    // feasible set can be a narrow window next to one of them
+    let mut grid: Vec<f64> = (0..=K).map(at).chain([vs, ve]).collect();
+    grid.sort_by(f64::total_cmp);
+    for w in grid.windows(2) {
+        consider(&mut best, w[0]);
         // a feasibility boundary between two grid points: the optimum may sit on it
-        if k < K && feasible(at(k)) != feasible(at(k + 1)) {
-            let (mut lo, mut hi) = (at(k), at(k + 1));
+        if feasible(w[0]) != feasible(w[1]) {
+            let (mut lo, mut hi) = (w[0], w[1]);
             let lo_ok = feasible(lo);
             for _ in 0..80 {
                 let mid = 0.5 * (lo + hi);
@@ -109,21 +113,25 @@ fn reference(l: &Lim, n: f64, vs: f64, ve: f64, vmax: f64) -> Option<f64> {
             consider(&mut best, if lo_ok { lo } else { hi });
         }
     }
-    for &v in &[vs, ve, vmax] {
-        consider(&mut best, v);
-    }
-    // refine around the best grid point
+    consider(&mut best, vmax);
+    // zoom in around the best point found so far
     if best.is_finite() {
-        let kb = (0..=K)
-            .min_by(|&a, &b| {
-                let da = duration(l, n, vs, at(a), ve).unwrap_or(f64::INFINITY);
-                let db = duration(l, n, vs, at(b), ve).unwrap_or(f64::INFINITY);
-                da.total_cmp(&db)
-            })
+        let dur = |v: f64| duration(l, n, vs, v, ve).unwrap_or(f64::INFINITY);
+        let mut c = (0..=K)
+            .map(at)
+            .min_by(|&a, &b| dur(a).total_cmp(&dur(b)))
             .unwrap();
-        let (lo, hi) = (at(kb.saturating_sub(1)), at((kb + 1).min(K)));
-        for k in 0..=400 {
-            consider(&mut best, lo + (hi - lo) * k as f64 / 400.0);
+        let mut w = vmax / K as f64;
+        for _ in 0..12 {
+            let (lo, hi) = ((c - w).max(0.0), (c + w).min(vmax));
+            for k in 0..=64 {
+                let v = lo + (hi - lo) * k as f64 / 64.0;
+                if dur(v) < dur(c) {
+                    c = v;
+                }
+            }
+            consider(&mut best, c);
+            w /= 8.0;
         }
     }
     best.is_finite().then_some(best)
