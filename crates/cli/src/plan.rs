@@ -35,7 +35,8 @@ pub struct PlanSummary {
 }
 
 pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
-    let profile = args.mv.plan()?;
+    // on the clock: limits-mode trapezoids on whole ticks, as the integer datapath and the FPGA
+    let profile = args.mv.spec().plan_on_clock(args.clock)?;
     let mut gen = EdgeGenerator::new(profile, args.clock)?;
     let stdout = std::io::stdout();
     if let Format::Csv = args.format {

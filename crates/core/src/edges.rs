@@ -418,9 +418,10 @@ impl Iterator for Periods {
     }
 }
 
-/// Builds a generator for any move in one call.
+/// Builds a generator for any move in one call (planned on the clock:
+/// [`Profile::plan_on_clock`]).
 pub fn edges(m: &crate::profile::Move<'_>, clock_hz: f64) -> Result<EdgeGenerator, PlanError> {
-    EdgeGenerator::new(Profile::plan(m)?, clock_hz)
+    EdgeGenerator::new(Profile::plan_on_clock(m, clock_hz)?, clock_hz)
 }
 
 #[cfg(test)]

@@ -7,8 +7,10 @@
 //! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
 //! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
 
+use crate::dd::Dd;
 use crate::error::{non_negative, positive, PlanError};
 use crate::profile::{Builder, LimitsMove, Order, Profile, MAX_STEPS};
+use crate::profile::{Family, PhaseMove};
 use crate::real::fm;
 
 #[derive(Clone, Copy, Debug)]
@@ -301,14 +303,103 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
     })?;
     let up = change(&l, vs, vp);
     let down = change(&l, vp, ve);
+    // the cruise covers what the changes' pieces leave (as summed in f64, so the move
+    // ends on N to the rounding of its pieces, not of the closed-form distances)
+    let mut b = Builder::new();
+    b.push_schedule(order, vs, &up.entries[..up.len])?;
+    let mut tail = Builder::new();
+    tail.push_schedule(order, vp, &down.entries[..down.len])?;
     let cruise = if vp > 0.0 {
-        ((n - up.distance(vs, vp) - down.distance(vp, ve)) / vp).max(0.0)
+        ((n - b.position() - tail.position()) / vp).max(0.0)
     } else {
         0.0
     };
-    let mut b = Builder::new();
-    b.push_schedule(order, vs, &up.entries[..up.len])?;
     b.cruise(vp, cruise)?;
     b.push_schedule(order, vp, &down.entries[..down.len])?;
     b.finish(m.steps)
+}
+
+/// The smallest whole number `t ≥ 0` with `ok(t)`, searched from an estimate (`ok` is
+/// monotone: false below the answer, true from it on).
+fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> f64 {
+    let mut t = if estimate.is_finite() {
+        fm::floor(estimate.max(0.0))
+    } else {
+        0.0
+    };
+    while !ok(t) {
+        t += 1.0;
+    }
+    while t > 0.0 && ok(t - 1.0) {
+        t -= 1.0;
+    }
+    t
+}
+
+/// Limits mode on a clock, trapezoid: the time-optimal accel and decel times rounded *up*
+/// to whole ticks, the cruise time rounded up so the cruise speed stays at or below the
+/// peak, and the cruise speed then following from N (phase mode). Neither limit is ever
+/// exceeded, and these are exactly the ticks [`crate::int::limits_to_phase`] computes with
+/// integers: every comparison is of squares (`√` never rounded), in double-double.
+///
+/// Returns `(accel, cruise, decel)` ticks.
+pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
+    let f = positive("clock", clock)?;
+    // validates the move, with the float planner's errors
+    plan(&LimitsMove {
+        order: Order::Trapezoid,
+        ..*m
+    })?;
+    let (n, vmax, amax) = (m.steps as f64, m.vmax, m.amax);
+    let (vs, ve) = (m.start_speed, m.end_speed);
+    let sq = |x: f64| Dd::mul_f64(x, x);
+    let ends = sq(vs) + sq(ve);
+    // vp² = vmax² if reaching vmax fits in N (2vmax² − vs² − ve² ≤ 2·amax·N), else
+    // amax·N + (vs² + ve²)/2
+    let two_an = Dd::mul_f64(2.0 * amax, n);
+    let reach = sq(vmax) * Dd::new(2.0) - ends;
+    let vp2 = if reach <= two_an {
+        sq(vmax)
+    } else {
+        (two_an + ends) * Dd::new(0.5)
+    };
+    let vp = fm::sqrt(vp2.hi);
+    let f2vp2 = Dd::mul_f64(f, f) * vp2;
+    // t ticks are enough to change from v to vp at amax: t·amax + f·v ≥ f·vp
+    let ramp = |v: f64| {
+        least(f * (vp - v) / amax, |t| {
+            let x = Dd::mul_f64(t, amax) + Dd::mul_f64(f, v);
+            x * x >= f2vp2
+        })
+    };
+    let (ta, tc) = (ramp(vs), ramp(ve));
+    // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·f − vs·Ta − ve·Tc
+    let k = Dd::mul_f64(2.0 * n, f) - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc);
+    let tb = if !(k.hi > 0.0) {
+        0.0
+    } else {
+        let k2 = k * k;
+        least((k.hi / vp - ta - tc) / 2.0, |tb| {
+            let w = Dd::new(2.0 * tb + ta + tc);
+            vp2 * w * w >= k2
+        })
+    };
+    Ok((ta, tb, tc))
+}
+
+/// [`whole_ticks`] planned: a phase-mode trapezoid of whole-tick phases.
+pub(crate) fn plan_on_clock(m: &LimitsMove, clock: f64) -> Result<Profile, PlanError> {
+    if m.order != Order::Trapezoid {
+        return plan(m);
+    }
+    let (ta, tb, tc) = whole_ticks(m, clock)?;
+    Profile::phase(&PhaseMove {
+        steps: m.steps,
+        accel_time: ta / clock,
+        cruise_time: tb / clock,
+        decel_time: tc / clock,
+        start_speed: m.start_speed,
+        end_speed: m.end_speed,
+        family: Family::Trapezoid,
+    })
 }

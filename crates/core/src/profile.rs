@@ -201,7 +201,7 @@ pub struct Profile {
     duration: f64,
 }
 
-/// How far (in units of ε·N) the pieces may end from step N.
+/// How far the pieces may end from step N, in units of ε·(N + the terms summed).
 const END_TOLERANCE: f64 = 8.0;
 
 /// Appends pieces, carrying time and position forward.
@@ -211,6 +211,8 @@ pub(crate) struct Builder {
     len: usize,
     t: f64,
     p: f64,
+    /// Sum of the magnitudes of the terms the pieces' ends were added from (steps).
+    scale: f64,
 }
 
 impl Builder {
@@ -221,6 +223,7 @@ impl Builder {
             len: 0,
             t: 0.0,
             p: 0.0,
+            scale: 0.0,
         }
     }
 
@@ -247,6 +250,7 @@ impl Builder {
             law,
         };
         let end = exact_end.unwrap_or_else(|| piece.end()).max(self.p);
+        self.scale += piece.term_scale(dur);
         self.pieces[self.len] = piece;
         self.ends[self.len] = end;
         self.len += 1;
@@ -292,6 +296,11 @@ impl Builder {
         Ok(())
     }
 
+    /// Where the pieces so far end (steps).
+    pub(crate) fn position(&self) -> f64 {
+        self.p
+    }
+
     pub(crate) fn cruise(&mut self, v: f64, dur: f64) -> Result<(), PlanError> {
         self.push(
             dur,
@@ -310,10 +319,10 @@ impl Builder {
             return Err(PlanError::ZeroDuration);
         }
         // The move ends on step N by definition. The pieces reach N up to the rounding of
-        // their own coefficients (measured: at most 2.5·ε·N over the test suites); anything
-        // more is a planning error, never silently absorbed.
+        // the terms their ends are summed from; anything more is a planning error, never
+        // silently absorbed.
         let n = steps as f64;
-        if !((self.p - n).abs() <= END_TOLERANCE * f64::EPSILON * n) {
+        if !((self.p - n).abs() <= END_TOLERANCE * f64::EPSILON * (n + self.scale)) {
             return Err(PlanError::MissesLastStep {
                 reached: self.p,
                 steps,
@@ -394,6 +403,23 @@ impl Profile {
     /// Limits mode: the time-optimal move of its order that never exceeds a limit.
     pub fn limits(m: &LimitsMove) -> Result<Profile, PlanError> {
         limits::plan(m)
+    }
+
+    /// Limits mode on a clock of `clock_hz`: a trapezoid's accel, cruise and decel times are
+    /// rounded up to whole ticks (so no limit is exceeded) and the cruise speed follows from
+    /// N, exactly as the integer datapath ([`crate::int::IntProfile::limits`]) and the FPGA
+    /// plan it, so all of them emit the same edges. S-curves are planned as [`Profile::limits`].
+    pub fn limits_on_clock(m: &LimitsMove, clock_hz: f64) -> Result<Profile, PlanError> {
+        limits::plan_on_clock(m, clock_hz)
+    }
+
+    /// Any mode, with limits-mode trapezoids on whole ticks ([`Profile::limits_on_clock`]):
+    /// what a move plays as on a clock of `clock_hz`.
+    pub fn plan_on_clock(m: &Move<'_>, clock_hz: f64) -> Result<Profile, PlanError> {
+        match m {
+            Move::Limits(l) => Profile::limits_on_clock(l, clock_hz),
+            other => Profile::plan(other),
+        }
     }
 
     /// Phase mode: `vm` follows from N = vs·Ta + (vm−vs)·Ta·G1 + vm·Tb + ve·Tc + (vm−ve)·Tc·G1.

@@ -86,7 +86,14 @@ impl<'a> MoveSpec<'a> {
         }))
     }
 
+    /// Resolves and plans the move (limits mode at ideal, not whole-tick, times).
     pub fn plan(&self) -> Result<Profile, PlanError> {
         Profile::plan(&self.resolve()?)
+    }
+
+    /// Resolves and plans the move as it plays on a clock of `clock_hz`
+    /// ([`Profile::plan_on_clock`]).
+    pub fn plan_on_clock(&self, clock_hz: f64) -> Result<Profile, PlanError> {
+        Profile::plan_on_clock(&self.resolve()?, clock_hz)
     }
 }

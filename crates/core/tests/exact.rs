@@ -23,9 +23,15 @@ fn slack(clock: f64, duration: f64) -> f64 {
 }
 
 /// ... and how far (steps) its positions may lie from the move's: the pieces are chained in
-/// f64, and planning refuses any that miss N by more than 8·ε·N.
-fn steps_slack(steps: u64) -> f64 {
-    16.0 * f64::EPSILON * (steps as f64).max(1.0)
+/// f64 from terms of up to v·T steps, and planning refuses any that miss N by more than
+/// 8·ε·(N + their sum).
+fn steps_slack(r: &MoveRef) -> f64 {
+    let terms: f64 = r
+        .phases
+        .iter()
+        .map(|p| to_f64(&p.v0).max(to_f64(&p.v1)) * to_f64(&p.dur))
+        .sum();
+    16.0 * f64::EPSILON * ((r.steps as f64).max(1.0) + terms)
 }
 
 struct Checked {
@@ -48,6 +54,7 @@ fn check_edges(
     let n = r.steps;
     let f = bf(clock);
     let d = slack(clock, prof.duration());
+    let ds = steps_slack(r);
     let mut out = Checked { edges: 0, near: 0 };
     for i in from..(from + count).min(n + 1) {
         let e = gen.next().ok_or("generator ended early")? as f64;
@@ -67,7 +74,7 @@ fn check_edges(
             let strict =
                 (e == 0.0 || lt(&at(ctx, e - 0.5), &target)) && !lt(&at(ctx, e + 0.5), &target);
             if !strict {
-                let (above, below) = (bf(i as f64 + steps_slack(n)), bf(i as f64 - steps_slack(n)));
+                let (above, below) = (bf(i as f64 + ds), bf(i as f64 - ds));
                 let loose = (e == 0.0 || lt(&at(ctx, e - 0.5 - d), &above))
                     && !lt(&at(ctx, e + 0.5 + d), &below);
                 if !loose {
