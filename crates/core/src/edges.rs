@@ -1,5 +1,6 @@
 //! The edge generator: step i happens at `t_i = min{t : p(t) = i}` and its edge is the
-//! nearest tick, `floor(f·t_i + ½)` (DESIGN.md §1).
+//! nearest tick, `ceil(f·t_i − ½)`: an exact half tick goes to the earlier tick
+//! (DESIGN.md §1), as in the exactness test below and in `int`.
 //!
 //! Each step is solved in f64 (closed form on constant-acceleration pieces, safeguarded
 //! Newton elsewhere) together with a bound on its rounding error in ticks. When `f·t_i` lies

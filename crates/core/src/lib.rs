@@ -4,8 +4,9 @@
 //!
 //! A move ([`Move`], or [`MoveSpec`] by name) is planned into a [`Profile`]: a piecewise
 //! position function p(t) built from the families of DESIGN.md §2. An [`EdgeGenerator`]
-//! streams `edge_i = floor(f·t_i + ½)` for every step with `t_i = min{t : p(t) = i}`: each
-//! edge is the nearest tick to the exact step time, on every step.
+//! streams `edge_i = ceil(f·t_i − ½)` for every step with `t_i = min{t : p(t) = i}`: each
+//! edge is the nearest tick to the exact step time, on every step, an exact half tick
+//! going to the earlier tick.
 //!
 //! `no_std`, no allocation. The `std` feature (default) uses the platform's math library;
 //! without it the pure-Rust `libm` crate is used.
