@@ -102,10 +102,12 @@ impl EdgeGenerator {
         .entered(0))
     }
 
+    /// The profile being played.
     pub fn profile(&self) -> &Profile {
         &self.profile
     }
 
+    /// Ticks per second.
     pub fn clock(&self) -> f64 {
         self.clock
     }

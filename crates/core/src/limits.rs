@@ -7,10 +7,12 @@
 //! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
 //! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
 
+use crate::builder::Builder;
 use crate::dd::Dd;
 use crate::error::{non_negative, positive, PlanError};
-use crate::profile::{Builder, LimitsMove, Order, Profile, MAX_STEPS};
-use crate::profile::{Family, PhaseMove};
+use crate::moves::{Family, LimitsMove, Order, PhaseMove, MAX_STEPS};
+use crate::phase;
+use crate::profile::Profile;
 use crate::real::fm;
 
 #[derive(Clone, Copy, Debug)]
@@ -393,7 +395,7 @@ pub(crate) fn plan_on_clock(m: &LimitsMove, clock: f64) -> Result<Profile, PlanE
         return plan(m);
     }
     let (ta, tb, tc) = whole_ticks(m, clock)?;
-    Profile::phase(&PhaseMove {
+    phase::plan(&PhaseMove {
         steps: m.steps,
         accel_time: ta / clock,
         cruise_time: tb / clock,

@@ -10,12 +10,17 @@ use crypto_bigint::U256;
 /// Phase mode, trapezoid family: N steps in whole-tick accel, cruise and decel times.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct IntPhaseMove {
+    /// Steps of the move.
     pub steps: u64,
+    /// Accel time in ticks.
     pub accel_ticks: u64,
+    /// Cruise time in ticks.
     pub cruise_ticks: u64,
+    /// Decel time in ticks.
     pub decel_ticks: u64,
     /// Start and end speed in 1/`speed_scale` steps/s.
     pub start_speed: u64,
+    /// End speed in 1/`speed_scale` steps/s.
     pub end_speed: u64,
 }
 
@@ -24,7 +29,9 @@ pub struct IntPhaseMove {
 pub struct IntSegment {
     /// Start speed in 1/`speed_scale` steps/s.
     pub v0: u64,
+    /// Duration in ticks.
     pub ticks: u64,
+    /// Steps of the move.
     pub steps: u64,
 }
 
@@ -32,11 +39,15 @@ pub struct IntSegment {
 /// to whole ticks (so neither limit is ever exceeded).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct IntLimitsMove {
+    /// Steps of the move.
     pub steps: u64,
     /// In 1/`speed_scale` steps/s and 1/`speed_scale` steps/s².
     pub vmax: u64,
+    /// Acceleration limit in 1/`speed_scale` steps/s².
     pub amax: u64,
+    /// Start speed in 1/`speed_scale` steps/s.
     pub start_speed: u64,
+    /// End speed in 1/`speed_scale` steps/s.
     pub end_speed: u64,
 }
 
@@ -44,11 +55,14 @@ pub struct IntLimitsMove {
 /// 1/`speed_scale` steps/s (1 = whole steps/s).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IntClock {
+    /// Ticks per second.
     pub clock_hz: u64,
+    /// Speeds are in 1/`speed_scale` steps/s.
     pub speed_scale: u64,
 }
 
 impl IntClock {
+    /// A clock of `clock_hz` with speeds in whole steps/s.
     pub const fn hz(clock_hz: u64) -> Self {
         IntClock {
             clock_hz,
@@ -192,6 +206,7 @@ impl IntProfile {
         Self::phase(&limits_to_phase(m, clock)?, clock)
     }
 
+    /// Steps of the move.
     pub fn steps(&self) -> u64 {
         self.steps
     }
@@ -201,6 +216,7 @@ impl IntProfile {
         self.end_tick
     }
 
+    /// The pieces, in order.
     pub fn pieces(&self) -> &[IntPiece] {
         &self.pieces[..self.len]
     }

@@ -80,7 +80,7 @@ fn exact_phase_move(r: &mut Rng) -> IntPhaseMove {
         } else {
             1 << r.range(1, 22)
         };
-        let lo = 64 - ((ta + tc) as u64).max(2).leading_zeros() as u64;
+        let lo = 64 - (ta + tc).max(2u64).leading_zeros() as u64;
         let w: u64 = 1 << r.range(lo.max(1), 24);
         if w < ta + tc || (w - ta - tc) % 2 != 0 {
             continue;
