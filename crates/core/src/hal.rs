@@ -31,14 +31,11 @@ pub fn edges_for<T: TickTimer>(profile: Profile, timer: &T) -> Result<EdgeGenera
     EdgeGenerator::new(profile, f64::from(timer.hz()))
 }
 
-/// How long STEP stays high.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PulseWidth {
-    /// Half of the interval to the next edge (the last pulse: half the previous interval).
-    HalfPeriod,
-    /// A fixed number of ticks, cut short if the next edge comes first.
-    Ticks(u64),
-}
+/// How long STEP stays high: the same type, and the same widths, as the TDM engine's
+/// pulse unit. Half the interval to the next edge (the last pulse: half its own interval),
+/// at least one tick; or a fixed number of ticks. On a pin a pulse cannot reach the next
+/// rise, so one that would is cut there (the TDM model reports it as merged).
+pub use crate::tdm::PulseShape;
 
 /// How the driver sets DIR and shapes STEP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,7 +43,7 @@ pub struct DriverConfig {
     /// Ticks between setting DIR and tick 0 of the move.
     pub dir_setup_ticks: u64,
     /// How long STEP stays high.
-    pub pulse: PulseWidth,
+    pub pulse: PulseShape,
     /// DIR level for forward moves.
     pub forward_is_high: bool,
 }
@@ -55,7 +52,7 @@ impl Default for DriverConfig {
     fn default() -> Self {
         DriverConfig {
             dir_setup_ticks: 0,
-            pulse: PulseWidth::HalfPeriod,
+            pulse: PulseShape::HalfInterval,
             forward_is_high: true,
         }
     }
@@ -166,7 +163,7 @@ pub struct Stepper<S, D, E: Iterator<Item = u64>> {
     step: S,
     dir: D,
     edges: core::iter::Peekable<E>,
-    pulse: PulseWidth,
+    pulse: PulseShape,
     start: u64,
     prev: u64,
     next: Next,
@@ -231,12 +228,16 @@ impl<S: OutputPin, D: OutputPin, E: Iterator<Item = u64>> Stepper<S, D, E> {
                         self.out.late += 1;
                     }
                     self.step.set_high().map_err(DriveError::Step)?;
-                    let width = match (self.pulse, self.edges.peek().copied()) {
-                        (PulseWidth::HalfPeriod, Some(n)) => n.saturating_sub(edge) / 2,
-                        (PulseWidth::HalfPeriod, None) => edge.saturating_sub(self.prev) / 2,
-                        (PulseWidth::Ticks(w), Some(n)) => w.min(n.saturating_sub(edge)),
-                        (PulseWidth::Ticks(w), None) => w,
+                    let next = self.edges.peek().copied();
+                    let width = match (self.pulse, next) {
+                        (PulseShape::HalfInterval, Some(n)) => (n.saturating_sub(edge) / 2).max(1),
+                        (PulseShape::HalfInterval, None) => {
+                            (edge.saturating_sub(self.prev) / 2).max(1)
+                        }
+                        (PulseShape::Fixed { ticks }, _) => ticks,
                     };
+                    // cut at the next rise: the line must be low before it can rise again
+                    let width = next.map_or(width, |n| width.min(n.saturating_sub(edge)));
                     // a late rise keeps its width from when it actually rose
                     self.next = Next::Fall {
                         at: at.max(now).saturating_add(width),
@@ -354,7 +355,7 @@ mod tests {
         let step = Mock::new(&pulses(3));
         let dir = Mock::new(&[T::set(State::Low)]);
         let cfg = DriverConfig {
-            pulse: PulseWidth::Ticks(4),
+            pulse: PulseShape::Fixed { ticks: 4 },
             ..DriverConfig::default()
         };
         let mut d = StepDir::new(
@@ -484,5 +485,47 @@ mod tests {
         let (mut s, mut dr, _) = d.release();
         s.done();
         dr.done();
+    }
+
+    /// One pulse type, one set of widths: the driver's pulses are the TDM pulse unit's.
+    #[test]
+    fn pulses_have_the_tdm_pulse_units_widths() {
+        use crate::tdm::{PulseUnit, StepPulse};
+        for (shape, edges) in [
+            (PulseShape::HalfInterval, [10u64, 11, 20, 40]),
+            (PulseShape::Fixed { ticks: 3 }, [10, 15, 20, 40]),
+        ] {
+            // the TDM unit, every period loaded on time
+            let mut unit = PulseUnit::new(shape);
+            let mut tdm: Vec<StepPulse> = Vec::new();
+            let mut prev = 0;
+            for &e in &edges {
+                unit.load(0, prev, e - prev, &mut |p| tdm.push(p));
+                prev = e;
+            }
+            unit.finish(0, &mut |p| tdm.push(p));
+            // the driver, polled at each deadline: rises and falls alternate
+            let cfg = DriverConfig {
+                pulse: shape,
+                ..DriverConfig::default()
+            };
+            let step = Mock::new(&pulses(4));
+            let dir = Mock::new(&[T::set(State::High)]);
+            let mut s = Stepper::start(step, dir, true, edges, 0, cfg).unwrap();
+            let mut times = Vec::new();
+            let mut now = 0;
+            while let Some(d) = s.poll(now).unwrap() {
+                times.push(d);
+                now = d;
+            }
+            let (mut st, mut dr) = s.release();
+            st.done();
+            dr.done();
+            let want: Vec<u64> = tdm.iter().flat_map(|p| [p.rise, p.fall]).collect();
+            // a fall on the next rise is one deadline
+            let mut want_deadlines = want.clone();
+            want_deadlines.dedup();
+            assert_eq!(times, want_deadlines, "{shape:?}");
+        }
     }
 }
