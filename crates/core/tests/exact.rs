@@ -196,7 +196,7 @@ fn phase_time() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
 
     #[test]
     fn phase_mode_edges_are_exact(
@@ -292,7 +292,7 @@ fn scurve_rest_time(n: f64, vmax: f64, amax: f64, jmax: f64) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
 
     #[test]
     fn trapezoid_limits_are_time_optimal(
