@@ -10,9 +10,10 @@ pub const MAX_PIECES: usize = 64;
 pub const MAX_STEPS: u64 = 1 << 48;
 
 /// A velocity-curve family (DESIGN.md §2 table).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Family {
     /// `g = u`: constant acceleration (seed 000 segments, seed 001).
+    #[default]
     Trapezoid,
     /// `g = √u` (seed 001 eq. (9)–(15)).
     Parabolic,
@@ -111,7 +112,10 @@ impl Family {
 }
 
 /// Phase mode: N steps in accel, cruise and decel times (the seeds' way).
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// `Default` is a trapezoid with no steps and no times: fill in what the move has,
+/// `PhaseMove { steps: 2400, accel_time: 0.02, ..PhaseMove::default() }`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhaseMove {
     /// Steps of the move.
     pub steps: u64,
@@ -141,9 +145,10 @@ pub struct Segment {
 }
 
 /// The order of a limits-mode profile: which derivative is bounded last.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Order {
     /// vmax, amax.
+    #[default]
     Trapezoid,
     /// vmax, amax, jmax.
     SCurve,
@@ -152,7 +157,10 @@ pub enum Order {
 }
 
 /// Limits mode: the time-optimal move of N steps under kinematic limits.
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// Built with [`LimitsMove::trapezoid`], [`LimitsMove::scurve`] or [`LimitsMove::scurve4`];
+/// `Default` has no steps and no limits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LimitsMove {
     /// Steps of the move.
     pub steps: u64,
@@ -170,6 +178,30 @@ pub struct LimitsMove {
     pub start_speed: f64,
     /// End speed (steps/s).
     pub end_speed: f64,
+}
+
+impl PhaseMove {
+    /// `steps` of `family` in these accel, cruise and decel times (s), from rest to rest.
+    pub const fn new(steps: u64, family: Family, accel: f64, cruise: f64, decel: f64) -> Self {
+        PhaseMove {
+            steps,
+            accel_time: accel,
+            cruise_time: cruise,
+            decel_time: decel,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family,
+        }
+    }
+
+    /// The same move starting at `start` and ending at `end` steps/s.
+    pub const fn with_speeds(self, start: f64, end: f64) -> Self {
+        PhaseMove {
+            start_speed: start,
+            end_speed: end,
+            ..self
+        }
+    }
 }
 
 impl LimitsMove {
@@ -225,4 +257,39 @@ pub enum Move<'a> {
     Segments(&'a [Segment]),
     /// Limits mode.
     Limits(LimitsMove),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constructors_and_defaults_spell_the_same_moves() {
+        let p = PhaseMove::new(2400, Family::Sine, 0.02, 0.01, 0.02).with_speeds(5.0, 6.0);
+        let q = PhaseMove {
+            steps: 2400,
+            accel_time: 0.02,
+            cruise_time: 0.01,
+            decel_time: 0.02,
+            start_speed: 5.0,
+            end_speed: 6.0,
+            family: Family::Sine,
+        };
+        assert_eq!(p, q);
+        assert_eq!(PhaseMove::default().family, Family::Trapezoid);
+        let l = LimitsMove::scurve4(100, 1e3, 1e4, 1e5, 1e6).with_speeds(1.0, 2.0);
+        assert_eq!(
+            (l.order, l.jmax, l.smax, l.start_speed, l.end_speed),
+            (Order::SCurve4, Some(1e5), Some(1e6), 1.0, 2.0)
+        );
+        assert_eq!(
+            LimitsMove {
+                steps: 10,
+                vmax: 1.0,
+                amax: 2.0,
+                ..LimitsMove::default()
+            },
+            LimitsMove::trapezoid(10, 1.0, 2.0)
+        );
+    }
 }
