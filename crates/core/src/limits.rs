@@ -9,6 +9,7 @@
 
 use crate::builder::Builder;
 use crate::dd::Dd;
+use crate::edges::MAX_TICKS;
 use crate::error::{non_negative, positive, PlanError};
 use crate::moves::{Family, LimitsMove, Order, PhaseMove, MAX_STEPS};
 use crate::phase;
@@ -323,19 +324,28 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
 
 /// The smallest whole number `t ≥ 0` with `ok(t)`, searched from an estimate (`ok` is
 /// monotone: false below the answer, true from it on).
-fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> f64 {
-    let mut t = if estimate.is_finite() {
-        fm::floor(estimate.max(0.0))
-    } else {
-        0.0
-    };
+/// `None` if the estimate is off by more than a few ticks (only when the squares overflow).
+fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> Option<f64> {
+    if !(estimate.is_finite() && estimate <= MAX_TICKS) {
+        return None;
+    }
+    let mut t = fm::floor(estimate.max(0.0));
+    let mut budget = 64;
     while !ok(t) {
         t += 1.0;
+        budget -= 1;
+        if budget == 0 {
+            return None;
+        }
     }
     while t > 0.0 && ok(t - 1.0) {
         t -= 1.0;
+        budget -= 1;
+        if budget == 0 {
+            return None;
+        }
     }
-    t
+    Some(t)
 }
 
 /// Limits mode on a clock, trapezoid: the time-optimal accel and decel times rounded *up*
@@ -348,10 +358,18 @@ fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> f64 {
 pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
     let f = positive("clock", clock)?;
     // validates the move, with the float planner's errors
-    plan(&LimitsMove {
+    let ideal = plan(&LimitsMove {
         order: Order::Trapezoid,
         ..*m
     })?;
+    let ticks = ideal.duration() * f;
+    let too_long = PlanError::TooManyTicks {
+        ticks,
+        max: MAX_TICKS,
+    };
+    if !(ticks <= MAX_TICKS) {
+        return Err(too_long);
+    }
     let (n, vmax, amax) = (m.steps as f64, m.vmax, m.amax);
     let (vs, ve) = (m.start_speed, m.end_speed);
     let sq = |x: f64| Dd::mul_f64(x, x);
@@ -374,7 +392,10 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
             x * x >= f2vp2
         })
     };
-    let (ta, tc) = (ramp(vs), ramp(ve));
+    let (ta, tc) = match (ramp(vs), ramp(ve)) {
+        (Some(a), Some(c)) => (a, c),
+        _ => return Err(too_long),
+    };
     // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·f − vs·Ta − ve·Tc
     let k = Dd::mul_f64(2.0 * n, f) - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc);
     let tb = if !(k.hi > 0.0) {
@@ -385,6 +406,7 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
             let w = Dd::new(2.0 * tb + ta + tc);
             vp2 * w * w >= k2
         })
+        .ok_or(too_long)?
     };
     Ok((ta, tb, tc))
 }
@@ -404,4 +426,29 @@ pub(crate) fn plan_on_clock(m: &LimitsMove, clock: f64) -> Result<Profile, PlanE
         end_speed: m.end_speed,
         family: Family::Trapezoid,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whole-tick planning ends with a profile or a typed error, however large the values.
+    #[test]
+    fn whole_ticks_terminate_on_extreme_values() {
+        for (n, v, a, vs) in [
+            (10u64, 1e300, 1e300, 0.0),
+            (1 << 40, 1e200, 1e-200, 0.0),
+            (3, 1e150, 1e150, 1e150),
+            (7, 1e-300, 1e-300, 0.0),
+            (1000, 3.0, 1e308, 1.0),
+        ] {
+            let m = LimitsMove::trapezoid(n, v, a).with_speeds(vs, 0.0);
+            for clock in [1.0, 50e6, 1e18] {
+                match Profile::limits_on_clock(&m, clock) {
+                    Ok(p) => assert!(p.duration() > 0.0 && p.duration().is_finite()),
+                    Err(e) => assert!(!e.to_string().is_empty()),
+                }
+            }
+        }
+    }
 }
