@@ -26,7 +26,8 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
     }
     let spec = args.mv.spec();
     let mv = spec.resolve()?;
-    let profile = Profile::plan(&mv)?;
+    // on the clock: limits-mode trapezoids on whole ticks, as the integer datapath and the FPGA
+    let profile = spec.plan_on_clock(args.clock)?;
     let mut gen = EdgeGenerator::new(profile, args.clock)?;
     let stdout = std::io::stdout();
     if let Format::Csv = args.format {

@@ -189,7 +189,8 @@ mod tests {
     #[test]
     fn matches_exact_rationals_with_half_tick_ties() {
         // (t0, p0, c1) as dyadic rationals (num, den) so that f64 holds them exactly
-        let cases: &[((u128, u128), (u128, u128), (u128, u128))] = &[
+        type Dyadic = (u128, u128);
+        let cases: &[(Dyadic, Dyadic, Dyadic)] = &[
             ((0, 1), (0, 1), (32_000, 1)),  // 1562.5 ticks a step: ties every other
             ((1, 64), (3, 4), (32_000, 1)), // offset start, fractional p0
             ((5, 1024), (1001, 8), (20_000_000, 1)), // 2.5 ticks a step

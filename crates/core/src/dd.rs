@@ -45,16 +45,20 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
 impl Dd {
     pub const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
     pub const ONE: Dd = Dd { hi: 1.0, lo: 0.0 };
+    // hi: the f64 constant; lo: the next 53 bits (their digits past f64 precision are meant)
+    #[allow(clippy::excessive_precision)]
     const LN2: Dd = Dd {
-        hi: 6.931_471_805_599_452_862e-1,
+        hi: core::f64::consts::LN_2,
         lo: 2.319_046_813_846_299_558e-17,
     };
+    #[allow(clippy::excessive_precision)]
     const PI: Dd = Dd {
-        hi: 3.141_592_653_589_793_116e0,
+        hi: core::f64::consts::PI,
         lo: 1.224_646_799_147_353_207e-16,
     };
+    #[allow(clippy::excessive_precision)]
     const HALF_PI: Dd = Dd {
-        hi: 1.570_796_326_794_896_558e0,
+        hi: core::f64::consts::FRAC_PI_2,
         lo: 6.123_233_995_736_766_036e-17,
     };
 
@@ -281,7 +285,7 @@ mod tests {
         // e^1 to 32 digits: 2.71828182845904523536028747135266
         let e = Dd::ONE.exp();
         assert_eq!(e.hi, core::f64::consts::E);
-        assert!((e.lo - 1.445_646_891_729_250_158e-16).abs() < 1e-30);
+        assert!((e.lo - 1.445_646_891_729_250_2e-16).abs() < 1e-30);
         // sin(π) = 0 to dd precision; cos(π/3) = ½
         assert!(Dd::PI.sin().to_f64().abs() < 1e-31);
         let c = (Dd::PI / Dd::new(3.0)).cos() - Dd::new(0.5);

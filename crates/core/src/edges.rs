@@ -1,5 +1,6 @@
 //! The edge generator: step i happens at `t_i = min{t : p(t) = i}` and its edge is the
-//! nearest tick, `floor(f·t_i + ½)` (DESIGN.md §1).
+//! nearest tick, `ceil(f·t_i − ½)`: an exact half tick goes to the earlier tick
+//! (DESIGN.md §1), as in the exactness test below and in `int`.
 //!
 //! Each step is solved in f64 (closed form on constant-acceleration pieces, safeguarded
 //! Newton elsewhere) together with a bound on its rounding error in ticks. When `f·t_i` lies
@@ -129,10 +130,12 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         .entered(0))
     }
 
+    /// The profile being played.
     pub fn profile(&self) -> &Profile {
         self.profile.borrow()
     }
 
+    /// Ticks per second.
     pub fn clock(&self) -> f64 {
         self.clock
     }
@@ -578,9 +581,10 @@ impl<P: Borrow<Profile>> Iterator for Periods<P> {
     }
 }
 
-/// Builds a generator for any move in one call.
+/// Builds a generator for any move in one call (planned on the clock:
+/// [`Profile::plan_on_clock`]).
 pub fn edges(m: &crate::profile::Move<'_>, clock_hz: f64) -> Result<EdgeGenerator, PlanError> {
-    EdgeGenerator::new(Profile::plan(m)?, clock_hz)
+    EdgeGenerator::new(Profile::plan_on_clock(m, clock_hz)?, clock_hz)
 }
 
 #[cfg(test)]

@@ -4,67 +4,153 @@
 use thiserror::Error;
 
 #[derive(Clone, Debug, Error, PartialEq)]
+/// Why a move cannot be planned.
 pub enum PlanError {
     #[error("{name} must be a finite number (got {value})")]
-    NotFinite { name: &'static str, value: f64 },
+    /// A value is NaN or infinite.
+    NotFinite {
+        /// Which value, as the command line names it.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     #[error("{name} must be greater than zero (got {value})")]
-    NotPositive { name: &'static str, value: f64 },
+    /// A value that must be positive is not.
+    NotPositive {
+        /// Which value, as the command line names it.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     #[error("{name} must not be negative (got {value})")]
-    Negative { name: &'static str, value: f64 },
+    /// A value that must not be negative is.
+    Negative {
+        /// Which value, as the command line names it.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     #[error("the move must have at least one step")]
+    /// The move has no steps.
     NoSteps,
     #[error("{steps} steps is more than the {max} a move may have")]
-    TooManySteps { steps: u64, max: u64 },
+    /// More steps than [`MAX_STEPS`](crate::MAX_STEPS).
+    TooManySteps {
+        /// Steps of the move.
+        steps: u64,
+        /// The most allowed.
+        max: u64,
+    },
     #[error("the phases add up to zero time: accel, cruise and decel time cannot all be 0")]
+    /// The phases add up to zero time.
     ZeroDuration,
     #[error("{name} must be in (0, 0.5] (got {value})")]
-    FractionOutOfRange { name: &'static str, value: f64 },
+    /// φ or ψ outside (0, ½].
+    FractionOutOfRange {
+        /// Which value, as the command line names it.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     #[error(
         "the move cannot be done: {steps} steps are too few for a start speed of {start_speed} \
          and end speed of {end_speed} steps/s in these phase times (the cruise speed would be {cruise_speed:.6} steps/s)"
     )]
+    /// Phase mode: too few steps for the start and end speeds in these times.
     CannotShed {
+        /// Steps of the move.
         steps: u64,
+        /// Start speed (steps/s).
         start_speed: f64,
+        /// End speed (steps/s).
         end_speed: f64,
+        /// The cruise speed these phase times would need (steps/s; negative).
         cruise_speed: f64,
     },
     #[error(
         "segment {index}: end speed 2n/T − v0 = {end_speed} steps/s is negative; the motor would reverse"
     )]
-    SegmentReverses { index: usize, end_speed: f64 },
+    /// Segment mode: a segment would end below zero speed.
+    SegmentReverses {
+        /// The segment (0-based).
+        index: usize,
+        /// End speed (steps/s).
+        end_speed: f64,
+    },
     #[error("a move may have at most {max} pieces ({what})")]
-    TooManyPieces { max: usize, what: &'static str },
+    /// More pieces than a profile holds.
+    TooManyPieces {
+        /// The most allowed.
+        max: usize,
+        /// What the pieces come from.
+        what: &'static str,
+    },
     #[error("{name} ({value} steps/s) is above vmax ({vmax} steps/s)")]
+    /// Limits mode: a start or end speed above vmax.
     SpeedAboveLimit {
+        /// Which value, as the command line names it.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// The speed limit (steps/s).
         vmax: f64,
     },
     #[error(
         "{steps} steps are too few to go from {start_speed} to {end_speed} steps/s within the \
          acceleration limits (needs at least {needed:.6} steps)"
     )]
+    /// Limits mode: too few steps for the end speeds within the limits.
     TooShortForLimits {
+        /// Steps of the move.
         steps: u64,
+        /// Start speed (steps/s).
         start_speed: f64,
+        /// End speed (steps/s).
         end_speed: f64,
+        /// The fewest steps any move within the limits needs.
         needed: f64,
     },
     #[error("the {family} profile in limits mode needs {missing}")]
+    /// Limits mode: an S-curve without its jerk (and snap) limit.
     MissingLimit {
+        /// The family.
         family: &'static str,
+        /// The limits it lacks.
         missing: &'static str,
     },
     #[error("limits mode supports trapezoid, scurve and scurve4, not {family}")]
-    NoLimitsMode { family: &'static str },
+    /// Limits mode for a family that has none.
+    NoLimitsMode {
+        /// The family.
+        family: &'static str,
+    },
     #[error("unknown profile family '{0}' (expected trapezoid, parabolic, exponential, sine, scurve or scurve4)")]
+    /// A family name that is not one of [`Family::NAMES`](crate::Family::NAMES).
     UnknownFamily(UnknownName),
     #[error("the move lasts {ticks:.0} ticks at this clock; at most {max:.0} ticks are supported")]
-    TooManyTicks { ticks: f64, max: f64 },
+    /// The move is longer than [`MAX_TICKS`](crate::MAX_TICKS) at this clock.
+    TooManyTicks {
+        /// The move's length in ticks.
+        ticks: f64,
+        /// The most allowed.
+        max: f64,
+    },
     #[error("a move takes one of: phase times (accel/cruise/decel), limits (vmax/amax) or segments; {0}")]
+    /// Values of more than one mode, or of none.
     AmbiguousMode(&'static str),
+    #[error(
+        "the planned pieces end at step {reached}, not on step {steps} (the move's values are \
+         too far apart for f64)"
+    )]
+    /// The planned pieces do not end on step N (values too far apart for f64).
+    MissesLastStep {
+        /// Where the pieces end (steps).
+        reached: f64,
+        /// Steps of the move.
+        steps: u64,
+    },
     #[error("missing {0}")]
+    /// A required value is missing.
     Missing(&'static str),
 }
 
@@ -76,6 +162,7 @@ pub struct UnknownName {
 }
 
 impl UnknownName {
+    /// Keeps the first 24 bytes of `s` (whole characters).
     pub fn new(s: &str) -> Self {
         let mut buf = [0u8; 24];
         let mut len = 0;
@@ -90,6 +177,7 @@ impl UnknownName {
         }
         UnknownName { buf, len }
     }
+    /// The name as given (truncated).
     pub fn as_str(&self) -> &str {
         core::str::from_utf8(&self.buf[..self.len]).unwrap_or("?")
     }

@@ -3,33 +3,47 @@
 //! edge tick and falls after half the interval to the next edge (50 % duty, as in seed
 //! 000) or after a fixed width.
 //!
-//! Timing comes from a [`TickTimer`] of the caller's on the same clock as the edges (a
-//! free-running hardware counter, a cycle counter, …).
+//! Timing comes from a [`TickTimer`] of the caller's (a free-running hardware counter, a
+//! cycle counter, …), and the edges are planned on that timer's clock ([`edges_for`]), so
+//! the two cannot disagree about what a tick is.
+//!
+//! Two forms: [`StepDir::play`] drives a whole move, busy-waiting on the timer; a
+//! [`Stepper`] is driven from a timer interrupt instead: each [`Stepper::poll`] does what
+//! is due and returns the next deadline to arm the timer compare for.
 
+use crate::edges::EdgeGenerator;
+use crate::error::PlanError;
+use crate::profile::Profile;
 use embedded_hal::digital::OutputPin;
 
-/// A monotonic tick counter on the edge stream's clock.
+/// A monotonic tick counter; its rate is the clock the edges are planned on.
 pub trait TickTimer {
+    /// Ticks per second.
+    fn hz(&self) -> u32;
     /// The current tick.
     fn now(&mut self) -> u64;
     /// Returns once `now() >= tick` (at once if already past).
     fn wait_until(&mut self, tick: u64);
 }
 
-/// How long STEP stays high.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PulseWidth {
-    /// Half of the interval to the next edge (the last pulse: half the previous interval).
-    HalfPeriod,
-    /// A fixed number of ticks, cut short if the next edge comes first.
-    Ticks(u64),
+/// The edges of `profile` on `timer`'s clock.
+pub fn edges_for<T: TickTimer>(profile: Profile, timer: &T) -> Result<EdgeGenerator, PlanError> {
+    EdgeGenerator::new(profile, f64::from(timer.hz()))
 }
 
+/// How long STEP stays high: the same type, and the same widths, as the TDM engine's
+/// pulse unit. Half the interval to the next edge (the last pulse: half its own interval),
+/// at least one tick; or a fixed number of ticks. On a pin a pulse cannot reach the next
+/// rise, so one that would is cut there (the TDM model reports it as merged).
+pub use crate::tdm::PulseShape;
+
+/// How the driver sets DIR and shapes STEP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DriverConfig {
     /// Ticks between setting DIR and tick 0 of the move.
     pub dir_setup_ticks: u64,
-    pub pulse: PulseWidth,
+    /// How long STEP stays high.
+    pub pulse: PulseShape,
     /// DIR level for forward moves.
     pub forward_is_high: bool,
 }
@@ -38,7 +52,7 @@ impl Default for DriverConfig {
     fn default() -> Self {
         DriverConfig {
             dir_setup_ticks: 0,
-            pulse: PulseWidth::HalfPeriod,
+            pulse: PulseShape::HalfInterval,
             forward_is_high: true,
         }
     }
@@ -47,9 +61,13 @@ impl Default for DriverConfig {
 /// A pin refused a level.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DriveError<S, D> {
+    /// The STEP pin's error.
     Step(S),
+    /// The DIR pin's error.
     Dir(D),
 }
+
+impl<S: core::fmt::Debug, D: core::fmt::Debug> core::error::Error for DriveError<S, D> {}
 
 impl<S: core::fmt::Debug, D: core::fmt::Debug> core::fmt::Display for DriveError<S, D> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -63,6 +81,7 @@ impl<S: core::fmt::Debug, D: core::fmt::Debug> core::fmt::Display for DriveError
 /// What one move did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Played {
+    /// Pulses sent.
     pub steps: u64,
     /// Edges whose tick had already passed when the driver got to them (it rises at once).
     pub late: u64,
@@ -70,7 +89,7 @@ pub struct Played {
     pub start: u64,
 }
 
-/// STEP and DIR outputs and a timer.
+/// STEP and DIR outputs and a timer: plays whole moves, busy-waiting.
 pub struct StepDir<S, D, T> {
     step: S,
     dir: D,
@@ -79,6 +98,7 @@ pub struct StepDir<S, D, T> {
 }
 
 impl<S: OutputPin, D: OutputPin, T: TickTimer> StepDir<S, D, T> {
+    /// A driver on these pins and timer.
     pub fn new(step: S, dir: D, timer: T, cfg: DriverConfig) -> Self {
         StepDir {
             step,
@@ -93,48 +113,160 @@ impl<S: OutputPin, D: OutputPin, T: TickTimer> StepDir<S, D, T> {
         (self.step, self.dir, self.timer)
     }
 
-    /// Plays one move: `edges` are ticks from the move's start (non-decreasing, e.g. an
-    /// [`EdgeGenerator`](crate::EdgeGenerator) or [`IntEdgeGenerator`](crate::int::IntEdgeGenerator)).
-    /// STEP is left low.
+    /// The edges of `profile` on this driver's timer clock.
+    pub fn edges(&self, profile: Profile) -> Result<EdgeGenerator, PlanError> {
+        edges_for(profile, &self.timer)
+    }
+
+    /// Plays one move, busy-waiting on the timer: `edges` are ticks from the move's start
+    /// (non-decreasing, e.g. an [`EdgeGenerator`] or
+    /// [`IntEdgeGenerator`](crate::int::IntEdgeGenerator)). STEP is left low.
     pub fn play(
         &mut self,
         forward: bool,
         edges: impl IntoIterator<Item = u64>,
     ) -> Result<Played, DriveError<S::Error, D::Error>> {
-        let level = forward == self.cfg.forward_is_high;
-        if level {
-            self.dir.set_high().map_err(DriveError::Dir)?;
-        } else {
-            self.dir.set_low().map_err(DriveError::Dir)?;
-        }
-        let start = self.timer.now().saturating_add(self.cfg.dir_setup_ticks);
-        self.timer.wait_until(start);
-        let mut out = Played {
-            start,
-            ..Played::default()
-        };
-        let mut edges = edges.into_iter().peekable();
-        let mut prev = 0u64;
-        while let Some(e) = edges.next() {
-            let rise = start.saturating_add(e);
-            if self.timer.now() > rise {
-                out.late += 1;
+        let now = self.timer.now();
+        let mut run = Stepper::start(&mut self.step, &mut self.dir, forward, edges, now, self.cfg)?;
+        self.timer.wait_until(run.start_tick());
+        // an edge is late if its tick has passed before the driver waits for it; once
+        // waited for, it is set as at its deadline
+        while let Some(deadline) = run.poll(self.timer.now())? {
+            self.timer.wait_until(deadline);
+            if run.poll(deadline)?.is_none() {
+                break;
             }
-            self.timer.wait_until(rise);
-            self.step.set_high().map_err(DriveError::Step)?;
-            let next = edges.peek().copied();
-            let width = match (self.cfg.pulse, next) {
-                (PulseWidth::HalfPeriod, Some(n)) => n.saturating_sub(e) / 2,
-                (PulseWidth::HalfPeriod, None) => e.saturating_sub(prev) / 2,
-                (PulseWidth::Ticks(w), Some(n)) => w.min(n.saturating_sub(e)),
-                (PulseWidth::Ticks(w), None) => w,
-            };
-            self.timer.wait_until(rise.saturating_add(width));
-            self.step.set_low().map_err(DriveError::Step)?;
-            out.steps += 1;
-            prev = e;
         }
-        Ok(out)
+        Ok(run.played())
+    }
+}
+
+/// What the STEP line waits for next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Next {
+    /// STEP rises at this tick (the edge, relative to the start, alongside).
+    Rise {
+        at: u64,
+        edge: u64,
+    },
+    /// STEP falls at this tick.
+    Fall {
+        at: u64,
+    },
+    Done,
+}
+
+/// One move driven from a timer interrupt: [`start`](Stepper::start) sets DIR, then every
+/// [`poll`](Stepper::poll) at the current tick sets the pins that are due and returns the
+/// next deadline. Nothing blocks; the edges are pulled one at a time (O(1) memory).
+pub struct Stepper<S, D, E: Iterator<Item = u64>> {
+    step: S,
+    dir: D,
+    edges: core::iter::Peekable<E>,
+    pulse: PulseShape,
+    start: u64,
+    prev: u64,
+    next: Next,
+    out: Played,
+}
+
+impl<S: OutputPin, D: OutputPin, E: Iterator<Item = u64>> Stepper<S, D, E> {
+    /// Sets DIR for the move and schedules it: tick 0 of the move is `now` plus the DIR
+    /// setup time. `step` and `dir` may be pins or `&mut` pins.
+    pub fn start(
+        step: S,
+        mut dir: D,
+        forward: bool,
+        edges: impl IntoIterator<IntoIter = E>,
+        now: u64,
+        cfg: DriverConfig,
+    ) -> Result<Self, DriveError<S::Error, D::Error>> {
+        if forward == cfg.forward_is_high {
+            dir.set_high().map_err(DriveError::Dir)?;
+        } else {
+            dir.set_low().map_err(DriveError::Dir)?;
+        }
+        let start = now.saturating_add(cfg.dir_setup_ticks);
+        let mut edges = edges.into_iter().peekable();
+        let next = match edges.next() {
+            Some(e) => Next::Rise {
+                at: start.saturating_add(e),
+                edge: e,
+            },
+            None => Next::Done,
+        };
+        Ok(Stepper {
+            step,
+            dir,
+            edges,
+            pulse: cfg.pulse,
+            start,
+            prev: 0,
+            next,
+            out: Played {
+                start,
+                ..Played::default()
+            },
+        })
+    }
+
+    /// Absolute tick of tick 0 of the move.
+    pub fn start_tick(&self) -> u64 {
+        self.start
+    }
+
+    /// Sets whatever is due at `now` (a rise, a fall, or both when they coincide) and
+    /// returns the next deadline, or `None` once the move is done (STEP low). An edge
+    /// whose tick has passed rises at once and is counted as late.
+    pub fn poll(&mut self, now: u64) -> Result<Option<u64>, DriveError<S::Error, D::Error>> {
+        loop {
+            match self.next {
+                Next::Done => return Ok(None),
+                Next::Rise { at, .. } | Next::Fall { at } if now < at => return Ok(Some(at)),
+                Next::Rise { at, edge } => {
+                    if now > at {
+                        self.out.late += 1;
+                    }
+                    self.step.set_high().map_err(DriveError::Step)?;
+                    let next = self.edges.peek().copied();
+                    let width = match (self.pulse, next) {
+                        (PulseShape::HalfInterval, Some(n)) => (n.saturating_sub(edge) / 2).max(1),
+                        (PulseShape::HalfInterval, None) => {
+                            (edge.saturating_sub(self.prev) / 2).max(1)
+                        }
+                        (PulseShape::Fixed { ticks }, _) => ticks,
+                    };
+                    // cut at the next rise: the line must be low before it can rise again
+                    let width = next.map_or(width, |n| width.min(n.saturating_sub(edge)));
+                    // a late rise keeps its width from when it actually rose
+                    self.next = Next::Fall {
+                        at: at.max(now).saturating_add(width),
+                    };
+                    self.prev = edge;
+                }
+                Next::Fall { .. } => {
+                    self.step.set_low().map_err(DriveError::Step)?;
+                    self.out.steps += 1;
+                    self.next = match self.edges.next() {
+                        Some(e) => Next::Rise {
+                            at: self.start.saturating_add(e),
+                            edge: e,
+                        },
+                        None => Next::Done,
+                    };
+                }
+            }
+        }
+    }
+
+    /// What the move has done so far.
+    pub fn played(&self) -> Played {
+        self.out
+    }
+
+    /// Gives the pins back.
+    pub fn release(self) -> (S, D) {
+        (self.step, self.dir)
     }
 }
 
@@ -153,6 +285,9 @@ mod tests {
     }
 
     impl TickTimer for Recorder {
+        fn hz(&self) -> u32 {
+            1000
+        }
         fn now(&mut self) -> u64 {
             self.now
         }
@@ -220,7 +355,7 @@ mod tests {
         let step = Mock::new(&pulses(3));
         let dir = Mock::new(&[T::set(State::Low)]);
         let cfg = DriverConfig {
-            pulse: PulseWidth::Ticks(4),
+            pulse: PulseShape::Fixed { ticks: 4 },
             ..DriverConfig::default()
         };
         let mut d = StepDir::new(
@@ -237,7 +372,8 @@ mod tests {
         let (mut step, mut dir, timer) = d.release();
         step.done();
         dir.done();
-        assert_eq!(timer.waits, [0, 10, 12, 12, 16, 30, 34]);
+        // the fall cut at 12 and the next rise at 12 are one wait
+        assert_eq!(timer.waits, [0, 10, 12, 16, 30, 34]);
     }
 
     /// A timer that overshoots every wait by `lag` ticks (a slow loop).
@@ -247,6 +383,9 @@ mod tests {
     }
 
     impl TickTimer for Laggy {
+        fn hz(&self) -> u32 {
+            1000
+        }
         fn now(&mut self) -> u64 {
             self.now
         }
@@ -291,5 +430,102 @@ mod tests {
         let (mut s, mut dr, _) = d.release();
         s.done();
         dr.done();
+    }
+
+    #[test]
+    fn poll_form_returns_each_deadline_and_sets_the_pins_due() {
+        // an interrupt handler that runs at each deadline it is given, late by `lag` ticks
+        for lag in [0u64, 3] {
+            let step = Mock::new(&pulses(3));
+            let dir = Mock::new(&[T::set(State::High)]);
+            let cfg = DriverConfig {
+                dir_setup_ticks: 7,
+                ..DriverConfig::default()
+            };
+            let mut s = Stepper::start(step, dir, true, [10u64, 20, 40], 100, cfg).unwrap();
+            assert_eq!(s.start_tick(), 107);
+            let mut deadlines = Vec::new();
+            let mut now = 100;
+            while let Some(d) = s.poll(now).unwrap() {
+                assert!(d > now, "a deadline is in the future");
+                deadlines.push(d);
+                now = d + lag;
+            }
+            let p = s.played();
+            assert_eq!((p.steps, p.start), (3, 107));
+            if lag == 0 {
+                // rises at 107 + e, falls halfway to the next edge (the last: half its own)
+                assert_eq!(deadlines, [117, 122, 127, 137, 147, 157]);
+                assert_eq!(p.late, 0);
+            } else {
+                assert_eq!(p.late, 3);
+            }
+            let (mut st, mut dr) = s.release();
+            st.done();
+            dr.done();
+        }
+    }
+
+    #[test]
+    fn edges_are_planned_on_the_timer_clock() {
+        let timer = Recorder {
+            now: 0,
+            waits: Vec::new(),
+        };
+        let d = StepDir::new(
+            Mock::new(&[]),
+            Mock::new(&[]),
+            timer,
+            DriverConfig::default(),
+        );
+        let p = crate::Profile::limits(&crate::LimitsMove::trapezoid(10, 100.0, 1000.0)).unwrap();
+        let g = d.edges(p.clone()).unwrap();
+        assert_eq!(g.clock(), 1000.0);
+        assert_eq!(g.last_edge_tick(), (p.duration() * 1000.0).round() as u64);
+        let (mut s, mut dr, _) = d.release();
+        s.done();
+        dr.done();
+    }
+
+    /// One pulse type, one set of widths: the driver's pulses are the TDM pulse unit's.
+    #[test]
+    fn pulses_have_the_tdm_pulse_units_widths() {
+        use crate::tdm::{PulseUnit, StepPulse};
+        for (shape, edges) in [
+            (PulseShape::HalfInterval, [10u64, 11, 20, 40]),
+            (PulseShape::Fixed { ticks: 3 }, [10, 15, 20, 40]),
+        ] {
+            // the TDM unit, every period loaded on time
+            let mut unit = PulseUnit::new(shape);
+            let mut tdm: Vec<StepPulse> = Vec::new();
+            let mut prev = 0;
+            for &e in &edges {
+                unit.load(0, prev, e - prev, &mut |p| tdm.push(p));
+                prev = e;
+            }
+            unit.finish(0, &mut |p| tdm.push(p));
+            // the driver, polled at each deadline: rises and falls alternate
+            let cfg = DriverConfig {
+                pulse: shape,
+                ..DriverConfig::default()
+            };
+            let step = Mock::new(&pulses(4));
+            let dir = Mock::new(&[T::set(State::High)]);
+            let mut s = Stepper::start(step, dir, true, edges, 0, cfg).unwrap();
+            let mut times = Vec::new();
+            let mut now = 0;
+            while let Some(d) = s.poll(now).unwrap() {
+                times.push(d);
+                now = d;
+            }
+            let (mut st, mut dr) = s.release();
+            st.done();
+            dr.done();
+            let want: Vec<u64> = tdm.iter().flat_map(|p| [p.rise, p.fall]).collect();
+            // a fall on the next rise is one deadline
+            let mut want_deadlines = want.clone();
+            want_deadlines.dedup();
+            assert_eq!(times, want_deadlines, "{shape:?}");
+        }
     }
 }

@@ -7,8 +7,13 @@
 //! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
 //! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
 
+use crate::builder::Builder;
+use crate::dd::Dd;
+use crate::edges::MAX_TICKS;
 use crate::error::{non_negative, positive, PlanError};
-use crate::profile::{Builder, LimitsMove, Order, Profile, MAX_STEPS};
+use crate::moves::{Family, LimitsMove, Order, PhaseMove, MAX_STEPS};
+use crate::phase;
+use crate::profile::Profile;
 use crate::real::fm;
 
 #[derive(Clone, Copy, Debug)]
@@ -132,6 +137,120 @@ fn check_limit(name: &'static str, v: Option<f64>, family: &'static str) -> Resu
     }
 }
 
+/// Steps covered by `vs → vp → ve` with no cruise.
+fn distance(l: &Limits, vs: f64, vp: f64, ve: f64) -> f64 {
+    change(l, vs, vp).distance(vs, vp) + change(l, vp, ve).distance(vp, ve)
+}
+
+/// Largest `x` in `[lo, hi]` with `below(x)`, given `below(lo)` and not `below(hi)`.
+fn bisect(mut lo: f64, mut hi: f64, below: impl Fn(f64) -> bool) -> f64 {
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if below(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// Grid points tried when looking for a dip below both end speeds.
+const DIP_GRID: usize = 256;
+
+/// The peak (or valley) speed of the time-optimal move `vs → vp → (cruise) → ve` in `n`
+/// steps, or the fewest steps any such move needs.
+///
+/// With `vp ≥ max(vs, ve)` the covered distance grows with `vp`, and the fastest move is
+/// the largest `vp` that fits. When even the direct change `vs → ve` needs more than `n`
+/// steps, a jerk-limited move can still fit by slowing below both end speeds first: a
+/// change from a lower speed covers fewer steps while jerk, not acceleration, dominates
+/// it. The distance is not monotone below `min(vs, ve)`, so the valley is found on a grid
+/// (refining every grid minimum) and the largest valley speed that fits is kept: the
+/// highest valley is the fastest one (higher speed everywhere, no cruise).
+fn peak_speed(l: &Limits, n: f64, vs: f64, ve: f64, vmax: f64) -> Result<f64, f64> {
+    let dist = |vp: f64| distance(l, vs, vp, ve);
+    let vlo = vs.max(ve);
+    if dist(vmax) <= n {
+        return Ok(vmax);
+    }
+    let direct = dist(vlo);
+    if direct <= n {
+        if l.order == 2 {
+            // vp² − vs² + vp² − ve² = 2·amax·N
+            let vp = fm::sqrt((2.0 * l.amax * n + vs * vs + ve * ve) / 2.0);
+            return Ok(vp.clamp(vlo, vmax));
+        }
+        return Ok(bisect(vlo, vmax, |v| dist(v) <= n));
+    }
+    // A constant-acceleration change covers (v0² − v1²)/2a whatever the path: no dip helps.
+    let vmin = vs.min(ve);
+    if l.order == 2 || vmin <= 0.0 {
+        return Err(direct);
+    }
+    // Scan down from vmin; the first grid point that fits bounds the highest fitting valley.
+    let at = |k: usize| vmin * (DIP_GRID - k) as f64 / DIP_GRID as f64;
+    let mut fewest = direct;
+    let mut prev = direct;
+    for k in 1..=DIP_GRID {
+        let v = at(k);
+        let d = dist(v);
+        if d <= n {
+            return Ok(bisect(v, at(k - 1), |x| dist(x) <= n));
+        }
+        // a grid minimum (d below both neighbours) may hide a narrow window that fits
+        let next = if k < DIP_GRID {
+            dist(at(k + 1))
+        } else {
+            f64::INFINITY
+        };
+        if d <= prev && d <= next {
+            let (v_best, d_best) = golden_min(&dist, at((k + 1).min(DIP_GRID)), at(k - 1));
+            fewest = fewest.min(d_best);
+            if d_best <= n {
+                return Ok(bisect(v_best, at(k - 1), |x| dist(x) <= n));
+            }
+        }
+        fewest = fewest.min(d);
+        prev = d;
+    }
+    Err(fewest)
+}
+
+/// Golden-section search for the minimum of `f` on `[a, b]`: `(argmin, min)`.
+fn golden_min(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
+    const R: f64 = 0.618_033_988_749_894_8;
+    let mut c = b - R * (b - a);
+    let mut d = a + R * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..80 {
+        if fc <= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - R * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + R * (b - a);
+            fd = f(d);
+        }
+        if b - a <= 1e-15 * b {
+            break;
+        }
+    }
+    if fc <= fd {
+        (c, fc)
+    } else {
+        (d, fd)
+    }
+}
+
 pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
     if m.steps == 0 {
         return Err(PlanError::NoSteps);
@@ -179,49 +298,157 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
         order,
     };
     let n = m.steps as f64;
-    let dist = |vp: f64| change(&l, vs, vp).distance(vs, vp) + change(&l, vp, ve).distance(vp, ve);
-    let vlo = vs.max(ve);
-    let vp = if dist(vmax) <= n {
-        vmax
-    } else {
-        let need = dist(vlo);
-        if need > n {
-            return Err(PlanError::TooShortForLimits {
-                steps: m.steps,
-                start_speed: vs,
-                end_speed: ve,
-                needed: need,
-            });
-        }
-        if order == 2 {
-            // vp² − vs² + vp² − ve² = 2·amax·N
-            fm::sqrt((2.0 * amax * n + vs * vs + ve * ve) / 2.0).clamp(vlo, vmax)
-        } else {
-            let (mut lo, mut hi) = (vlo, vmax);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
-                    break;
-                }
-                if dist(mid) <= n {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            lo
-        }
-    };
+    let vp = peak_speed(&l, n, vs, ve, vmax).map_err(|needed| PlanError::TooShortForLimits {
+        steps: m.steps,
+        start_speed: vs,
+        end_speed: ve,
+        needed,
+    })?;
     let up = change(&l, vs, vp);
     let down = change(&l, vp, ve);
+    // the cruise covers what the changes' pieces leave (as summed in f64, so the move
+    // ends on N to the rounding of its pieces, not of the closed-form distances)
+    let mut b = Builder::new();
+    b.push_schedule(order, vs, &up.entries[..up.len])?;
+    let mut tail = Builder::new();
+    tail.push_schedule(order, vp, &down.entries[..down.len])?;
     let cruise = if vp > 0.0 {
-        ((n - up.distance(vs, vp) - down.distance(vp, ve)) / vp).max(0.0)
+        ((n - b.position() - tail.position()) / vp).max(0.0)
     } else {
         0.0
     };
-    let mut b = Builder::new();
-    b.push_schedule(order, vs, &up.entries[..up.len])?;
     b.cruise(vp, cruise)?;
     b.push_schedule(order, vp, &down.entries[..down.len])?;
     b.finish(m.steps)
+}
+
+/// The smallest whole number `t ≥ 0` with `ok(t)`, searched from an estimate (`ok` is
+/// monotone: false below the answer, true from it on).
+/// `None` if the estimate is off by more than a few ticks (only when the squares overflow).
+fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> Option<f64> {
+    if !(estimate.is_finite() && estimate <= MAX_TICKS) {
+        return None;
+    }
+    let mut t = fm::floor(estimate.max(0.0));
+    let mut budget = 64;
+    while !ok(t) {
+        t += 1.0;
+        budget -= 1;
+        if budget == 0 {
+            return None;
+        }
+    }
+    while t > 0.0 && ok(t - 1.0) {
+        t -= 1.0;
+        budget -= 1;
+        if budget == 0 {
+            return None;
+        }
+    }
+    Some(t)
+}
+
+/// Limits mode on a clock, trapezoid: the time-optimal accel and decel times rounded *up*
+/// to whole ticks, the cruise time rounded up so the cruise speed stays at or below the
+/// peak, and the cruise speed then following from N (phase mode). Neither limit is ever
+/// exceeded, and these are exactly the ticks [`crate::int::limits_to_phase`] computes with
+/// integers: every comparison is of squares (`√` never rounded), in double-double.
+///
+/// Returns `(accel, cruise, decel)` ticks.
+pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
+    let f = positive("clock", clock)?;
+    // validates the move, with the float planner's errors
+    let ideal = plan(&LimitsMove {
+        order: Order::Trapezoid,
+        ..*m
+    })?;
+    let ticks = ideal.duration() * f;
+    let too_long = PlanError::TooManyTicks {
+        ticks,
+        max: MAX_TICKS,
+    };
+    if !(ticks <= MAX_TICKS) {
+        return Err(too_long);
+    }
+    let (n, vmax, amax) = (m.steps as f64, m.vmax, m.amax);
+    let (vs, ve) = (m.start_speed, m.end_speed);
+    let sq = |x: f64| Dd::mul_f64(x, x);
+    let ends = sq(vs) + sq(ve);
+    // vp² = vmax² if reaching vmax fits in N (2vmax² − vs² − ve² ≤ 2·amax·N), else
+    // amax·N + (vs² + ve²)/2
+    let two_an = Dd::mul_f64(2.0 * amax, n);
+    let reach = sq(vmax) * Dd::new(2.0) - ends;
+    let vp2 = if reach <= two_an {
+        sq(vmax)
+    } else {
+        (two_an + ends) * Dd::new(0.5)
+    };
+    let vp = fm::sqrt(vp2.hi);
+    let f2vp2 = Dd::mul_f64(f, f) * vp2;
+    // t ticks are enough to change from v to vp at amax: t·amax + f·v ≥ f·vp
+    let ramp = |v: f64| {
+        least(f * (vp - v) / amax, |t| {
+            let x = Dd::mul_f64(t, amax) + Dd::mul_f64(f, v);
+            x * x >= f2vp2
+        })
+    };
+    let (ta, tc) = match (ramp(vs), ramp(ve)) {
+        (Some(a), Some(c)) => (a, c),
+        _ => return Err(too_long),
+    };
+    // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·f − vs·Ta − ve·Tc
+    let k = Dd::mul_f64(2.0 * n, f) - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc);
+    let tb = if !(k.hi > 0.0) {
+        0.0
+    } else {
+        let k2 = k * k;
+        least((k.hi / vp - ta - tc) / 2.0, |tb| {
+            let w = Dd::new(2.0 * tb + ta + tc);
+            vp2 * w * w >= k2
+        })
+        .ok_or(too_long)?
+    };
+    Ok((ta, tb, tc))
+}
+
+/// [`whole_ticks`] planned: a phase-mode trapezoid of whole-tick phases.
+pub(crate) fn plan_on_clock(m: &LimitsMove, clock: f64) -> Result<Profile, PlanError> {
+    if m.order != Order::Trapezoid {
+        return plan(m);
+    }
+    let (ta, tb, tc) = whole_ticks(m, clock)?;
+    phase::plan(&PhaseMove {
+        steps: m.steps,
+        accel_time: ta / clock,
+        cruise_time: tb / clock,
+        decel_time: tc / clock,
+        start_speed: m.start_speed,
+        end_speed: m.end_speed,
+        family: Family::Trapezoid,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whole-tick planning ends with a profile or a typed error, however large the values.
+    #[test]
+    fn whole_ticks_terminate_on_extreme_values() {
+        for (n, v, a, vs) in [
+            (10u64, 1e300, 1e300, 0.0),
+            (1 << 40, 1e200, 1e-200, 0.0),
+            (3, 1e150, 1e150, 1e150),
+            (7, 1e-300, 1e-300, 0.0),
+            (1000, 3.0, 1e308, 1.0),
+        ] {
+            let m = LimitsMove::trapezoid(n, v, a).with_speeds(vs, 0.0);
+            for clock in [1.0, 50e6, 1e18] {
+                match Profile::limits_on_clock(&m, clock) {
+                    Ok(p) => assert!(p.duration() > 0.0 && p.duration().is_finite()),
+                    Err(e) => assert!(!e.to_string().is_empty()),
+                }
+            }
+        }
+    }
 }

@@ -26,13 +26,6 @@ pub trait Real:
     fn sin(self) -> Self;
     fn cos(self) -> Self;
     fn pi() -> Self;
-    fn abs(self) -> Self {
-        if self < Self::from_f64(0.0) {
-            -self
-        } else {
-            self
-        }
-    }
 }
 
 impl Real for f64 {

@@ -12,7 +12,10 @@ pub enum Shape {
     /// `g = √u` (seed 001 eq. (9)–(15)).
     Parabolic,
     /// `g = (1 − e^(−u/ρ)) / (1 − e^(−1/ρ))` (seed 001; seed 003 eq. (2)); ρ = τ/T.
-    Exponential { rho: f64 },
+    Exponential {
+        /// Exponential ρ.
+        rho: f64,
+    },
     /// `g = (1 − cos πu) / 2`.
     Sine,
 }
@@ -79,7 +82,7 @@ impl Shape {
 
     /// `g(u)` (accel) or `h(u) = g(1−u)` (mirrored decel).
     #[inline]
-    pub fn rate<R: Real>(self, u: R, mirrored: bool) -> R {
+    pub(crate) fn rate<R: Real>(self, u: R, mirrored: bool) -> R {
         let one = R::from_f64(1.0);
         let w = if mirrored { one - u } else { u };
         match self {
@@ -94,7 +97,7 @@ impl Shape {
     }
 
     /// `g'(u)` (accel) or `h'(u) = −g'(1−u)` (mirrored decel), in f64.
-    pub fn slope(self, u: f64, mirrored: bool) -> f64 {
+    pub(crate) fn slope(self, u: f64, mirrored: bool) -> f64 {
         let w = if mirrored { 1.0 - u } else { u };
         let d = match self {
             Shape::Parabolic => 0.5 / crate::real::fm::sqrt(w),
@@ -115,7 +118,7 @@ impl Shape {
 
     /// `G(u)` (accel) or `H(u)` (mirrored decel).
     #[inline]
-    pub fn integral<R: Real>(self, u: R, mirrored: bool) -> R {
+    pub(crate) fn integral<R: Real>(self, u: R, mirrored: bool) -> R {
         let one = R::from_f64(1.0);
         let two_thirds = R::from_f64(2.0) / R::from_f64(3.0);
         match (self, mirrored) {

@@ -7,20 +7,35 @@ use crate::profile::{Family, LimitsMove, Move, Order, PhaseMove, Profile, Segmen
 /// Every value a move can be given by name; `None` means "not given".
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MoveSpec<'a> {
+    /// The family's name.
     pub profile: Option<&'a str>,
+    /// Steps of the move.
     pub steps: Option<u64>,
+    /// Accel time Ta (s).
     pub accel_time: Option<f64>,
+    /// Cruise time Tb (s).
     pub cruise_time: Option<f64>,
+    /// Decel time Tc (s).
     pub decel_time: Option<f64>,
+    /// Start speed (steps/s).
     pub start_speed: Option<f64>,
+    /// End speed (steps/s).
     pub end_speed: Option<f64>,
+    /// Speed limit (steps/s).
     pub vmax: Option<f64>,
+    /// Acceleration limit (steps/s²).
     pub amax: Option<f64>,
+    /// Jerk limit (steps/s³; S-curves).
     pub jmax: Option<f64>,
+    /// Snap limit (steps/s⁴; scurve4).
     pub smax: Option<f64>,
+    /// Exponential ρ.
     pub rho: Option<f64>,
+    /// S-curve φ.
     pub phi: Option<f64>,
+    /// scurve4 ψ.
     pub psi: Option<f64>,
+    /// Segment mode: the segments (give nothing else with them).
     pub segments: &'a [Segment],
 }
 
@@ -86,7 +101,14 @@ impl<'a> MoveSpec<'a> {
         }))
     }
 
+    /// Resolves and plans the move (limits mode at ideal, not whole-tick, times).
     pub fn plan(&self) -> Result<Profile, PlanError> {
         Profile::plan(&self.resolve()?)
+    }
+
+    /// Resolves and plans the move as it plays on a clock of `clock_hz`
+    /// ([`Profile::plan_on_clock`]).
+    pub fn plan_on_clock(&self, clock_hz: f64) -> Result<Profile, PlanError> {
+        Profile::plan_on_clock(&self.resolve()?, clock_hz)
     }
 }

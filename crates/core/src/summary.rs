@@ -11,12 +11,16 @@ use core::fmt;
 /// `segments (3)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MoveName {
+    /// A phase-mode move of the named family.
     Phases(&'static str),
+    /// A limits-mode move of the named family.
     Limits(&'static str),
+    /// A chain of this many constant-acceleration segments.
     Segments(usize),
 }
 
 impl MoveName {
+    /// The name of move `m`.
     pub fn of(m: &Move<'_>) -> MoveName {
         match m {
             Move::Phase(p) => MoveName::Phases(p.family.name()),
@@ -51,14 +55,23 @@ impl serde::Serialize for MoveName {
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct PlanSummary {
+    /// The move's mode and family.
     pub mode: MoveName,
+    /// Steps in the move.
     pub steps: u64,
+    /// The clock the edges are counted in (Hz).
     pub clock_hz: f64,
+    /// The planned duration (s).
     pub duration_s: f64,
+    /// The tick of the last step's edge.
     pub last_edge_tick: u64,
+    /// The highest speed of the profile (steps/s).
     pub peak_speed_steps_per_s: f64,
+    /// The largest |acceleration| of the profile (steps/s²).
     pub peak_accel_steps_per_s2: f64,
+    /// The shortest interval between consecutive edges (ticks; the first from tick 0).
     pub min_period_ticks: u64,
+    /// The longest interval between consecutive edges (ticks).
     pub max_period_ticks: u64,
     /// Edges settled in double-double because f64 could not decide the nearest tick.
     pub settled_edges: u64,

@@ -18,22 +18,31 @@ use thiserror::Error;
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum TrackError {
     #[error("'{0}' is not a rate (a decimal number or a fraction NUM/DEN of steps/s)")]
+    /// The text is neither a decimal number nor a fraction.
     BadRate(RateText),
     #[error("the rate must be finite and not negative")]
+    /// The rate is negative, infinite or NaN.
     NegativeRate,
     #[error("the rate's numerator or denominator is too large (at most 2^64)")]
+    /// The rate's reduced fraction does not fit 64-bit parts (or its denominator is 0).
     RateTooFine,
     #[error("the clock must be a whole number of Hz from 1 to 2^53 (got {0})")]
+    /// The clock is not a whole number of Hz in range.
     BadClock(f64),
     #[error("amax must be a finite number greater than zero (got {0})")]
+    /// amax is not a positive finite number.
     BadAmax(f64),
     #[error("the start speed must be a finite number, not negative (got {0})")]
+    /// The start speed is negative or not finite.
     BadStartSpeed(f64),
     #[error("a step period at this rate is shorter than two clock ticks")]
+    /// The rate's step period is under two ticks.
     TooFast,
     #[error("the ramp cannot be planned: {0}")]
+    /// The ramp to the rate could not be planned.
     Ramp(PlanError),
     #[error("the tick count left the 64-bit range")]
+    /// The motion ran past the 64-bit tick range.
     TooLong,
 }
 
@@ -82,6 +91,7 @@ fn gcd(mut a: u128, mut b: u128) -> u128 {
 }
 
 impl Rate {
+    /// Standing still.
     pub const ZERO: Rate = Rate { num: 0, den: 1 };
 
     /// `num/den` steps/s.
@@ -163,14 +173,17 @@ impl Rate {
         }
     }
 
+    /// The reduced numerator (steps).
     pub fn num(&self) -> u128 {
         self.num
     }
 
+    /// The reduced denominator (seconds).
     pub fn den(&self) -> u128 {
         self.den
     }
 
+    /// Whether the rate is zero.
     pub fn is_zero(&self) -> bool {
         self.num == 0
     }
@@ -331,18 +344,26 @@ enum Stage {
 pub enum TrackSegment {
     /// A ramp from `start_tick` (step `start_step`): the steps of `profile` shifted by both.
     Ramp {
+        /// The tick the ramp starts on.
         start_tick: u64,
+        /// The motion's step count before the ramp.
         start_step: u64,
     },
     /// A cruise at `rate` whose step 0 (= step `start_step` of the motion) is at
     /// `origin_tick + frac_num / 2^frac_bits` ticks.
     Cruise {
+        /// The exact cruise rate.
         rate: Rate,
+        /// The motion's step count before the cruise.
         start_step: u64,
+        /// The whole ticks of the cruise's origin.
         origin_tick: u64,
+        /// The origin's fraction of a tick, over 2^frac_bits.
         frac_num: u128,
+        /// Binary places of the origin's fraction.
         frac_bits: u32,
     },
+    /// Stopped: the stream has ended until a new rate is set.
     Stopped,
 }
 
@@ -440,6 +461,7 @@ impl Tracker {
         self.last_edge
     }
 
+    /// The clock the edges are counted in (Hz).
     pub fn clock_hz(&self) -> u64 {
         self.clock
     }

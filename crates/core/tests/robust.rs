@@ -48,6 +48,10 @@ proptest! {
         let spec = MoveSpec { profile, steps, accel_time: ta, cruise_time: tb, decel_time: tc,
             start_speed: vs, end_speed: ve, vmax, amax, jmax, smax, rho, phi, psi,
             segments: &segments };
+        // on a clock too (whole-tick limits trapezoids): a profile or a typed error
+        if let Ok(p) = spec.plan_on_clock(clock) {
+            prop_assert!(p.duration() > 0.0 && p.duration().is_finite());
+        }
         if let Ok(p) = spec.plan() {
             prop_assert!(p.duration() > 0.0 && p.duration().is_finite());
             if let Ok(mut g) = EdgeGenerator::new(p.clone(), clock) {

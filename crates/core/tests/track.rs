@@ -4,7 +4,6 @@
 //! against the ramp profile shifted to its start, and positions at sampled ticks are
 //! closed forms (cruise) or ⌊p(t + ½ tick)⌋ (ramp).
 
-use multistep_core::dd::Dd;
 use multistep_core::track::TrackSegment;
 use multistep_core::{EdgeGenerator, Profile, Rate, TrackError, TrackLimits, Tracker};
 use proptest::prelude::*;
@@ -148,8 +147,8 @@ impl Checker {
             return c.start_step + c.count_to(t);
         }
         let (_, p, start, base) = self.ramp.as_ref().unwrap();
-        let tau = Dd::new((t - start) as f64 + 0.5) / Dd::new(F as f64);
-        base + p.position_dd(tau).hi.floor() as u64
+        let tau = ((t - start) as f64 + 0.5) / F as f64;
+        base + p.position(tau).floor() as u64
     }
 
     /// Which segment the references describe: (ramp?, its first step).
@@ -166,8 +165,7 @@ impl Checker {
     fn run(&mut self, tr: &mut Tracker, until: u64, samples: &mut impl Iterator<Item = u64>) {
         let mut next_sample = samples.next();
         let mut between = Vec::new();
-        loop {
-            let Some(e) = tr.next() else { break };
+        while let Some(e) = tr.next() {
             between.clear();
             while let Some(s) = next_sample.filter(|&s| s < e) {
                 if s >= self.last {
@@ -221,9 +219,9 @@ impl Checker {
                     self.steps
                 );
                 let i = (self.steps - *base) as f64;
-                let t = |x: f64| Dd::new(x) / Dd::new(F as f64);
-                let lo = p.position_dd(t((e - *start) as f64 - 0.5)).hi;
-                let hi = p.position_dd(t((e - *start) as f64 + 0.5)).hi;
+                let t = |x: f64| x / F as f64;
+                let lo = p.position(t((e - *start) as f64 - 0.5));
+                let hi = p.position(t((e - *start) as f64 + 0.5));
                 assert!(lo < i + 1e-9 && i <= hi + 1e-9, "nearest tick of ramp step");
                 self.ramp_edges += 1;
             }
@@ -478,7 +476,7 @@ proptest! {
         let mut tr = Tracker::new(F as f64, limits, start * v1, r1).unwrap();
         let mut ck = Checker::new(amax);
         let mut samples = (1..).map(|k| k * samples_step);
-        let mut until = |ck: &Checker, n: u64| ck.last + n * (F as f64 / v1.min(r2.to_f64())) as u64;
+        let until = |ck: &Checker, n: u64| ck.last + n * (F as f64 / v1.min(r2.to_f64())) as u64;
         let end = until(&ck, 3000);
         ck.run(&mut tr, end, &mut samples);
         tr.set_rate(r2).unwrap();

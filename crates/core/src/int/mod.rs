@@ -41,8 +41,11 @@
 //! sequence on 256 bits in software ([`IntPiece::kernel`] is `None` for them; the RTL
 //! rejects such moves).
 
+// the kernel's items are described in the module docs above; item docs to follow
+#[allow(missing_docs)]
 mod gen;
 pub mod isqrt;
+#[allow(missing_docs)]
 mod piece;
 mod plan;
 
@@ -56,24 +59,37 @@ use thiserror::Error;
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
 pub enum IntError {
     #[error("the move must have at least one step")]
+    /// The move has no steps.
     NoSteps,
     #[error("the clock and the speed scale must be greater than zero")]
+    /// The clock or the speed scale is zero.
     ZeroClock,
     #[error("the phases add up to zero ticks")]
+    /// The phases add up to zero time.
     ZeroDuration,
     #[error("vmax and amax must be greater than zero")]
+    /// vmax or amax is zero.
     ZeroLimit,
     #[error("the start or end speed is above vmax")]
+    /// Limits mode: a start or end speed above vmax.
     SpeedAboveLimit,
     #[error("too few steps for the start and end speeds within amax")]
+    /// Limits mode: too few steps for the end speeds within the limits.
     TooShortForLimits,
     #[error("too few steps for the start and end speeds in these phase times")]
+    /// Phase mode: too few steps for the start and end speeds in these times.
     CannotShed,
     #[error("segment {index}: end speed 2n/T − v0 is negative; the motor would reverse")]
-    SegmentReverses { index: usize },
+    /// Segment mode: a segment would end below zero speed.
+    SegmentReverses {
+        /// The segment (0-based).
+        index: usize,
+    },
     #[error("a move may have at most {} pieces", crate::profile::MAX_PIECES)]
+    /// More pieces than a profile holds.
     TooManyPieces,
     #[error("the move needs more than 128-bit intermediates (shorter phases or coarser speeds)")]
+    /// An intermediate needs more than the integer datapath's widths.
     TooWide,
 }
 

@@ -1,19 +1,26 @@
 //! Integer moves: phase-mode trapezoids, seed 000 segments and limits-mode trapezoids,
 //! planned into exact [`IntPiece`]s. Every input is an integer (module docs).
 
+use super::isqrt::isqrt_u128;
 use super::piece::IntPiece;
 use super::IntError;
 use crate::profile::MAX_PIECES;
+use crypto_bigint::U256;
 
 /// Phase mode, trapezoid family: N steps in whole-tick accel, cruise and decel times.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct IntPhaseMove {
+    /// Steps of the move.
     pub steps: u64,
+    /// Accel time in ticks.
     pub accel_ticks: u64,
+    /// Cruise time in ticks.
     pub cruise_ticks: u64,
+    /// Decel time in ticks.
     pub decel_ticks: u64,
     /// Start and end speed in 1/`speed_scale` steps/s.
     pub start_speed: u64,
+    /// End speed in 1/`speed_scale` steps/s.
     pub end_speed: u64,
 }
 
@@ -22,7 +29,9 @@ pub struct IntPhaseMove {
 pub struct IntSegment {
     /// Start speed in 1/`speed_scale` steps/s.
     pub v0: u64,
+    /// Duration in ticks.
     pub ticks: u64,
+    /// Steps of the move.
     pub steps: u64,
 }
 
@@ -30,11 +39,15 @@ pub struct IntSegment {
 /// to whole ticks (so neither limit is ever exceeded).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct IntLimitsMove {
+    /// Steps of the move.
     pub steps: u64,
     /// In 1/`speed_scale` steps/s and 1/`speed_scale` steps/s².
     pub vmax: u64,
+    /// Acceleration limit in 1/`speed_scale` steps/s².
     pub amax: u64,
+    /// Start speed in 1/`speed_scale` steps/s.
     pub start_speed: u64,
+    /// End speed in 1/`speed_scale` steps/s.
     pub end_speed: u64,
 }
 
@@ -42,11 +55,14 @@ pub struct IntLimitsMove {
 /// 1/`speed_scale` steps/s (1 = whole steps/s).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IntClock {
+    /// Ticks per second.
     pub clock_hz: u64,
+    /// Speeds are in 1/`speed_scale` steps/s.
     pub speed_scale: u64,
 }
 
 impl IntClock {
+    /// A clock of `clock_hz` with speeds in whole steps/s.
     pub const fn hz(clock_hz: u64) -> Self {
         IntClock {
             clock_hz,
@@ -190,6 +206,7 @@ impl IntProfile {
         Self::phase(&limits_to_phase(m, clock)?, clock)
     }
 
+    /// Steps of the move.
     pub fn steps(&self) -> u64 {
         self.steps
     }
@@ -199,6 +216,7 @@ impl IntProfile {
         self.end_tick
     }
 
+    /// The pieces, in order.
     #[inline(always)]
     pub fn pieces(&self) -> &[IntPiece] {
         &self.pieces[..self.len]
@@ -226,6 +244,50 @@ impl IntProfile {
     }
 }
 
+/// The least `t ≥ 0` with `ok(t)` (`ok` monotone: false below the answer, true from it
+/// on), by galloping from an estimate and then bisecting.
+fn least(estimate: u128, ok: impl Fn(u128) -> Result<bool, IntError>) -> Result<u128, IntError> {
+    // (lo, hi]: ok(hi) holds, and ok(lo) fails unless lo is 0 and unchecked
+    let (mut lo, mut hi);
+    if ok(estimate)? {
+        hi = estimate;
+        let mut step = 1u128;
+        loop {
+            let probe = hi.saturating_sub(step);
+            if probe == hi || !ok(probe)? {
+                lo = probe;
+                break;
+            }
+            hi = probe;
+            step = step.saturating_mul(2);
+        }
+        if hi == 0 {
+            return Ok(0);
+        }
+    } else {
+        lo = estimate;
+        let mut step = 1u128;
+        loop {
+            let probe = checked(lo.checked_add(step))?;
+            if ok(probe)? {
+                hi = probe;
+                break;
+            }
+            lo = probe;
+            step = step.saturating_mul(2);
+        }
+    }
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if ok(mid)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(hi)
+}
+
 /// Rounds a limits-mode trapezoid to whole-tick phase times (see [`IntProfile::limits`]).
 pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMove, IntError> {
     let f = clock.f()?;
@@ -249,24 +311,50 @@ pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMov
     let need = |v: u128| -> Result<u128, IntError> {
         checked(checked(sq(v)?.checked_mul(2))?.checked_sub(ends))
     };
-    let vp = if need(vmax)? <= two_aqn {
-        vmax
+    // vp² (×2) = 2·vmax² when reaching vmax fits, else 2·amax·Q·N + vs² + ve²; vp itself
+    // is never rounded: every comparison below is of squares, exactly (as the float
+    // planner's `Profile::limits_on_clock` decides them)
+    let at_vmax = need(vmax)? <= two_aqn;
+    let vp2x2 = if at_vmax {
+        checked(sq(vmax)?.checked_mul(2))?
     } else {
-        let vp = super::isqrt::isqrt_u128(checked(two_aqn.checked_add(ends))? / 2);
-        if vp < vs.max(ve) || vp == 0 {
-            return Err(IntError::TooShortForLimits);
-        }
-        vp
+        checked(two_aqn.checked_add(ends))?
     };
-    let ceil_div = |x: u128, y: u128| x.div_ceil(y);
-    let ta = ceil_div(checked(hz.checked_mul(vp - vs))?, amax);
-    let tc = ceil_div(checked(hz.checked_mul(vp - ve))?, amax);
-    // cruise: vp·Tb ≥ 2N·F/2 − accel and decel distances (×2F)
-    let dist = checked(
-        checked((vs + vp).checked_mul(ta))?.checked_add(checked((vp + ve).checked_mul(tc))?),
-    )?;
+    if vp2x2 < 2 * sq(vs.max(ve))? || vp2x2 == 0 {
+        return Err(IntError::TooShortForLimits);
+    }
+    let wide = |x: u128| U256::from_u128(x);
+    let hz2vp2x2 = wide(checked(hz.checked_mul(hz))?).wrapping_mul(&wide(vp2x2));
+    let vp_est = isqrt_u128(vp2x2 / 2);
+    // the least t with t·amax + hz·v ≥ hz·vp, i.e. 2(t·amax + hz·v)² ≥ hz²·2vp²
+    let ramp = |v: u128| -> Result<u128, IntError> {
+        let ok = |t: u128| -> Result<bool, IntError> {
+            let x = wide(checked(
+                checked(t.checked_mul(amax))?.checked_add(checked(hz.checked_mul(v))?),
+            )?);
+            Ok(x.wrapping_mul(&x).wrapping_mul(&wide(2)) >= hz2vp2x2)
+        };
+        least(
+            checked(hz.checked_mul(vp_est.saturating_sub(v)))? / amax,
+            ok,
+        )
+    };
+    let (ta, tc) = (ramp(vs)?, ramp(ve)?);
+    // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·F − vs·Ta − ve·Tc, i.e. 2vp²·W² ≥ 2K²
     let two_nf = checked((2 * n).checked_mul(f))?;
-    let tb = ceil_div(two_nf.saturating_sub(dist), 2 * vp);
+    let shed = checked(checked(vs.checked_mul(ta))?.checked_add(checked(ve.checked_mul(tc))?))?;
+    let tb = match two_nf.checked_sub(shed) {
+        None | Some(0) => 0,
+        Some(k) => {
+            let k2x2 = wide(k).wrapping_mul(&wide(k)).wrapping_mul(&wide(2));
+            let ok = |tb: u128| -> Result<bool, IntError> {
+                let w = wide(checked(checked(tb.checked_mul(2))?.checked_add(ta + tc))?);
+                Ok(w.wrapping_mul(&w).wrapping_mul(&wide(vp2x2)) >= k2x2)
+            };
+            let est = (k / vp_est.max(1)).saturating_sub(ta + tc) / 2;
+            least(est, ok)?
+        }
+    };
     let tick = |x: u128| u64::try_from(x).map_err(|_| IntError::TooWide);
     Ok(IntPhaseMove {
         steps: m.steps,

@@ -1,0 +1,162 @@
+//! Chains pieces into a profile, carrying time and position forward.
+
+use crate::error::PlanError;
+use crate::piece::{Law, Piece};
+use crate::profile::{Profile, MAX_PIECES};
+
+/// How far the pieces may end from step N, in units of ε·(N + the terms summed).
+const END_TOLERANCE: f64 = 8.0;
+
+/// Appends pieces, carrying time and position forward.
+pub(crate) struct Builder {
+    pieces: [Piece; MAX_PIECES],
+    ends: [f64; MAX_PIECES],
+    len: usize,
+    t: f64,
+    p: f64,
+    /// Sum of the magnitudes of the terms the pieces' ends were added from (steps).
+    scale: f64,
+}
+
+impl Builder {
+    pub(crate) fn new() -> Self {
+        Builder {
+            pieces: [Piece::EMPTY; MAX_PIECES],
+            ends: [0.0; MAX_PIECES],
+            len: 0,
+            t: 0.0,
+            p: 0.0,
+            scale: 0.0,
+        }
+    }
+
+    /// Adds a piece; the next one starts where this one ends (or at `exact_end` if given).
+    pub(crate) fn push(
+        &mut self,
+        dur: f64,
+        law: Law,
+        exact_end: Option<f64>,
+    ) -> Result<(), PlanError> {
+        if dur <= 0.0 {
+            return Ok(());
+        }
+        if self.len == MAX_PIECES {
+            return Err(PlanError::TooManyPieces {
+                max: MAX_PIECES,
+                what: "segments and phases together",
+            });
+        }
+        let piece = Piece {
+            t0: self.t,
+            dur,
+            p0: self.p,
+            law,
+        };
+        let end = exact_end.unwrap_or_else(|| piece.end()).max(self.p);
+        self.scale += piece.term_scale(dur);
+        self.pieces[self.len] = piece;
+        self.ends[self.len] = end;
+        self.len += 1;
+        self.t += dur;
+        self.p = end;
+        Ok(())
+    }
+
+    /// Appends a run of polynomial pieces from speed `v` with zero acceleration and jerk,
+    /// where each entry `(duration, x)` sets the acceleration (order 2), jerk (order 3) or
+    /// snap (order 4) on its piece and lower derivatives carry over.
+    pub(crate) fn push_schedule(
+        &mut self,
+        order: u8,
+        v: f64,
+        entries: &[(f64, f64)],
+    ) -> Result<(), PlanError> {
+        let (mut v, mut a, mut j) = (v, 0.0, 0.0);
+        for &(d, x) in entries {
+            let s = match order {
+                2 => {
+                    a = x;
+                    j = 0.0;
+                    0.0
+                }
+                3 => {
+                    j = x;
+                    0.0
+                }
+                _ => x,
+            };
+            let law = Law::Poly {
+                c1: v,
+                c2: a / 2.0,
+                c3: j / 6.0,
+                c4: s / 24.0,
+            };
+            self.push(d, law, None)?;
+            v += d * (a + d * (j / 2.0 + d * s / 6.0));
+            a += d * (j + d * s / 2.0);
+            j += d * s;
+        }
+        Ok(())
+    }
+
+    /// Where the pieces so far end (steps).
+    pub(crate) fn position(&self) -> f64 {
+        self.p
+    }
+
+    pub(crate) fn cruise(&mut self, v: f64, dur: f64) -> Result<(), PlanError> {
+        self.push(
+            dur,
+            Law::Poly {
+                c1: v,
+                c2: 0.0,
+                c3: 0.0,
+                c4: 0.0,
+            },
+            None,
+        )
+    }
+
+    pub(crate) fn finish(mut self, steps: u64) -> Result<Profile, PlanError> {
+        if self.len == 0 || !(self.t > 0.0) {
+            return Err(PlanError::ZeroDuration);
+        }
+        // The move ends on step N by definition. The pieces reach N up to the rounding of
+        // the terms their ends are summed from; anything more is a planning error, never
+        // silently absorbed.
+        let n = steps as f64;
+        if !((self.p - n).abs() <= END_TOLERANCE * f64::EPSILON * (n + self.scale)) {
+            return Err(PlanError::MissesLastStep {
+                reached: self.p,
+                steps,
+            });
+        }
+        self.ends[self.len - 1] = steps as f64;
+        Ok(Profile {
+            pieces: self.pieces,
+            ends: self.ends,
+            len: self.len,
+            steps,
+            duration: self.t,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finish_refuses_pieces_that_miss_step_n() {
+        let cruise = |b: &mut Builder, v: f64| b.cruise(v, 1.0).unwrap();
+        let mut b = Builder::new();
+        cruise(&mut b, 10.0);
+        assert!(b.finish(10).is_ok());
+        let mut b = Builder::new();
+        cruise(&mut b, 10.0 + 1e-12);
+        assert!(matches!(
+            b.finish(10),
+            Err(PlanError::MissesLastStep { steps: 10, .. })
+        ));
+    }
+}
