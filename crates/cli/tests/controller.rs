@@ -1103,3 +1103,36 @@ fn out_of_file_descriptors_the_accept_error_is_logged_rarely_and_service_resumes
     let _ = child.kill();
     let _ = child.wait();
 }
+
+#[test]
+fn the_web_side_takes_the_bearer_scheme_in_any_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("stderr.txt");
+    let _srv = Server::start_with(
+        &dir.path().join("data"),
+        None,
+        10.0,
+        &["--http", "127.0.0.1:0", "--http-token", TOKEN],
+        "127.0.0.1:0",
+        Stdio::from(std::fs::File::create(&log).unwrap()),
+    );
+    let t0 = Instant::now();
+    let web = loop {
+        let err = std::fs::read_to_string(&log).unwrap();
+        if let Some(a) = err.split("web page on http://").nth(1) {
+            break a.split('/').next().unwrap().to_string();
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "{err}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    for scheme in ["Bearer", "bearer", "BEARER"] {
+        let mut s = std::net::TcpStream::connect(&web).unwrap();
+        write!(
+            s,
+            "GET /api/status HTTP/1.1\r\nHost: {web}\r\nAuthorization: {scheme} {TOKEN}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let out = read_all(&mut s);
+        assert!(out.starts_with("HTTP/1.1 200"), "{scheme}: {out}");
+    }
+}
