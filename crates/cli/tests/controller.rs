@@ -1061,3 +1061,78 @@ fn small_protocol_edges_crlf_limit_and_the_most_negative_target() {
     );
     assert_eq!(lines.len(), 5, "{out}");
 }
+
+#[test]
+fn out_of_file_descriptors_the_accept_error_is_logged_rarely_and_service_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("stderr.txt");
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -n 24 && exec {BIN} serve --listen 127.0.0.1:0 --max-clients 200 --data {}",
+            dir.path().join("data").display()
+        ))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(std::fs::File::create(&log).unwrap()))
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let addr = first.trim().rsplit("tcp://").next().unwrap().to_string();
+    let held: Vec<_> = (0..40)
+        .map(|_| std::net::TcpStream::connect(&addr).unwrap())
+        .collect();
+    std::thread::sleep(Duration::from_millis(1500));
+    let err = std::fs::read_to_string(&log).unwrap();
+    let lines = err.lines().filter(|l| l.contains("accept")).count();
+    assert!((1..=2).contains(&lines), "{lines} accept lines:\n{err}");
+    drop(held);
+    let t0 = Instant::now();
+    loop {
+        let c = Client::connect(&Endpoint::Tcp(addr.clone()));
+        if let Ok(mut c) = c {
+            if c.request("version").is_ok() {
+                break;
+            }
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "never served again");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+#[test]
+fn the_web_side_takes_the_bearer_scheme_in_any_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("stderr.txt");
+    let _srv = Server::start_with(
+        &dir.path().join("data"),
+        None,
+        10.0,
+        &["--http", "127.0.0.1:0", "--http-token", TOKEN],
+        "127.0.0.1:0",
+        Stdio::from(std::fs::File::create(&log).unwrap()),
+    );
+    let t0 = Instant::now();
+    let web = loop {
+        let err = std::fs::read_to_string(&log).unwrap();
+        if let Some(a) = err.split("web page on http://").nth(1) {
+            break a.split('/').next().unwrap().to_string();
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "{err}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    for scheme in ["Bearer", "bearer", "BEARER"] {
+        let mut s = std::net::TcpStream::connect(&web).unwrap();
+        write!(
+            s,
+            "GET /api/status HTTP/1.1\r\nHost: {web}\r\nAuthorization: {scheme} {TOKEN}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let out = read_all(&mut s);
+        assert!(out.starts_with("HTTP/1.1 200"), "{scheme}: {out}");
+    }
+}

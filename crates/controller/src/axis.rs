@@ -52,7 +52,7 @@ pub struct SimSettings {
     pub sensor_at: i64,
     /// Width of the sensor's active window (microsteps).
     pub sensor_width: u64,
-    /// Up to this many extra toggles after each real edge (contact bounce)…
+    /// Up to this many pairs of extra toggles after each real edge (contact bounce)…
     pub bounce_count: u32,
     /// …all within this time (s) of the edge.
     pub bounce_time: f64,

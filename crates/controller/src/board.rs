@@ -839,7 +839,8 @@ impl Board {
     }
 
     /// The second half of [`Board::group_move`]: starts a planned, timed group, unless an
-    /// axis of it moved, changed or was stopped meanwhile (then nothing starts).
+    /// axis of it moved, changed or was stopped meanwhile (then nothing starts and the
+    /// answer is `Busy`: plan again).
     pub fn start_group_move(
         &mut self,
         pending: PendingGroup,
@@ -857,9 +858,10 @@ impl Board {
             self.check_can_move(i)?;
             let ax = &self.axes[i];
             if ax.count != *count || ax.settings != *settings {
+                // Another move ran meanwhile: as if this one came while it ran.
                 return Err(CtlError::Busy {
                     axis: ax.name.clone(),
-                    state: "changed while the move was being timed; send it again",
+                    state: AxisState::Moving.name(),
                 });
             }
         }

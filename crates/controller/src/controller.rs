@@ -142,10 +142,18 @@ impl Controller {
         opts: &MoveOpts,
     ) -> Result<Vec<i64>, CtlError> {
         // The TDM timing runs with the board free: estop and other clients do not wait on it.
-        let pending =
-            self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
-        let report = pending.time()?;
-        self.with_board(|b, now| b.start_group_move(pending, report.as_ref(), now))
+        // If another client's move ran on these axes meanwhile, plan again from where they
+        // are now (planning refuses at once while they still move).
+        let mut tries = 0;
+        loop {
+            let pending =
+                self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
+            let report = pending.time()?;
+            match self.with_board(|b, now| b.start_group_move(pending, report.as_ref(), now)) {
+                Err(CtlError::Busy { .. }) if tries < 3 => tries += 1,
+                other => return other,
+            }
+        }
     }
     pub fn home(&self, axis: &str) -> Result<(), CtlError> {
         self.with_board(|b, now| b.home(axis, now))
