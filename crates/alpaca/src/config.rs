@@ -198,10 +198,16 @@ mod tests {
 
     #[test]
     fn the_optics_example_has_three_devices() {
-        let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/alpaca-optics.toml");
+        let p = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/alpaca-optics.toml"
+        );
         let c = BoardConfig::load(std::path::Path::new(p)).unwrap();
         let s = AlpacaSection::from_board(&c).unwrap();
-        assert_eq!((s.focuser.len(), s.rotator.len(), s.filterwheel.len()), (1, 1, 1));
+        assert_eq!(
+            (s.focuser.len(), s.rotator.len(), s.filterwheel.len()),
+            (1, 1, 1)
+        );
         assert_eq!(s.filterwheel[0].slots.len(), 5);
     }
 

@@ -3,7 +3,7 @@
 use crate::moveargs::MoveArgs;
 use crate::output::Format;
 use clap::Args;
-use multistep_core::{EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
+use multistep_core::{EdgeGenerator, MoveName, PlanSummary, DEFAULT_CLOCK_HZ};
 use std::io::Write;
 
 #[derive(Args, Debug)]

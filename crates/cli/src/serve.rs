@@ -2,8 +2,8 @@
 
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
-use multistep_controller::CtlError;
 use multistep_controller::store::Store;
+use multistep_controller::CtlError;
 use multistep_controller::{service, BoardConfig, Controller};
 use std::io::Write;
 use std::path::{Path, PathBuf};

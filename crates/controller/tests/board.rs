@@ -464,7 +464,10 @@ fn a_work_budget_bounds_each_advance_and_the_clock_catches_up_later() {
     let mut b = open(dir.path(), &c);
     b.set_work_budget(Some(10_000));
     b.group_move(
-        &[("X".into(), Amount::Steps(1)), ("Y".into(), Amount::Steps(1))],
+        &[
+            ("X".into(), Amount::Steps(1)),
+            ("Y".into(), Amount::Steps(1)),
+        ],
         false,
         false,
         &MoveOpts::default(),
