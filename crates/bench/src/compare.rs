@@ -191,7 +191,7 @@ pub fn exact_times(p: &IntProfile) -> Vec<f64> {
     let mut k = 0;
     for i in 1..=p.steps() {
         let pieces = p.pieces();
-        while pieces[k].target(i).map_or(true, |m| m > pieces[k].m_end) && k + 1 < pieces.len() {
+        while pieces[k].target(i).is_none_or(|m| m > pieces[k].m_end) && k + 1 < pieces.len() {
             k += 1;
         }
         let q = &pieces[k];

@@ -124,9 +124,9 @@ impl BenchMove {
     pub fn is_whole(&self) -> bool {
         let (n, t) = self.cruise();
         2 * self.ramp_steps() <= self.steps
-            && self.vmax * self.vmax % (2 * self.amax) == 0
-            && CLOCK_HZ * self.vmax % self.amax == 0
-            && n * CLOCK_HZ % self.vmax == 0
+            && (self.vmax * self.vmax).is_multiple_of(2 * self.amax)
+            && (CLOCK_HZ * self.vmax).is_multiple_of(self.amax)
+            && (n * CLOCK_HZ).is_multiple_of(self.vmax)
             && (t > 0 || n == 0)
     }
 

@@ -105,14 +105,13 @@ fn print_curve_limits(
         writeln!(out, "{title}")?;
         writeln!(
             out,
-            "{:<12} {:>8} {:>8} {:>8}  {:>16}  {:>10}  {}",
+            "{:<12} {:>8} {:>8} {:>8}  {:>16}  {:>10}  first loss just past the limit",
             "family",
             format!("ours {unit}"),
             format!("paper {unit}"),
             "dev",
             "error at limit °",
-            "peak °/s",
-            "first loss just past the limit"
+            "peak °/s"
         )?;
         for fam in &s.families {
             let Some(v) = values.get(fam) else { continue };

@@ -193,8 +193,7 @@ fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, t
             // the DIR pin during the move: its level at the group's start
             let dir_level = log.dir[a]
                 .iter()
-                .filter(|e| e.cycle <= go)
-                .last()
+                .rfind(|e| e.cycle <= go)
                 .is_some_and(|e| e.level);
             assert_eq!(dir_level, m.dir, "{name}: round {r} axis {a} DIR pin");
         }
@@ -514,7 +513,7 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
         rep[pos2].data as usize, move2,
         "{name}: position after the limit"
     );
-    assert!(move2 < 400 && move2 >= 50);
+    assert!((50..400).contains(&move2));
     let s2 = AxisState::decode(rep[st2].data).unwrap();
     assert!(
         s2.stopped && s2.limit && s2.run == AxisRun::Stopped,

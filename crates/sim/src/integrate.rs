@@ -208,7 +208,7 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
         let err = err_of(count, &x);
         meas.observe(t, err, x[OM]);
         if let Some(n) = trace_every {
-            if k % n == 0 {
+            if k.is_multiple_of(n) {
                 let (ia, ib) = if IDEAL {
                     (u.ia_ref, u.ib_ref)
                 } else {
