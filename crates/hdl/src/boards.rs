@@ -153,8 +153,8 @@ pub const BOARDS: [Board; 2] = [
             filter_range: 1,
         },
         max_axes: 4,
-        // two axes pack into 92 % of the logic cells but fail placement (docs/HDL.md)
-        default_axes: 1,
+        // two axes: 93 % of the logic cells; three do not fit (docs/HDL.md)
+        default_axes: 2,
         baud: 1_000_000,
         core: BoardCore {
             fifo_depth: 2,
