@@ -83,10 +83,10 @@ impl BoardTop {
         (f64::from(self.div()) - exact).abs() / exact
     }
 
-    /// `#(.K(..), …)` for an `ms_board` instance.
-    pub fn verilog_params(&self) -> Result<String, HdlError> {
+    /// `ms_board`'s parameters and their values.
+    pub fn param_list(&self) -> Result<Vec<(&'static str, u32)>, HdlError> {
         let w = self.widths()?;
-        let p = [
+        Ok(vec![
             ("K", self.core.axes),
             ("LK", w.lk),
             ("LS", w.ls),
@@ -104,10 +104,15 @@ impl BoardTop {
             ("BAUD", self.baud),
             ("ESTOP_ACTIVE", u32::from(self.estop_active_high)),
             ("VERSION", u32::from(crate::link::crate_version())),
-        ];
+        ])
+    }
+
+    /// `#(.K(..), …)` for an `ms_board` instance.
+    pub fn verilog_params(&self) -> Result<String, HdlError> {
         Ok(format!(
             "#({})",
-            p.iter()
+            self.param_list()?
+                .iter()
                 .map(|(k, v)| format!(".{k}({v})"))
                 .collect::<Vec<_>>()
                 .join(", ")

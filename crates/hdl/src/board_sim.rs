@@ -415,3 +415,47 @@ fn parse(text: &str, k: usize) -> Result<BoardLog, HdlError> {
     }
     Ok(log)
 }
+
+/// `verilator --lint-only -Wall` on `ms_board` with these parameters; any warning is an
+/// error.
+pub fn lint(b: &BoardTop, dir: &Path) -> Result<(), HdlError> {
+    std::fs::create_dir_all(dir).map_err(|e| HdlError::io(dir, e))?;
+    let mut args = vec![
+        "--lint-only".to_string(),
+        "-Wall".into(),
+        "--top-module".into(),
+        "ms_board_lint".into(),
+        "ms_board_lint.v".into(),
+    ];
+    // a wrapper with the parameters as literals, as a board wrapper instantiates it
+    let k1 = b.core.axes - 1;
+    let wrapper = format!(
+        "module ms_board_lint (\n\
+         \x20   input wire clk, input wire rst_n_async, input wire uart_rx, output wire uart_tx,\n\
+         \x20   input wire estop_in, input wire [{k1}:0] hall_in, input wire [{k1}:0] limit_in,\n\
+         \x20   output wire [{k1}:0] step_out, output wire [{k1}:0] dir_out,\n\
+         \x20   output wire [{k1}:0] enable_out, output wire [3:0] led);\n\
+         \x20   ms_board {} u (.clk(clk), .rst_n_async(rst_n_async), .uart_rx(uart_rx),\n\
+         \x20       .uart_tx(uart_tx), .estop_in(estop_in), .hall_in(hall_in), .limit_in(limit_in),\n\
+         \x20       .step_out(step_out), .dir_out(dir_out), .enable_out(enable_out), .led(led));\n\
+         endmodule\n",
+        b.verilog_params()?
+    );
+    let wp = dir.join("ms_board_lint.v");
+    std::fs::write(&wp, wrapper).map_err(|e| HdlError::io(&wp, e))?;
+    for (name, text) in b.files()? {
+        let p = dir.join(&name);
+        std::fs::write(&p, text).map_err(|e| HdlError::io(&p, e))?;
+        args.push(name);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = run("verilator", "verilator", &args, dir)?;
+    let text = String::from_utf8_lossy(&out.stderr);
+    if text.contains("%Warning") || text.contains("%Error") {
+        return Err(HdlError::ToolFailed {
+            tool: "verilator",
+            detail: text.into_owned(),
+        });
+    }
+    Ok(())
+}

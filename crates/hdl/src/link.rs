@@ -50,6 +50,9 @@ pub enum LinkError {
     Axis { axis: u32, axes: u32 },
     #[error("{0}")]
     Move(String),
+    /// The byte stream failed (closed, timed out: the port's own read timeout).
+    #[error("link I/O: {0}")]
+    Io(String),
 }
 
 impl From<HdlError> for LinkError {
@@ -748,6 +751,77 @@ pub fn int_profile(
     }
 }
 
+/// The host's side of the link over any byte stream (a serial port, a socket): one
+/// request at a time, each answered before the next; sequence numbers are checked. Read
+/// timeouts are the stream's own (e.g. `serialport`'s timeout).
+#[derive(Debug)]
+pub struct HostLink<T> {
+    io: T,
+    seq: u8,
+    decoder: ReplyDecoder,
+}
+
+impl<T: std::io::Read + std::io::Write> HostLink<T> {
+    pub fn new(io: T) -> Self {
+        HostLink {
+            io,
+            seq: 0,
+            decoder: ReplyDecoder::new(),
+        }
+    }
+
+    /// The stream back.
+    pub fn into_inner(self) -> T {
+        self.io
+    }
+
+    /// Sends `req` (its seq replaced by the link's next) and returns the reply's data, or
+    /// the board's refusal, a reply that does not decode, or an I/O error.
+    pub fn transact(&mut self, mut req: Request) -> Result<u32, LinkError> {
+        req.seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let io = |e: std::io::Error| LinkError::Io(e.to_string());
+        self.io.write_all(&req.encode()).map_err(io)?;
+        self.io.flush().map_err(io)?;
+        let mut buf = [0u8; REPLY_LEN];
+        loop {
+            let n = self.io.read(&mut buf).map_err(io)?;
+            if n == 0 {
+                return Err(LinkError::Io("the stream closed".into()));
+            }
+            if let Some(r) = self.decoder.push(&buf[..n]).into_iter().next() {
+                // what is left of a bad frame must not be taken for the next reply
+                self.decoder = ReplyDecoder::new();
+                return r?.answer(&req);
+            }
+        }
+    }
+
+    pub fn read(&mut self, reg: Reg) -> Result<u32, LinkError> {
+        self.transact(Request::read(0, reg))
+    }
+
+    pub fn write(&mut self, reg: Reg, data: u32) -> Result<(), LinkError> {
+        self.transact(Request::write(0, reg, data)).map(|_| ())
+    }
+
+    /// Writes in order; stops at the first refusal.
+    pub fn write_all(&mut self, writes: &[RegWrite]) -> Result<(), LinkError> {
+        writes.iter().try_for_each(|w| self.write(w.reg, w.data))
+    }
+
+    pub fn build_id(&mut self) -> Result<BuildId, LinkError> {
+        let mut r = |b: BoardReg| self.read(Reg::Board(b));
+        let (id, c, w) = (r(BoardReg::Id)?, r(BoardReg::Config)?, r(BoardReg::Widths)?);
+        let (hz, baud) = (r(BoardReg::ClockHz)?, r(BoardReg::Baud)?);
+        BuildId::decode(id, c, w, hz, baud)
+    }
+
+    pub fn axis_state(&mut self, axis: u32) -> Result<AxisState, LinkError> {
+        AxisState::decode(self.read(Reg::Axis(axis, AxisReg::State))?)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -794,6 +868,103 @@ mod tests {
             g[i / 8] ^= 1 << (i % 8);
             assert!(Reply::decode(&g).is_err(), "bit {i}");
         }
+    }
+
+    /// A register file behind the framing, answering like the board (unknown registers
+    /// refused), optionally corrupting its replies.
+    struct FakeBoard {
+        regs: std::collections::HashMap<u16, u32>,
+        out: Vec<u8>,
+        corrupt: bool,
+    }
+
+    impl std::io::Write for FakeBoard {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            let req = Request::decode(b).expect("the host sends whole frames");
+            let (status, data) = match (req.command, self.regs.get(&req.addr)) {
+                (_, None) => (Status::BadAddress, 0),
+                (Command::Read, Some(&v)) => (Status::Ok, v),
+                (Command::Write, Some(_)) => {
+                    self.regs.insert(req.addr, req.data);
+                    (Status::Ok, 0)
+                }
+            };
+            let mut f = Reply {
+                seq: req.seq,
+                status,
+                data,
+            }
+            .encode();
+            if self.corrupt {
+                f[4] ^= 1;
+            }
+            self.out.extend_from_slice(&[0x00, 0x13]); // noise before the reply
+            self.out.extend_from_slice(&f);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl std::io::Read for FakeBoard {
+        fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            // a few bytes at a time, as a serial port delivers them
+            let n = self.out.len().min(b.len()).min(4);
+            b[..n].copy_from_slice(&self.out[..n]);
+            self.out.drain(..n);
+            Ok(n)
+        }
+    }
+
+    fn fake(corrupt: bool) -> HostLink<FakeBoard> {
+        let regs = [
+            (0x00, 0x4D53_0010),
+            (0x01, 0x0204_0201),
+            (0x02, 0x1418_8044),
+            (0x03, 50_000_000),
+            (0x04, 3_000_000),
+            (0x0B, 0),
+            (0x2010, 0x109),
+        ]
+        .into_iter()
+        .collect();
+        HostLink::new(FakeBoard {
+            regs,
+            out: Vec::new(),
+            corrupt,
+        })
+    }
+
+    #[test]
+    fn host_link_reads_writes_and_reports_refusals() {
+        let mut l = fake(false);
+        let id = l.build_id().unwrap();
+        assert_eq!(
+            (id.axes, id.step_bits, id.clock_hz, id.version),
+            (2, 20, 50_000_000, 0x10)
+        );
+        l.write(Reg::Board(BoardReg::PulseWidth), 7).unwrap();
+        assert_eq!(l.read(Reg::Board(BoardReg::PulseWidth)), Ok(7));
+        let st = l.axis_state(1).unwrap();
+        assert!(st.busy && st.run == AxisRun::Running && st.hall);
+        assert_eq!(
+            l.read(Reg::Board(BoardReg::Session)),
+            Err(LinkError::Refused {
+                addr: 0x05,
+                status: Status::BadAddress
+            })
+        );
+        let mut bad = fake(true);
+        assert!(matches!(
+            bad.read(Reg::Board(BoardReg::Id)),
+            Err(LinkError::Crc { .. })
+        ));
+        let mut closed = HostLink::new(std::io::Cursor::new(Vec::<u8>::new()));
+        assert!(matches!(
+            closed.read(Reg::Board(BoardReg::Id)),
+            Err(LinkError::Io(_))
+        ));
     }
 
     proptest! {

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{params, random_move, IntMove, Rng, CLOCK, HZ};
+use common::{params, random_move, random_move_of, IntMove, Rng, CLOCK, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntProfile, IntSegment};
 use multistep_core::tdm::{Axis, Board, PulseShape, TdmConfig};
 use multistep_hdl::board_sim::{simulate, BoardLog, Script};
@@ -85,19 +85,21 @@ impl Host {
     }
 }
 
-/// Moves of every kind (random segments, phase and limits trapezoids with start and end
-/// speeds) on K axes through the link: every STEP rise at `go + edge + TICK0`, the 50 %
-/// falls, DIR pins, replies, and the readback (state, position, period) after the move.
-fn link_moves(k: u32, seed: u64, baud: u32, ticks: u64) {
-    let name = format!("board-k{k}");
-    let p = params(k);
+/// Moves of every kind (segment chains, phase and limits trapezoids, with random start
+/// and end speeds; axis a of round r runs kind (r·K + a) mod 3) on K axes through the
+/// link, `rounds` groups one after the other: every STEP rise at `go + edge + TICK0`, the
+/// 50 % falls, DIR pins, replies, and the readback (state, position, period) after each.
+fn link_moves(k: u32, rounds: u32, seed: u64, baud: u32, ticks: u64) {
+    link_moves_on(params(k), &format!("board-k{k}"), rounds, seed, baud, ticks);
+}
+
+fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, ticks: u64) {
+    let k = p.axes;
+    let name = name.to_string();
     let b = board(p.clone(), baud);
     let mut rng = Rng(seed);
     let interval = p.widths().unwrap().latencies().interval();
     let vmax = (50_000_000 / (interval * u64::from(k) * 3 / 2)).min(150_000);
-    let moves: Vec<(IntMove, AxisMove)> = (0..k)
-        .map(|_| random_move(&mut rng, &p, vmax, ticks))
-        .collect();
     let mut h = Host::new();
     let id = [
         h.read(Reg::Board(BoardReg::Id)),
@@ -106,21 +108,30 @@ fn link_moves(k: u32, seed: u64, baud: u32, ticks: u64) {
         h.read(Reg::Board(BoardReg::ClockHz)),
         h.read(Reg::Board(BoardReg::Baud)),
     ];
-    for (a, (_, m)) in moves.iter().enumerate() {
-        h.writes(&move_writes(&p, a as u32, m, 0).unwrap());
+    let mut all = Vec::new();
+    for r in 0..rounds {
+        let moves: Vec<(IntMove, AxisMove)> = (0..k)
+            .map(|a| random_move_of(&mut rng, &p, vmax, ticks, u64::from(r * k + a)))
+            .collect();
+        for (a, (_, m)) in moves.iter().enumerate() {
+            h.writes(&move_writes(&p, a as u32, m, 0).unwrap());
+        }
+        let all_axes = ((1u64 << k) - 1) as u32;
+        let s = start_write(all_axes);
+        h.write(s.reg, s.data);
+        h.s.sync().idle();
+        let reads: Vec<[usize; 3]> = (0..k)
+            .map(|a| {
+                [
+                    h.read(Reg::Axis(a, AxisReg::State)),
+                    h.read(Reg::Axis(a, AxisReg::Position)),
+                    h.read(Reg::Axis(a, AxisReg::Period)),
+                ]
+            })
+            .collect();
+        h.s.sync();
+        all.push((moves, reads));
     }
-    let start = h.write(start_write((1 << k) - 1).reg, (1 << k) - 1);
-    h.s.sync().idle();
-    let reads: Vec<[usize; 3]> = (0..k)
-        .map(|a| {
-            [
-                h.read(Reg::Axis(a, AxisReg::State)),
-                h.read(Reg::Axis(a, AxisReg::Position)),
-                h.read(Reg::Axis(a, AxisReg::Period)),
-            ]
-        })
-        .collect();
-    h.s.sync();
     let log = run(&b, &h.s, &name, 30_000_000);
     let rep = answers(&log, &h.reqs, &name);
     for (i, r) in rep.iter().enumerate() {
@@ -135,33 +146,58 @@ fn link_moves(k: u32, seed: u64, baud: u32, ticks: u64) {
     )
     .unwrap();
     assert_eq!(bid, BuildId::of(&p, baud).unwrap(), "{name}: build id");
-    let _ = start;
-    assert_eq!(log.go.len(), 1, "{name}: one group start");
-    let go = log.go[0];
-    for (a, (im, m)) in moves.iter().enumerate() {
-        let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
-        let rises: Vec<u64> = log.rises(a, true).iter().map(|c| c - go - TICK0).collect();
-        assert_eq!(rises, want, "{name}: axis {a} edges");
-        let falls: Vec<u64> = log.rises(a, false).iter().map(|c| c - go - TICK0).collect();
-        assert_eq!(falls, half_interval_falls(&want), "{name}: axis {a} falls");
-        let st = rep[reads[a][0]].data;
-        assert_eq!(st & 7, 0, "{name}: axis {a} idle after the move ({st:#x})");
-        let n = want.len() as i64;
-        let pos = rep[reads[a][1]].data as i32 as i64;
-        assert_eq!(pos, if m.dir { n } else { -n }, "{name}: axis {a} position");
-        let last = want.len() - 1;
-        let per = if last > 0 {
-            want[last] - want[last - 1]
-        } else {
-            0
+    assert_eq!(
+        log.go.len(),
+        rounds as usize,
+        "{name}: one group start per round"
+    );
+    let mut position = vec![0i64; k as usize];
+    for (r, (moves, reads)) in all.iter().enumerate() {
+        let go = log.go[r];
+        let end = log.go.get(r + 1).copied().unwrap_or(u64::MAX);
+        let window = |v: Vec<u64>| -> Vec<u64> {
+            v.iter()
+                .filter(|&&c| c > go && c < end)
+                .map(|c| c - go - TICK0)
+                .collect()
         };
-        assert_eq!(
-            u64::from(rep[reads[a][2]].data),
-            per,
-            "{name}: axis {a} period"
-        );
-        let dir_level = log.dir[a].last().map_or(false, |e| e.level);
-        assert_eq!(dir_level, m.dir, "{name}: axis {a} DIR pin");
+        for (a, (im, m)) in moves.iter().enumerate() {
+            let want: Vec<u64> = IntEdgeGenerator::new(im.profile()).collect();
+            assert_eq!(
+                window(log.rises(a, true)),
+                want,
+                "{name}: round {r} axis {a} edges ({im:?})"
+            );
+            assert_eq!(
+                window(log.rises(a, false)),
+                half_interval_falls(&want),
+                "{name}: round {r} axis {a} falls"
+            );
+            let st = rep[reads[a][0]].data;
+            assert_eq!(st & 7, 0, "{name}: axis {a} idle after the move ({st:#x})");
+            let n = want.len() as i64;
+            position[a] += if m.dir { n } else { -n };
+            let pos = rep[reads[a][1]].data as i32 as i64;
+            assert_eq!(pos, position[a], "{name}: round {r} axis {a} position");
+            let last = want.len() - 1;
+            let per = if last > 0 {
+                want[last] - want[last - 1]
+            } else {
+                0
+            };
+            assert_eq!(
+                u64::from(rep[reads[a][2]].data),
+                per,
+                "{name}: axis {a} period"
+            );
+            // the DIR pin during the move: its level at the group's start
+            let dir_level = log.dir[a]
+                .iter()
+                .filter(|e| e.cycle <= go)
+                .last()
+                .is_some_and(|e| e.level);
+            assert_eq!(dir_level, m.dir, "{name}: round {r} axis {a} DIR pin");
+        }
     }
 }
 
@@ -181,20 +217,29 @@ fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
 }
 
 #[test]
-fn one_axis_at_three_megabaud() {
-    link_moves(1, 0x0b0a_0001, 3_000_000, 60_000);
+fn one_axis_three_kinds_at_three_megabaud() {
+    link_moves(1, 3, 0x0b0a_0001, 3_000_000, 60_000);
 }
 
 #[test]
-fn two_axes_at_three_megabaud() {
-    link_moves(2, 0x0b0a_0002, 3_000_000, 80_000);
+fn two_axes_two_rounds_at_three_megabaud() {
+    link_moves(2, 2, 0x0b0a_0002, 3_000_000, 80_000);
 }
 
 /// The ULX3S build's K = 8, with a 12.5 Mbaud host link (4 clocks per bit) to keep the
 /// loading short.
 #[test]
 fn eight_axes() {
-    link_moves(8, 0x0b0a_0008, 12_500_000, 100_000);
+    link_moves(8, 1, 0x0b0a_0008, 12_500_000, 100_000);
+}
+
+/// The iCEBreaker build's core (its narrow widths, radix 2, FIFO depth 2, 24 MHz, from
+/// `boards.rs`) at its most axes, K = 4, with a 6 Mbaud host link (4 clocks per bit).
+#[test]
+fn icebreaker_widths_four_axes() {
+    let b = multistep_hdl::boards::Board::by_name("icebreaker").unwrap();
+    let p = b.params(b.max_axes).unwrap();
+    link_moves_on(p, "board-ice", 1, 0x0b0a_1ce4, 6_000_000, 20_000);
 }
 
 /// The core TDM model with a pulse shape and DIR setup time: rises and falls from its
@@ -697,4 +742,49 @@ fn session_changes_on_reset() {
         v(s2),
         v(s3)
     );
+}
+
+/// `verilator --lint-only -Wall` is clean for the board at K = 1, 2, 5 and 8.
+#[test]
+fn board_lint_is_clean() {
+    for k in [1, 2, 5, 8] {
+        let dir = tempfile::tempdir().unwrap();
+        multistep_hdl::board_sim::lint(&board(params(k), 3_000_000), dir.path())
+            .unwrap_or_else(|e| panic!("K = {k}: {e}"));
+    }
+}
+
+/// One group at a time: a start while another group waits for its start (here: for its
+/// DIR setup time) is refused and the waiting group runs exactly; the refused axis starts
+/// afterwards.
+#[test]
+fn start_while_a_group_waits_is_refused() {
+    let name = "board-pending";
+    let p = params(2);
+    let b = board(p.clone(), 3_000_000);
+    let (cruise, cm, _, _) = search_move(&p, 60);
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::DirSetup), 20_000);
+    h.writes(&move_writes(&p, 0, &cm, 0).unwrap());
+    h.writes(&move_writes(&p, 1, &cm, 0).unwrap());
+    let first = h.write(Reg::Board(BoardReg::Start), 0b01);
+    let second = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let third = h.write(Reg::Board(BoardReg::Start), 0b10);
+    h.s.sync().idle();
+    let log = run(&b, &h.s, name, 2_000_000);
+    let rep = answers(&log, &h.reqs, name);
+    assert_eq!(rep[first].status, Status::Ok);
+    assert_eq!(
+        rep[second].status,
+        Status::Busy,
+        "{name}: start while a group waits"
+    );
+    assert_eq!(rep[third].status, Status::Ok);
+    assert_eq!(log.go.len(), 2, "{name}: two group starts");
+    let want: Vec<u64> = IntEdgeGenerator::new(cruise).collect();
+    for (a, go) in [(0usize, log.go[0]), (1, log.go[1])] {
+        let rises: Vec<u64> = log.rises(a, true).iter().map(|c| c - go - TICK0).collect();
+        assert_eq!(rises, want, "{name}: axis {a}");
+    }
 }

@@ -1,10 +1,11 @@
 // ms_axis_io: one axis's pins and counters around the core.
 //  - STEP: the core's STEP one clock later (50 % duty), or with a fixed width (`width` != 0)
 //    high for exactly `width` clocks from each of the core's rises (the core TDM model's
-//    PulseShape::Fixed); forced low at once (combinationally) by `kill` (the e-stop) and at
-//    the next clock by `halt`.
-//  - the position counter: +1 / -1 (by DIR) at every STEP rise that leaves the board; the
-//    period meter: clocks between the last two rises (0 before the second).
+//    PulseShape::Fixed); forced low at once (combinationally) by `kill_pin` (the e-stop
+//    input) and from the next clock by `kill` (the synchronized e-stop) and `halt`.
+//  - the position counter: +1 / -1 (by DIR) at every STEP rise of the core that is not cut
+//    by `kill` or `halt` (one cut only by `kill_pin`, in the synchronizer's 2 clocks, is
+//    counted); the period meter: clocks between the last two rises (0 before the second).
 //  - Hall and limit inputs (synchronized and made active-high by the caller): debounced;
 //    at the accepted Hall edge the position is latched and the flag set.
 //  - output levels: STEP, DIR, ENABLE active high when their `lvl_*` bit is 1.
@@ -17,7 +18,8 @@ module ms_axis_io #(
     input  wire          dir,        // the latched DIR bit (1 = position counts up)
     input  wire          start,      // this axis starts a move: clear the period meter
     input  wire          halt,
-    input  wire          kill,       // the e-stop, combinational to the STEP pin
+    input  wire          kill,       // the e-stop, synchronized: STEP low at the next clock
+    input  wire          kill_pin,   // the e-stop input itself: gates the STEP pin only
     input  wire [WD-1:0] width,      // 0: 50 % duty; else the fixed STEP high time
     input  wire [WD-1:0] debounce,
     input  wire          hall,       // active-high, synchronized
@@ -111,7 +113,8 @@ module ms_axis_io #(
             hall_flag <= 1'b1;
         end
     end
-    assign step_pin = (s && !kill) ? lvl_step : !lvl_step;
+    // the only use of the unsynchronized e-stop: a gate, no flip-flop sees it
+    assign step_pin = (s && !kill && !kill_pin) ? lvl_step : !lvl_step;
     assign dir_pin  = dir ? lvl_dir : !lvl_dir;
     assign en_pin   = en ? lvl_en : !lvl_en;
 endmodule

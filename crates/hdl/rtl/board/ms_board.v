@@ -99,14 +99,15 @@ module ms_board #(
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun));
 
     // ---- per axis ----
-    wire kill = estop_raw || estop_act || estop;
+    wire kill = estop_act || estop;
     wire en_off = levels[5] && estop;
     genvar a;
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
             ms_axis_io #(.WD(WD)) u_io (
                 .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
-                .start(start_ax[a]), .halt(halt[a]), .kill(kill), .width(pulse_width),
+                .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
+                .width(pulse_width),
                 .debounce(debounce), .hall(hall_s[a] == levels[3]),
                 .limit(limit_s[a] == levels[4]), .pos_wr(pos_wr[a]), .pos_in(req_data),
                 .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),

@@ -172,7 +172,9 @@ module ms_regs #(
             case (breg)
                 8'h08: wst = (req_data[0] == 1'b0 && estop_in) ? E_ESTOP : OK;
                 8'h09: wst = (mask == {K{1'b0}} || (req_data & ~AXES_MASK) != 32'd0) ? E_VALUE
-                           : estop ? E_ESTOP : ((mask & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
+                           : estop ? E_ESTOP
+                           // one group at a time: a pending group keeps its members
+                           : (core_pending || (mask & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
                 8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12:
                     wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE : OK;
                 8'h0B, 8'h0C, 8'h0F: wst = any_busy ? E_BUSY : OK;

@@ -107,6 +107,32 @@ pub fn random_move(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> (Int
     }
 }
 
+/// A random move of kind `kind` (0 segments, 1 phase trapezoid, 2 limits trapezoid),
+/// otherwise as [`random_move`].
+pub fn random_move_of(
+    rng: &mut Rng,
+    p: &CoreParams,
+    vmax: u64,
+    ticks: u64,
+    kind: u64,
+) -> (IntMove, AxisMove) {
+    loop {
+        let m = match kind % 3 {
+            0 => random_segments(rng, p, vmax, ticks),
+            1 => random_phase(rng, vmax, ticks),
+            _ => random_limits(rng, vmax, ticks),
+        };
+        let Some(m) = m else { continue };
+        let dir = rng.next() & 1 == 1;
+        let Ok(profile) = m.try_profile() else {
+            continue;
+        };
+        if let Ok(a) = AxisMove::from_profile(&profile, dir, p) {
+            return (m, a);
+        }
+    }
+}
+
 fn random_segments(rng: &mut Rng, p: &CoreParams, vmax: u64, ticks: u64) -> Option<IntMove> {
     let n = rng.range(1, u64::from(p.pieces));
     let mut v0 = rng.zero_or(0, vmax);

@@ -1,0 +1,156 @@
+//! `multistep hdl regs`: the frames it prints decode to exactly the link library's
+//! register writes for the move; moves the board cannot run are one `error:` line, exit 2.
+
+use multistep_core::int::{IntClock, IntPhaseMove, IntProfile};
+use multistep_hdl::boards::Board;
+use multistep_hdl::link::{move_writes, start_write, BoardReg, Command, Reg, Request};
+use multistep_hdl::AxisMove;
+use std::process::Command as Process;
+
+fn multistep(args: &[&str]) -> std::process::Output {
+    Process::new(env!("CARGO_BIN_EXE_multistep"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The listing's rows: seq, addr, data and the decoded frame.
+fn rows(text: &str) -> Vec<(u8, u16, u32, Request)> {
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            let bytes: Vec<u8> = (0..f[3].len() / 2)
+                .map(|i| u8::from_str_radix(&f[3][2 * i..2 * i + 2], 16).unwrap())
+                .collect();
+            (
+                f[0].parse().unwrap(),
+                u16::from_str_radix(f[1], 16).unwrap(),
+                u32::from_str_radix(f[2], 16).unwrap(),
+                Request::decode(&bytes).unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn frames_are_the_link_librarys_writes() {
+    let o = multistep(&[
+        "hdl",
+        "regs",
+        "--board",
+        "ulx3s-25f",
+        "--axis",
+        "2",
+        "--pulse-width",
+        "10",
+        "--seq",
+        "250",
+        "--steps",
+        "1000",
+        "--accel-time",
+        "0.01",
+        "--cruise-time",
+        "0.01",
+        "--decel-time",
+        "0.01",
+        "--start-speed",
+        "500",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let got = rows(&text);
+    let b = Board::by_name("ulx3s-25f").unwrap();
+    let p = b.params(b.default_axes).unwrap();
+    let m = IntPhaseMove {
+        steps: 1000,
+        accel_ticks: 500_000,
+        cruise_ticks: 500_000,
+        decel_ticks: 500_000,
+        start_speed: 500,
+        end_speed: 0,
+    };
+    let prof = IntProfile::phase(&m, IntClock::hz(p.clock_hz as u64)).unwrap();
+    let am = AxisMove::from_profile(&prof, true, &p).unwrap();
+    let mut want = vec![(Reg::Board(BoardReg::PulseWidth), 10)];
+    want.extend(
+        move_writes(&p, 2, &am, 10)
+            .unwrap()
+            .iter()
+            .map(|w| (w.reg, w.data)),
+    );
+    let s = start_write(1 << 2);
+    want.push((s.reg, s.data));
+    assert_eq!(got.len(), want.len(), "{text}");
+    for (i, ((seq, addr, data, req), (reg, d))) in got.iter().zip(&want).enumerate() {
+        let seq_want = 250u8.wrapping_add(i as u8);
+        assert_eq!((*seq, req.seq), (seq_want, seq_want), "row {i}");
+        assert_eq!((*addr, req.addr), (reg.addr(), reg.addr()), "row {i}");
+        assert_eq!((*data, req.data), (*d, *d), "row {i}");
+        assert_eq!(req.command, Command::Write);
+    }
+    assert!(
+        text.contains("core.stage.y0[0]") && text.contains("Start"),
+        "{text}"
+    );
+}
+
+#[test]
+fn segments_and_limits_moves_list_too() {
+    for args in [
+        vec!["--segment", "0:0.01:500", "--segment", "100000:0.01:1000"],
+        vec!["--steps", "2000", "--vmax", "50000", "--amax", "2000000"],
+    ] {
+        let mut a = vec!["hdl", "regs", "--board", "icebreaker"];
+        a.extend(args.iter());
+        let o = multistep(&a);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(rows(&String::from_utf8(o.stdout).unwrap()).len() > 18);
+    }
+}
+
+#[test]
+fn moves_the_board_cannot_run_are_errors() {
+    let phase = [
+        "--steps",
+        "1000",
+        "--accel-time",
+        "0.01",
+        "--cruise-time",
+        "0.01",
+        "--decel-time",
+        "0.01",
+    ];
+    for (extra, msg) in [
+        (
+            vec!["--board", "ulx3s-25f", "--profile", "sine"],
+            "trapezoids",
+        ),
+        (vec!["--board", "nope"], "unknown board"),
+        (vec!["--board", "ulx3s-25f", "--axis", "8"], "axis 8"),
+        (
+            vec!["--board", "ulx3s-25f", "--start-speed", "0.5"],
+            "whole",
+        ),
+        (
+            vec!["--board", "ulx3s-25f", "--pulse-width", "5000"],
+            "pulse",
+        ),
+    ] {
+        let mut a = vec!["hdl", "regs"];
+        a.extend(extra.iter());
+        a.extend(phase.iter());
+        let o = multistep(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains(msg),
+            "{extra:?}: {err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
+}
