@@ -257,7 +257,7 @@ fn build(a: &BuildArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The fields, in its order.
+/// The build report as JSON: board, device, axes, clock, timing, resources, bitstream.
 fn build_json(r: &BuildReport) -> serde_json::Value {
     serde_json::json!({
         "board": r.board,

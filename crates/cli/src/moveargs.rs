@@ -94,8 +94,9 @@ impl MoveArgs {
         }
     }
 
-    pub fn plan(&self) -> Result<Profile, PlanError> {
-        self.spec().plan()
+    /// The move as it plays on a clock of `clock_hz` ([`MoveSpec::plan_on_clock`]).
+    pub fn plan(&self, clock_hz: f64) -> Result<Profile, PlanError> {
+        self.spec().plan_on_clock(clock_hz)
     }
 
     /// A short name of the mode and family, for summaries: the core's [`MoveName`] (the

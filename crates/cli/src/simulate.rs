@@ -75,7 +75,7 @@ pub fn run(a: &SimulateArgs) -> anyhow::Result<()> {
     if a.trace.is_some() || a.plot.is_some() {
         cfg.trace_interval = Some(10e-6);
     }
-    let profile = a.mv.plan()?;
+    let profile = a.mv.plan(a.clock)?;
     let dir = if a.reverse { -1.0 } else { 1.0 };
     let r = simulate_profile(&motor, &cfg, profile, a.clock, dir)?;
     if let Some(path) = &a.trace {

@@ -500,7 +500,7 @@ impl Board {
             amax: Some(s.amax),
             ..MoveSpec::default()
         }
-        .plan()?)
+        .plan_on_clock(self.clock_hz)?)
     }
 
     fn home_move(
@@ -778,7 +778,7 @@ impl Board {
     fn plan(&self, i: usize, steps: u64, opts: &MoveOpts) -> Result<Profile, CtlError> {
         let mut o = self.resolve_opts(opts)?;
         o.profile = Some(self.family_name(i, &o).to_string());
-        let p = self.spec(i, steps, &o).plan()?;
+        let p = self.spec(i, steps, &o).plan_on_clock(self.clock_hz)?;
         self.check_peaks(i, &p)?;
         Ok(p)
     }
@@ -917,7 +917,9 @@ impl Board {
             o.decel_time = Some(tc * s);
             o.start_speed = None;
             o.end_speed = None;
-            Ok(self.spec(i, d.unsigned_abs(), &o).plan()?)
+            Ok(self
+                .spec(i, d.unsigned_abs(), &o)
+                .plan_on_clock(self.clock_hz)?)
         };
         let mut scale: f64 = if opts.has_phase_times() { 1.0 } else { 0.0 };
         for &(i, d) in plan.iter().filter(|p| p.1 != 0) {

@@ -47,7 +47,7 @@ pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan
     })?;
     let spec = mv.spec();
     let m = spec.resolve().map_err(|e| plan_err(py, e))?;
-    let profile = Profile::plan(&m).map_err(|e| plan_err(py, e))?;
+    let profile = Profile::plan_on_clock(&m, clock).map_err(|e| plan_err(py, e))?;
     let gen = EdgeGenerator::new(profile, clock).map_err(|e| plan_err(py, e))?;
     Ok(Plan {
         gen,

@@ -138,9 +138,9 @@ pub fn simulate(
         }
         cfg.trace_interval = Some(iv);
     }
-    let profile = Profile::plan(&mv.spec().resolve().map_err(|e| plan_err(py, e))?)
-        .map_err(|e| plan_err(py, e))?;
     let clock = o.clock.unwrap_or(DEFAULT_CLOCK_HZ);
+    let profile = Profile::plan_on_clock(&mv.spec().resolve().map_err(|e| plan_err(py, e))?, clock)
+        .map_err(|e| plan_err(py, e))?;
     let dir = if o.reverse { -1.0 } else { 1.0 };
     let r = py
         .detach(|| simulate_profile(&motor, &cfg, profile, clock, dir))

@@ -57,7 +57,9 @@ pub struct AxisEntry {
 }
 
 impl AxisEntry {
-    pub fn plan(&self) -> Result<Profile, multistep_core::PlanError> {
+    /// The axis's move as it plays on a clock of `clock_hz` (limits-mode trapezoids on
+    /// whole ticks, as `plan` and the integer datapath).
+    pub fn plan(&self, clock_hz: f64) -> Result<Profile, multistep_core::PlanError> {
         let segments: Vec<Segment> = self
             .segments
             .iter()
@@ -85,7 +87,7 @@ impl AxisEntry {
             psi: self.psi,
             segments: &segments,
         }
-        .plan()
+        .plan_on_clock(clock_hz)
     }
 }
 
@@ -147,7 +149,7 @@ impl ConfigFile {
             .iter()
             .enumerate()
             .map(|(i, a)| {
-                a.plan()
+                a.plan(self.clock.unwrap_or(DEFAULT_CLOCK_HZ))
                     .with_context(|| format!("axis {i}{}", label(&a.name)))
             })
             .collect()
