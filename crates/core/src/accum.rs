@@ -7,6 +7,7 @@
 //! exact rational value of the f64 piece ([`float_cruise`]). The nearest tick with an exact
 //! half tick going to the earlier tick, `⌈x − ½⌉`, is built into `y`, so ties cost nothing.
 
+use crate::real::fm;
 use crypto_bigint::U256;
 
 /// Quotient and remainder of `(y + j·w) / den`, advanced one step at a time.
@@ -108,10 +109,10 @@ impl FloatCruise {
 /// accumulator has (the generator then keeps its general path).
 pub fn float_cruise(t0: f64, p0: f64, c1: f64, clock: f64) -> Option<FloatCruise> {
     let ok = |x: f64| x.is_finite() && x >= 0.0;
-    if !(ok(t0) && ok(p0) && ok(c1) && c1 > 0.0 && clock.fract() == 0.0) {
+    if !(ok(t0) && ok(p0) && ok(c1) && c1 > 0.0 && fm::floor(clock) == clock) {
         return None;
     }
-    if !(clock >= 1.0 && clock < 2f64.powi(53)) {
+    if !(clock >= 1.0 && clock < (1u64 << 53) as f64) {
         return None;
     }
     let f = clock as u128;
@@ -130,7 +131,7 @@ pub fn float_cruise(t0: f64, p0: f64, c1: f64, clock: f64) -> Option<FloatCruise
     let w = f.checked_shl(a as u32).filter(|w| w >> 120 == 0)?;
     // both parts of B stay below 2^116, and their fraction needs k ≤ 135 bits
     let (ft, wp) = (clock * c as f64 * t0, w as f64 * p0);
-    if !(ft < 2f64.powi(115) && wp < 2f64.powi(115)) {
+    if !(ft < (1u128 << 115) as f64 && wp < (1u128 << 115) as f64) {
         return None;
     }
     let (mt, et) = dyadic(t0);

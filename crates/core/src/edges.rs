@@ -260,8 +260,8 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             // a step (and a tick) inside the piece on both sides, so that float rounding
             // of its ends never matters; step N keeps its own rule
             let margin = 1.0 + self.c1 / self.clock;
-            let lo = (p.p0 + margin).floor() + 1.0;
-            let hi = ((self.cur_end - margin).ceil() - 1.0).min(self.last_f - 1.0);
+            let lo = fm::floor(p.p0 + margin) + 1.0;
+            let hi = (fm::ceil(self.cur_end - margin) - 1.0).min(self.last_f - 1.0);
             if lo <= hi && hi < MAX_TICKS {
                 self.cruise_exact = float_cruise(p.t0, p.p0, self.c1, self.clock);
                 (self.run_lo, self.run_hi) = (lo as u64, hi as u64);

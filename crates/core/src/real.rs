@@ -96,10 +96,14 @@ pub mod fm {
         pub fn floor(x: f64) -> f64 {
             x.floor()
         }
+        #[inline(always)]
+        pub fn ceil(x: f64) -> f64 {
+            x.ceil()
+        }
     }
     #[cfg(not(feature = "std"))]
     mod imp {
-        pub use libm::{cbrt, cos, exp, floor, sin, sqrt};
+        pub use libm::{cbrt, ceil, cos, exp, floor, sin, sqrt};
         #[inline(always)]
         pub fn exp_m1(x: f64) -> f64 {
             libm::expm1(x)

@@ -12,6 +12,7 @@
 use crate::edges::EdgeGenerator;
 use crate::error::PlanError;
 use crate::profile::{LimitsMove, Move, Order, Profile};
+use crate::real::fm;
 use thiserror::Error;
 
 /// Why a tracking motion cannot be set up.
@@ -394,7 +395,8 @@ impl Tracker {
         start_speed: f64,
         rate: Rate,
     ) -> Result<Tracker, TrackError> {
-        if !(clock_hz >= 1.0 && clock_hz <= (1u64 << 53) as f64 && clock_hz.fract() == 0.0) {
+        if !(clock_hz >= 1.0 && clock_hz <= (1u64 << 53) as f64 && fm::floor(clock_hz) == clock_hz)
+        {
             return Err(TrackError::BadClock(clock_hz));
         }
         if !(limits.amax.is_finite() && limits.amax > 0.0) {
@@ -546,7 +548,7 @@ impl Tracker {
             match plan(steps) {
                 Ok(p) => return Ok(Some(p)),
                 Err(PlanError::TooShortForLimits { needed, .. }) => {
-                    let n = needed.floor() + 1.0;
+                    let n = fm::floor(needed) + 1.0;
                     steps = if n as u64 > steps {
                         n as u64
                     } else {
