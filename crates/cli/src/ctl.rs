@@ -77,8 +77,8 @@ pub enum CtlCmd {
     Wait {
         #[arg(required = true)]
         axes: Vec<String>,
-        /// Give up after this many seconds
-        #[arg(long, default_value_t = 600.0)]
+        /// Give up after this many seconds (`inf`: wait for ever)
+        #[arg(long, default_value_t = 600.0, value_parser = seconds_or_inf)]
         timeout: f64,
     },
     /// Status of every axis of every board
@@ -287,7 +287,7 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             }
         }
         CtlCmd::Wait { axes, timeout } => {
-            let deadline = Instant::now() + Duration::from_secs_f64(timeout.max(0.0));
+            let deadline = deadline_after(*timeout);
             let want: Vec<(usize, String)> = axes
                 .iter()
                 .map(|x| boards.axis(x))
@@ -304,7 +304,9 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
                             "axis {ax} is in fault: {}",
                             s.fault.as_deref().unwrap_or("?")
                         ),
-                        _ if Instant::now() > deadline => bail!("timed out waiting for {ax}"),
+                        _ if deadline.is_some_and(|d| Instant::now() > d) => {
+                            bail!("timed out waiting for {ax}")
+                        }
                         _ => std::thread::sleep(Duration::from_millis(20)),
                     }
                 }
@@ -349,4 +351,39 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A `--timeout` in seconds: a number ≥ 0, or `inf`.
+fn seconds_or_inf(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a number of seconds >= 0 (or inf)")),
+    }
+}
+
+/// When a wait of `timeout` seconds from now ends; `None` for a wait too long to end
+/// (`inf`, or past what the clock can count).
+fn deadline_after(timeout: f64) -> Option<Instant> {
+    Duration::try_from_secs_f64(timeout)
+        .ok()
+        .and_then(|d| Instant::now().checked_add(d))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timeouts_are_seconds_or_inf_and_never_panic() {
+        assert_eq!(seconds_or_inf("2.5"), Ok(2.5));
+        assert_eq!(seconds_or_inf("inf"), Ok(f64::INFINITY));
+        for bad in ["-1", "nan", "NaN", "abc", ""] {
+            assert!(seconds_or_inf(bad).is_err(), "{bad}");
+        }
+        assert!(deadline_after(f64::INFINITY).is_none());
+        assert!(deadline_after(1e300).is_none());
+        let d = deadline_after(0.0).unwrap();
+        assert!(d <= Instant::now());
+        assert!(deadline_after(60.0).unwrap() > Instant::now());
+    }
 }
