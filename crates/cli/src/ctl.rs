@@ -179,25 +179,14 @@ impl Boards {
     }
 }
 
-fn move_words(m: &MoveArgs, preset: &Option<String>) -> anyhow::Result<String> {
+pub(crate) fn move_words(m: &MoveArgs, preset: &Option<String>) -> anyhow::Result<String> {
     if m.steps.is_some() || !m.segments.is_empty() {
         bail!("give the distance as the STEPS argument; --steps and --segment do not apply here");
     }
     let opts = MoveOpts {
         preset: preset.clone(),
         profile: m.profile.clone(),
-        vmax: m.vmax,
-        amax: m.amax,
-        jmax: m.jmax,
-        smax: m.smax,
-        accel_time: m.accel_time,
-        cruise_time: m.cruise_time,
-        decel_time: m.decel_time,
-        start_speed: m.start_speed,
-        end_speed: m.end_speed,
-        rho: m.rho,
-        phi: m.phi,
-        psi: m.psi,
+        params: m.params,
     };
     Ok(opts.words().join(" "))
 }

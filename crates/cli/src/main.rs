@@ -11,6 +11,8 @@ mod experiment;
 mod hdl;
 mod moveargs;
 mod output;
+#[cfg(test)]
+mod params_test;
 mod plan;
 mod serve;
 mod simulate;

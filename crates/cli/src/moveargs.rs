@@ -1,7 +1,7 @@
 //! The move flags shared by every subcommand that takes a move (`plan`, `simulate`, …).
 
 use clap::Args;
-use multistep_core::{MoveName, MoveSpec, PlanError, Profile, Segment};
+use multistep_core::{MoveName, MoveParams, MoveSpec, PlanError, Profile, Segment};
 
 #[derive(Args, Clone, Debug, Default)]
 pub struct MoveArgs {
@@ -11,45 +11,12 @@ pub struct MoveArgs {
     /// Steps (microsteps) to move
     #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    /// Phase mode: acceleration time (s)
-    #[arg(long, value_name = "S")]
-    pub accel_time: Option<f64>,
-    /// Phase mode: cruise time (s)
-    #[arg(long, value_name = "S")]
-    pub cruise_time: Option<f64>,
-    /// Phase mode: deceleration time (s)
-    #[arg(long, value_name = "S")]
-    pub decel_time: Option<f64>,
-    /// Start speed (steps/s)
-    #[arg(long, value_name = "V")]
-    pub start_speed: Option<f64>,
-    /// End speed (steps/s)
-    #[arg(long, value_name = "V")]
-    pub end_speed: Option<f64>,
-    /// Exponential time constant as a fraction of the phase time (default 0.25)
-    #[arg(long, value_name = "R")]
-    pub rho: Option<f64>,
-    /// S-curve jerk fraction φ in (0, 0.5] (default 0.5)
-    #[arg(long, value_name = "F")]
-    pub phi: Option<f64>,
-    /// 4th-order S-curve snap fraction ψ in (0, 0.5] (default 0.5)
-    #[arg(long, value_name = "F")]
-    pub psi: Option<f64>,
+    // times, speeds, limits and shape fractions: the core's one list of them
+    #[command(flatten)]
+    pub params: MoveParams,
     /// Segment mode: a constant-acceleration segment V0:T:N (steps/s, s, steps); repeat
     #[arg(long = "segment", value_name = "V0:T:N", value_parser = parse_segment, allow_hyphen_values = true)]
     pub segments: Vec<Segment>,
-    /// Limits mode: maximum speed (steps/s)
-    #[arg(long, value_name = "V")]
-    pub vmax: Option<f64>,
-    /// Limits mode: maximum acceleration (steps/s²)
-    #[arg(long, value_name = "A")]
-    pub amax: Option<f64>,
-    /// Limits mode: maximum jerk (steps/s³), scurve and scurve4
-    #[arg(long, value_name = "J")]
-    pub jmax: Option<f64>,
-    /// Limits mode: maximum snap (steps/s⁴), scurve4
-    #[arg(long, value_name = "S")]
-    pub smax: Option<f64>,
 }
 
 pub fn parse_segment(s: &str) -> Result<Segment, String> {
@@ -78,18 +45,7 @@ impl MoveArgs {
         MoveSpec {
             profile: self.profile.as_deref(),
             steps: self.steps,
-            accel_time: self.accel_time,
-            cruise_time: self.cruise_time,
-            decel_time: self.decel_time,
-            start_speed: self.start_speed,
-            end_speed: self.end_speed,
-            vmax: self.vmax,
-            amax: self.amax,
-            jmax: self.jmax,
-            smax: self.smax,
-            rho: self.rho,
-            phi: self.phi,
-            psi: self.psi,
+            params: self.params,
             segments: &self.segments,
         }
     }

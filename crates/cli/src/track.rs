@@ -42,12 +42,12 @@ fn check_flags(mv: &MoveArgs) -> anyhow::Result<()> {
     let fixed = [
         ("--steps", mv.steps.is_some()),
         ("--profile", mv.profile.is_some()),
-        ("--accel-time", mv.accel_time.is_some()),
-        ("--cruise-time", mv.cruise_time.is_some()),
-        ("--decel-time", mv.decel_time.is_some()),
-        ("--end-speed", mv.end_speed.is_some()),
-        ("--vmax", mv.vmax.is_some()),
-        ("--smax", mv.smax.is_some()),
+        ("--accel-time", mv.params.accel_time.is_some()),
+        ("--cruise-time", mv.params.cruise_time.is_some()),
+        ("--decel-time", mv.params.decel_time.is_some()),
+        ("--end-speed", mv.params.end_speed.is_some()),
+        ("--vmax", mv.params.vmax.is_some()),
+        ("--smax", mv.params.smax.is_some()),
         ("--segment", !mv.segments.is_empty()),
     ];
     if let Some((name, _)) = fixed.iter().find(|(_, given)| *given) {
@@ -64,8 +64,8 @@ pub fn run(track: &TrackArgs, mv: &MoveArgs, clock: f64, format: Format) -> anyh
     if !(duration.is_finite() && duration > 0.0) {
         bail!("--duration must be a number of seconds greater than zero (got {duration})");
     }
-    let start = mv.start_speed.unwrap_or(0.0);
-    let amax = match mv.amax {
+    let start = mv.params.start_speed.unwrap_or(0.0);
+    let amax = match mv.params.amax {
         Some(a) => a,
         // no ramp to plan: amax is never consulted
         None if start == rate.to_f64() => 1.0,
@@ -75,7 +75,7 @@ pub fn run(track: &TrackArgs, mv: &MoveArgs, clock: f64, format: Format) -> anyh
     };
     let limits = TrackLimits {
         amax,
-        jmax: mv.jmax,
+        jmax: mv.params.jmax,
     };
     let mut tr = Tracker::new(clock, limits, start, rate)?;
     let end = duration * clock;

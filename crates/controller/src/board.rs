@@ -10,7 +10,7 @@ use crate::motion::{start_move, start_timed, stop_profile, StepSource};
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::tdm::TdmConfig;
-use multistep_core::{Family, MoveSpec, Profile};
+use multistep_core::{Family, MoveParams, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
 mod preview;
@@ -496,8 +496,11 @@ impl Board {
         let s = &self.axes[i].settings;
         Ok(MoveSpec {
             steps: Some(steps),
-            vmax: Some(speed.min(s.vmax)),
-            amax: Some(s.amax),
+            params: MoveParams {
+                vmax: Some(speed.min(s.vmax)),
+                amax: Some(s.amax),
+                ..MoveParams::default()
+            },
             ..MoveSpec::default()
         }
         .plan_on_clock(self.clock_hz)?)
@@ -736,22 +739,18 @@ impl Board {
         let mut spec = MoveSpec {
             profile: o.profile.as_deref(),
             steps: Some(steps),
-            start_speed: o.start_speed,
-            end_speed: o.end_speed,
-            rho: o.rho,
-            phi: o.phi,
-            psi: o.psi,
+            params: o.params,
             ..MoveSpec::default()
         };
+        let p = &mut spec.params;
         if o.has_phase_times() {
-            spec.accel_time = o.accel_time;
-            spec.cruise_time = o.cruise_time;
-            spec.decel_time = o.decel_time;
+            (p.vmax, p.amax, p.jmax, p.smax) = (None, None, None, None);
         } else {
-            spec.vmax = Some(o.vmax.unwrap_or(s.vmax));
-            spec.amax = Some(o.amax.unwrap_or(s.amax));
-            spec.jmax = o.jmax.or(s.jmax);
-            spec.smax = o.smax.or(s.smax);
+            (p.accel_time, p.cruise_time, p.decel_time) = (None, None, None);
+            p.vmax = Some(p.vmax.unwrap_or(s.vmax));
+            p.amax = Some(p.amax.unwrap_or(s.amax));
+            p.jmax = p.jmax.or(s.jmax);
+            p.smax = p.smax.or(s.smax);
         }
         spec
     }
@@ -901,10 +900,11 @@ impl Board {
     ) -> Result<Vec<Option<Profile>>, CtlError> {
         let opts = self.resolve_opts(opts)?;
         let (ta, tb, tc) = if opts.has_phase_times() {
+            let p = &opts.params;
             (
-                opts.accel_time.unwrap_or(0.0),
-                opts.cruise_time.unwrap_or(0.0),
-                opts.decel_time.unwrap_or(0.0),
+                p.accel_time.unwrap_or(0.0),
+                p.cruise_time.unwrap_or(0.0),
+                p.decel_time.unwrap_or(0.0),
             )
         } else {
             (0.25, 0.5, 0.25)
@@ -912,11 +912,10 @@ impl Board {
         let phase = |i: usize, d: i64, s: f64| -> Result<Profile, CtlError> {
             let mut o = opts.clone();
             o.profile = Some(self.family_name(i, &opts).to_string());
-            o.accel_time = Some(ta * s);
-            o.cruise_time = Some(tb * s);
-            o.decel_time = Some(tc * s);
-            o.start_speed = None;
-            o.end_speed = None;
+            let p = &mut o.params;
+            (p.accel_time, p.cruise_time, p.decel_time) =
+                (Some(ta * s), Some(tb * s), Some(tc * s));
+            (p.start_speed, p.end_speed) = (None, None);
             Ok(self
                 .spec(i, d.unsigned_abs(), &o)
                 .plan_on_clock(self.clock_hz)?)
@@ -1131,7 +1130,8 @@ impl Board {
     /// Stores a speed preset; its family and values are checked on a sample move.
     pub fn set_preset(&mut self, name: &str, opts: &MoveOpts) -> Result<(), CtlError> {
         let fam = opts.profile.as_deref().unwrap_or("trapezoid");
-        Family::parse(fam, opts.rho, opts.phi, opts.psi)?;
+        let p = &opts.params;
+        Family::parse(fam, p.rho, p.phi, p.psi)?;
         self.store.put_preset(name, opts)
     }
 

@@ -329,23 +329,26 @@ impl Client {
 mod tests {
     use super::*;
     use crate::protocol::parse;
+    use multistep_core::MoveParams;
 
     fn opts() -> MoveOpts {
         MoveOpts {
             preset: Some("fast".into()),
             profile: Some("scurve4".into()),
-            vmax: Some(12_000.5),
-            amax: Some(1e6),
-            jmax: Some(3e7),
-            smax: Some(1.25e9),
-            accel_time: Some(0.1),
-            cruise_time: Some(0.0),
-            decel_time: Some(1.0 / 3.0),
-            start_speed: Some(5.0),
-            end_speed: Some(0.1),
-            rho: Some(0.2),
-            phi: Some(0.3),
-            psi: Some(0.4),
+            params: MoveParams {
+                vmax: Some(12_000.5),
+                amax: Some(1e6),
+                jmax: Some(3e7),
+                smax: Some(1.25e9),
+                accel_time: Some(0.1),
+                cruise_time: Some(0.0),
+                decel_time: Some(1.0 / 3.0),
+                start_speed: Some(5.0),
+                end_speed: Some(0.1),
+                rho: Some(0.2),
+                phi: Some(0.3),
+                psi: Some(0.4),
+            },
         }
     }
 

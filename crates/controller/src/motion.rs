@@ -9,7 +9,7 @@
 
 use crate::error::CtlError;
 use multistep_core::tdm::{self, TdmConfig};
-use multistep_core::{EdgeGenerator, MoveSpec, PlanError, Profile};
+use multistep_core::{EdgeGenerator, MoveParams, MoveSpec, PlanError, Profile};
 
 /// The edges of one move, in absolute board ticks.
 pub trait StepSource: Send {
@@ -130,9 +130,12 @@ pub fn stop_profile(speed: f64, amax: f64) -> Option<Profile> {
     // Rounding the distance up needs a little cruise; the planner finds it.
     MoveSpec {
         steps: Some(steps),
-        vmax: Some(speed),
-        amax: Some(amax),
-        start_speed: Some(speed),
+        params: MoveParams {
+            vmax: Some(speed),
+            amax: Some(amax),
+            start_speed: Some(speed),
+            ..MoveParams::default()
+        },
         ..MoveSpec::default()
     }
     .plan()
@@ -164,8 +167,11 @@ mod tests {
     fn tdm_group_edges_are_the_streamed_edges() {
         let spec = |n: u64, v: f64| MoveSpec {
             steps: Some(n),
-            vmax: Some(v),
-            amax: Some(4.0 * v),
+            params: MoveParams {
+                vmax: Some(v),
+                amax: Some(4.0 * v),
+                ..MoveParams::default()
+            },
             ..Default::default()
         };
         let profiles: Vec<Profile> = [(3000, 4000.0), (10, 100.0), (777, 2500.0)]
@@ -203,8 +209,11 @@ mod tests {
         // 16 axes at 200 000 steps/s with a 1 MHz clock: 5 ticks per period, 54 cycles each.
         let p = MoveSpec {
             steps: Some(2000),
-            vmax: Some(2e5),
-            amax: Some(1e9),
+            params: MoveParams {
+                vmax: Some(2e5),
+                amax: Some(1e9),
+                ..MoveParams::default()
+            },
             ..Default::default()
         }
         .plan()
@@ -224,8 +233,11 @@ mod tests {
     fn edge_source_is_the_generator_shifted() {
         let p = MoveSpec {
             steps: Some(500),
-            vmax: Some(1000.0),
-            amax: Some(5000.0),
+            params: MoveParams {
+                vmax: Some(1000.0),
+                amax: Some(5000.0),
+                ..MoveParams::default()
+            },
             ..Default::default()
         }
         .plan()

@@ -2,6 +2,7 @@
 //! exactly one `ok` or `error:<code> <message>` (grbl style). See docs/PROTOCOL.md.
 
 use crate::error::CtlError;
+use multistep_core::{MoveParams, Param, PARAMS};
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, ErrorKind};
 use std::time::Instant;
@@ -17,78 +18,72 @@ pub enum Amount {
 }
 
 /// Move options by name; anything not given comes from a preset, then the axis settings.
+/// Stored presets are these as JSON, the values at the top level beside `preset`/`profile`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MoveOpts {
     pub preset: Option<String>,
     pub profile: Option<String>,
-    pub vmax: Option<f64>,
-    pub amax: Option<f64>,
-    pub jmax: Option<f64>,
-    pub smax: Option<f64>,
-    pub accel_time: Option<f64>,
-    pub cruise_time: Option<f64>,
-    pub decel_time: Option<f64>,
-    pub start_speed: Option<f64>,
-    pub end_speed: Option<f64>,
-    pub rho: Option<f64>,
-    pub phi: Option<f64>,
-    pub psi: Option<f64>,
+    /// Times, speeds, limits and shape fractions.
+    #[serde(flatten)]
+    pub params: MoveParams,
+}
+
+/// The protocol's short words for some values (`accel=` for `accel_time=`, …); every
+/// value is also read by its full name ([`multistep_core::PARAMS`]), and printed short
+/// where it has a short word.
+const SHORT_WORDS: [(&str, &str); 5] = [
+    ("accel", "accel_time"),
+    ("cruise", "cruise_time"),
+    ("decel", "decel_time"),
+    ("vs", "start_speed"),
+    ("ve", "end_speed"),
+];
+
+/// The value a protocol word names, by its short or full name.
+pub fn param_of_word(key: &str) -> Option<&'static Param> {
+    let full = SHORT_WORDS.iter().find(|w| w.0 == key).map_or(key, |w| w.1);
+    Param::named(full)
+}
+
+/// The word the protocol prints for a value: its short word, else its name.
+pub fn word_of_param(p: &Param) -> &'static str {
+    SHORT_WORDS
+        .iter()
+        .find(|w| w.1 == p.name)
+        .map_or(p.name, |w| w.0)
 }
 
 impl MoveOpts {
     /// `self` where given, else `base`.
     pub fn over(&self, base: &MoveOpts) -> MoveOpts {
-        macro_rules! pick {
-            ($($f:ident),*) => { MoveOpts { $($f: self.$f.clone().or_else(|| base.$f.clone()),)* } };
+        MoveOpts {
+            preset: self.preset.clone().or_else(|| base.preset.clone()),
+            profile: self.profile.clone().or_else(|| base.profile.clone()),
+            params: self.params.over(&base.params),
         }
-        pick!(
-            preset,
-            profile,
-            vmax,
-            amax,
-            jmax,
-            smax,
-            accel_time,
-            cruise_time,
-            decel_time,
-            start_speed,
-            end_speed,
-            rho,
-            phi,
-            psi
-        )
     }
 
     pub fn has_phase_times(&self) -> bool {
-        self.accel_time.is_some() || self.cruise_time.is_some() || self.decel_time.is_some()
+        self.params.has_phase_times()
     }
 
     /// Reads one `key=value` word; false if the key is not a move option.
     fn set(&mut self, key: &str, value: &str) -> Result<bool, CtlError> {
-        let num = |v: &str| -> Result<Option<f64>, CtlError> {
-            v.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .map(Some)
-                .ok_or_else(|| CtlError::syntax(format!("{key}: '{v}' is not a number")))
-        };
         match key {
             "preset" => self.preset = Some(value.to_string()),
             "profile" => self.profile = Some(value.to_ascii_lowercase()),
-            "vmax" => self.vmax = num(value)?,
-            "amax" => self.amax = num(value)?,
-            "jmax" => self.jmax = num(value)?,
-            "smax" => self.smax = num(value)?,
-            "accel" | "accel_time" => self.accel_time = num(value)?,
-            "cruise" | "cruise_time" => self.cruise_time = num(value)?,
-            "decel" | "decel_time" => self.decel_time = num(value)?,
-            "vs" | "start_speed" => self.start_speed = num(value)?,
-            "ve" | "end_speed" => self.end_speed = num(value)?,
-            "rho" => self.rho = num(value)?,
-            "phi" => self.phi = num(value)?,
-            "psi" => self.psi = num(value)?,
-            _ => return Ok(false),
+            _ => {
+                let Some(param) = param_of_word(key) else {
+                    return Ok(false);
+                };
+                let x = value
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| CtlError::syntax(format!("{key}: '{value}' is not a number")))?;
+                *(param.slot)(&mut self.params) = Some(x);
+            }
         }
         Ok(true)
     }
@@ -102,22 +97,9 @@ impl MoveOpts {
         if let Some(p) = &self.profile {
             w.push(format!("profile={p}"));
         }
-        for (k, v) in [
-            ("vmax", self.vmax),
-            ("amax", self.amax),
-            ("jmax", self.jmax),
-            ("smax", self.smax),
-            ("accel", self.accel_time),
-            ("cruise", self.cruise_time),
-            ("decel", self.decel_time),
-            ("vs", self.start_speed),
-            ("ve", self.end_speed),
-            ("rho", self.rho),
-            ("phi", self.phi),
-            ("psi", self.psi),
-        ] {
-            if let Some(x) = v {
-                w.push(format!("{k}={x}"));
+        for p in PARAMS {
+            if let Some(x) = p.get(&self.params) {
+                w.push(format!("{}={x}", word_of_param(p)));
             }
         }
         w

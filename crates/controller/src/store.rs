@@ -277,6 +277,7 @@ impl Store {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use multistep_core::MoveParams;
 
     #[test]
     fn records_survive_reopening() {
@@ -299,7 +300,10 @@ mod tests {
             s.put_preset(
                 "fast",
                 &MoveOpts {
-                    vmax: Some(9.0),
+                    params: MoveParams {
+                        vmax: Some(9.0),
+                        ..MoveParams::default()
+                    },
                     ..Default::default()
                 },
             )
@@ -311,9 +315,40 @@ mod tests {
         assert_eq!(s.axis("X").unwrap(), Some(rec));
         assert_eq!(s.axis("Y").unwrap(), None);
         assert_eq!(s.settings("X").unwrap().unwrap().vmax, 1234.5);
-        assert_eq!(s.preset("fast").unwrap().unwrap().vmax, Some(9.0));
+        assert_eq!(s.preset("fast").unwrap().unwrap().params.vmax, Some(9.0));
         assert_eq!(s.named_position("line").unwrap().unwrap()["X"], 7);
         assert!(s.forget_named("line").unwrap());
         assert!(s.named().unwrap().is_empty());
+    }
+
+    #[test]
+    fn presets_stored_field_by_field_still_load() {
+        // The JSON of a preset as stored before the values had one definition in the core.
+        let old = r#"{"preset":null,"profile":"scurve","vmax":9.5,"amax":100.0,"jmax":null,"smax":null,"accel_time":null,"cruise_time":null,"decel_time":null,"start_speed":null,"end_speed":2.0,"rho":null,"phi":0.25,"psi":null}"#;
+        let dir = tempfile::tempdir().unwrap();
+        let s = Store::open(dir.path()).unwrap();
+        let raw: serde_json::Value = serde_json::from_str(old).unwrap();
+        s.put(PRESETS, "old", &raw).unwrap();
+        let want = MoveOpts {
+            preset: None,
+            profile: Some("scurve".into()),
+            params: MoveParams {
+                vmax: Some(9.5),
+                amax: Some(100.0),
+                end_speed: Some(2.0),
+                phi: Some(0.25),
+                ..MoveParams::default()
+            },
+        };
+        assert_eq!(s.preset("old").unwrap(), Some(want.clone()));
+        // Written now, it reads back, and its keys are the old ones.
+        s.put_preset("new", &want).unwrap();
+        assert_eq!(s.preset("new").unwrap(), Some(want.clone()));
+        let written: serde_json::Value =
+            serde_json::from_str(&serde_json::to_string(&want).unwrap()).unwrap();
+        assert_eq!(written, raw);
+        // A key no version knows is still refused.
+        let bad = r#"{"vmax":1.0,"vmx":2.0}"#;
+        assert!(serde_json::from_str::<MoveOpts>(bad).is_err());
     }
 }

@@ -4,6 +4,7 @@ use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
 use multistep_controller::protocol::{Amount, MoveOpts};
 use multistep_controller::store::Store;
 use multistep_controller::{AxisSettings, AxisState, AxisStatus, Board, CtlError, SimSettings};
+use multistep_core::MoveParams;
 
 const CLOCK: f64 = 1e6;
 
@@ -301,8 +302,11 @@ fn bad_targets_and_busy_axes_are_refused() {
             Amount::Steps(100),
             false,
             &MoveOpts {
-                vmax: Some(1e9),
-                amax: Some(1e9),
+                params: MoveParams {
+                    vmax: Some(1e9),
+                    amax: Some(1e9),
+                    ..o.params
+                },
                 ..o.clone()
             },
             0
@@ -383,7 +387,10 @@ fn passing_the_sensor_checks_the_count_and_catches_lost_steps() {
     b.home("X", 0).unwrap();
     let t = run_idle(&mut b);
     let o = MoveOpts {
-        vmax: Some(500.0),
+        params: MoveParams {
+            vmax: Some(500.0),
+            ..MoveParams::default()
+        },
         ..MoveOpts::default()
     };
     // Out and back over the sensor in the homing (negative) direction: no drift.

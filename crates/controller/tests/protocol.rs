@@ -5,6 +5,7 @@ use multistep_controller::protocol::{
     self, parse, parse_bytes, read_line, Amount, Command, Line, MoveOpts, MAX_LINE,
 };
 use multistep_controller::{service, BoardConfig, Controller};
+use multistep_core::MoveParams;
 use proptest::prelude::*;
 use std::io::BufReader;
 
@@ -38,7 +39,7 @@ proptest! {
                                vmax in proptest::option::of(1.0f64..1e6), amax in proptest::option::of(1.0f64..1e7),
                                profile in proptest::option::of(prop_oneof![Just("trapezoid"), Just("scurve")])) {
         prop_assume!(!axis.eq_ignore_ascii_case("ok") && !axis.eq_ignore_ascii_case("all"));
-        let opts = MoveOpts { vmax, amax, profile: profile.map(String::from), ..MoveOpts::default() };
+        let opts = MoveOpts { profile: profile.map(String::from), params: MoveParams { vmax, amax, ..MoveParams::default() }, ..MoveOpts::default() };
         let line = format!("move {axis} {n} {}", opts.words().join(" "));
         prop_assert_eq!(parse(&line).unwrap(), Command::Move { axis, by: Amount::Steps(n), opts });
     }

@@ -39,6 +39,7 @@ pub mod hal;
 pub mod int;
 mod limits;
 mod moves;
+pub mod params;
 mod phase;
 mod piece;
 mod plan;
@@ -58,6 +59,7 @@ pub use moves::{
     Family, LimitsMove, Move, Order, PhaseMove, Segment, DEFAULT_PHI, DEFAULT_PSI, DEFAULT_RHO,
     MAX_PIECES, MAX_STEPS,
 };
+pub use params::{MoveParams, Param, PARAMS};
 pub use profile::Profile;
 pub use shape::Shape;
 pub use spec::MoveSpec;

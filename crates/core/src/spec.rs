@@ -2,39 +2,18 @@
 //! controller protocol's words all resolve through here, so there is one reading of them.
 
 use crate::error::PlanError;
+use crate::params::MoveParams;
 use crate::profile::{Family, LimitsMove, Move, Order, PhaseMove, Profile, Segment};
 
-/// Every value a move can be given by name; `None` means "not given".
+/// A move by name; `None` means "not given".
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MoveSpec<'a> {
     /// The family's name.
     pub profile: Option<&'a str>,
     /// Steps of the move.
     pub steps: Option<u64>,
-    /// Accel time Ta (s).
-    pub accel_time: Option<f64>,
-    /// Cruise time Tb (s).
-    pub cruise_time: Option<f64>,
-    /// Decel time Tc (s).
-    pub decel_time: Option<f64>,
-    /// Start speed (steps/s).
-    pub start_speed: Option<f64>,
-    /// End speed (steps/s).
-    pub end_speed: Option<f64>,
-    /// Speed limit (steps/s).
-    pub vmax: Option<f64>,
-    /// Acceleration limit (steps/s²).
-    pub amax: Option<f64>,
-    /// Jerk limit (steps/s³; S-curves).
-    pub jmax: Option<f64>,
-    /// Snap limit (steps/s⁴; scurve4).
-    pub smax: Option<f64>,
-    /// Exponential ρ.
-    pub rho: Option<f64>,
-    /// S-curve φ.
-    pub phi: Option<f64>,
-    /// scurve4 ψ.
-    pub psi: Option<f64>,
+    /// Times, speeds, limits and shape fractions.
+    pub params: MoveParams,
     /// Segment mode: the segments (give nothing else with them).
     pub segments: &'a [Segment],
 }
@@ -42,9 +21,8 @@ pub struct MoveSpec<'a> {
 impl<'a> MoveSpec<'a> {
     /// Decides the mode and checks that the values fit it.
     pub fn resolve(&self) -> Result<Move<'a>, PlanError> {
-        let has_phase =
-            self.accel_time.is_some() || self.cruise_time.is_some() || self.decel_time.is_some();
-        let has_limits = self.vmax.is_some() || self.amax.is_some();
+        let p = &self.params;
+        let (has_phase, has_limits) = (p.has_phase_times(), p.has_limits());
         if !self.segments.is_empty() {
             if has_phase || has_limits || self.steps.is_some() || self.profile.is_some() {
                 return Err(PlanError::AmbiguousMode(
@@ -57,9 +35,9 @@ impl<'a> MoveSpec<'a> {
             .steps
             .ok_or(PlanError::Missing("the number of steps"))?;
         let name = self.profile.unwrap_or("trapezoid");
-        let family = Family::parse(name, self.rho, self.phi, self.psi)?;
-        let start_speed = self.start_speed.unwrap_or(0.0);
-        let end_speed = self.end_speed.unwrap_or(0.0);
+        let family = Family::parse(name, p.rho, p.phi, p.psi)?;
+        let start_speed = p.start_speed.unwrap_or(0.0);
+        let end_speed = p.end_speed.unwrap_or(0.0);
         if has_limits {
             if has_phase {
                 return Err(PlanError::AmbiguousMode("not both phase times and limits"));
@@ -77,10 +55,10 @@ impl<'a> MoveSpec<'a> {
             return Ok(Move::Limits(LimitsMove {
                 steps,
                 order,
-                vmax: self.vmax.ok_or(PlanError::Missing("vmax"))?,
-                amax: self.amax.ok_or(PlanError::Missing("amax"))?,
-                jmax: self.jmax,
-                smax: self.smax,
+                vmax: p.vmax.ok_or(PlanError::Missing("vmax"))?,
+                amax: p.amax.ok_or(PlanError::Missing("amax"))?,
+                jmax: p.jmax,
+                smax: p.smax,
                 start_speed,
                 end_speed,
             }));
@@ -92,9 +70,9 @@ impl<'a> MoveSpec<'a> {
         }
         Ok(Move::Phase(PhaseMove {
             steps,
-            accel_time: self.accel_time.unwrap_or(0.0),
-            cruise_time: self.cruise_time.unwrap_or(0.0),
-            decel_time: self.decel_time.unwrap_or(0.0),
+            accel_time: p.accel_time.unwrap_or(0.0),
+            cruise_time: p.cruise_time.unwrap_or(0.0),
+            decel_time: p.decel_time.unwrap_or(0.0),
             start_speed,
             end_speed,
             family,

@@ -107,6 +107,7 @@ impl PlanSummary {
 mod tests {
     use super::*;
     use crate::spec::MoveSpec;
+    use crate::MoveParams;
     use crate::Segment;
 
     #[test]
@@ -127,7 +128,10 @@ mod tests {
             (
                 MoveSpec {
                     steps: Some(10),
-                    accel_time: Some(0.1),
+                    params: MoveParams {
+                        accel_time: Some(0.1),
+                        ..MoveParams::default()
+                    },
                     ..Default::default()
                 },
                 "trapezoid (phases)",
@@ -136,9 +140,12 @@ mod tests {
                 MoveSpec {
                     profile: Some("scurve"),
                     steps: Some(10),
-                    vmax: Some(100.0),
-                    amax: Some(100.0),
-                    jmax: Some(1000.0),
+                    params: MoveParams {
+                        vmax: Some(100.0),
+                        amax: Some(100.0),
+                        jmax: Some(1000.0),
+                        ..MoveParams::default()
+                    },
                     ..Default::default()
                 },
                 "scurve (limits)",
@@ -161,9 +168,12 @@ mod tests {
     fn summary_matches_the_edges() {
         let spec = MoveSpec {
             steps: Some(2400),
-            accel_time: Some(0.02),
-            cruise_time: Some(0.01),
-            decel_time: Some(0.02),
+            params: MoveParams {
+                accel_time: Some(0.02),
+                cruise_time: Some(0.01),
+                decel_time: Some(0.02),
+                ..MoveParams::default()
+            },
             ..Default::default()
         };
         let m = spec.resolve().unwrap();

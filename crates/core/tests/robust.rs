@@ -1,7 +1,7 @@
 //! Library code never panics on input: random values, including NaN, ±∞, zero, negative
 //! and huge ones, either plan and generate or return a typed error.
 
-use multistep_core::{EdgeGenerator, MoveSpec, Segment};
+use multistep_core::{EdgeGenerator, MoveParams, MoveSpec, Segment};
 use proptest::prelude::*;
 
 fn wild() -> impl Strategy<Value = Option<f64>> {
@@ -45,9 +45,9 @@ proptest! {
     ) {
         let segments: Vec<Segment> = segs.into_iter()
             .map(|(v0, duration, steps)| Segment { v0, duration, steps }).collect();
-        let spec = MoveSpec { profile, steps, accel_time: ta, cruise_time: tb, decel_time: tc,
-            start_speed: vs, end_speed: ve, vmax, amax, jmax, smax, rho, phi, psi,
-            segments: &segments };
+        let params = MoveParams { accel_time: ta, cruise_time: tb, decel_time: tc,
+            start_speed: vs, end_speed: ve, vmax, amax, jmax, smax, rho, phi, psi };
+        let spec = MoveSpec { profile, steps, params, segments: &segments };
         // on a clock too (whole-tick limits trapezoids): a profile or a typed error
         if let Ok(p) = spec.plan_on_clock(clock) {
             prop_assert!(p.duration() > 0.0 && p.duration().is_finite());

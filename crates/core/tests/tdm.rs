@@ -4,7 +4,7 @@ use multistep_core::tdm::{
     k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report,
     StepPulse, TdmConfig, TdmError,
 };
-use multistep_core::{EdgeGenerator, Family, MoveSpec, PhaseMove, Profile, Segment};
+use multistep_core::{EdgeGenerator, Family, MoveParams, MoveSpec, PhaseMove, Profile, Segment};
 use proptest::prelude::*;
 use std::collections::VecDeque;
 
@@ -16,9 +16,12 @@ fn seed000_axes() -> Vec<Axis> {
         .map(|&n| {
             let spec = MoveSpec {
                 steps: Some(n),
-                accel_time: Some(0.02),
-                cruise_time: Some(0.01),
-                decel_time: Some(0.02),
+                params: MoveParams {
+                    accel_time: Some(0.02),
+                    cruise_time: Some(0.01),
+                    decel_time: Some(0.02),
+                    ..MoveParams::default()
+                },
                 ..MoveSpec::default()
             };
             Axis::new(spec.plan().unwrap(), F).unwrap()
@@ -511,8 +514,11 @@ fn a_run_that_could_pass_tick_2_pow_57_is_refused() {
     // 2^40 steps of ~2^17-cycle periods: more calculator work than the tick range holds
     let p = MoveSpec {
         steps: Some(1 << 40),
-        vmax: Some(1e9),
-        amax: Some(1e12),
+        params: MoveParams {
+            vmax: Some(1e9),
+            amax: Some(1e12),
+            ..MoveParams::default()
+        },
         ..MoveSpec::default()
     }
     .plan()

@@ -3,7 +3,7 @@
 
 use crate::{simulate_profile, Motor, SimConfig, SimError, SimResult};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use multistep_core::{MoveSpec, PlanError, Profile, DEFAULT_CLOCK_HZ};
+use multistep_core::{MoveParams, MoveSpec, PlanError, Profile, DEFAULT_CLOCK_HZ};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -38,9 +38,12 @@ pub fn phase_move(family: &str, steps: u64, [ta, tb, tc]: [f64; 3]) -> Result<Pr
     MoveSpec {
         profile: Some(family),
         steps: Some(steps),
-        accel_time: Some(ta),
-        cruise_time: Some(tb),
-        decel_time: Some(tc),
+        params: MoveParams {
+            accel_time: Some(ta),
+            cruise_time: Some(tb),
+            decel_time: Some(tc),
+            ..MoveParams::default()
+        },
         ..Default::default()
     }
     .plan()

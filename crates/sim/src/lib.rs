@@ -6,10 +6,11 @@
 //!
 //! ```
 //! use multistep_sim::{simulate_profile, Motor, SimConfig};
-//! use multistep_core::MoveSpec;
+//! use multistep_core::{MoveParams, MoveSpec};
 //! let motor = Motor::load("42mm").unwrap();
-//! let profile = MoveSpec { steps: Some(3200), accel_time: Some(0.05), cruise_time: Some(0.05),
-//!     decel_time: Some(0.05), ..Default::default() }.plan().unwrap();
+//! let params = MoveParams { accel_time: Some(0.05), cruise_time: Some(0.05),
+//!     decel_time: Some(0.05), ..Default::default() };
+//! let profile = MoveSpec { steps: Some(3200), params, ..Default::default() }.plan().unwrap();
 //! let r = simulate_profile(&motor, &SimConfig::for_motor(&motor), profile, 50e6, 1.0).unwrap();
 //! assert_eq!(r.lost_steps, 0);
 //! ```

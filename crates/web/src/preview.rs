@@ -93,14 +93,17 @@ pub fn axis_preview(p: &PlannedAxis, clock_hz: f64) -> Result<AxisPreview, PlanE
 #[cfg(test)]
 mod tests {
     use super::*;
-    use multistep_core::MoveSpec;
+    use multistep_core::{MoveParams, MoveSpec};
 
     #[test]
     fn series_follow_the_profile_and_the_edges_add_up() {
         let profile = MoveSpec {
             steps: Some(3000),
-            vmax: Some(4000.0),
-            amax: Some(20000.0),
+            params: MoveParams {
+                vmax: Some(4000.0),
+                amax: Some(20000.0),
+                ..MoveParams::default()
+            },
             ..Default::default()
         }
         .plan()

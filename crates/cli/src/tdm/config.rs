@@ -4,7 +4,7 @@
 
 use anyhow::{bail, Context};
 use multistep_core::tdm::{Latencies, Policy, PulseShape, TdmConfig};
-use multistep_core::{MoveSpec, Profile, Segment, DEFAULT_CLOCK_HZ};
+use multistep_core::{MoveParams, MoveSpec, Profile, Segment, DEFAULT_CLOCK_HZ};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -40,18 +40,9 @@ pub struct AxisEntry {
     pub name: Option<String>,
     pub profile: Option<String>,
     pub steps: Option<u64>,
-    pub accel_time: Option<f64>,
-    pub cruise_time: Option<f64>,
-    pub decel_time: Option<f64>,
-    pub start_speed: Option<f64>,
-    pub end_speed: Option<f64>,
-    pub vmax: Option<f64>,
-    pub amax: Option<f64>,
-    pub jmax: Option<f64>,
-    pub smax: Option<f64>,
-    pub rho: Option<f64>,
-    pub phi: Option<f64>,
-    pub psi: Option<f64>,
+    /// Times, speeds, limits and shape fractions by their flag names.
+    #[serde(flatten)]
+    pub params: MoveParams,
     /// `[[v0, t, n], ...]`: steps/s, s, steps.
     pub segments: Option<Vec<(f64, f64, u64)>>,
 }
@@ -73,18 +64,7 @@ impl AxisEntry {
         MoveSpec {
             profile: self.profile.as_deref(),
             steps: self.steps,
-            accel_time: self.accel_time,
-            cruise_time: self.cruise_time,
-            decel_time: self.decel_time,
-            start_speed: self.start_speed,
-            end_speed: self.end_speed,
-            vmax: self.vmax,
-            amax: self.amax,
-            jmax: self.jmax,
-            smax: self.smax,
-            rho: self.rho,
-            phi: self.phi,
-            psi: self.psi,
+            params: self.params,
             segments: &segments,
         }
         .plan_on_clock(clock_hz)
