@@ -26,5 +26,9 @@ pub use controller::Controller;
 pub use error::CtlError;
 pub use protocol::{Command, MoveOpts, Reply};
 
-/// Most axes on one board.
+/// Most axes on one board (a board setting; the engine itself takes up to
+/// [`multistep_core::tdm::MAX_AXES`]).
 pub const MAX_AXES: usize = 16;
+
+// Group moves run every axis of a board through one TDM engine.
+const _: () = assert!(MAX_AXES <= multistep_core::tdm::MAX_AXES);

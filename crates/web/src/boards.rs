@@ -3,7 +3,7 @@
 //! (seed 002: 17 motors on two boards). Either way a command is a protocol line run by the
 //! board's own dispatcher.
 
-use crate::events::{BoardSnapshot, IDLE_PERIOD, MOVING_PERIOD};
+use crate::snapshot::{BoardSnapshot, IDLE_PERIOD, MOVING_PERIOD};
 use multistep_controller::client::{Client, ClientError, Endpoint};
 use multistep_controller::protocol::Reply;
 use multistep_controller::{AxisState, AxisStatus, Controller, CtlError};

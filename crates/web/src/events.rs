@@ -1,27 +1,10 @@
 //! Snapshots of every board, and the server-sent-events stream that repeats them.
 
 use crate::boards::BoardLink;
-use multistep_controller::{AxisState, AxisStatus};
+use crate::snapshot::{BoardSnapshot, IDLE_PERIOD, MOVING_PERIOD};
+use multistep_controller::AxisState;
 use serde::Serialize;
 use std::io::Write;
-use std::time::Duration;
-
-/// Period of updates while any axis moves or homes (20 Hz), and at rest.
-pub const MOVING_PERIOD: Duration = Duration::from_millis(50);
-pub const IDLE_PERIOD: Duration = Duration::from_millis(250);
-
-#[derive(Clone, Serialize)]
-pub struct BoardSnapshot {
-    pub board: usize,
-    pub name: String,
-    pub tick: u64,
-    pub clock_hz: f64,
-    pub estop: bool,
-    pub warnings: Vec<String>,
-    pub axes: Vec<AxisStatus>,
-    /// Why a remote board could not be read.
-    pub error: Option<String>,
-}
 
 #[derive(Serialize)]
 pub struct Snapshot {

@@ -21,6 +21,7 @@ mod assets;
 pub mod boards;
 mod events;
 pub mod preview;
+mod snapshot;
 
 pub use access::{HttpOptions, WebError};
 pub use args::HttpArgs;
