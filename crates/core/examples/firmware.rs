@@ -6,7 +6,7 @@
 
 use core::convert::Infallible;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use multistep_core::hal::{edges_for, DriverConfig, PulseShape, Stepper, TickTimer};
+use multistep_core::hal::{edges_for, DriverConfig, PulseShape, StepDirTiming, Stepper, TickTimer};
 use multistep_core::{LimitsMove, Profile};
 
 /// A GPIO pin that counts its rising edges (a real board writes a register).
@@ -59,8 +59,10 @@ fn main() {
     let edges = edges_for(profile, &timer).expect("fits the clock");
 
     let cfg = DriverConfig {
-        dir_setup_ticks: 5,                    // 5 µs DIR setup before the first step
-        pulse: PulseShape::Fixed { ticks: 2 }, // 2 µs STEP pulses
+        step_dir: StepDirTiming {
+            pulse: PulseShape::Fixed { ticks: 2 }, // 2 µs STEP pulses
+            dir_setup_ticks: 5,                    // 5 µs DIR setup before the first step
+        },
         forward_is_high: true,
     };
     let (mut step, mut dir) = (Pin::default(), Pin::default());

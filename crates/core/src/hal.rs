@@ -31,19 +31,13 @@ pub fn edges_for<T: TickTimer>(profile: Profile, timer: &T) -> Result<EdgeGenera
     EdgeGenerator::new(profile, f64::from(timer.hz()))
 }
 
-/// How long STEP stays high: the same type, and the same widths, as the TDM engine's
-/// pulse unit. Half the interval to the next edge (the last pulse: half its own interval),
-/// at least one tick; or a fixed number of ticks. On a pin a pulse cannot reach the next
-/// rise, so one that would is cut there (the TDM model reports it as merged).
-pub use crate::tdm::PulseShape;
+pub use crate::step_dir::{PulseShape, StepDirTiming};
 
 /// How the driver sets DIR and shapes STEP.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DriverConfig {
-    /// Ticks between setting DIR and tick 0 of the move.
-    pub dir_setup_ticks: u64,
-    /// How long STEP stays high.
-    pub pulse: PulseShape,
+    /// STEP pulse width and DIR setup (the TDM engine's own type).
+    pub step_dir: StepDirTiming,
     /// DIR level for forward moves.
     pub forward_is_high: bool,
 }
@@ -51,8 +45,7 @@ pub struct DriverConfig {
 impl Default for DriverConfig {
     fn default() -> Self {
         DriverConfig {
-            dir_setup_ticks: 0,
-            pulse: PulseShape::HalfInterval,
+            step_dir: StepDirTiming::default(),
             forward_is_high: true,
         }
     }
@@ -186,7 +179,7 @@ impl<S: OutputPin, D: OutputPin, E: Iterator<Item = u64>> Stepper<S, D, E> {
         } else {
             dir.set_low().map_err(DriveError::Dir)?;
         }
-        let start = now.saturating_add(cfg.dir_setup_ticks);
+        let start = now.saturating_add(cfg.step_dir.dir_setup_ticks);
         let mut edges = edges.into_iter().peekable();
         let next = match edges.next() {
             Some(e) => Next::Rise {
@@ -199,7 +192,7 @@ impl<S: OutputPin, D: OutputPin, E: Iterator<Item = u64>> Stepper<S, D, E> {
             step,
             dir,
             edges,
-            pulse: cfg.pulse,
+            pulse: cfg.step_dir.pulse,
             start,
             prev: 0,
             next,
@@ -322,7 +315,10 @@ mod tests {
             waits: Vec::new(),
         };
         let cfg = DriverConfig {
-            dir_setup_ticks: 5,
+            step_dir: StepDirTiming {
+                dir_setup_ticks: 5,
+                ..StepDirTiming::default()
+            },
             ..DriverConfig::default()
         };
         let mut d = StepDir::new(step, dir, timer, cfg);
@@ -355,7 +351,10 @@ mod tests {
         let step = Mock::new(&pulses(3));
         let dir = Mock::new(&[T::set(State::Low)]);
         let cfg = DriverConfig {
-            pulse: PulseShape::Fixed { ticks: 4 },
+            step_dir: StepDirTiming {
+                pulse: PulseShape::Fixed { ticks: 4 },
+                ..StepDirTiming::default()
+            },
             ..DriverConfig::default()
         };
         let mut d = StepDir::new(
@@ -439,7 +438,10 @@ mod tests {
             let step = Mock::new(&pulses(3));
             let dir = Mock::new(&[T::set(State::High)]);
             let cfg = DriverConfig {
-                dir_setup_ticks: 7,
+                step_dir: StepDirTiming {
+                    dir_setup_ticks: 7,
+                    ..StepDirTiming::default()
+                },
                 ..DriverConfig::default()
             };
             let mut s = Stepper::start(step, dir, true, [10u64, 20, 40], 100, cfg).unwrap();
@@ -506,7 +508,10 @@ mod tests {
             unit.finish(0, &mut |p| tdm.push(p));
             // the driver, polled at each deadline: rises and falls alternate
             let cfg = DriverConfig {
-                pulse: shape,
+                step_dir: StepDirTiming {
+                    pulse: shape,
+                    ..StepDirTiming::default()
+                },
                 ..DriverConfig::default()
             };
             let step = Mock::new(&pulses(4));

@@ -47,6 +47,7 @@ pub mod profile;
 mod real;
 mod shape;
 pub mod spec;
+pub mod step_dir;
 pub mod summary;
 // the TDM model's own items are documented in its module docs; item docs to follow
 #[allow(missing_docs)]
@@ -63,6 +64,7 @@ pub use params::{MoveParams, Param, PARAMS};
 pub use profile::Profile;
 pub use shape::Shape;
 pub use spec::MoveSpec;
+pub use step_dir::{PulseShape, StepDirTiming};
 pub use summary::{MoveName, PlanSummary};
 pub use track::{Rate, TrackError, TrackLimits, Tracker};
 

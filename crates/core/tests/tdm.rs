@@ -4,7 +4,9 @@ use multistep_core::tdm::{
     k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report,
     StepPulse, TdmConfig, TdmError,
 };
-use multistep_core::{EdgeGenerator, Family, MoveParams, MoveSpec, PhaseMove, Profile, Segment};
+use multistep_core::{
+    EdgeGenerator, Family, MoveParams, MoveSpec, PhaseMove, Profile, Segment, StepDirTiming,
+};
 use proptest::prelude::*;
 use std::collections::VecDeque;
 
@@ -126,7 +128,10 @@ fn start_waits_for_prefill_and_dir_setup() {
     let mut axes = seed000_axes();
     let cfg = TdmConfig {
         fifo_depth: 3,
-        dir_setup_ticks: 10_000,
+        step_dir: StepDirTiming {
+            dir_setup_ticks: 10_000,
+            ..StepDirTiming::default()
+        },
         ..TdmConfig::default()
     };
     let (r, pulses) = run(cfg, &mut axes);
@@ -134,7 +139,10 @@ fn start_waits_for_prefill_and_dir_setup() {
     check_against_plan(&r, &axes, &pulses, F);
     let cfg = TdmConfig {
         fifo_depth: 3,
-        dir_setup_ticks: 5,
+        step_dir: StepDirTiming {
+            dir_setup_ticks: 5,
+            ..StepDirTiming::default()
+        },
         ..TdmConfig::default()
     };
     let (r, _) = run(cfg, &mut axes);
@@ -157,7 +165,10 @@ fn start_waits_for_prefill_and_dir_setup() {
 fn fixed_pulse_width() {
     let mut axes = seed000_axes();
     let cfg = TdmConfig {
-        pulse: PulseShape::Fixed { ticks: 100 },
+        step_dir: StepDirTiming {
+            pulse: PulseShape::Fixed { ticks: 100 },
+            ..StepDirTiming::default()
+        },
         ..TdmConfig::default()
     };
     let (r, pulses) = run(cfg, &mut axes);
@@ -198,7 +209,10 @@ fn bad_configurations_are_typed_errors() {
         Some(TdmError::ClockMismatch { axis: 0, .. })
     ));
     let w0 = TdmConfig {
-        pulse: PulseShape::Fixed { ticks: 0 },
+        step_dir: StepDirTiming {
+            pulse: PulseShape::Fixed { ticks: 0 },
+            ..StepDirTiming::default()
+        },
         ..TdmConfig::default()
     };
     assert_eq!(err(w0, &mut axes), Some(TdmError::ZeroPulseWidth));
@@ -359,8 +373,7 @@ proptest! {
             fifo_depth: depth,
             policy,
             latencies: Latencies { mul: units[0], div: cycles, sqrt: units[1], overhead: units[2], pipelined },
-            dir_setup_ticks: dir_setup,
-            ..TdmConfig::default()
+            step_dir: StepDirTiming { dir_setup_ticks: dir_setup, ..StepDirTiming::default() },
         };
         let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), clock).unwrap()).collect();
         let (r, pulses) = run(cfg, &mut axes);
@@ -471,7 +484,7 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
         .collect();
     let k = axes.len();
     let prefill: u64 = axes.iter().map(|a| a.total.min(d) as u64).sum();
-    let start = cfg.dir_setup_ticks.max((prefill - 1) * ii + lat);
+    let start = cfg.step_dir.dir_setup_ticks.max((prefill - 1) * ii + lat);
     let mut next_issue = 0u64;
     let mut ptr = 0;
     let mut t = 0u64;

@@ -6,7 +6,8 @@ mod common;
 
 use common::{params, random_move, random_move_of, IntMove, Rng, CLOCK, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntProfile, IntSegment};
-use multistep_core::tdm::{Axis, Board, PulseShape, TdmConfig};
+use multistep_core::tdm::{Axis, Board, TdmConfig};
+use multistep_core::{PulseShape, StepDirTiming};
 use multistep_hdl::board_sim::{simulate, BoardLog, Script};
 use multistep_hdl::link::{
     move_writes, start_write, stop_ramp_writes, AxisReg, AxisRun, AxisState, BoardReg, BuildId,
@@ -241,13 +242,12 @@ fn icebreaker_widths_at_its_axis_count() {
     link_moves_on(p, "board-ice", 1, 0x0b0a_1ce4, 3_000_000, 20_000);
 }
 
-/// The core TDM model with a pulse shape and DIR setup time: rises and falls from its
-/// start, and its start tick.
+/// The core TDM model with a STEP pulse width and DIR setup time: rises and falls from
+/// its start, and its start tick.
 fn model(
     p: &CoreParams,
     moves: &[IntMove],
-    pulse: PulseShape,
-    dir_setup: u64,
+    step_dir: StepDirTiming,
 ) -> (Vec<Vec<(u64, u64)>>, u64) {
     let w = p.widths().unwrap();
     let mut axes: Vec<Axis> = moves
@@ -258,8 +258,7 @@ fn model(
         clock_hz: HZ as f64,
         fifo_depth: p.fifo_depth as usize,
         latencies: w.latencies(),
-        pulse,
-        dir_setup_ticks: dir_setup,
+        step_dir,
         ..Default::default()
     };
     let board = Board::new(cfg, &mut axes).unwrap();
@@ -307,14 +306,13 @@ fn fixed_pulse_width_dir_setup_and_active_low_pins() {
         assert_eq!(r.status, Status::Ok, "{name}: request {i}");
     }
     let ints: Vec<IntMove> = moves.iter().map(|m| m.0.clone()).collect();
-    let (pulses, start) = model(
-        &p,
-        &ints,
-        PulseShape::Fixed {
+    let step_dir = StepDirTiming {
+        pulse: PulseShape::Fixed {
             ticks: u64::from(width),
         },
-        setup,
-    );
+        dir_setup_ticks: setup,
+    };
+    let (pulses, start) = model(&p, &ints, step_dir);
     assert_eq!(
         start, setup,
         "{name}: the setup time is longer than the prefill"

@@ -4,7 +4,7 @@
 
 use anyhow::{bail, Context};
 use multistep_core::tdm::{Latencies, Policy, PulseShape, TdmConfig};
-use multistep_core::{MoveParams, MoveSpec, Profile, Segment, DEFAULT_CLOCK_HZ};
+use multistep_core::{MoveParams, MoveSpec, Profile, Segment, StepDirTiming, DEFAULT_CLOCK_HZ};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -103,11 +103,13 @@ impl ConfigFile {
                 pipelined: self.pipelined.unwrap_or(d.pipelined),
             },
             policy,
-            pulse: match self.pulse_width_ticks {
-                Some(ticks) => PulseShape::Fixed { ticks },
-                None => PulseShape::HalfInterval,
+            step_dir: StepDirTiming {
+                pulse: match self.pulse_width_ticks {
+                    Some(ticks) => PulseShape::Fixed { ticks },
+                    None => PulseShape::HalfInterval,
+                },
+                dir_setup_ticks: self.dir_setup_ticks.unwrap_or(0),
             },
-            dir_setup_ticks: self.dir_setup_ticks.unwrap_or(0),
         })
     }
 
@@ -174,7 +176,7 @@ mod tests {
         assert_eq!(b.latencies.div, 40);
         assert_eq!(b.latencies.sqrt, Latencies::default().sqrt);
         assert!(b.latencies.pipelined);
-        assert_eq!(b.pulse, PulseShape::Fixed { ticks: 100 });
+        assert_eq!(b.step_dir.pulse, PulseShape::Fixed { ticks: 100 });
         assert_eq!(b.policy, Policy::RoundRobin);
         let p = cfg.profiles().unwrap();
         assert_eq!(

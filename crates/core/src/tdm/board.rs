@@ -22,6 +22,7 @@ use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::profile::Profile;
+use crate::step_dir::StepDirTiming;
 
 /// What a board is built from besides its axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,9 +32,9 @@ pub struct TdmConfig {
     pub fifo_depth: usize,
     pub latencies: Latencies,
     pub policy: Policy,
-    pub pulse: PulseShape,
-    /// Least ticks between DIR being set (tick 0) and the group's start.
-    pub dir_setup_ticks: u64,
+    /// STEP pulse width, and the least ticks between DIR being set (tick 0) and the
+    /// group's start.
+    pub step_dir: StepDirTiming,
 }
 
 impl Default for TdmConfig {
@@ -43,8 +44,7 @@ impl Default for TdmConfig {
             fifo_depth: 1,
             latencies: Latencies::default(),
             policy: Policy::RoundRobin,
-            pulse: PulseShape::HalfInterval,
-            dir_setup_ticks: 0,
+            step_dir: StepDirTiming::default(),
         }
     }
 }
@@ -252,7 +252,7 @@ impl<'a> Board<'a> {
         if cfg.latencies.interval() == 0 {
             return Err(TdmError::ZeroCycles);
         }
-        if cfg.pulse == (PulseShape::Fixed { ticks: 0 }) {
+        if cfg.step_dir.pulse == (PulseShape::Fixed { ticks: 0 }) {
             return Err(TdmError::ZeroPulseWidth);
         }
         // Worst case: every period computed after the last edge of the longest move.
@@ -266,7 +266,7 @@ impl<'a> Board<'a> {
                 .map(|a| a.gen.last_edge_tick() as u128)
                 .max()
                 .unwrap_or(0)
-            + cfg.dir_setup_ticks as u128;
+            + cfg.step_dir.dir_setup_ticks as u128;
         if work >= TICK_LIMIT as u128 {
             return Err(TdmError::TooLong);
         }
@@ -278,7 +278,7 @@ impl<'a> Board<'a> {
                     board_hz: cfg.clock_hz,
                 });
             }
-            a.reset(cfg.fifo_depth, cfg.pulse)?;
+            a.reset(cfg.fifo_depth, cfg.step_dir.pulse)?;
         }
         Ok(Board { cfg, axes })
     }
@@ -294,7 +294,7 @@ impl<'a> Board<'a> {
             0 => 0,
             p => (p - 1).saturating_mul(ii).saturating_add(lat),
         };
-        self.cfg.dir_setup_ticks.max(fill)
+        self.cfg.step_dir.dir_setup_ticks.max(fill)
     }
 
     /// Runs every axis to its last step, handing each pulse to `sink`.

@@ -13,15 +13,7 @@
 //! whose fall is not before the next rise (no low time: a driver would see one step
 //! instead of two) is counted as merged.
 
-/// The high time of STEP pulses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum PulseShape {
-    /// High for half of the interval to the next edge (50 % duty, seed 000).
-    #[default]
-    HalfInterval,
-    /// High for a fixed number of ticks.
-    Fixed { ticks: u64 },
-}
+pub use crate::step_dir::PulseShape;
 
 /// One STEP pulse as it leaves the board; ticks count from the board's tick 0 (when the
 /// move is loaded and DIR is set).
