@@ -14,6 +14,7 @@
 use crate::edges::EdgeGenerator;
 use crate::error::PlanError;
 use crate::profile::Profile;
+use core::borrow::Borrow;
 use embedded_hal::digital::OutputPin;
 
 /// A monotonic tick counter; its rate is the clock the edges are planned on.
@@ -26,8 +27,12 @@ pub trait TickTimer {
     fn wait_until(&mut self, tick: u64);
 }
 
-/// The edges of `profile` on `timer`'s clock.
-pub fn edges_for<T: TickTimer>(profile: Profile, timer: &T) -> Result<EdgeGenerator, PlanError> {
+/// The edges of `profile` on `timer`'s clock; pass `&profile` to keep one copy of the
+/// pieces (the generator then holds only its own state).
+pub fn edges_for<P: Borrow<Profile>, T: TickTimer>(
+    profile: P,
+    timer: &T,
+) -> Result<EdgeGenerator<P>, PlanError> {
     EdgeGenerator::new(profile, f64::from(timer.hz()))
 }
 

@@ -3,12 +3,18 @@
 use super::piece::IntPiece;
 use super::plan::IntProfile;
 use crate::accum::StepAccumulator;
+use crate::MAX_PIECES;
+use core::borrow::Borrow;
 
 /// Streams the edge tick of every step of an [`IntProfile`], in order, with integer
 /// arithmetic only.
+///
+/// It owns its profile (`IntEdgeGenerator<IntProfile>`, the default) or borrows it
+/// (`IntEdgeGenerator<&IntProfile>`: the generator's own state only, no copy of the
+/// pieces), as [`EdgeGenerator`](crate::EdgeGenerator) does.
 #[derive(Clone, Debug)]
-pub struct IntEdgeGenerator {
-    profile: IntProfile,
+pub struct IntEdgeGenerator<P: Borrow<IntProfile<N>> = IntProfile, const N: usize = MAX_PIECES> {
+    profile: P,
     /// The piece being played and its next step (0-based within the piece).
     piece: usize,
     j: u64,
@@ -18,9 +24,10 @@ pub struct IntEdgeGenerator {
     acc: StepAccumulator,
 }
 
-impl IntEdgeGenerator {
-    pub fn new(profile: IntProfile) -> Self {
-        let left = profile.steps();
+impl<P: Borrow<IntProfile<N>>, const N: usize> IntEdgeGenerator<P, N> {
+    /// The edges of `profile` (an `IntProfile` or a reference to one).
+    pub fn new(profile: P) -> Self {
+        let left = profile.borrow().steps();
         IntEdgeGenerator {
             profile,
             piece: 0,
@@ -31,8 +38,9 @@ impl IntEdgeGenerator {
         }
     }
 
-    pub fn profile(&self) -> &IntProfile {
-        &self.profile
+    /// The profile played.
+    pub fn profile(&self) -> &IntProfile<N> {
+        self.profile.borrow()
     }
 
     /// Writes up to `out.len()` edges; returns how many were written.
@@ -83,7 +91,7 @@ impl IntEdgeGenerator {
     #[inline(always)]
     fn current(&self) -> &IntPiece {
         // `piece` stays below the profile's length (planning makes the steps add up)
-        &self.profile.pieces()[self.piece]
+        &self.profile.borrow().pieces()[self.piece]
     }
 
     /// The next edge by the piece's kernel; on a cruise piece, starts the accumulator
@@ -96,7 +104,7 @@ impl IntEdgeGenerator {
             // gives the same tick unless the move ends with a dwell)
             1 => {
                 self.left = 0;
-                return Some(self.profile.end_tick());
+                return Some(self.profile.borrow().end_tick());
             }
             _ => {}
         }
@@ -122,7 +130,7 @@ impl IntEdgeGenerator {
     }
 }
 
-impl Iterator for IntEdgeGenerator {
+impl<P: Borrow<IntProfile<N>>, const N: usize> Iterator for IntEdgeGenerator<P, N> {
     type Item = u64;
 
     #[inline]
@@ -145,4 +153,4 @@ impl Iterator for IntEdgeGenerator {
     }
 }
 
-impl ExactSizeIterator for IntEdgeGenerator {}
+impl<P: Borrow<IntProfile<N>>, const N: usize> ExactSizeIterator for IntEdgeGenerator<P, N> {}

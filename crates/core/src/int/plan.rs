@@ -79,10 +79,14 @@ impl IntClock {
     }
 }
 
-/// A planned integer move: pieces chained in time and position.
+/// A planned integer move: pieces chained in time and position, at most `N` of them.
+///
+/// The default capacity is [`MAX_PIECES`], enough for any move; a phase or limits move has
+/// at most 3 pieces and a segment list one per segment, so firmware may plan into a smaller
+/// profile with the `*_in` planners (`IntProfile::<3>::phase_in`): about 270 B a piece.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct IntProfile {
-    pieces: [IntPiece; MAX_PIECES],
+pub struct IntProfile<const N: usize = MAX_PIECES> {
+    pieces: [IntPiece; N],
     len: usize,
     steps: u64,
     end_tick: u64,
@@ -93,12 +97,29 @@ fn checked(x: Option<u128>) -> Result<u128, IntError> {
 }
 
 impl IntProfile {
+    /// Phase mode (see [`IntProfile::phase_in`]).
+    pub fn phase(m: &IntPhaseMove, clock: IntClock) -> Result<Self, IntError> {
+        Self::phase_in(m, clock)
+    }
+
+    /// Segment mode (see [`IntProfile::segments_in`]).
+    pub fn segments(segs: &[IntSegment], clock: IntClock) -> Result<Self, IntError> {
+        Self::segments_in(segs, clock)
+    }
+
+    /// Limits mode (see [`IntProfile::limits_in`]).
+    pub fn limits(m: &IntLimitsMove, clock: IntClock) -> Result<Self, IntError> {
+        Self::limits_in(m, clock)
+    }
+}
+
+impl<const N: usize> IntProfile<N> {
     fn empty(steps: u64) -> Result<Self, IntError> {
         if steps == 0 {
             return Err(IntError::NoSteps);
         }
         Ok(IntProfile {
-            pieces: [IntPiece::EMPTY; MAX_PIECES],
+            pieces: [IntPiece::EMPTY; N],
             len: 0,
             steps,
             end_tick: 0,
@@ -109,7 +130,7 @@ impl IntProfile {
         if dur == 0 {
             return Ok(());
         }
-        if self.len == MAX_PIECES {
+        if self.len == N {
             return Err(IntError::TooManyPieces);
         }
         let p = IntPiece::new(self.end_tick, dur, g, u, w, s)?;
@@ -144,7 +165,7 @@ impl IntProfile {
     }
 
     /// Phase mode: `vm = (2N·F − vs·Ta − ve·Tc) / (F·W)` steps/tick, `W = Ta + 2Tb + Tc`.
-    pub fn phase(m: &IntPhaseMove, clock: IntClock) -> Result<Self, IntError> {
+    pub fn phase_in(m: &IntPhaseMove, clock: IntClock) -> Result<Self, IntError> {
         let mut p = Self::empty(m.steps)?;
         let f = clock.f()?;
         let (ta, tb, tc) = (
@@ -173,7 +194,7 @@ impl IntProfile {
     }
 
     /// Segment mode (seed 000): `w = 2n/D − v0` ≥ 0, `a = 2(n − v0·D)/D²`.
-    pub fn segments(segs: &[IntSegment], clock: IntClock) -> Result<Self, IntError> {
+    pub fn segments_in(segs: &[IntSegment], clock: IntClock) -> Result<Self, IntError> {
         let steps = segs
             .iter()
             .try_fold(0u64, |acc, s| acc.checked_add(s.steps));
@@ -202,8 +223,8 @@ impl IntProfile {
     /// Limits mode, trapezoid: peak speed vmax or, if the move is too short,
     /// `⌊√((2·amax·N + vs² + ve²)/2)⌋`; phase times rounded up to whole ticks and the
     /// cruise time set so the cruise speed never exceeds the peak.
-    pub fn limits(m: &IntLimitsMove, clock: IntClock) -> Result<Self, IntError> {
-        Self::phase(&limits_to_phase(m, clock)?, clock)
+    pub fn limits_in(m: &IntLimitsMove, clock: IntClock) -> Result<Self, IntError> {
+        Self::phase_in(&limits_to_phase(m, clock)?, clock)
     }
 
     /// Steps of the move.

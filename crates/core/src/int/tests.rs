@@ -584,3 +584,75 @@ fn limits_mode_on_a_clock_equals_the_integer_datapath() {
     }
     std::println!("{moves} limits moves; {ties} edges differ at f64-noise half ticks");
 }
+
+/// A small profile (`IntProfile::<N>`) and a borrowing generator give the default
+/// profile's edges; a move with more pieces than the capacity is refused, not cut.
+#[test]
+fn small_and_borrowed_forms_give_the_same_edges() {
+    let mut r = Rng(0x5a11);
+    for _ in 0..200 {
+        let m = IntLimitsMove {
+            steps: r.range(1, 5000),
+            vmax: r.range(100, 20_000),
+            amax: r.range(1000, 1_000_000),
+            start_speed: 0,
+            end_speed: 0,
+        };
+        let clock = IntClock::hz(1_000_000);
+        let (Ok(big), Ok(small)) = (
+            IntProfile::limits(&m, clock),
+            IntProfile::<3>::limits_in(&m, clock),
+        ) else {
+            panic!("{m:?} plans in both sizes or neither");
+        };
+        assert_eq!(big.pieces(), small.pieces());
+        let want: Vec<u64> = IntEdgeGenerator::new(big.clone()).collect();
+        assert_eq!(IntEdgeGenerator::new(&small).collect::<Vec<_>>(), want);
+        assert_eq!(IntEdgeGenerator::new(&big).collect::<Vec<_>>(), want);
+    }
+    let seg = IntSegment {
+        v0: 1000,
+        ticks: 1000,
+        steps: 1,
+    };
+    let clock = IntClock::hz(1_000_000);
+    assert!(IntProfile::<2>::segments_in(&[seg; 2], clock).is_ok());
+    assert_eq!(
+        IntProfile::<2>::segments_in(&[seg; 3], clock),
+        Err(IntError::TooManyPieces)
+    );
+}
+
+/// Memory per axis, printed by `cargo test -p multistep-core sizes -- --nocapture`
+/// (the figures in the crate README); the small forms must stay small.
+#[test]
+fn sizes() {
+    use core::mem::size_of;
+    let rows = [
+        ("Profile", size_of::<Profile>()),
+        (
+            "EdgeGenerator (owns its Profile)",
+            size_of::<EdgeGenerator>(),
+        ),
+        (
+            "EdgeGenerator<&Profile>",
+            size_of::<EdgeGenerator<&Profile>>(),
+        ),
+        ("IntProfile (64 pieces)", size_of::<IntProfile>()),
+        ("IntProfile<3>", size_of::<IntProfile<3>>()),
+        (
+            "IntEdgeGenerator (owns its IntProfile)",
+            size_of::<IntEdgeGenerator>(),
+        ),
+        (
+            "IntEdgeGenerator<&IntProfile<3>, 3>",
+            size_of::<IntEdgeGenerator<&IntProfile<3>, 3>>(),
+        ),
+    ];
+    for (name, bytes) in rows {
+        std::println!("{name:40} {bytes:6} B");
+    }
+    assert!(size_of::<EdgeGenerator<&Profile>>() < 512);
+    assert!(size_of::<IntEdgeGenerator<&IntProfile<3>, 3>>() < 256);
+    assert!(size_of::<IntProfile<3>>() * 16 < size_of::<IntProfile>());
+}
