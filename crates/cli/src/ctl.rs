@@ -67,6 +67,34 @@ pub enum CtlCmd {
     },
     /// Home an axis on its Hall sensor
     Home { axis: String },
+    /// Run an axis at RATE steps/s until stopped (a number with 'u' for user units/s,
+    /// negative reverses, a fraction NUM/DEN is exact, or the name of a stored rate); on a
+    /// tracking axis, change its rate
+    Track {
+        axis: String,
+        #[arg(allow_hyphen_values = true)]
+        rate: String,
+        /// Acceleration of the ramps (steps/s², at most the axis's amax)
+        #[arg(long)]
+        accel: Option<f64>,
+        /// Stop by itself this many seconds after the last such command
+        #[arg(long)]
+        lease: Option<f64>,
+    },
+    /// Store a named rate on a board (seed 002's constant, fast and slow motion)
+    Rate {
+        /// Board name (may be left out with one board)
+        #[arg(long = "to")]
+        to: Option<String>,
+        name: String,
+        #[arg(allow_hyphen_values = true)]
+        rate: String,
+    },
+    /// De-energize an idle axis's driver (it becomes untrusted unless
+    /// release_keeps_position)
+    Release { axis: String },
+    /// Energize an axis's driver
+    Energize { axis: String },
     /// Controlled stop of an axis (all axes of all boards without one)
     Stop { axis: Option<String> },
     /// Emergency stop on every board
@@ -263,6 +291,35 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
         CtlCmd::Home { axis } => {
             let (i, ax) = boards.axis(axis)?;
             boards.send(i, &format!("home {ax}"))?;
+        }
+        CtlCmd::Track {
+            axis,
+            rate,
+            accel,
+            lease,
+        } => {
+            let (i, ax) = boards.axis(axis)?;
+            let mut line = format!("track {ax} {rate}");
+            if let Some(a) = accel {
+                line += &format!(" accel={a}");
+            }
+            if let Some(l) = lease {
+                line += &format!(" lease={l}");
+            }
+            print_lines(&boards.send(i, &line)?);
+        }
+        CtlCmd::Rate { to, name, rate } => {
+            let i = boards.board(to.as_deref())?;
+            boards.send(i, &format!("rate {name} {rate}"))?;
+        }
+        CtlCmd::Release { axis } | CtlCmd::Energize { axis } => {
+            let verb = if matches!(a.cmd, CtlCmd::Release { .. }) {
+                "release"
+            } else {
+                "energize"
+            };
+            let (i, ax) = boards.axis(axis)?;
+            boards.send(i, &format!("{verb} {ax}"))?;
         }
         CtlCmd::Stop { axis: Some(axis) } => {
             let (i, ax) = boards.axis(axis)?;
