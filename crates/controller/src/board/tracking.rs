@@ -257,7 +257,12 @@ impl Board {
             return;
         }
         let Some(m) = ax.motion.as_mut() else { return };
-        if m.stopping {
+        let limit = match m.dir {
+            1 => ax.settings.soft_max,
+            _ => ax.settings.soft_min,
+        };
+        // without a soft limit ahead, ±1e15 microsteps are centuries away at any rate
+        if m.stopping || limit.is_none() {
             return;
         }
         let dir = m.dir;
