@@ -893,7 +893,13 @@ impl Board {
         // One TDM run times the whole group: one start tick for every axis, once every
         // driver is energized and settled.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
-        let ready = self.energize_for_motion(plan.iter().map(|p| p.0));
+        let moving_axes: Vec<usize> = plan
+            .iter()
+            .zip(&profiles)
+            .filter(|(_, p)| p.is_some())
+            .map(|(x, _)| x.0)
+            .collect();
+        let ready = self.energize_for_motion(moving_axes);
         let (start, mut sources) = match report {
             Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, ready)?,
             _ => (ready, Vec::new()),
