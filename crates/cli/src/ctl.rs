@@ -386,18 +386,20 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&all)?);
             } else {
                 println!(
-                    "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10}",
-                    "axis", "position", "state", "homed", "trusted", "speed"
+                    "{:<16} {:>3} {:>12} {:>8} {:>6} {:>7} {:>10} {:>10}",
+                    "axis", "num", "position", "state", "homed", "trusted", "speed", "rate"
                 );
                 for s in &all {
                     println!(
-                        "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10.1}",
+                        "{:<16} {:>3} {:>12} {:>8} {:>6} {:>7} {:>10.1} {:>10}",
                         s.axis,
+                        s.number,
                         s.position,
                         s.state.name(),
                         if s.homed { "yes" } else { "no" },
                         if s.trusted { "yes" } else { "no" },
-                        s.speed
+                        s.speed,
+                        s.rate.map_or("-".to_string(), |r| format!("{r:.3}"))
                     );
                 }
             }

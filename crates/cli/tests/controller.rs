@@ -1160,6 +1160,14 @@ fn ctl_tracks_axes_by_board_and_number_with_named_rates() {
     assert_eq!(z.rate, Some(15041.0 / 324.0));
     let y = st.iter().find(|s| s.axis == "a:Y").unwrap();
     assert_eq!((y.state, y.rate), (AxisState::Tracking, Some(-300.0)));
+    let (_, table, _) = ctl(&["status"]);
+    let row = table.lines().find(|l| l.starts_with("b:Z ")).unwrap();
+    let cols: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(
+        (cols[1], cols[3], cols[7]),
+        ("2", "tracking", "46.423"),
+        "{row}"
+    );
     // bad input: one error each, the exit status says so
     for bad in [
         &["track", "b:2", "abc"][..],

@@ -402,6 +402,13 @@ fn bad_track_requests_are_refused_one_by_one() {
     assert_eq!(b.rate_presets().unwrap()["slow"], "-5/2u");
     b.estop(300_500_000);
     assert_eq!(err(&mut b, rate("10")), 11);
+    // named rates are kept with the board
+    drop(b);
+    let b = open(
+        dir.path(),
+        &config(1e6, vec![("X", tracking_axis(5000.0, 20000.0))]),
+    );
+    assert_eq!(b.rate_presets().unwrap()["slow"], "-5/2u");
 }
 
 #[test]
