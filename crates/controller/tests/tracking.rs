@@ -487,3 +487,54 @@ fn drivers_are_energized_before_motion_and_released_at_rest() {
     assert_eq!(b.settings("X").unwrap().enable_settle, 0.5);
     assert!(b.settings("Y").unwrap().release_keeps_position);
 }
+
+mod random_rate_changes {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Random rates (decimals with up to 3 places), changed at random ticks, then a
+        /// stop: the board's position equals the reference tracker's count at every sample,
+        /// the commanded speed never exceeds the fastest rate asked for, and the axis
+        /// comes to rest on the reference's last edge.
+        #[test]
+        fn board_follows_the_tracker_through_random_rate_changes(
+            amax in 200.0f64..50_000.0,
+            rates in proptest::collection::vec(1u64..4_000_000, 2..5),
+            gaps in proptest::collection::vec(50_000u64..2_000_000, 4),
+        ) {
+            let clock = 1e6;
+            let dir = tempfile::tempdir().unwrap();
+            let mut b = open(dir.path(), &config(clock, vec![("X", tracking_axis(4000.0, amax))]));
+            let text = |milli: u64| format!("{}.{:03}", milli / 1000, milli % 1000);
+            let fastest = rates.iter().max().copied().unwrap() as f64 / 1000.0;
+            track(&mut b, "X", &text(rates[0]), 0).unwrap();
+            let mut r = Reference::new(clock, amax, &text(rates[0]), 0);
+            let mut t = 0;
+            for (k, &next) in rates[1..].iter().chain([&0]).enumerate() {
+                let until = t + gaps[k];
+                while t < until {
+                    t = (t + 7_013).min(until);
+                    b.advance(t);
+                    let s = st(&mut b, "X");
+                    prop_assert_eq!(s.position as u64, r.count_to(t), "tick {}", t);
+                    prop_assert!(s.speed <= fastest * (1.0 + 1e-9), "{} > {}", s.speed, fastest);
+                }
+                if next == 0 {
+                    b.stop(Some("X"), t).unwrap();
+                    r.set_rate_at(t, Rate::ZERO);
+                } else {
+                    track(&mut b, "X", &text(next), t).unwrap();
+                    r.set_rate_at(t, Rate::parse(&text(next)).unwrap());
+                }
+            }
+            while b.busy() {
+                t += 50_000;
+                b.advance(t);
+            }
+            prop_assert_eq!(st(&mut b, "X").position as u64, r.count_to(u64::MAX));
+        }
+    }
+}
