@@ -67,6 +67,34 @@ pub enum CtlCmd {
     },
     /// Home an axis on its Hall sensor
     Home { axis: String },
+    /// Run an axis at RATE steps/s until stopped (a number with 'u' for user units/s,
+    /// negative reverses, a fraction NUM/DEN is exact, or the name of a stored rate); on a
+    /// tracking axis, change its rate
+    Track {
+        axis: String,
+        #[arg(allow_hyphen_values = true)]
+        rate: String,
+        /// Acceleration of the ramps: the move value amax (steps/s², at most the axis's amax)
+        #[arg(long)]
+        amax: Option<f64>,
+        /// Stop by itself this many seconds after the last such command
+        #[arg(long)]
+        lease: Option<f64>,
+    },
+    /// Store a named rate on a board (seed 002's constant, fast and slow motion)
+    Rate {
+        /// Board name (may be left out with one board)
+        #[arg(long = "to")]
+        to: Option<String>,
+        name: String,
+        #[arg(allow_hyphen_values = true)]
+        rate: String,
+    },
+    /// De-energize an idle axis's driver (it becomes untrusted unless
+    /// release_keeps_position)
+    Release { axis: String },
+    /// Energize an axis's driver
+    Energize { axis: String },
     /// Controlled stop of an axis (all axes of all boards without one)
     Stop { axis: Option<String> },
     /// Emergency stop on every board
@@ -253,6 +281,35 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             let (i, ax) = boards.axis(axis)?;
             boards.send(i, &format!("home {ax}"))?;
         }
+        CtlCmd::Track {
+            axis,
+            rate,
+            amax,
+            lease,
+        } => {
+            let (i, ax) = boards.axis(axis)?;
+            let mut line = format!("track {ax} {rate}");
+            if let Some(a) = amax {
+                line += &format!(" amax={a}");
+            }
+            if let Some(l) = lease {
+                line += &format!(" lease={l}");
+            }
+            print_lines(&boards.send(i, &line)?);
+        }
+        CtlCmd::Rate { to, name, rate } => {
+            let i = boards.board(to.as_deref())?;
+            boards.send(i, &format!("rate {name} {rate}"))?;
+        }
+        CtlCmd::Release { axis } | CtlCmd::Energize { axis } => {
+            let verb = if matches!(a.cmd, CtlCmd::Release { .. }) {
+                "release"
+            } else {
+                "energize"
+            };
+            let (i, ax) = boards.axis(axis)?;
+            boards.send(i, &format!("{verb} {ax}"))?;
+        }
         CtlCmd::Stop { axis: Some(axis) } => {
             let (i, ax) = boards.axis(axis)?;
             boards.send(i, &format!("stop {ax}"))?;
@@ -318,18 +375,20 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&all)?);
             } else {
                 println!(
-                    "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10}",
-                    "axis", "position", "state", "homed", "trusted", "speed"
+                    "{:<16} {:>3} {:>12} {:>8} {:>6} {:>7} {:>10} {:>10}",
+                    "axis", "num", "position", "state", "homed", "trusted", "speed", "rate"
                 );
                 for s in &all {
                     println!(
-                        "{:<16} {:>12} {:>8} {:>6} {:>7} {:>10.1}",
+                        "{:<16} {:>3} {:>12} {:>8} {:>6} {:>7} {:>10.1} {:>10}",
                         s.axis,
+                        s.number,
                         s.position,
                         s.state.name(),
                         if s.homed { "yes" } else { "no" },
                         if s.trusted { "yes" } else { "no" },
-                        s.speed
+                        s.speed,
+                        s.rate.map_or("-".to_string(), |r| format!("{r:.3}"))
                     );
                 }
             }

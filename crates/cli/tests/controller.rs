@@ -1136,3 +1136,55 @@ fn the_web_side_takes_the_bearer_scheme_in_any_case() {
         assert!(out.starts_with("HTTP/1.1 200"), "{scheme}: {out}");
     }
 }
+
+#[test]
+fn ctl_tracks_axes_by_board_and_number_with_named_rates() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = Server::start(&dir.path().join("a"), None, 1.0, &[]);
+    let b = Server::start(&dir.path().join("b"), None, 1.0, &[]);
+    let boards = [format!("a=tcp://{}", a.addr), format!("b=tcp://{}", b.addr)];
+    let ctl = |args: &[&str]| run_ctl(&boards, args);
+    let (code, _, err) = ctl(&["rate", "--to", "b", "constant", "15041/324"]);
+    assert_eq!(code, Some(0), "{err}");
+    // b:2 is board b's Z; by name and number alike
+    let (code, out, err) = ctl(&["track", "b:2", "constant"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("rate=46.42"), "{out}");
+    let (code, out, err) = ctl(&["track", "a:1", "-300", "--lease", "30"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(out.trim(), "1 rate=-300");
+    let (_, out, _) = ctl(&["status", "--json"]);
+    let st: Vec<AxisStatus> = serde_json::from_str(&out).unwrap();
+    let z = st.iter().find(|s| s.axis == "b:Z").unwrap();
+    assert_eq!((z.state, z.number), (AxisState::Tracking, 2));
+    assert_eq!(z.rate, Some(15041.0 / 324.0));
+    let y = st.iter().find(|s| s.axis == "a:Y").unwrap();
+    assert_eq!((y.state, y.rate), (AxisState::Tracking, Some(-300.0)));
+    let (_, table, _) = ctl(&["status"]);
+    let row = table.lines().find(|l| l.starts_with("b:Z ")).unwrap();
+    let cols: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(
+        (cols[1], cols[3], cols[7]),
+        ("2", "tracking", "46.423"),
+        "{row}"
+    );
+    // bad input: one error each, the exit status says so
+    for bad in [
+        &["track", "b:2", "abc"][..],
+        &["track", "b:9", "10"],
+        &["track", "a:Y", "1e9"],
+        &["release", "a:1"],
+    ] {
+        let (code, _, err) = ctl(bad);
+        assert_ne!(code, Some(0), "{bad:?}");
+        assert!(err.contains("error:"), "{bad:?}: {err}");
+    }
+    assert_eq!(ctl(&["stop", "a:1"]).0, Some(0));
+    assert_eq!(ctl(&["wait", "a:Y", "--timeout", "10"]).0, Some(0));
+    assert_eq!(ctl(&["release", "a:1"]).0, Some(0));
+    let mut c = a.client();
+    let y = status(&mut c, "Y");
+    assert!(!y.enabled && !y.trusted && y.position < 0, "{y:?}");
+    assert_eq!(ctl(&["energize", "a:Y"]).0, Some(0));
+    assert!(status(&mut c, "Y").enabled);
+}

@@ -219,6 +219,15 @@ fn http_replies_are_the_line_protocol_replies() {
         "group moveto X=100 X=200",
         "move Y 50 amax=1e9",
         "sim X slip x",
+        "rate fast -2000",
+        "rates",
+        "track 1 fast lease=30",
+        "track 1 abc",
+        "track Y 1e9",
+        "release 1",
+        "release 2",
+        "energize 2",
+        "stop 1",
     ] {
         let web = cmd(&svc.http, line);
         match tcp.request(line) {
@@ -263,6 +272,11 @@ fn preview_plans_without_moving_and_reports_plan_errors() {
     let web = cmd(&svc.http, "move X 100 amax=1e9");
     assert_eq!(v["ok"], false);
     assert_eq!(v["error"], web["error"], "preview and move refuse alike");
+    // by motor number, as by name
+    let body = serde_json::json!({ "line": "move 1 -700" }).to_string();
+    let (_, v) = post(&svc.http, "/api/preview", &body, "application/json", "");
+    assert_eq!(v["axes"][0]["axis"], "Y", "{v}");
+    assert_eq!(v["axes"][0]["target"], -700, "{v}");
     let body = serde_json::json!({ "line": "home X" }).to_string();
     let (_, v) = post(&svc.http, "/api/preview", &body, "application/json", "");
     assert!(

@@ -40,6 +40,15 @@ pub struct AxisSettings {
     pub home_search: u64,
     /// Flip the DIR line level (wiring); the count direction is unchanged.
     pub invert_dir: bool,
+    /// Level of the ENABLE line that energizes the driver (false: active low, the usual).
+    pub enable_active_high: bool,
+    /// Seconds the driver needs after being energized before the first step.
+    pub enable_settle: f64,
+    /// Seconds of rest after which the driver is released (`none`/`never`: held for ever).
+    pub idle_release: Option<f64>,
+    /// A released axis keeps its position (detent torque or a brake); otherwise releasing
+    /// makes it untrusted, as it may be turned by hand.
+    pub release_keeps_position: bool,
     /// The simulated axis: where its sensor is and how noisy it is.
     pub sim: SimSettings,
 }
@@ -102,6 +111,10 @@ impl Default for AxisSettings {
             home_backoff: 200,
             home_search: 1_000_000,
             invert_dir: false,
+            enable_active_high: false,
+            enable_settle: 0.0,
+            idle_release: None,
+            release_keeps_position: false,
             sim: SimSettings::default(),
         }
     }
@@ -206,6 +219,16 @@ pub const RANGES: &[Range] = &[
         max: P,
     },
     Range {
+        key: "enable_settle",
+        min: 0.0,
+        max: 10.0,
+    },
+    Range {
+        key: "idle_release",
+        min: 0.0,
+        max: 86_400.0,
+    },
+    Range {
         key: "sim.sensor_at",
         min: -P,
         max: P,
@@ -278,6 +301,8 @@ impl AxisSettings {
             ("home_slow_speed", Some(self.home_slow_speed)),
             ("home_backoff", Some(self.home_backoff as f64)),
             ("home_search", Some(self.home_search as f64)),
+            ("enable_settle", Some(self.enable_settle)),
+            ("idle_release", self.idle_release),
             ("sim.sensor_at", Some(s.sensor_at as f64)),
             ("sim.sensor_width", Some(s.sensor_width as f64)),
             ("sim.bounce_count", Some(s.bounce_count as f64)),
@@ -385,7 +410,9 @@ impl AxisSettings {
         let slot = lookup_mut(&mut v, key).ok_or_else(|| unknown_key(key))?;
         *slot = match slot {
             serde_json::Value::String(_) => serde_json::Value::String(value.to_string()),
-            _ if value == "none" => serde_json::Value::Null,
+            _ if value == "none" || (key == "idle_release" && value == "never") => {
+                serde_json::Value::Null
+            }
             _ => serde_json::from_str(value).map_err(|_| {
                 CtlError::Setting(format!("'{value}' is not a valid value for {key}"))
             })?,
@@ -444,6 +471,8 @@ pub enum AxisState {
     Idle,
     Moving,
     Homing,
+    /// Open-ended motion at a rate (`track`), until stopped.
+    Tracking,
     Fault,
 }
 
@@ -453,6 +482,7 @@ impl AxisState {
             AxisState::Idle => "idle",
             AxisState::Moving => "moving",
             AxisState::Homing => "homing",
+            AxisState::Tracking => "tracking",
             AxisState::Fault => "fault",
         }
     }
@@ -493,6 +523,19 @@ pub struct AxisStatus {
     /// Level of the DIR line for the last move: high for positive counts, unless
     /// `invert_dir` (wiring) flips it.
     pub dir_level: bool,
+    /// The rate a tracking axis runs at or ramps towards (steps/s, signed; none otherwise).
+    #[serde(default)]
+    pub rate: Option<f64>,
+    /// The driver is energized.
+    #[serde(default = "energized")]
+    pub enabled: bool,
+    /// Level of the ENABLE line (`enabled`, flipped unless `enable_active_high`).
+    #[serde(default)]
+    pub enable_level: bool,
+}
+
+fn energized() -> bool {
+    true
 }
 
 impl AxisStatus {
@@ -500,7 +543,7 @@ impl AxisStatus {
     pub fn line(&self) -> String {
         let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
         format!(
-            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} num={}",
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} rate={} en={} num={}",
             self.axis,
             self.position,
             self.units,
@@ -512,6 +555,8 @@ impl AxisStatus {
             self.sensor as u8,
             opt(self.drift),
             self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
+            self.rate.map_or("none".to_string(), |r| r.to_string()),
+            self.enabled as u8,
             self.number,
         )
     }

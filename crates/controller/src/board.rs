@@ -13,7 +13,9 @@ use multistep_core::tdm::TdmConfig;
 use multistep_core::{Family, MoveParams, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
+mod driver;
 mod preview;
+mod tracking;
 pub use preview::PlannedAxis;
 
 /// Most steps (summed over its axes) of one move or group: the TDM engine times every
@@ -69,6 +71,8 @@ struct Motion {
     stopping: bool,
     /// Homing: the edge that triggered the stop.
     edge: Option<FilteredEdge>,
+    /// Open-ended motion (`track`): its rate, lease and what follows a stop.
+    track: Option<tracking::TrackState>,
 }
 
 struct Axis {
@@ -92,6 +96,8 @@ struct Axis {
     marker: Option<(i64, i64)>,
     /// Direction of the last move (+1/-1), for the DIR line level.
     last_dir: i64,
+    /// The driver's ENABLE line.
+    driver: driver::Driver,
 }
 
 impl Axis {
@@ -203,6 +209,7 @@ impl Board {
                 marked: false,
                 marker: None,
                 last_dir: 1,
+                driver: driver::Driver::default(),
             };
             if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`; the mechanics stayed where they were
@@ -279,6 +286,11 @@ impl Board {
         self.axes.iter().any(|a| a.motion.is_some())
     }
 
+    /// True while time must be advanced: an axis moves, or waits to release its driver.
+    pub fn needs_ticks(&self) -> bool {
+        self.busy() || self.release_pending()
+    }
+
     /// The named axes, or all of them when none are named.
     fn indices(&self, axes: &[String]) -> Result<Vec<usize>, CtlError> {
         if axes.is_empty() {
@@ -307,9 +319,11 @@ impl Board {
         let Some(budget) = self.work_budget else {
             let w0 = self.work_done();
             for i in 0..self.axes.len() {
+                self.track_lease(i, now);
                 self.advance_axis(i, now);
             }
             self.now = now;
+            self.release_idle();
             self.note_work(w0);
             return;
         };
@@ -321,11 +335,13 @@ impl Board {
                 if self.axes[i].motion.is_some() {
                     // Looking at an axis is work too, even in a slice without events.
                     self.work += 1;
+                    self.track_lease(i, until);
                     self.advance_axis(i, until);
                 }
             }
             self.now = until;
         }
+        self.release_idle();
         self.note_work(w0);
     }
 
@@ -375,6 +391,7 @@ impl Board {
                 Some(e) if e <= now => {
                     m.src.take();
                     self.work += 1;
+                    let tracking = m.track.is_some();
                     let ax = &mut self.axes[i];
                     ax.count += m.dir;
                     ax.sim_pos += m.dir;
@@ -382,6 +399,9 @@ impl Board {
                     ax.motion = Some(m);
                     if let Some(ev) = ev {
                         self.on_sensor(i, ev);
+                    }
+                    if tracking {
+                        self.track_step(i);
                     }
                 }
                 Some(_) => {
@@ -454,6 +474,7 @@ impl Board {
     fn on_motion_end(&mut self, i: usize, m: Motion, end: u64) {
         let ax = &mut self.axes[i];
         ax.move_end = Some(end);
+        ax.driver.idle_since = end;
         if let Some(p) = ax.period() {
             let shift = ax.count.rem_euclid(p) - ax.count;
             ax.count += shift;
@@ -470,6 +491,9 @@ impl Board {
             ax.fault = Some(e.to_string());
         }
         self.persist(i);
+        if let Some(t) = m.track {
+            self.track_ended(i, t, m.dir, end);
+        }
     }
 
     /// Writes the axis record. While a sequence of moves runs (homing phases, the park
@@ -627,6 +651,7 @@ impl Board {
             purpose,
             stopping: false,
             edge: None,
+            track: None,
         });
         ax.state = AxisState::Moving;
         ax.fault = None;
@@ -658,7 +683,7 @@ impl Board {
         }
         let ax = &self.axes[i];
         match ax.state {
-            AxisState::Moving | AxisState::Homing => Err(CtlError::Busy {
+            AxisState::Moving | AxisState::Homing | AxisState::Tracking => Err(CtlError::Busy {
                 axis: ax.name.clone(),
                 state: ax.state.name(),
             }),
@@ -864,11 +889,19 @@ impl Board {
                 });
             }
         }
-        // One TDM run times the whole group: one start tick for every axis.
+        // One TDM run times the whole group: one start tick for every axis, once every
+        // driver is energized and settled.
         let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
+        let moving_axes: Vec<usize> = plan
+            .iter()
+            .zip(&profiles)
+            .filter(|(_, p)| p.is_some())
+            .map(|(x, _)| x.0)
+            .collect();
+        let ready = self.energize_for_motion(moving_axes);
         let (start, mut sources) = match report {
-            Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, self.now)?,
-            _ => (self.now, Vec::new()),
+            Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, ready)?,
+            _ => (ready, Vec::new()),
         };
         sources.reverse();
         let mut out = Vec::new();
@@ -950,7 +983,7 @@ impl Board {
             ax.homed = false;
             ax.hall.resync(self.now, ax.count, ax.sim_pos);
         }
-        let start = self.now;
+        let start = self.energize_for_motion([i]);
         let (phase, dir) = if self.axes[i].hall.filtered() {
             (HomePhase::Clear, -h)
         } else {
@@ -967,6 +1000,9 @@ impl Board {
             None => (0..self.axes.len()).collect(),
         };
         for i in which {
+            if self.stop_tracking(i) {
+                continue;
+            }
             if let Some(m) = self.axes[i].motion.as_mut() {
                 m.purpose = Purpose::Move;
                 if !m.stopping {
@@ -1019,6 +1055,7 @@ impl Board {
                     .motion
                     .as_ref()
                     .map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
+                let track = ax.motion.as_ref().and_then(|m| m.track.as_ref());
                 AxisStatus {
                     axis: ax.name.clone(),
                     number: i,
@@ -1027,19 +1064,27 @@ impl Board {
                     state: ax.state,
                     homed: ax.homed,
                     trusted: ax.trusted,
-                    target: ax.motion.as_ref().map(|m| m.target),
+                    target: ax
+                        .motion
+                        .as_ref()
+                        .filter(|_| track.is_none())
+                        .map(|m| m.target),
                     speed,
                     sensor: ax.hall.filtered(),
                     drift: ax.drift,
                     drift_checks: ax.drift_checks,
                     move_start: ax.move_start,
-                    move_end: ax
-                        .motion
-                        .as_ref()
-                        .map_or(ax.move_end, |m| Some(m.src.end_tick())),
+                    move_end: match (&ax.motion, track) {
+                        (Some(_), Some(_)) => None,
+                        (Some(m), None) => Some(m.src.end_tick()),
+                        (None, _) => ax.move_end,
+                    },
                     fault: ax.fault.clone(),
                     sim_position: ax.sim_pos,
                     dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
+                    rate: track.map(|t| t.signed_rate()),
+                    enabled: ax.driver.enabled,
+                    enable_level: ax.driver.enabled == ax.settings.enable_active_high,
                 }
             })
             .collect())

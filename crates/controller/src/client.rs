@@ -4,7 +4,7 @@
 use crate::axis::{AxisState, AxisStatus};
 use crate::error::CtlError;
 use crate::protocol::parse_status_line;
-use crate::protocol::{Amount, Command, MoveOpts};
+use crate::protocol::{Amount, Command, MoveOpts, RateArg};
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::time::Duration;
 
@@ -220,6 +220,29 @@ impl std::fmt::Display for Command {
                 push("slip");
                 push(&steps.to_string());
             }
+            Command::Track { axis, rate, opts } => {
+                push("track");
+                push(axis);
+                match rate {
+                    RateArg::Value(r) => push(&r.to_string()),
+                    RateArg::Preset(n) => push(n),
+                }
+                opts.words().iter().for_each(|w| push(w));
+            }
+            Command::RatePreset { name, rate } => {
+                push("rate");
+                push(name);
+                push(&rate.to_string());
+            }
+            Command::Rates => push("rates"),
+            Command::Release { axis } => {
+                push("release");
+                push(axis);
+            }
+            Command::Energize { axis } => {
+                push("energize");
+                push(axis);
+            }
         }
         f.write_str(&words.join(" "))
     }
@@ -248,7 +271,16 @@ fn free_words(cmd: &Command) -> Vec<&str> {
             w.extend(opt_words(o));
         }
         Command::Stop { axis: Some(a) } | Command::Home { axis: a } => w.push(a),
-        Command::SimSlip { axis, .. } => w.push(axis),
+        Command::SimSlip { axis, .. } | Command::Release { axis } | Command::Energize { axis } => {
+            w.push(axis)
+        }
+        Command::Track { axis, rate, .. } => {
+            w.push(axis);
+            if let RateArg::Preset(n) = rate {
+                w.push(n);
+            }
+        }
+        Command::RatePreset { name, .. } => w.push(name),
         Command::Get { axis, key } => {
             w.push(axis);
             w.extend(key.iter().map(|s| s.as_str()));
@@ -328,7 +360,7 @@ impl Client {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::parse;
+    use crate::protocol::{parse, SignedRate, TrackOpts};
     use multistep_core::MoveParams;
 
     fn opts() -> MoveOpts {
@@ -431,6 +463,31 @@ mod tests {
                 axis: x(),
                 steps: -7,
             },
+            Command::Track {
+                axis: x(),
+                rate: RateArg::Value(SignedRate::parse("-15041/324").unwrap().unwrap()),
+                opts: TrackOpts {
+                    amax: Some(250.5),
+                    lease: Some(0.75),
+                },
+            },
+            Command::Track {
+                axis: "3".into(),
+                rate: RateArg::Value(SignedRate::parse("31999.9u").unwrap().unwrap()),
+                opts: TrackOpts::default(),
+            },
+            Command::Track {
+                axis: x(),
+                rate: RateArg::Preset("fast".into()),
+                opts: TrackOpts::default(),
+            },
+            Command::RatePreset {
+                name: "constant".into(),
+                rate: SignedRate::parse("46.4228").unwrap().unwrap(),
+            },
+            Command::Rates,
+            Command::Release { axis: x() },
+            Command::Energize { axis: x() },
         ];
         for c in cmds {
             let line = c.to_string();

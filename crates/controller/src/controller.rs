@@ -89,7 +89,7 @@ impl Controller {
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = lock(&board);
-                        if b.busy() {
+                        if b.needs_ticks() {
                             b.advance(clock.now());
                             if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {
                                 b.save_sim();
@@ -289,6 +289,30 @@ impl Controller {
             }
             Command::SimSlip { axis, steps } => {
                 self.with_board(|b, now| b.sim_slip(axis, *steps, now))?;
+                vec![]
+            }
+            Command::Track { axis, rate, opts } => {
+                // a lease is wall-clock seconds: board ticks at this time scale
+                let lease = opts
+                    .lease
+                    .map(|s| (s * self.clock.ticks_per_s).ceil().min(1e18) as u64);
+                let r = self.with_board(|b, now| b.track(axis, rate, opts, lease, now))?;
+                vec![format!("{axis} rate={r}")]
+            }
+            Command::RatePreset { name, rate } => {
+                self.with_board(|b, _| b.set_rate_preset(name, rate))?;
+                vec![]
+            }
+            Command::Rates => {
+                let all = self.with_board(|b, _| b.rate_presets())?;
+                all.iter().map(|(n, r)| format!("{n} {r}")).collect()
+            }
+            Command::Release { axis } => {
+                self.with_board(|b, now| b.release(axis, now))?;
+                vec![]
+            }
+            Command::Energize { axis } => {
+                self.with_board(|b, now| b.energize(axis, now))?;
                 vec![]
             }
         })

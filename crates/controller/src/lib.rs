@@ -18,6 +18,7 @@ pub mod motion;
 pub mod protocol;
 pub mod service;
 pub mod store;
+pub mod tracking;
 
 pub use axis::{AxisSettings, AxisState, AxisStatus, SimSettings};
 pub use board::Board;

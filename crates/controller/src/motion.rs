@@ -22,6 +22,10 @@ pub trait StepSource: Send {
     /// Tick of the last edge.
     fn end_tick(&self) -> u64;
     fn steps_left(&self) -> u64;
+    /// The tracking source behind this stream, if it is one (its rate can change).
+    fn as_track(&mut self) -> Option<&mut crate::tracking::TrackSource> {
+        None
+    }
 }
 
 /// A move's edges straight from the exact edge generator, shifted to the start tick.

@@ -176,6 +176,126 @@ pub enum Command {
         axis: String,
         steps: i64,
     },
+    /// Open-ended motion at a rate (or a change of rate while tracking).
+    Track {
+        axis: String,
+        rate: RateArg,
+        opts: TrackOpts,
+    },
+    /// Stores a named rate (`rate NAME VALUE`).
+    RatePreset {
+        name: String,
+        rate: SignedRate,
+    },
+    /// Lists the named rates.
+    Rates,
+    /// De-energizes an idle axis's driver.
+    Release {
+        axis: String,
+    },
+    /// Energizes an axis's driver.
+    Energize {
+        axis: String,
+    },
+}
+
+/// A tracking rate as typed: steps/s, or user units/s with `u`; negative reverses.
+/// The magnitude is exact (a decimal or a fraction NUM/DEN, read by the core).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SignedRate {
+    pub negative: bool,
+    pub rate: multistep_core::Rate,
+    pub units: bool,
+}
+
+impl SignedRate {
+    /// `46.4`, `-15041/324`, `0.5u`; `None` when the word is not a number.
+    pub fn parse(w: &str) -> Option<Result<SignedRate, CtlError>> {
+        let (units, body) = match w.strip_suffix(['u', 'U']) {
+            Some(b) => (true, b),
+            None => (false, w),
+        };
+        let (negative, mag) = match body.strip_prefix('-') {
+            Some(m) => (true, m),
+            None => (false, body.strip_prefix('+').unwrap_or(body)),
+        };
+        let numeric = mag.starts_with(|c: char| c.is_ascii_digit() || c == '.');
+        if !numeric {
+            return None;
+        }
+        Some(
+            multistep_core::Rate::parse(mag)
+                .map(|rate| SignedRate {
+                    negative: negative && !rate.is_zero(),
+                    rate,
+                    units,
+                })
+                .map_err(|e| CtlError::syntax(format!("'{w}': {e}"))),
+        )
+    }
+
+    /// The signed value (steps/s or units/s) as the nearest f64.
+    pub fn value(&self) -> f64 {
+        let v = self.rate.to_f64();
+        if self.negative {
+            -v
+        } else {
+            v
+        }
+    }
+}
+
+impl std::fmt::Display for SignedRate {
+    /// Reads back exactly: the reduced fraction (or the integer), sign and `u`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.negative {
+            f.write_str("-")?;
+        }
+        if self.rate.den() == 1 {
+            write!(f, "{}", self.rate.num())?;
+        } else {
+            write!(f, "{}/{}", self.rate.num(), self.rate.den())?;
+        }
+        if self.units {
+            f.write_str("u")?;
+        }
+        Ok(())
+    }
+}
+
+/// The rate of a `track` command: a value, or the name of a stored rate.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RateArg {
+    Value(SignedRate),
+    Preset(String),
+}
+
+/// Options of `track`: the ramp's acceleration and a lease.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrackOpts {
+    /// The ramps' acceleration: the move value `amax` (steps/s², at most the axis's
+    /// amax; default the axis's amax).
+    pub amax: Option<f64>,
+    /// Seconds (wall clock) after which the axis stops unless the command is sent again:
+    /// a jog from a client that may vanish.
+    pub lease: Option<f64>,
+}
+
+/// Longest jog lease (s).
+pub const MAX_LEASE: f64 = 60.0;
+
+impl TrackOpts {
+    /// The `key=value` words that give these options.
+    pub fn words(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Some(a) = self.amax {
+            w.push(format!("amax={a}"));
+        }
+        if let Some(l) = self.lease {
+            w.push(format!("lease={l}"));
+        }
+        w
+    }
 }
 
 /// The answer to one command.
@@ -529,6 +649,77 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
                 steps,
             }
         }
+        "track" => {
+            let usage = "track AXIS RATE|NAME [amax=A] [lease=S]";
+            want(2, usage)?;
+            let axis = axis_word(rest[0])?;
+            let rate = match SignedRate::parse(rest[1]) {
+                Some(r) => RateArg::Value(r?),
+                None => RateArg::Preset(name_word(rest[1]).map_err(|_| {
+                    CtlError::syntax(format!("'{}' is neither a rate nor a rate's name", rest[1]))
+                })?),
+            };
+            let mut opts = TrackOpts::default();
+            for w in &rest[2..] {
+                let (k, v) = w
+                    .split_once('=')
+                    .ok_or_else(|| CtlError::syntax(format!("unexpected '{w}'; usage: {usage}")))?;
+                let x: f64 = v
+                    .parse()
+                    .ok()
+                    .filter(|x: &f64| x.is_finite() && *x > 0.0)
+                    .ok_or_else(|| {
+                        CtlError::syntax(format!("{k}: '{v}' is not a number greater than 0"))
+                    })?;
+                let k = k.to_ascii_lowercase();
+                match k.as_str() {
+                    _ if param_of_word(&k).is_some_and(|p| p.name == "amax") => opts.amax = Some(x),
+                    "lease" if x <= MAX_LEASE => opts.lease = Some(x),
+                    "lease" => {
+                        return Err(CtlError::syntax(format!(
+                            "lease: at most {MAX_LEASE} s (got {v})"
+                        )))
+                    }
+                    _ => {
+                        return Err(CtlError::syntax(format!(
+                            "unexpected '{w}'; usage: {usage}"
+                        )))
+                    }
+                }
+            }
+            Command::Track { axis, rate, opts }
+        }
+        "rate" => {
+            let usage = "rate NAME RATE";
+            want(2, usage)?;
+            none_after(2, usage)?;
+            let rate = SignedRate::parse(rest[1]).ok_or_else(|| {
+                CtlError::syntax(format!("'{}' is not a rate; usage: {usage}", rest[1]))
+            })??;
+            Command::RatePreset {
+                name: name_word(rest[0])?,
+                rate,
+            }
+        }
+        "rates" => {
+            none_after(0, "rates")?;
+            Command::Rates
+        }
+        "release" | "energize" => {
+            let usage = if head == "release" {
+                "release AXIS"
+            } else {
+                "energize AXIS"
+            };
+            want(1, usage)?;
+            none_after(1, usage)?;
+            let axis = axis_word(rest[0])?;
+            if head == "release" {
+                Command::Release { axis }
+            } else {
+                Command::Energize { axis }
+            }
+        }
         other => {
             let shown: String = other.chars().take(40).collect();
             return Err(CtlError::syntax(format!(
@@ -610,7 +801,7 @@ pub fn parse_status_line(line: &str) -> Option<Result<(), (u16, String)>> {
 
 /// The text of `help`.
 pub const HELP: &[&str] = &[
-    "commands (AXIS is an axis name; N is microsteps or a number with 'u' for user units):",
+    "commands (AXIS is an axis name or number; N is microsteps or a number with 'u' for user units):",
     "  move AXIS N [opts]           relative move",
     "  moveto AXIS N [opts]         absolute move (periodic axes: shortest way)",
     "  group move|moveto A=N B=N… [sync] [opts]   same start tick; sync: same finish",
@@ -618,6 +809,9 @@ pub const HELP: &[&str] = &[
     "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
     "  save NAME [AXIS…]  goto NAME  positions  forget NAME",
     "  preset NAME opts  presets  version  info  auth TOKEN",
+    "  track AXIS RATE|NAME [amax=A] [lease=S]    run at RATE steps/s (or units/s with 'u'; negative",
+    "                               reverses) until stop; again while tracking: change the rate",
+    "  rate NAME RATE  rates  release AXIS  energize AXIS",
     "  sim AXIS slip N              simulated boards only: lose N steps",
     "opts: preset=P profile=F vmax= amax= jmax= smax= accel= cruise= decel= vs= ve= rho= phi= psi=",
 ];

@@ -16,6 +16,8 @@ const SETTINGS: TableDefinition<&str, &str> = TableDefinition::new("settings");
 const AXES: TableDefinition<&str, &str> = TableDefinition::new("axes");
 const PRESETS: TableDefinition<&str, &str> = TableDefinition::new("presets");
 const NAMED: TableDefinition<&str, &str> = TableDefinition::new("named_positions");
+/// Named tracking rates (seed 002's constant, fast and slow motion), as the rate's text.
+const RATES: TableDefinition<&str, &str> = TableDefinition::new("rates");
 
 /// What survives a power cycle of one axis.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -91,13 +93,13 @@ fn try_open(path: &Path) -> Result<Store, Failure> {
             Err(e) => return Err(Failure::Damaged(e.to_string())),
         };
         let tx = db.begin_write().map_err(CtlError::from)?;
-        for t in [SETTINGS, AXES, PRESETS, NAMED] {
+        for t in [SETTINGS, AXES, PRESETS, NAMED, RATES] {
             tx.open_table(t).map_err(CtlError::from)?;
         }
         tx.commit().map_err(CtlError::from)?;
         let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         let store = Store { db, dir };
-        for t in [SETTINGS, AXES, PRESETS, NAMED] {
+        for t in [SETTINGS, AXES, PRESETS, NAMED, RATES] {
             store.all::<serde_json::Value>(t)?;
         }
         Ok(store)
@@ -271,6 +273,15 @@ impl Store {
     }
     pub fn forget_named(&self, name: &str) -> Result<bool, CtlError> {
         self.remove(NAMED, name)
+    }
+    pub fn rates(&self) -> Result<BTreeMap<String, String>, CtlError> {
+        self.all(RATES)
+    }
+    pub fn rate(&self, name: &str) -> Result<Option<String>, CtlError> {
+        self.get(RATES, name)
+    }
+    pub fn put_rate(&self, name: &str, rate: &str) -> Result<(), CtlError> {
+        self.put(RATES, name, &rate)
     }
 }
 

@@ -58,7 +58,15 @@ fn number() -> impl Strategy<Value = String> {
 
 fn setting_key() -> impl Strategy<Value = String> {
     let mut keys: Vec<&str> = RANGES.iter().map(|r| r.key).collect();
-    keys.extend(["profile", "invert_dir", "sim.seed", "nope", "sim.nope"]);
+    keys.extend([
+        "profile",
+        "invert_dir",
+        "sim.seed",
+        "nope",
+        "sim.nope",
+        "enable_active_high",
+        "release_keeps_position",
+    ]);
     proptest::sample::select(keys).prop_map(String::from)
 }
 
@@ -85,6 +93,30 @@ fn opts() -> impl Strategy<Value = String> {
     .prop_map(|w| w.join(" "))
 }
 
+/// A tracking rate: steps/s, units/s, fractions, names, and anything `number` makes.
+fn rate() -> impl Strategy<Value = String> {
+    prop_oneof![
+        (-5000.0f64..5000.0).prop_map(|v| format!("{v}")),
+        (-50.0f64..50.0).prop_map(|v| format!("{v}u")),
+        (1u64..100_000, 1u64..1000).prop_map(|(n, d)| format!("-{n}/{d}")),
+        proptest::sample::select(vec!["fast", "slow", "15041/324", "1/0", "abc", "-"])
+            .prop_map(String::from),
+        number(),
+    ]
+}
+
+fn track_opts() -> impl Strategy<Value = String> {
+    proptest::collection::vec(
+        (
+            proptest::sample::select(vec!["accel", "lease", "amax", "x"]),
+            number(),
+        )
+            .prop_map(|(k, v)| format!("{k}={v}")),
+        0..2,
+    )
+    .prop_map(|w| w.join(" "))
+}
+
 fn line() -> impl Strategy<Value = Vec<u8>> {
     let text = prop_oneof![
         4 => (axis(), amount(), opts()).prop_map(|(a, n, o)| format!("move {a} {n} {o}")),
@@ -106,6 +138,11 @@ fn line() -> impl Strategy<Value = Vec<u8>> {
         1 => opts().prop_map(|o| format!("goto p1 {o}")),
         1 => opts().prop_map(|o| format!("preset p1 vmax=100 {o}")),
         1 => Just("auth whatever".to_string()),
+        3 => (axis(), rate(), track_opts()).prop_map(|(a, r, o)| format!("track {a} {r} {o}")),
+        1 => rate().prop_map(|r| format!("rate fast {r}")),
+        1 => Just("rates".to_string()),
+        1 => axis().prop_map(|a| format!("release {a}")),
+        1 => axis().prop_map(|a| format!("energize {a}")),
     ];
     prop_oneof![
         9 => text.prop_map(String::into_bytes),

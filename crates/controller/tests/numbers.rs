@@ -72,3 +72,81 @@ fn status_json_carries_the_number() {
     assert_eq!(nums, [0, 1, 2, 3]);
     assert_eq!(v[3]["axis"], "A");
 }
+
+#[test]
+fn tracking_by_number_and_one_error_per_bad_line() {
+    let out = session(&[
+        "rate constant 15041/324",
+        "rate fast -2000",
+        "rates",
+        "track 0 constant",
+        "status X",
+        "track X abc",
+        "track X 1e9",
+        "track X 12/0",
+        "track X",
+        "track X 10 lease=100",
+        "track X 10 speed=3",
+        "rate slow abc",
+        "track 9 100",
+        "home 2",
+        "track Z 100",
+        "release X",
+        "track 1 fast",
+        "track Y 0",
+        "release 3",
+        "status A",
+        "energize 3",
+        "status A",
+    ]);
+    let replies: Vec<&[String]> = {
+        let mut v = Vec::new();
+        let mut start = 0;
+        for (k, l) in out.iter().enumerate() {
+            if l == "ok" || l.starts_with("error:") {
+                v.push(&out[start..=k]);
+                start = k + 1;
+            }
+        }
+        assert_eq!(start, out.len(), "a reply without its status line");
+        v
+    };
+    assert_eq!(replies.len(), 22, "{out:#?}");
+    let status = |k: usize| replies[k].last().unwrap().as_str();
+    assert_eq!(replies[2], ["constant 15041/324", "fast -2000", "ok"]);
+    assert_eq!(replies[3][0], format!("0 rate={}", 15041.0 / 324.0));
+    let x = &replies[4][0];
+    assert!(
+        x.contains("state=tracking") && x.contains("rate=46.42") && x.contains(" en=1 num=0"),
+        "{x}"
+    );
+    for (k, code) in [
+        (5, 8),
+        (6, 14),
+        (7, 3),
+        (8, 3),
+        (9, 3),
+        (10, 3),
+        (11, 3),
+        (12, 4),
+        (14, 6),
+        (15, 6),
+    ] {
+        assert!(
+            status(k).starts_with(&format!("error:{code} ")),
+            "line {k}: {}",
+            status(k)
+        );
+    }
+    assert!(status(5).contains("unknown rate 'abc'"));
+    assert!(status(6).contains("above vmax"));
+    assert_eq!(replies[16][0], "1 rate=-2000");
+    assert_eq!(
+        replies[17],
+        ["Y rate=0", "ok"],
+        "a zero rate stops (or is a no-op)"
+    );
+    let a = &replies[19][0];
+    assert!(a.contains(" trusted=0 ") && a.contains(" en=0 "), "{a}");
+    assert!(replies[21][0].contains(" en=1 "), "{}", replies[21][0]);
+}

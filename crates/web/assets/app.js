@@ -6,6 +6,10 @@
 const TOKEN = new URLSearchParams(location.search).get('token');
 const TRACE_SECONDS = 10;
 const STALE_MS = 3000;
+// Press-and-hold jog: the axis tracks at the jog speed under a lease the page renews while
+// the button is held; a page that vanishes stops renewing, and the service stops the axis.
+const JOG_LEASE_S = 1;
+const JOG_RENEW_MS = 250;
 
 const $ = (id) => document.getElementById(id);
 const state = { boards: [], cards: new Map(), es: null, lastMsg: 0, preview: null, settings: null };
@@ -136,11 +140,48 @@ function buildCard(board, axis, remote) {
   };
   q('.jog-minus').onclick = () => jog('-');
   q('.jog-plus').onclick = () => jog('');
+  holdToJog(board, axis, q('.hold-minus'), '-', err);
+  holdToJog(board, axis, q('.hold-plus'), '', err);
+  q('.rate-preset').onchange = () => { if (q('.rate-preset').value) q('.rate').value = q('.rate-preset').value; };
+  q('.track').onclick = () => {
+    const r = word(q('.rate').value, 'a rate or a rate name', err);
+    if (r !== null) cmd(board, `track ${axis} ${r}`, err);
+  };
   q('.stop').onclick = () => cmd(board, `stop ${axis}`, err);
   q('.home').onclick = () => cmd(board, `home ${axis}`, err);
   q('.gear').onclick = () => loadSettings(board, axis);
   return el;
 }
+
+// Every held jog button's release, so losing focus or the page going hidden stops them all.
+const heldJogs = new Set();
+
+function holdToJog(board, axis, btn, sign, err) {
+  let timer = null;
+  const release = () => {
+    if (!heldJogs.has(release)) return;
+    heldJogs.delete(release);
+    clearInterval(timer);
+    btn.classList.remove('held');
+    cmd(board, `stop ${axis}`, err);
+  };
+  btn.addEventListener('pointerdown', (e) => {
+    if (e.button !== 0 || heldJogs.has(release)) return;
+    const speed = word($('jog-speed').value, 'a jog speed', err);
+    if (speed === null) return;
+    const line = `track ${axis} ${sign}${speed.replace(/^[-+]/, '')} lease=${JOG_LEASE_S}`;
+    heldJogs.add(release);
+    btn.classList.add('held');
+    if (btn.setPointerCapture) btn.setPointerCapture(e.pointerId);
+    cmd(board, line, err);
+    timer = setInterval(() => cmd(board, line, err), JOG_RENEW_MS);
+  });
+  for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture', 'blur']) btn.addEventListener(ev, release);
+}
+
+const releaseAllJogs = () => { for (const r of [...heldJogs]) r(); };
+window.addEventListener('blur', releaseAllJogs);
+document.addEventListener('visibilitychange', () => { if (document.hidden) releaseAllJogs(); });
 
 function badge(el, text, kind) {
   el.textContent = text;
@@ -153,6 +194,11 @@ function updateCard(card, a, now) {
   card.el.dataset.state = a.state;
   card.el.classList.toggle('moving', a.state === 'moving');
   card.el.classList.toggle('homing', a.state === 'homing');
+  card.el.classList.toggle('tracking', a.state === 'tracking');
+  q('.num').textContent = '#' + a.number;
+  q('.num').title = `motor number ${a.number}: accepted wherever the name is`;
+  q('.released').hidden = a.enabled !== false;
+  q('.rate-now').textContent = a.rate === null || a.rate === undefined ? '' : ` · rate ${a.rate} steps/s`;
   card.el.classList.toggle('fault', a.state === 'fault');
   q('.pos').textContent = a.position;
   q('.units').textContent = Number(a.units).toFixed(3);
@@ -256,7 +302,7 @@ async function loadBoards() {
     state.boards = r.boards;
     buildBoards();
   }
-  await Promise.all([loadPositions(), loadPresets()]);
+  await Promise.all([loadPositions(), loadPresets(), loadRates()]);
 }
 
 // ---- everything on every board --------------------------------------------------------
@@ -329,7 +375,41 @@ $('pos-save').onclick = async () => {
   if (name !== null && (await cmd(selectedBoard(), `save ${name}`, err))) loadPositions();
 };
 
-$('board-sel').onchange = () => { buildGroup(); loadPositions(); loadPresets(); };
+$('board-sel').onchange = () => { buildGroup(); loadPositions(); loadPresets(); loadRates(); };
+
+// ---- tracking rates (per board) -------------------------------------------------------
+
+async function loadRates() {
+  for (const b of state.boards) {
+    const r = await cmd(b.board, 'rates', $('err-rate'));
+    if (!r) continue;
+    const names = r.data.map((l) => l.split(' '));
+    for (const card of state.cards.values()) {
+      if (card.board !== b.board) continue;
+      const sel = card.el.querySelector('.rate-preset');
+      sel.textContent = '';
+      sel.append(new Option('rates…', ''));
+      for (const [name, value] of names) sel.append(new Option(`${name} (${value})`, name));
+    }
+    if (b.board === selectedBoard()) {
+      const ul = $('rate-list');
+      ul.textContent = '';
+      for (const [name, value] of names) {
+        const li = document.createElement('li');
+        li.dataset.name = name;
+        li.textContent = `${name} ${value} steps/s`;
+        ul.append(li);
+      }
+    }
+  }
+}
+
+$('rate-save').onclick = async () => {
+  const err = $('err-rate');
+  const name = word($('rate-name').value, 'a rate name', err);
+  const value = name === null ? null : word($('rate-value').value, 'a rate', err);
+  if (value !== null && (await cmd(selectedBoard(), `rate ${name} ${value}`, err))) loadRates();
+};
 
 // ---- group move ------------------------------------------------------------------------
 

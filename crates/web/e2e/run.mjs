@@ -261,6 +261,74 @@ scenario('lost steps show as a drift warning at the next sensor pass', async ({ 
   if (s.trusted !== 'untrusted') throw new Error('after drift the axis is still ' + s.trusted);
 });
 
+// The service's own view of an axis, asked from here (not through the page).
+async function serviceAxis(url, axis, board = 0) {
+  const r = await fetch(url + '/api/status').then((x) => x.json());
+  return r.boards[board].axes.find((a) => a.axis === axis);
+}
+
+scenario('tracking controls: a rate, a stored rate, stop; press-and-hold jog stops on release', async ({ page }) => {
+  await page.locator(`${card('Y')} .rate`).fill('1234');
+  await page.locator(`${card('Y')} .track`).click();
+  await waitAxis(page, 'Y', (s) => s.state === 'tracking' && s.text.includes('rate 1234 steps/s'), 'tracking at 1234');
+  await page.locator(`${card('Y')} .stop`).click();
+  await waitAxis(page, 'Y', (s) => s.state === 'idle', 'stopped');
+  await page.locator('#rates summary').click();
+  await page.locator('#rate-name').fill('slow');
+  await page.locator('#rate-value').fill('-2.5u');
+  await page.locator('#rate-save').click();
+  await page.locator('#rate-list li[data-name=slow]').waitFor({ timeout: T });
+  await page.locator(`${card('Y')} .rate-preset`).selectOption('slow');
+  await page.locator(`${card('Y')} .track`).click();
+  await waitAxis(page, 'Y', (s) => s.state === 'tracking' && s.text.includes('rate -250 steps/s'), 'tracking at the stored rate (2.5 u/s × 100)');
+  await page.locator(`${card('Y')} .stop`).click();
+  await waitAxis(page, 'Y', (s) => s.state === 'idle', 'stopped again');
+  // Held: runs at the jog speed for as long as the button is down.
+  const p0 = (await readCard(page, 'Y')).pos;
+  await page.locator(`${card('Y')} .hold-plus`).hover();
+  await page.mouse.down();
+  await waitAxis(page, 'Y', (s) => s.state === 'tracking' && s.pos > p0 + 200, 'jogging forward');
+  await sleep(1500); // longer than the lease: the page renews it
+  const held = await readCard(page, 'Y');
+  if (held.state !== 'tracking') throw new Error('the jog stopped while held: ' + held.text);
+  await page.mouse.up();
+  const t0 = Date.now();
+  await waitAxis(page, 'Y', (s) => s.state === 'idle', 'stop on release');
+  const p1 = (await readCard(page, 'Y')).pos;
+  await sleep(400);
+  const p2 = (await readCard(page, 'Y')).pos;
+  console.log(`#   Y: held jog ran ${p1 - p0} steps, at rest ${Date.now() - t0} ms after release`);
+  if (p2 !== p1 || p1 <= p0 + 1000) throw new Error(`jog positions ${p0} → ${p1} → ${p2}`);
+});
+
+scenario('a held jog stops when the page loses its connection', async ({ page, serviceUrl }) => {
+  await page.locator(`${card('Y')} .hold-minus`).hover();
+  await page.mouse.down();
+  await waitAxis(page, 'Y', (s) => s.state === 'tracking', 'jogging backwards');
+  // The connection goes: nothing the page sends arrives any more, not even the release.
+  await page.route('**/api/**', (r) => r.abort());
+  const t0 = Date.now();
+  let s = await serviceAxis(serviceUrl(), 'Y');
+  if (s.state !== 'tracking') throw new Error('not jogging when the connection went: ' + s.state);
+  while (s.state !== 'idle' && Date.now() - t0 < T) {
+    await sleep(50);
+    s = await serviceAxis(serviceUrl(), 'Y');
+  }
+  const ms = Date.now() - t0;
+  console.log(`#   Y: the service stopped the orphaned jog ${ms} ms after the connection went`);
+  if (s.state !== 'idle' || ms > 3000) throw new Error(`the axis ran on for ${ms} ms: ${JSON.stringify(s)}`);
+  const at = s.position;
+  await sleep(300);
+  if ((await serviceAxis(serviceUrl(), 'Y')).position !== at) throw new Error('still moving');
+  await page.mouse.up();
+  await page.unroute('**/api/**');
+  // Back where the later scenarios expect Y.
+  await page.locator('#conn.up').waitFor({ timeout: T });
+  await moveAxis(page, 'Y', 9000, 'moveto');
+  await waitAxis(page, 'Y', (s) => s.pos === 9000 && s.state === 'idle', 'Y back at 9000');
+  for (const e of await page.locator('.axis-err').all()) await e.evaluate((x) => { x.textContent = ''; });
+});
+
 scenario('a lost connection is shown and the page reconnects by itself', async ({ page, restart }) => {
   await restart(async () => {
     await page.locator('#conn.down').waitFor({ timeout: T });
@@ -306,7 +374,7 @@ async function main() {
   let passed = 0, failed = 0;
   for (const s of scenarios) {
     try {
-      await s.fn({ page, restart });
+      await s.fn({ page, restart, serviceUrl: () => service.url });
       if (pageErrors.length) throw new Error('script error on the page: ' + pageErrors.splice(0).join('; '));
       passed++;
       console.log(`ok - ${s.name}`);

@@ -49,11 +49,12 @@ impl Remote {
             .spawn(move || {
                 while let Some(link) = weak.upgrade() {
                     let snap = link.read_snapshot();
-                    let pause = if snap
-                        .axes
-                        .iter()
-                        .any(|a| matches!(a.state, AxisState::Moving | AxisState::Homing))
-                    {
+                    let pause = if snap.axes.iter().any(|a| {
+                        matches!(
+                            a.state,
+                            AxisState::Moving | AxisState::Homing | AxisState::Tracking
+                        )
+                    }) {
                         MOVING_PERIOD
                     } else {
                         IDLE_PERIOD

@@ -20,10 +20,12 @@ pub fn snapshot(boards: &[BoardLink]) -> Snapshot {
         .enumerate()
         .map(|(k, b)| b.snapshot(k))
         .collect();
-    let busy = boards
-        .iter()
-        .flat_map(|b| &b.axes)
-        .any(|a| matches!(a.state, AxisState::Moving | AxisState::Homing));
+    let busy = boards.iter().flat_map(|b| &b.axes).any(|a| {
+        matches!(
+            a.state,
+            AxisState::Moving | AxisState::Homing | AxisState::Tracking
+        )
+    });
     Snapshot { boards, busy }
 }
 

@@ -327,7 +327,10 @@ impl Device {
 }
 
 fn is_moving(st: &AxisStatus) -> bool {
-    matches!(st.state, AxisState::Moving | AxisState::Homing)
+    matches!(
+        st.state,
+        AxisState::Moving | AxisState::Homing | AxisState::Tracking
+    )
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

@@ -1,0 +1,327 @@
+//! `track`: open-ended motion at an exact rate on one axis, rate changes while it runs,
+//! reversal through a controlled stop, soft limits, periodic wrap, jog leases, and the
+//! named rates (seed 002's constant, fast and slow motion).
+
+use super::{Board, Purpose};
+use crate::axis::{AxisState, MAX_POSITION};
+use crate::error::CtlError;
+use crate::protocol::{RateArg, SignedRate, TrackOpts};
+use crate::tracking::{in_steps, TrackSource};
+use multistep_core::{Rate, TrackLimits};
+use std::collections::BTreeMap;
+
+/// What a tracking motion is asked to do.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TrackState {
+    /// The rate asked for (steps/s): its magnitude, and whether it runs backwards.
+    negative: bool,
+    rate: Rate,
+    /// A reversal: once the stop under way ends, track this rate the other way.
+    then: Option<Rate>,
+    /// The tick at which a jog lease lapses (the axis then stops).
+    lease: Option<u64>,
+    /// The ramps' acceleration and jerk, chosen when tracking started.
+    limits: TrackLimits,
+}
+
+impl TrackState {
+    /// The rate as status shows it (signed steps/s).
+    pub(crate) fn signed_rate(&self) -> f64 {
+        let v = self.rate.to_f64();
+        if self.negative {
+            -v
+        } else {
+            v
+        }
+    }
+}
+
+impl Board {
+    /// `track AXIS RATE`: from rest, ramps to the rate and runs at it until stopped; on a
+    /// tracking axis, changes the rate (through a controlled stop when the sign changes).
+    /// `lease_ticks`: the axis stops unless the command comes again within that many
+    /// ticks. Returns the rate in steps/s (signed).
+    pub fn track(
+        &mut self,
+        axis: &str,
+        rate: &RateArg,
+        opts: &TrackOpts,
+        lease_ticks: Option<u64>,
+        now: u64,
+    ) -> Result<f64, CtlError> {
+        self.advance(now);
+        let i = self.index(axis)?;
+        if self.estopped {
+            return Err(CtlError::EStopped);
+        }
+        let want = self.rate_value(rate)?;
+        let s = &self.axes[i].settings;
+        let steps = in_steps(want, s.steps_per_unit)?;
+        let negative = want.negative && !steps.is_zero();
+        let name = &self.axes[i].name;
+        let v = steps.to_f64();
+        if v > s.vmax * (1.0 + 1e-12) {
+            return Err(CtlError::TooFast(format!(
+                "axis {name}: {v} steps/s is above vmax {}",
+                s.vmax
+            )));
+        }
+        let accel = opts.amax.unwrap_or(s.amax);
+        if accel > s.amax * (1.0 + 1e-12) {
+            return Err(CtlError::TooFast(format!(
+                "axis {name}: amax={accel} steps/s² is above the axis's amax {}",
+                s.amax
+            )));
+        }
+        let lease = lease_ticks.map(|l| self.now.saturating_add(l));
+        let signed = if negative { -v } else { v };
+        let tracking = self.axes[i]
+            .motion
+            .as_ref()
+            .is_some_and(|m| m.track.is_some());
+        if tracking {
+            self.change_rate(i, negative, steps, opts.amax, lease)?;
+            return Ok(signed);
+        }
+        self.check_can_move(i)?;
+        if steps.is_zero() {
+            return Ok(0.0);
+        }
+        let limits = TrackLimits {
+            amax: accel,
+            jmax: s.jmax,
+        };
+        let at = self.now;
+        self.start_tracking(i, negative, steps, limits, lease, at)?;
+        Ok(signed)
+    }
+
+    fn start_tracking(
+        &mut self,
+        i: usize,
+        negative: bool,
+        rate: Rate,
+        limits: TrackLimits,
+        lease: Option<u64>,
+        at: u64,
+    ) -> Result<(), CtlError> {
+        let dir = if negative { -1 } else { 1 };
+        let ready = self.energize_for_motion([i]).max(at);
+        let src = TrackSource::new(self.clock_hz, limits, rate, ready)?;
+        self.check_room(i, dir, src.stop_steps_bound())?;
+        self.launch_source(i, Box::new(src), dir, Purpose::Move, ready)?;
+        let ax = &mut self.axes[i];
+        ax.state = AxisState::Tracking;
+        if let Some(m) = ax.motion.as_mut() {
+            m.track = Some(TrackState {
+                negative,
+                rate,
+                then: None,
+                lease,
+                limits,
+            });
+        }
+        Ok(())
+    }
+
+    /// Steps left before the soft limit in direction `dir` (`None` on a periodic axis).
+    fn room(&self, i: usize, dir: i64) -> Option<i64> {
+        let ax = &self.axes[i];
+        if ax.settings.period.is_some() {
+            return None;
+        }
+        let s = &ax.settings;
+        Some(if dir > 0 {
+            s.soft_max.unwrap_or(MAX_POSITION).min(MAX_POSITION) - ax.count
+        } else {
+            ax.count - s.soft_min.unwrap_or(-MAX_POSITION).max(-MAX_POSITION)
+        })
+    }
+
+    /// Refuses a rate whose ramp and stop (`bound` steps at most) would not fit before the
+    /// soft limit: a stop during an S-curve ramp waits for the ramp's end.
+    fn check_room(&self, i: usize, dir: i64, bound: u64) -> Result<(), CtlError> {
+        match self.room(i, dir) {
+            Some(room) if room <= bound as i64 => {
+                let ax = &self.axes[i];
+                let s = &ax.settings;
+                let max = MAX_POSITION;
+                Err(CtlError::OutOfLimits {
+                    axis: ax.name.clone(),
+                    target: ax.count as i128 + dir as i128 * bound as i128,
+                    min: s.soft_min.unwrap_or(-max).max(-max).to_string(),
+                    max: s.soft_max.unwrap_or(max).min(max).to_string(),
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn change_rate(
+        &mut self,
+        i: usize,
+        negative: bool,
+        rate: Rate,
+        accel: Option<f64>,
+        lease: Option<u64>,
+    ) -> Result<(), CtlError> {
+        let ax = &mut self.axes[i];
+        let name = ax.name.clone();
+        let Some(m) = ax.motion.as_mut() else {
+            return Ok(());
+        };
+        let dir = m.dir;
+        let Some(src) = m.src.as_track() else {
+            return Ok(());
+        };
+        if accel.is_some_and(|a| a != src.limits().amax) {
+            return Err(CtlError::syntax(format!(
+                "axis {name} is tracking with amax={}: amax is chosen when tracking starts",
+                src.limits().amax
+            )));
+        }
+        let Some(t) = m.track.as_mut() else {
+            return Ok(());
+        };
+        let same = t.negative == negative && t.rate == rate;
+        if same && (t.then.is_some() || !m.stopping || rate.is_zero()) {
+            // The same command again (a jog's renewal): only the lease is new, the
+            // stream goes on untouched.
+            t.lease = lease;
+            return Ok(());
+        }
+        let forward = (dir < 0) == negative || rate.is_zero();
+        let step_rate = if forward { rate } else { Rate::ZERO };
+        // one step may be taken already (the board looks one edge ahead)
+        let bound = src.stop_bound_after(step_rate)? + 1;
+        self.check_room(i, dir, bound)?;
+        let ax = &mut self.axes[i];
+        let Some(m) = ax.motion.as_mut() else {
+            return Ok(());
+        };
+        let (Some(src), Some(t)) = (m.src.as_track(), m.track.as_mut()) else {
+            return Ok(());
+        };
+        src.set_rate(step_rate)?;
+        *t = TrackState {
+            negative,
+            rate,
+            then: (!forward).then_some(rate),
+            lease,
+            limits: t.limits,
+        };
+        m.stopping = step_rate.is_zero();
+        ax.state = if rate.is_zero() {
+            AxisState::Moving
+        } else {
+            AxisState::Tracking
+        };
+        Ok(())
+    }
+
+    /// A controlled stop of a tracking axis (its tracker's own ramp to rest); false when
+    /// the axis is not tracking.
+    pub(super) fn stop_tracking(&mut self, i: usize) -> bool {
+        let ax = &mut self.axes[i];
+        let Some(m) = ax.motion.as_mut() else {
+            return false;
+        };
+        let Some(t) = m.track.as_mut() else {
+            return false;
+        };
+        if let Some(src) = m.src.as_track() {
+            // A stop is always plannable: the tracker plans it from the speed it has.
+            let _ = src.set_rate(Rate::ZERO);
+        }
+        *t = TrackState {
+            rate: Rate::ZERO,
+            then: None,
+            lease: None,
+            ..*t
+        };
+        m.stopping = true;
+        ax.state = AxisState::Moving;
+        true
+    }
+
+    /// After each step of a tracking axis: periodic axes wrap into `[0, period)`; on
+    /// others, a stop starts while the soft limit ahead is still farther than the stop.
+    pub(super) fn track_step(&mut self, i: usize) {
+        let ax = &mut self.axes[i];
+        if let Some(p) = ax.period() {
+            if ax.count < 0 || ax.count >= p {
+                let shift = ax.count.rem_euclid(p) - ax.count;
+                ax.count += shift;
+                ax.sim_pos += shift;
+            }
+            return;
+        }
+        let Some(m) = ax.motion.as_mut() else { return };
+        let limit = match m.dir {
+            1 => ax.settings.soft_max,
+            _ => ax.settings.soft_min,
+        };
+        // without a soft limit ahead, ±1e15 microsteps are centuries away at any rate
+        if m.stopping || limit.is_none() {
+            return;
+        }
+        let dir = m.dir;
+        let bound = m.src.as_track().map_or(0, |s| s.stop_steps_bound());
+        if self.room(i, dir).is_some_and(|room| room <= bound as i64) {
+            self.stop_tracking(i);
+        }
+    }
+
+    /// Stops a tracking axis whose jog lease lapses by `until`, at the lease's tick.
+    pub(super) fn track_lease(&mut self, i: usize, until: u64) {
+        let due = self.axes[i]
+            .motion
+            .as_ref()
+            .filter(|m| !m.stopping)
+            .and_then(|m| m.track.as_ref())
+            .and_then(|t| t.lease)
+            .filter(|&l| l <= until);
+        if let Some(l) = due {
+            self.advance_axis(i, l);
+            self.stop_tracking(i);
+        }
+    }
+
+    /// A tracking motion came to rest at `end`: a reversal goes on the other way.
+    pub(super) fn track_ended(&mut self, i: usize, t: TrackState, dir: i64, end: u64) {
+        let Some(rate) = t.then else { return };
+        if let Err(e) = self.start_tracking(i, dir > 0, rate, t.limits, t.lease, end) {
+            let ax = &mut self.axes[i];
+            ax.state = AxisState::Fault;
+            ax.fault = Some(format!("reversing: {e}"));
+        }
+    }
+
+    /// A rate as given, or the stored rate of that name.
+    fn rate_value(&self, rate: &RateArg) -> Result<SignedRate, CtlError> {
+        match rate {
+            RateArg::Value(r) => Ok(*r),
+            RateArg::Preset(name) => {
+                let text = self
+                    .store
+                    .rate(name)?
+                    .ok_or_else(|| CtlError::UnknownName {
+                        what: "rate",
+                        name: name.clone(),
+                    })?;
+                SignedRate::parse(&text)
+                    .ok_or_else(|| CtlError::Store(format!("stored rate {name}: '{text}'")))?
+            }
+        }
+    }
+
+    /// `rate NAME VALUE`: stores a named rate.
+    pub fn set_rate_preset(&mut self, name: &str, rate: &SignedRate) -> Result<(), CtlError> {
+        self.store.put_rate(name, &rate.to_string())
+    }
+
+    /// Every named rate, as its text.
+    pub fn rate_presets(&self) -> Result<BTreeMap<String, String>, CtlError> {
+        self.store.rates()
+    }
+}
