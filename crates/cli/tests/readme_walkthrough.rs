@@ -58,8 +58,8 @@ fn the_readme_serve_ctl_block_pastes_safely() {
         .find(|l| l.starts_with("a:X "))
         .unwrap_or_else(|| panic!("{stdout}"));
     let cols: Vec<&str> = x.split_whitespace().collect();
-    // homed, then moved 3200 microsteps: idle at 3200, homed and trusted
-    assert_eq!(cols[1..5], ["3200", "idle", "yes", "yes"], "{stdout}");
+    // motor 0, homed, then moved 3200 microsteps: idle at 3200, homed and trusted
+    assert_eq!(cols[1..6], ["0", "3200", "idle", "yes", "yes"], "{stdout}");
     assert!(dir.join("board-a").is_dir());
     std::fs::remove_dir_all(&dir).ok();
 }
