@@ -8,6 +8,7 @@
 
 pub mod access;
 pub mod axis;
+pub mod backend;
 pub mod board;
 pub mod client;
 pub mod config;
