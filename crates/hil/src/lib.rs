@@ -410,8 +410,9 @@ impl World {
                 self.settle_until = cycle + 16;
             }
             Control::Reset => {
-                self.inputs.rst_n = false;
                 self.reset_until = cycle + RESET_CYCLES;
+                // run on past the release: the board's own reset counts 16 more clocks
+                self.settle_until = self.reset_until + 32;
             }
             Control::Cut(on) => {
                 self.cut = on;

@@ -150,3 +150,162 @@ fn two_axis_move_over_the_pty_is_exact() {
         assert_eq!(rises[a], want, "axis {a}: every rise at go + t + 1");
     }
 }
+
+/// 0.5 ms at 50 MHz.
+const DEBOUNCE: u32 = 25_000;
+
+#[test]
+fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
+    if !tools_present() {
+        return;
+    }
+    // the window [1200, 1600) forward; glitches up to 0.2 ms (a debounce is 0.5 ms)
+    let sensor = SensorOptions {
+        sensor_at: 1200,
+        sensor_width: 400,
+        home_dir: 1,
+        glitch_rate: 200.0,
+        glitch_max: 0.0002,
+        glitch_gap: 0.001,
+        seed: 7,
+        ..SensorOptions::default()
+    };
+    let sim = start(2, vec![sensor], None);
+    let p = sim.board.core.clone();
+    let mut l = link(&sim, 2000);
+    l.write(Reg::Board(BoardReg::Debounce), DEBOUNCE).unwrap();
+    l.write(Reg::Board(BoardReg::Enable), 0b11).unwrap();
+    // an injected glitch at rest, half a debounce long: never accepted
+    for _ in 0..3 {
+        sim.glitch(0).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        let st = l.axis_state(0).unwrap();
+        assert!(!st.hall && !st.hall_flag, "a short glitch is not accepted");
+    }
+    // a constant-speed pass: 16 000 microsteps/s after a 20 ms ramp
+    let v = 16_000u64;
+    let clock = IntClock::hz(p.clock_hz as u64);
+    let trap = IntProfile::limits(
+        &IntLimitsMove {
+            steps: 2400,
+            vmax: v,
+            amax: 800_000,
+            start_speed: 0,
+            end_speed: 0,
+        },
+        clock,
+    )
+    .unwrap();
+    let m = AxisMove::from_profile(&trap, true, &p).unwrap();
+    let mut w = move_writes(&p, 0, &m, 0).unwrap();
+    w.push(start_write(0b1));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    let st = l.axis_state(0).unwrap();
+    assert!(st.hall_flag, "the pass was seen");
+    assert!(!st.hall, "past the window at the end");
+    let hp = l.read(Reg::Axis(0, AxisReg::HallPosition)).unwrap() as i32 as f64;
+    // the count at the accepted edge: the sensor edge, plus the steps the command leads
+    // the rotor by (its lag), plus the steps during the debounce time
+    let during_debounce = v as f64 * f64::from(DEBOUNCE) / p.clock_hz;
+    let lag = hp - 1200.0 - during_debounce;
+    assert!(
+        (-1.0..=32.0).contains(&lag),
+        "HallPosition {hp}: lag {lag} microsteps (debounce {during_debounce} steps)"
+    );
+    let s = sim.state().unwrap();
+    let a = &s.axes[0];
+    assert_eq!(a.step_rises, 2400);
+    assert_eq!(a.commanded, 2400);
+    assert!(
+        (a.position - 2400.0).abs() < 8.0,
+        "the rotor settles at the command: {}",
+        a.position
+    );
+    sim.quit().unwrap();
+}
+
+#[test]
+fn estop_reset_and_a_cut_link() {
+    if !tools_present() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("edges.txt");
+    let sim = start(2, Vec::new(), Some(log.clone()));
+    let p = sim.board.core.clone();
+    let mut l = link(&sim, 300);
+    // the session value changes on a reset; the registers return to their defaults
+    let s1 = l.read(Reg::Board(BoardReg::Session)).unwrap();
+    assert_eq!(l.read(Reg::Board(BoardReg::Session)).unwrap(), s1);
+    l.write(Reg::Board(BoardReg::Enable), 0b11).unwrap();
+    sim.reset().unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    let s2 = l.read(Reg::Board(BoardReg::Session)).unwrap();
+    assert_ne!(s1, s2, "a new session after the reset");
+    assert_eq!(l.read(Reg::Board(BoardReg::Enable)).unwrap(), 0);
+    // a cut link: reads time out; restored, they answer again
+    sim.cut().unwrap();
+    assert!(matches!(
+        l.read(Reg::Board(BoardReg::Id)),
+        Err(LinkError::Io(_))
+    ));
+    sim.restore().unwrap();
+    std::thread::sleep(Duration::from_millis(20));
+    assert_eq!(l.read(Reg::Board(BoardReg::Id)).unwrap() >> 16, 0x4D53);
+    // the e-stop pin mid-move: STEP stops at once and the board reads back latched
+    let clock = IntClock::hz(p.clock_hz as u64);
+    let long = IntProfile::segments(
+        &[IntSegment {
+            v0: 50_000,
+            ticks: 50_000_000,
+            steps: 50_000,
+        }],
+        clock,
+    )
+    .unwrap();
+    let m = AxisMove::from_profile(&long, true, &p);
+    let m = match m {
+        Ok(m) => m,
+        Err(_) => {
+            // longer than a piece: a 0.2 s cruise instead
+            let short = IntProfile::segments(
+                &[IntSegment {
+                    v0: 50_000,
+                    ticks: 10_000_000,
+                    steps: 10_000,
+                }],
+                clock,
+            )
+            .unwrap();
+            AxisMove::from_profile(&short, true, &p).unwrap()
+        }
+    };
+    let mut w = move_writes(&p, 1, &m, 0).unwrap();
+    w.push(start_write(0b10));
+    l.write_all(&w).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    sim.estop(true).unwrap();
+    let at = sim.state().unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    let st = l.axis_state(1).unwrap();
+    assert!(st.estopped && !st.busy, "{st:?}");
+    let status = l.read(Reg::Board(BoardReg::Status)).unwrap();
+    assert_eq!(status & 0b11, 0b11, "latched and the input active");
+    assert_eq!(l.read(Reg::Board(BoardReg::Estop)).unwrap(), 1);
+    let after = sim.state().unwrap();
+    assert_eq!(
+        after.axes[1].step_rises, at.axes[1].step_rises,
+        "no STEP after the e-stop"
+    );
+    assert!(at.axes[1].step_rises > 0 && at.axes[1].step_rises < m.edges().len() as u64);
+    sim.estop(false).unwrap();
+    l.write(Reg::Board(BoardReg::Estop), 0).unwrap();
+    assert_eq!(l.read(Reg::Board(BoardReg::Estop)).unwrap(), 0);
+    sim.quit().unwrap();
+    let (_, rises) = edges_log(&log, 2);
+    assert!(
+        rises[1].iter().all(|&c| c <= at.ticks),
+        "every rise before the e-stop"
+    );
+}
