@@ -376,10 +376,11 @@ impl Incremental {
             return Err(SimError::EdgesBackwards { prev, next: tick });
         }
         let held = (tick - prev) as f64 / self.clock > Self::HOLD_S;
+        let d = if forward { 1 } else { -1 };
         let mut s = self.done;
-        self.apply_pending(&mut s, (!held).then_some(tick), true);
+        self.apply_pending(&mut s, (!held).then_some((tick, d)), true);
         self.done = s;
-        self.pending = (tick, if forward { 1 } else { -1 });
+        self.pending = (tick, d);
         self.at_rest = false;
         self.ahead = None;
         Ok(())
@@ -416,8 +417,9 @@ impl Incremental {
     }
 
     /// Integrates `s` along the grid to the pending edge and applies it, with ω* to
-    /// `next` (none: the move's last edge, ω* = 0). With `commit`, records the trace.
-    fn apply_pending(&mut self, s: &mut Stepper, next: Option<u64>, commit: bool) {
+    /// `next` (tick and direction; none: the move's last edge, ω* = 0). With `commit`,
+    /// records the trace.
+    fn apply_pending(&mut self, s: &mut Stepper, next: Option<(u64, i64)>, commit: bool) {
         let (e, d) = self.pending;
         let te = e as f64 / self.clock;
         loop {
@@ -442,7 +444,12 @@ impl Incremental {
             s.pos += d;
             s.dir = d as f64;
         }
-        let omega_ref = match next.filter(|_| !self.at_rest) {
+        let next = next.filter(|_| !self.at_rest);
+        if let (0, Some((_, nd))) = (d, next) {
+            // the start of a move: it goes the way of its first edge
+            s.dir = nd as f64;
+        }
+        let omega_ref = match next.map(|(n, _)| n) {
             Some(n) => s.dir * self.micro * self.clock / (n.saturating_sub(e).max(1)) as f64,
             None => 0.0,
         };
