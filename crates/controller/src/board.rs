@@ -852,22 +852,33 @@ impl Board {
         opts: &MoveOpts,
     ) -> Result<Vec<Option<IntProfile>>, CtlError> {
         let o = self.resolve_opts(opts)?;
+        // A sync group's phases, in whole ticks: the same on every axis (plan_sync gives
+        // every axis the phase times ta·s, tb·s, tc·s).
+        let (ta, tb, tc) = if o.has_phase_times() {
+            (
+                o.accel_time.unwrap_or(0.0),
+                o.cruise_time.unwrap_or(0.0),
+                o.decel_time.unwrap_or(0.0),
+            )
+        } else {
+            (0.25, 0.5, 0.25)
+        };
+        let whole = |t: f64| (t * self.clock_hz).round() / self.clock_hz;
         plan.iter()
             .zip(profiles)
             .map(|(&(i, d), p)| {
-                if p.is_none() {
-                    return Ok(None);
-                }
+                let Some(p) = p else { return Ok(None) };
                 let mut o = o.clone();
                 o.profile = Some(self.family_name(i, &o).to_string());
-                let dp = self.datapath(&self.spec(i, d.unsigned_abs(), &o))?;
-                if sync && dp.is_some() {
-                    return Err(CtlError::Setting(format!(
-                        "synchronous groups ('sync') are not planned for the board's datapath ({})",
-                        self.pins.describe()
-                    )));
+                if sync {
+                    let s = p.duration() / (ta + tb + tc);
+                    o.accel_time = Some(whole(ta * s));
+                    o.cruise_time = Some(whole(tb * s));
+                    o.decel_time = Some(whole(tc * s));
+                    o.start_speed = None;
+                    o.end_speed = None;
                 }
-                Ok(dp)
+                self.datapath(&self.spec(i, d.unsigned_abs(), &o))
             })
             .collect()
     }
@@ -1006,7 +1017,8 @@ impl Board {
                         ax.state
                     },
                     homed: ax.homed,
-                    trusted: ax.trusted,
+                    // Not reachable: its count cannot be confirmed.
+                    trusted: ax.trusted && link.is_none(),
                     target: ax.motion.as_ref().map(|m| m.target),
                     speed,
                     sensor: self.pins.sensor(i),

@@ -595,7 +595,8 @@ impl BoardBackend for FpgaBackend {
         let l = self.link()?;
         let r = l
             .write(Reg::Board(BoardReg::Estop), 0)
-            .and_then(|_| l.write(Reg::Board(BoardReg::Clear), mask));
+            .and_then(|_| l.write(Reg::Board(BoardReg::Clear), mask))
+            .and_then(|_| l.write(Reg::Board(BoardReg::Enable), mask));
         match r {
             Ok(()) => {
                 self.estopped = false;
