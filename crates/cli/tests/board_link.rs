@@ -150,27 +150,12 @@ struct Rig {
     checked: bool,
 }
 
-/// Two axes that home onto a Hall sensor whose edge is at -300 (home_offset 500): short
+/// A board whose axes home onto a Hall sensor whose edge is at -300 (home_offset 500): short
 /// moves (every piece within the board's 0.33 s) so the RTL simulation runs them in seconds.
-const CONFIG: &str = r#"
-[board]
-name = "t"
-[[axis]]
-name = "X"
-vmax = 4000.0
-amax = 40000.0
-home_dir = -1
-home_offset = 500
-home_speed = 2000.0
-home_slow_speed = 500.0
-home_backoff = 40
-home_search = 500
-debounce = 0.00002
-[axis.sim]
-sensor_at = -300
-sensor_width = 200
-[[axis]]
-name = "Y"
+const CONFIG: &str = "[board]\nname = \"t\"\n";
+
+/// One axis of [`CONFIG`] (every axis the same).
+const AXIS: &str = r#"
 vmax = 4000.0
 amax = 40000.0
 home_dir = -1
@@ -185,9 +170,15 @@ sensor_at = -300
 sensor_width = 200
 "#;
 
+/// [`CONFIG`] with the axes X and Y.
+fn config() -> String {
+    let axis = |n: &str| format!("[[axis]]\nname = \"{n}\"{AXIS}");
+    format!("{CONFIG}{}{}", axis("X"), axis("Y"))
+}
+
 impl Rig {
     fn new(pins: Pins) -> Rig {
-        Rig::with_config(pins, CONFIG, &[])
+        Rig::with_config(pins, &config(), &[])
     }
 
     /// With the config `text` and, on the board, board-sim's extra flags `board_args`
@@ -430,7 +421,7 @@ fn a_board_reset_mid_move_and_a_cut_link_are_reported_and_survived() {
 #[test]
 fn homing_under_bouncing_and_glitching_sensors_lands_on_the_edge() {
     // Bounces and glitches of 10 µs, shorter than the 20 µs debounce.
-    let noisy = CONFIG.replace(
+    let noisy = config().replace(
         "sensor_width = 200\n",
         "sensor_width = 200\nbounce_count = 3\nbounce_time = 0.00001\n\
          glitch_rate = 300.0\nglitch_max = 0.00001\nglitch_gap = 0.001\n",
@@ -460,4 +451,20 @@ fn homing_under_bouncing_and_glitching_sensors_lands_on_the_edge() {
         (h.position, h.homed, h.trusted, h.fault)
     });
     assert_eq!(got, (500, true, true, None));
+}
+
+#[test]
+fn stop_ends_a_move_short_of_its_target_with_the_count_trusted() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.home("X");
+        r.req("move X 1200");
+        std::thread::sleep(Duration::from_millis(150));
+        r.req("stop X");
+        let x = r.wait_idle("X");
+        // The simulated board ramps down at amax; the board halts at once (its count
+        // stays exact: it counts the STEPs it gave).
+        (x.state, x.trusted, x.position > 500 && x.position < 1700)
+    });
+    assert_eq!(got, (AxisState::Idle, true, true));
 }

@@ -854,15 +854,7 @@ impl Board {
         let o = self.resolve_opts(opts)?;
         // A sync group's phases, in whole ticks: the same on every axis (plan_sync gives
         // every axis the phase times ta·s, tb·s, tc·s).
-        let (ta, tb, tc) = if o.has_phase_times() {
-            (
-                o.accel_time.unwrap_or(0.0),
-                o.cruise_time.unwrap_or(0.0),
-                o.decel_time.unwrap_or(0.0),
-            )
-        } else {
-            (0.25, 0.5, 0.25)
-        };
+        let (ta, tb, tc) = sync_phases(&o);
         let whole = |t: f64| (t * self.clock_hz).round() / self.clock_hz;
         plan.iter()
             .zip(profiles)
@@ -892,15 +884,7 @@ impl Board {
         opts: &MoveOpts,
     ) -> Result<Vec<Option<Profile>>, CtlError> {
         let opts = self.resolve_opts(opts)?;
-        let (ta, tb, tc) = if opts.has_phase_times() {
-            (
-                opts.accel_time.unwrap_or(0.0),
-                opts.cruise_time.unwrap_or(0.0),
-                opts.decel_time.unwrap_or(0.0),
-            )
-        } else {
-            (0.25, 0.5, 0.25)
-        };
+        let (ta, tb, tc) = sync_phases(&opts);
         let phase = |i: usize, d: i64, s: f64| -> Result<Profile, CtlError> {
             let mut o = opts.clone();
             o.profile = Some(self.family_name(i, &opts).to_string());
@@ -1169,6 +1153,20 @@ impl Board {
 
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+}
+
+/// A sync group's phase times before stretching: as given, else a quarter accelerating,
+/// half cruising, a quarter decelerating.
+fn sync_phases(o: &MoveOpts) -> (f64, f64, f64) {
+    if o.has_phase_times() {
+        (
+            o.accel_time.unwrap_or(0.0),
+            o.cruise_time.unwrap_or(0.0),
+            o.decel_time.unwrap_or(0.0),
+        )
+    } else {
+        (0.25, 0.5, 0.25)
     }
 }
 
