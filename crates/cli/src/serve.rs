@@ -87,6 +87,9 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         Some(l) => Some(LinkSpec::parse(l)?),
         None => None,
     };
+    if link.is_some() && a.time_scale != 1.0 {
+        bail!("--time-scale: a board on a link runs in real time (1)");
+    }
     let store = open_store(&a.data, l.reset_damaged_data)?;
     let ctl = match &link {
         None => Controller::open_store(&config, store, a.time_scale)?,

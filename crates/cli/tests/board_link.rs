@@ -468,3 +468,33 @@ fn stop_ends_a_move_short_of_its_target_with_the_count_trusted() {
     });
     assert_eq!(got, (AxisState::Idle, true, true));
 }
+
+#[test]
+fn a_bad_or_missing_board_link_stops_serve_with_one_error_line() {
+    let dir = tempfile::tempdir().unwrap();
+    for (link, want) in [
+        ("tcp:127.0.0.1:9", "serial:DEVICE"),
+        ("serial:/dev/x@12", "serial:DEVICE"),
+        ("serial:/nonexistent/tty", "/nonexistent/tty"),
+    ] {
+        let out = Command::new(BIN)
+            .args([
+                "serve",
+                "--listen",
+                "127.0.0.1:0",
+                "--board-link",
+                link,
+                "--data",
+            ])
+            .arg(dir.path().join("data"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{link}");
+        assert_eq!(err.lines().count(), 1, "{link}: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains(want),
+            "{link}: {err}"
+        );
+    }
+}
