@@ -133,7 +133,7 @@ impl TxDecoder {
     pub fn poll(&mut self, cycle: u64) -> Option<u8> {
         let (start, mut bits, mut j) = self.frame?;
         while j <= 9 && self.sample_at(start, j) <= cycle {
-            if j >= 1 && j <= 8 && self.level {
+            if (1..=8).contains(&j) && self.level {
                 bits |= 1 << (j - 1);
             }
             if j == 9 {
