@@ -18,7 +18,10 @@ fn unknown_board_is_one_error_line() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.starts_with("error:") && err.contains("ulx3s-25f"), "{err}");
+    assert!(
+        err.starts_with("error:") && err.contains("ulx3s-25f"),
+        "{err}"
+    );
     let out = exe()
         .args(["board-sim", "--board", "icebreaker", "--axes", "5"])
         .output()
@@ -42,7 +45,15 @@ fn prints_the_pty_first_and_takes_commands() {
     }
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator");
     let mut child = exe()
-        .args(["board-sim", "--board", "ulx3s-25f", "--axes", "2", "--sensor-at", "3"])
+        .args([
+            "board-sim",
+            "--board",
+            "ulx3s-25f",
+            "--axes",
+            "2",
+            "--sensor-at",
+            "3",
+        ])
         .arg("--cache-dir")
         .arg(&cache)
         .stdin(Stdio::piped())
@@ -53,7 +64,10 @@ fn prints_the_pty_first_and_takes_commands() {
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut line = String::new();
     out.read_line(&mut line).unwrap();
-    let path = line.strip_prefix("pty ").expect("the pty line first").trim();
+    let path = line
+        .strip_prefix("pty ")
+        .expect("the pty line first")
+        .trim();
     assert!(std::path::Path::new(path).exists(), "{path}");
     let mut stdin = child.stdin.take().unwrap();
     writeln!(stdin, "bogus\nslip 1 5\nstate").unwrap();
