@@ -234,12 +234,15 @@ fn estop_reset_and_a_cut_link() {
     let log = dir.path().join("edges.txt");
     let sim = start(2, Vec::new(), Some(log.clone()));
     let p = sim.board.core.clone();
-    let mut l = link(&sim, 300);
+    let mut l = link(&sim, 1000);
     // the session value changes on a reset; the registers return to their defaults
     let s1 = l.read(Reg::Board(BoardReg::Session)).unwrap();
     assert_eq!(l.read(Reg::Board(BoardReg::Session)).unwrap(), s1);
     l.write(Reg::Board(BoardReg::Enable), 0b11).unwrap();
     sim.reset().unwrap();
+    // controls are taken in order: once state answers, the reset pulse has begun (bytes
+    // sent while the board is in reset are lost, as on the board)
+    sim.state().unwrap();
     std::thread::sleep(Duration::from_millis(50));
     let s2 = l.read(Reg::Board(BoardReg::Session)).unwrap();
     assert_ne!(s1, s2, "a new session after the reset");
