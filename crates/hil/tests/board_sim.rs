@@ -2,7 +2,9 @@
 //! the host link over `serialport` as a real host would. Needs `verilator` and `g++`
 //! (skipped with a message when missing, unless CI is set: then it fails).
 
-use multistep_core::int::{IntClock, IntEdgeGenerator, IntLimitsMove, IntProfile, IntSegment};
+use multistep_core::int::{
+    IntClock, IntEdgeGenerator, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment,
+};
 use multistep_hdl::link::{
     move_writes, start_write, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg,
 };
@@ -35,8 +37,17 @@ fn cache() -> PathBuf {
 }
 
 fn start(axes: u32, sensors: Vec<SensorOptions>, edges: Option<PathBuf>) -> BoardSim {
+    start_board("ulx3s-25f", axes, sensors, edges)
+}
+
+fn start_board(
+    board: &str,
+    axes: u32,
+    sensors: Vec<SensorOptions>,
+    edges: Option<PathBuf>,
+) -> BoardSim {
     BoardSim::start(&Options {
-        board: "ulx3s-25f".into(),
+        board: board.into(),
         axes: Some(axes),
         sensors,
         edges,
@@ -311,4 +322,63 @@ fn estop_reset_and_a_cut_link() {
         rises[1].iter().all(|&c| c <= at.ticks),
         "every rise before the e-stop"
     );
+}
+
+#[test]
+fn icebreaker_at_its_own_clock_baud_and_widths() {
+    if !tools_present() {
+        return;
+    }
+    // 18 MHz, 1 Mbaud, 48-bit radicand, 26-bit kernels, FIFO depth 2, radix 2
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("edges.txt");
+    let sim = start_board("icebreaker", 2, Vec::new(), Some(log.clone()));
+    let p = sim.board.core.clone();
+    assert_eq!(p.clock_hz, 18e6);
+    let mut l = link(&sim, 2000);
+    assert_eq!(
+        l.build_id().unwrap(),
+        BuildId::of(&p, sim.board.baud).unwrap()
+    );
+    let hz = p.clock_hz as u64;
+    let ms = |t: u64| t * hz / 1000;
+    let profs: Vec<IntProfile> = [(800, 2, 6, 2), (2000, 20, 30, 20)]
+        .into_iter()
+        .map(|(steps, a, c, d)| {
+            IntProfile::phase(
+                &IntPhaseMove {
+                    steps,
+                    accel_ticks: ms(a),
+                    cruise_ticks: ms(c),
+                    decel_ticks: ms(d),
+                    start_speed: 0,
+                    end_speed: 0,
+                },
+                IntClock::hz(hz),
+            )
+            .unwrap()
+        })
+        .collect();
+    let mut w = Vec::new();
+    for (a, prof) in profs.iter().enumerate() {
+        let m = AxisMove::from_profile(prof, a == 0, &p).unwrap();
+        w.extend(move_writes(&p, a as u32, &m, 0).unwrap());
+    }
+    w.push(start_write(0b11));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    assert_eq!(l.read(Reg::Axis(0, AxisReg::Position)).unwrap() as i32, 800);
+    assert_eq!(
+        l.read(Reg::Axis(1, AxisReg::Position)).unwrap() as i32,
+        -2000
+    );
+    sim.quit().unwrap();
+    let (go, rises) = edges_log(&log, 2);
+    assert_eq!(go.len(), 1);
+    for (a, prof) in profs.into_iter().enumerate() {
+        let want: Vec<u64> = IntEdgeGenerator::new(prof)
+            .map(|t| go[0] + t + TICK0)
+            .collect();
+        assert_eq!(rises[a], want, "axis {a}: every rise at go + t + 1");
+    }
 }
