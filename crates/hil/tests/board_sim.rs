@@ -233,6 +233,27 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
         "the rotor settles at the command: {}",
         a.position
     );
+    // back to 0, the mechanics slip 64 microsteps ahead (a lost step seen from the load),
+    // and the same pass again: the sensor comes 64 steps early
+    let back = AxisMove::from_profile(&trap, false, &p).unwrap();
+    let mut w = move_writes(&p, 0, &back, 0).unwrap();
+    w.push(start_write(0b1));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    assert_eq!(l.read(Reg::Axis(0, AxisReg::Position)).unwrap(), 0);
+    sim.slip(0, 64).unwrap();
+    let mut w = move_writes(&p, 0, &m, 0).unwrap();
+    w.push(start_write(0b1));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    let hp2 = l.read(Reg::Axis(0, AxisReg::HallPosition)).unwrap() as i32 as f64;
+    assert!(
+        (hp - 64.0 - hp2).abs() <= 2.0,
+        "after a 64-step slip the Hall edge comes at {hp2}, first at {hp}"
+    );
+    let a = &sim.state().unwrap().axes[0];
+    assert_eq!(a.step_rises, 3 * 2400);
+    assert!((a.position - 2400.0 - 64.0).abs() < 8.0, "{}", a.position);
     sim.quit().unwrap();
 }
 
