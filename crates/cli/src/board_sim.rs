@@ -52,6 +52,11 @@ pub struct BoardSimArgs {
     /// Seed of the glitch and bounce generator (axis a uses seed + a)
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// A board config file (as `serve --config`): each axis's sensor from its `sim.*`,
+    /// `home_dir` and `period` (axis a of the board is the file's a-th `[[axis]]`)
+    #[arg(long, conflicts_with_all = ["sensor_at", "sensor_width", "home_dir", "bounce_count",
+        "bounce_time", "glitch_rate", "glitch_max", "glitch_gap", "seed"])]
+    config: Option<PathBuf>,
     /// Log every STEP rise as `AXIS CYCLE` (and each group start as `# go CYCLE`)
     #[arg(long)]
     edges: Option<PathBuf>,
@@ -77,20 +82,10 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
     check("glitch-gap", a.glitch_gap, 0.0, 10.0)?;
     check("bounce-count", f64::from(a.bounce_count), 0.0, 100.0)?;
     check("microsteps", f64::from(a.microsteps), 1.0, 256.0)?;
-    let sensors = (0..8)
-        .map(|i| SensorOptions {
-            sensor_at: a.sensor_at,
-            sensor_width: a.sensor_width,
-            home_dir: a.home_dir,
-            period: None,
-            bounce_count: a.bounce_count,
-            bounce_time: a.bounce_time,
-            glitch_rate: a.glitch_rate,
-            glitch_max: a.glitch_max,
-            glitch_gap: a.glitch_gap,
-            seed: a.seed.wrapping_add(i),
-        })
-        .collect();
+    let sensors = match &a.config {
+        Some(path) => sensors_of(path)?,
+        None => flag_sensors(a),
+    };
     let opts = Options {
         board: a.board.clone(),
         axes: a.axes,
@@ -125,4 +120,45 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
     loop {
         std::thread::park();
     }
+}
+
+/// Every axis's sensor from the flags (axis a's generator seeded with seed + a).
+fn flag_sensors(a: &BoardSimArgs) -> Vec<SensorOptions> {
+    (0..multistep_hdl::verilator::MAX_AXES)
+        .map(|i| SensorOptions {
+            sensor_at: a.sensor_at,
+            sensor_width: a.sensor_width,
+            home_dir: a.home_dir,
+            period: None,
+            bounce_count: a.bounce_count,
+            bounce_time: a.bounce_time,
+            glitch_rate: a.glitch_rate,
+            glitch_max: a.glitch_max,
+            glitch_gap: a.glitch_gap,
+            seed: a.seed.wrapping_add(u64::from(i)),
+        })
+        .collect()
+}
+
+/// Each axis's sensor from a board config file (checked as `serve` checks it).
+fn sensors_of(path: &std::path::Path) -> anyhow::Result<Vec<SensorOptions>> {
+    let c = multistep_controller::config::BoardConfig::load(path)?;
+    Ok(c.axes
+        .iter()
+        .map(|ax| {
+            let (s, sim) = (&ax.settings, &ax.settings.sim);
+            SensorOptions {
+                sensor_at: sim.sensor_at,
+                sensor_width: sim.sensor_width,
+                home_dir: s.home_dir,
+                period: s.period,
+                bounce_count: sim.bounce_count,
+                bounce_time: sim.bounce_time,
+                glitch_rate: sim.glitch_rate,
+                glitch_max: sim.glitch_max,
+                glitch_gap: sim.glitch_gap,
+                seed: sim.seed,
+            }
+        })
+        .collect())
 }

@@ -31,7 +31,7 @@ const BUILD_FLAGS: [&str; 14] = [
     "-Wno-lint",
     "-Wno-style",
     "-CFLAGS",
-    "-fPIC",
+    "-fPIC -march=native",
     "-MAKEFLAGS",
     "OPT_FAST=-O3 OPT_SLOW=-O1 OPT_GLOBAL=-O2",
     "--top-module",

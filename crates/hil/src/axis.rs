@@ -110,7 +110,7 @@ impl SimAxis {
 
     /// The mechanics jump by `microsteps` (a lost step, a slipping coupling).
     pub fn slip(&mut self, cycle: u64, microsteps: i64) {
-        self.slip += microsteps;
+        self.slip = self.slip.saturating_add(microsteps);
         let p = self.sensor_pos();
         self.sensor.move_to(cycle, p);
     }

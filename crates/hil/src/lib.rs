@@ -557,11 +557,11 @@ impl World {
         self.last = out.word;
         if changed & watch::UART_TX != 0 {
             if let Some(b) = self.tx_dec.change(now, out.uart_tx()) {
-                self.to_host(b);
+                self.send_to_host(b);
             }
         }
         if let Some(b) = self.tx_dec.poll(now) {
-            self.to_host(b);
+            self.send_to_host(b);
         }
         if changed & watch::GO != 0 && out.go() {
             // go is sampled at the next clock edge: that edge is the move's tick 0
@@ -583,7 +583,7 @@ impl World {
         }
     }
 
-    fn to_host(&mut self, b: u8) {
+    fn send_to_host(&mut self, b: u8) {
         if !self.cut {
             self.pty.write(&[b]);
         }

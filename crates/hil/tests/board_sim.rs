@@ -2,7 +2,9 @@
 //! the host link over `serialport` as a real host would. Needs `verilator` and `g++`
 //! (skipped with a message when missing, unless CI is set: then it fails).
 
-use multistep_core::int::{IntClock, IntEdgeGenerator, IntLimitsMove, IntProfile, IntSegment};
+use multistep_core::int::{
+    IntClock, IntEdgeGenerator, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment,
+};
 use multistep_hdl::link::{
     move_writes, start_write, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg,
 };
@@ -35,8 +37,17 @@ fn cache() -> PathBuf {
 }
 
 fn start(axes: u32, sensors: Vec<SensorOptions>, edges: Option<PathBuf>) -> BoardSim {
+    start_board("ulx3s-25f", axes, sensors, edges)
+}
+
+fn start_board(
+    board: &str,
+    axes: u32,
+    sensors: Vec<SensorOptions>,
+    edges: Option<PathBuf>,
+) -> BoardSim {
     BoardSim::start(&Options {
-        board: "ulx3s-25f".into(),
+        board: board.into(),
         axes: Some(axes),
         sensors,
         edges,
@@ -222,6 +233,27 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
         "the rotor settles at the command: {}",
         a.position
     );
+    // back to 0, the mechanics slip 64 microsteps ahead (a lost step seen from the load),
+    // and the same pass again: the sensor comes 64 steps early
+    let back = AxisMove::from_profile(&trap, false, &p).unwrap();
+    let mut w = move_writes(&p, 0, &back, 0).unwrap();
+    w.push(start_write(0b1));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    assert_eq!(l.read(Reg::Axis(0, AxisReg::Position)).unwrap(), 0);
+    sim.slip(0, 64).unwrap();
+    let mut w = move_writes(&p, 0, &m, 0).unwrap();
+    w.push(start_write(0b1));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    let hp2 = l.read(Reg::Axis(0, AxisReg::HallPosition)).unwrap() as i32 as f64;
+    assert!(
+        (hp - 64.0 - hp2).abs() <= 2.0,
+        "after a 64-step slip the Hall edge comes at {hp2}, first at {hp}"
+    );
+    let a = &sim.state().unwrap().axes[0];
+    assert_eq!(a.step_rises, 3 * 2400);
+    assert!((a.position - 2400.0 - 64.0).abs() < 8.0, "{}", a.position);
     sim.quit().unwrap();
 }
 
@@ -234,12 +266,15 @@ fn estop_reset_and_a_cut_link() {
     let log = dir.path().join("edges.txt");
     let sim = start(2, Vec::new(), Some(log.clone()));
     let p = sim.board.core.clone();
-    let mut l = link(&sim, 300);
+    let mut l = link(&sim, 1000);
     // the session value changes on a reset; the registers return to their defaults
     let s1 = l.read(Reg::Board(BoardReg::Session)).unwrap();
     assert_eq!(l.read(Reg::Board(BoardReg::Session)).unwrap(), s1);
     l.write(Reg::Board(BoardReg::Enable), 0b11).unwrap();
     sim.reset().unwrap();
+    // controls are taken in order: once state answers, the reset pulse has begun (bytes
+    // sent while the board is in reset are lost, as on the board)
+    sim.state().unwrap();
     std::thread::sleep(Duration::from_millis(50));
     let s2 = l.read(Reg::Board(BoardReg::Session)).unwrap();
     assert_ne!(s1, s2, "a new session after the reset");
@@ -308,4 +343,63 @@ fn estop_reset_and_a_cut_link() {
         rises[1].iter().all(|&c| c <= at.ticks),
         "every rise before the e-stop"
     );
+}
+
+#[test]
+fn icebreaker_at_its_own_clock_baud_and_widths() {
+    if !tools_present() {
+        return;
+    }
+    // 18 MHz, 1 Mbaud, 48-bit radicand, 26-bit kernels, FIFO depth 2, radix 2
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("edges.txt");
+    let sim = start_board("icebreaker", 2, Vec::new(), Some(log.clone()));
+    let p = sim.board.core.clone();
+    assert_eq!(p.clock_hz, 18e6);
+    let mut l = link(&sim, 2000);
+    assert_eq!(
+        l.build_id().unwrap(),
+        BuildId::of(&p, sim.board.baud).unwrap()
+    );
+    let hz = p.clock_hz as u64;
+    let ms = |t: u64| t * hz / 1000;
+    let profs: Vec<IntProfile> = [(800, 2, 6, 2), (2000, 20, 30, 20)]
+        .into_iter()
+        .map(|(steps, a, c, d)| {
+            IntProfile::phase(
+                &IntPhaseMove {
+                    steps,
+                    accel_ticks: ms(a),
+                    cruise_ticks: ms(c),
+                    decel_ticks: ms(d),
+                    start_speed: 0,
+                    end_speed: 0,
+                },
+                IntClock::hz(hz),
+            )
+            .unwrap()
+        })
+        .collect();
+    let mut w = Vec::new();
+    for (a, prof) in profs.iter().enumerate() {
+        let m = AxisMove::from_profile(prof, a == 0, &p).unwrap();
+        w.extend(move_writes(&p, a as u32, &m, 0).unwrap());
+    }
+    w.push(start_write(0b11));
+    l.write_all(&w).unwrap();
+    wait_idle(&mut l);
+    assert_eq!(l.read(Reg::Axis(0, AxisReg::Position)).unwrap() as i32, 800);
+    assert_eq!(
+        l.read(Reg::Axis(1, AxisReg::Position)).unwrap() as i32,
+        -2000
+    );
+    sim.quit().unwrap();
+    let (go, rises) = edges_log(&log, 2);
+    assert_eq!(go.len(), 1);
+    for (a, prof) in profs.into_iter().enumerate() {
+        let want: Vec<u64> = IntEdgeGenerator::new(prof)
+            .map(|t| go[0] + t + TICK0)
+            .collect();
+        assert_eq!(rises[a], want, "axis {a}: every rise at go + t + 1");
+    }
 }

@@ -103,9 +103,12 @@ impl HallSensor {
 
     /// Is the magnet in the sensor window at this true position?
     pub fn in_window(&self, true_pos: i64) -> bool {
-        let mut d = (true_pos - self.s.sensor_at) * i64::from(self.s.home_dir);
+        // saturating: any position is an answer, never an overflow
+        let mut d = true_pos
+            .saturating_sub(self.s.sensor_at)
+            .saturating_mul(i64::from(self.s.home_dir));
         if let Some(p) = self.s.period {
-            d = d.rem_euclid(p as i64);
+            d = d.rem_euclid((p as i64).max(1));
         }
         (0..self.s.width as i64).contains(&d)
     }
@@ -246,6 +249,10 @@ mod tests {
         assert!(h.in_window(100) && h.in_window(149) && !h.in_window(150) && !h.in_window(99));
         let h = HallSensor::new(&settings(1, Some(1000)));
         assert!(h.in_window(1100) && h.in_window(-900) && !h.in_window(1099));
+        for h in [settings(1, None), settings(-1, Some(1000))].map(|s| HallSensor::new(&s)) {
+            // the extremes answer, never overflow
+            let _ = (h.in_window(i64::MIN), h.in_window(i64::MAX));
+        }
     }
 
     #[test]
