@@ -5,6 +5,7 @@ use clap::{Command, CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod board_sim;
 mod ctl;
 mod demo;
 mod experiment;
@@ -44,6 +45,8 @@ enum Cmd {
     Tdm(tdm::TdmArgs),
     /// Compare multistep with seed 000's datapath, Austin, Eiderman and ramp-maker
     Bench(bench::BenchArgs),
+    /// Run a board's RTL in Verilator behind a pseudo-terminal, with simulated motors and Hall sensors
+    BoardSim(board_sim::BoardSimArgs),
     /// The TDM IP core as Verilog: emit it, and report its FPGA resource use (yosys)
     Hdl(hdl::HdlArgs),
     /// Simulate one move on a motor and driver: lost steps and following error
@@ -79,6 +82,7 @@ fn main() -> ExitCode {
         Cmd::Tdm(a) => tdm::run(a),
         Cmd::Bench(a) => bench::run_bench(a),
         Cmd::Hdl(a) => hdl::run(a),
+        Cmd::BoardSim(a) => board_sim::run(a),
         Cmd::Simulate(a) => simulate::run(a),
         Cmd::Experiment(a) => experiment::run(a),
     };

@@ -1,7 +1,9 @@
-//! `multistep serve`: one simulated controller board on TCP and optionally a serial line.
+//! `multistep serve`: one controller board (simulated, or the FPGA board on a serial link)
+//! on TCP and optionally a serial line.
 
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
+use multistep_controller::backend::{FpgaBackend, LinkSpec};
 use multistep_controller::store::Store;
 use multistep_controller::CtlError;
 use multistep_controller::{service, BoardConfig, Controller};
@@ -23,7 +25,11 @@ pub struct ServeArgs {
     /// Board configuration (TOML: board name, axes and their settings); default: axes X Y Z A
     #[arg(long, value_name = "FILE")]
     pub board_config: Option<PathBuf>,
-    /// Simulated time runs this many times faster than the wall clock
+    /// Drive the FPGA board on this link (serial:DEVICE[@BAUD], baud 3000000 unless
+    /// given) instead of the simulated board; overrides the config's board.link
+    #[arg(long, value_name = "LINK")]
+    pub board_link: Option<String>,
+    /// Simulated time runs this many times faster than the wall clock (1 with a board link)
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub time_scale: f64,
     #[command(flatten)]
@@ -77,8 +83,23 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         // A missing device is a mistake to stop on, not a warning behind a running board.
         std::fs::metadata(dev).with_context(|| format!("serial device {dev}"))?;
     }
+    let link = match a.board_link.as_ref().or(config.board.link.as_ref()) {
+        Some(l) => Some(LinkSpec::parse(l)?),
+        None => None,
+    };
+    if link.is_some() && a.time_scale != 1.0 {
+        bail!("--time-scale: a board on a link runs in real time (1)");
+    }
     let store = open_store(&a.data, l.reset_damaged_data)?;
-    let ctl = Arc::new(Controller::open_store(&config, store, a.time_scale)?);
+    let ctl = match &link {
+        None => Controller::open_store(&config, store, a.time_scale)?,
+        Some(spec) => {
+            let pins = FpgaBackend::connect(spec, config.axes.len())
+                .with_context(|| format!("board link {spec}"))?;
+            Controller::open_backend(&config, store, a.time_scale, Box::new(pins))?
+        }
+    };
+    let ctl = Arc::new(ctl);
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;

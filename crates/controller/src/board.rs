@@ -1,21 +1,26 @@
-//! One controller board: its axes, their simulated motion and sensors, homing, and the
-//! store. Time is explicit — every method takes the board tick `now` — so the same code runs
-//! in real time under [`crate::Controller`] and in virtual time in tests.
+//! One controller board: its axes, their moves, homing, and the store. What happens at
+//! the pins is a [`BoardBackend`] (simulated mechanics and sensors, or the FPGA board).
+//! Time is explicit — every method takes the board tick `now` — so the same code runs in
+//! real time under [`crate::Controller`] and in virtual time in tests.
 
 use crate::axis::{AxisSettings, AxisState, AxisStatus, MAX_POSITION};
+use crate::backend::{BoardBackend, Launch, PinEvent, SimBackend};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
-use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_move, start_timed, stop_profile, StepSource};
+use crate::hall::FilteredEdge;
+use crate::motion::StepSource;
 use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
+use multistep_core::int::IntProfile;
 use multistep_core::tdm::TdmConfig;
-use multistep_core::{Family, MoveParams, MoveSpec, Profile};
+use multistep_core::{Family, MoveSpec, Profile};
 use std::collections::BTreeMap;
 
 mod driver;
+mod homing;
 mod preview;
 mod tracking;
+use homing::HomePhase;
 pub use preview::PlannedAxis;
 
 /// Most steps (summed over its axes) of one move or group: the TDM engine times every
@@ -27,6 +32,8 @@ pub const MAX_TIMED_STEPS: u64 = 100_000_000;
 pub struct PendingGroup {
     plan: Vec<(usize, i64)>,
     profiles: Vec<Option<Profile>>,
+    /// The backend's own plans of the moves (see [`BoardBackend::plan_datapath`]).
+    datapaths: Vec<Option<IntProfile>>,
     /// Count and settings of each axis when planned; the start checks they still hold.
     before: Vec<(i64, AxisSettings)>,
     tdm: TdmConfig,
@@ -43,19 +50,6 @@ impl PendingGroup {
     }
 }
 
-/// Phases of homing (seed 002 §2.3, with the usual back-off and slow re-approach).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum HomePhase {
-    /// Started on the sensor: leave it against the homing direction.
-    Clear,
-    /// Fast search towards the sensor.
-    Seek,
-    /// Back off past the edge found by the seek.
-    Backoff,
-    /// Slow re-approach: this edge becomes the home position.
-    Approach,
-}
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Purpose {
     Move,
@@ -63,7 +57,6 @@ enum Purpose {
 }
 
 struct Motion {
-    src: Box<dyn StepSource>,
     dir: i64,
     target: i64,
     purpose: Purpose,
@@ -78,14 +71,13 @@ struct Motion {
 struct Axis {
     name: String,
     settings: AxisSettings,
+    /// The backend's count, as of the last advance.
     count: i64,
-    sim_pos: i64,
     homed: bool,
     trusted: bool,
     state: AxisState,
     fault: Option<String>,
     motion: Option<Motion>,
-    hall: HallSim,
     drift: Option<i64>,
     drift_checks: u64,
     move_start: Option<u64>,
@@ -101,18 +93,14 @@ struct Axis {
 }
 
 impl Axis {
-    fn record(&self, moving: Option<MovingMarker>) -> AxisRecord {
+    fn record(&self, moving: Option<MovingMarker>, sim_position: i64) -> AxisRecord {
         AxisRecord {
             position: self.count,
             homed: self.homed,
             trusted: self.trusted,
             moving,
-            sim_position: self.sim_pos,
+            sim_position,
         }
-    }
-
-    fn make_hall(s: &AxisSettings, clock_hz: f64) -> HallSim {
-        HallSim::new(&s.sim, s.home_dir, s.period, s.debounce, clock_hz)
     }
 
     fn period(&self) -> Option<i64> {
@@ -140,11 +128,8 @@ pub struct Board {
     now: u64,
     /// Problems met while advancing (store failures), reported by `info`.
     warnings: Vec<String>,
-    work_budget: Option<u64>,
-    work: u64,
-    max_advance_work: u64,
-    /// Simulated mechanics and sensors stand behind the axes (always, in this build).
-    simulated: bool,
+    /// The pins: simulated mechanics and sensors, or the FPGA board.
+    pins: Box<dyn BoardBackend>,
 }
 
 /// The stored settings of an axis, brought into range; `None` (use the board config) if
@@ -180,8 +165,20 @@ impl Board {
     /// Opens the board: settings from the store (else the config), positions restored;
     /// an axis that was moving when the board died comes back untrusted and unhomed.
     pub fn open(config: &BoardConfig, store: Store) -> Result<Board, CtlError> {
+        let sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        Board::open_with(config, store, Box::new(sim))
+    }
+
+    /// [`Board::open`] on the given pins. A backend that reads its counts back from
+    /// hardware keeps them; an axis whose count differs from the stored one comes back
+    /// untrusted.
+    pub fn open_with(
+        config: &BoardConfig,
+        store: Store,
+        mut pins: Box<dyn BoardBackend>,
+    ) -> Result<Board, CtlError> {
         config.validate()?;
-        let clock_hz = config.board.clock_hz;
+        let clock_hz = pins.clock_hz().unwrap_or(config.board.clock_hz);
         let mut axes = Vec::new();
         let mut warnings = Vec::new();
         let sim = store.sim();
@@ -191,12 +188,11 @@ impl Board {
                 None => ac.settings.clone(),
             };
             let rec = store.axis(&ac.name)?.unwrap_or_default();
+            let mut sim_pos = rec.sim_position;
             let mut axis = Axis {
                 name: ac.name.clone(),
-                hall: Axis::make_hall(&settings, clock_hz),
                 settings,
                 count: rec.position,
-                sim_pos: rec.sim_position,
                 homed: rec.homed,
                 trusted: rec.trusted,
                 state: AxisState::Idle,
@@ -218,12 +214,26 @@ impl Board {
                 axis.count = m.from;
                 if let Some(sm) = sim.get(&ac.name) {
                     if (sm.from, sm.target) == (m.from, m.target) {
-                        axis.sim_pos = sm.sim_position;
+                        sim_pos = sm.sim_position;
                     }
                 }
                 axis.homed = false;
                 axis.trusted = false;
-                store.put_axis(&axis.name, &axis.record(None))?;
+                store.put_axis(&axis.name, &axis.record(None, sim_pos))?;
+            }
+            let i = axes.len();
+            pins.configure(i, &axis.settings);
+            pins.attach(i, axis.count, sim_pos);
+            let read = pins.count(i);
+            if read != axis.count {
+                warnings.push(format!(
+                    "axis {}: the board counts {read}, the store says {}; untrusted until homed",
+                    axis.name, axis.count
+                ));
+                axis.count = read;
+                axis.homed = false;
+                axis.trusted = false;
+                store.put_axis(&axis.name, &axis.record(None, pins.sim_position(i)))?;
             }
             axes.push(axis);
         }
@@ -236,10 +246,7 @@ impl Board {
             estopped: false,
             now: 0,
             warnings,
-            work_budget: None,
-            work: 0,
-            max_advance_work: 0,
-            simulated: true,
+            pins,
         })
     }
 
@@ -247,23 +254,47 @@ impl Board {
     /// clock falls behind the wall clock instead of holding every command up. `None`
     /// (the default, for virtual time) advances all the way.
     pub fn set_work_budget(&mut self, budget: Option<u64>) {
-        self.work_budget = budget;
+        self.pins.set_work_budget(budget);
     }
 
     /// Work done so far (steps plus sensor events), and the most any one advance did.
     pub fn work(&self) -> (u64, u64) {
-        (self.work, self.max_advance_work)
+        self.pins.work()
     }
 
-    /// This board as a hardware backend will be: no simulated mechanics behind it, so the
-    /// simulation's own commands (`sim …`) are refused.
+    /// This board with its simulated pins as hardware is: the simulation's own commands
+    /// (`sim …`) are refused.
     pub fn without_simulation(mut self) -> Board {
-        self.simulated = false;
+        if self.pins.is_simulated() {
+            let mut sim = SimBackend::new(self.clock_hz, self.axes.len()).without_simulation();
+            for (i, ax) in self.axes.iter().enumerate() {
+                sim.configure(i, &ax.settings);
+                sim.attach(i, ax.count, self.pins.sim_position(i));
+            }
+            self.pins = Box::new(sim);
+        }
         self
     }
 
     pub fn is_simulated(&self) -> bool {
-        self.simulated
+        self.pins.is_simulated()
+    }
+
+    /// What stands behind the axes: "simulated" or the board's link.
+    pub fn backend(&self) -> String {
+        self.pins.describe()
+    }
+
+    /// The board's own e-stop input is active.
+    pub fn estop_input(&self) -> bool {
+        self.pins.estop_input()
+    }
+
+    /// True while time must be advanced: an axis moves, an idle driver waits for its
+    /// release, or hardware needs polling also while idle (board resets, its e-stop input,
+    /// the link).
+    pub fn needs_polling(&self) -> bool {
+        self.busy() || self.release_pending() || self.pins.polls_when_idle()
     }
 
     pub fn name(&self) -> &str {
@@ -284,11 +315,6 @@ impl Board {
     /// True while any axis moves or homes.
     pub fn busy(&self) -> bool {
         self.axes.iter().any(|a| a.motion.is_some())
-    }
-
-    /// True while time must be advanced: an axis moves, or waits to release its driver.
-    pub fn needs_ticks(&self) -> bool {
-        self.busy() || self.release_pending()
     }
 
     /// The named axes, or all of them when none are named.
@@ -312,163 +338,94 @@ impl Board {
     // ---- time ----------------------------------------------------------------------------
 
     /// Runs every axis up to tick `now`: steps, sensor, homing phases, persistence.
-    /// With a work budget the run goes in slices short enough that one slice costs at most
-    /// an eighth of the budget, and stops after the slice that uses it up.
+    /// With a work budget (see [`Board::set_work_budget`]) the backend may stop short of
+    /// `now`; the board's clock then falls behind.
     pub fn advance(&mut self, now: u64) {
         let now = now.max(self.now);
-        let Some(budget) = self.work_budget else {
-            let w0 = self.work_done();
-            for i in 0..self.axes.len() {
-                self.track_lease(i, now);
-                self.advance_axis(i, now);
+        self.pins.begin_advance();
+        loop {
+            // A jog lease lapsing first: run up to it, then stop that axis there.
+            let until = self.next_lease().map_or(now, |l| l.min(now));
+            while let Some((i, ev)) = self.pins.poll(until) {
+                self.axes[i].count = self.pins.count(i);
+                self.on_event(i, ev);
             }
-            self.now = now;
-            self.release_idle();
-            self.note_work(w0);
-            return;
-        };
-        let w0 = self.work_done();
-        let slice = self.slice_ticks(budget / 8);
-        while self.now < now && self.work_done() - w0 < budget {
-            let until = now.min(self.now.saturating_add(slice));
-            for i in 0..self.axes.len() {
-                if self.axes[i].motion.is_some() {
-                    // Looking at an axis is work too, even in a slice without events.
-                    self.work += 1;
-                    self.track_lease(i, until);
-                    self.advance_axis(i, until);
-                }
+            self.now = self.pins.now().max(self.now);
+            if self.now < until || !self.stop_lapsed_leases() {
+                break;
             }
-            self.now = until;
+        }
+        for i in 0..self.axes.len() {
+            self.axes[i].count = self.pins.count(i);
+            self.track_wrap(i);
         }
         self.release_idle();
-        self.note_work(w0);
     }
 
-    /// Steps taken plus sensor events handled, over the board's life.
-    fn work_done(&self) -> u64 {
-        self.work + self.axes.iter().map(|a| a.hall.work).sum::<u64>()
-    }
-
-    fn note_work(&mut self, w0: u64) {
-        let total = self.work_done();
-        self.max_advance_work = self.max_advance_work.max(total - w0);
-    }
-
-    /// Ticks in which the moving axes do at most `work` steps and sensor events: an axis
-    /// steps at most vmax per second (every move is checked against it), each step makes at
-    /// most one sensor edge with up to 2·bounce_count toggles (two events each), and glitches come at
-    /// glitch_rate (two events each; 10× for the randomness of a Poisson process).
-    fn slice_ticks(&self, work: u64) -> u64 {
-        let rate: f64 = self
-            .axes
-            .iter()
-            .filter(|a| a.motion.is_some())
-            .map(|a| {
-                let s = &a.settings;
-                s.vmax.max(s.home_speed) * (2.0 + 4.0 * s.sim.bounce_count as f64)
-                    + 20.0 * s.sim.glitch_rate
-            })
-            .sum();
-        if rate <= 0.0 {
-            return u64::MAX;
-        }
-        ((work.max(1) as f64 / rate) * self.clock_hz).clamp(1.0, 1e18) as u64
-    }
-
-    fn advance_axis(&mut self, i: usize, now: u64) {
-        while let Some(mut m) = self.axes[i].motion.take() {
-            let ax = &mut self.axes[i];
-            let next = m.src.peek();
-            let until = next.unwrap_or_else(|| m.src.end_tick()).min(now);
-            // Sensor events due before the next edge come first, at their own tick.
-            if let Some(ev) = ax.hall.advance(until, ax.count, ax.sim_pos) {
-                ax.motion = Some(m);
-                self.on_sensor(i, ev);
-                continue;
+    fn on_event(&mut self, i: usize, ev: PinEvent) {
+        match ev {
+            PinEvent::Sensor {
+                edge,
+                speed,
+                triggered,
+            } => {
+                self.on_sensor(i, edge, speed, triggered);
+                self.track_step(i);
             }
-            match next {
-                Some(e) if e <= now => {
-                    m.src.take();
-                    self.work += 1;
-                    let tracking = m.track.is_some();
-                    let ax = &mut self.axes[i];
-                    ax.count += m.dir;
-                    ax.sim_pos += m.dir;
-                    let ev = ax.hall.step(e, ax.count, ax.sim_pos);
-                    ax.motion = Some(m);
-                    if let Some(ev) = ev {
-                        self.on_sensor(i, ev);
-                    }
-                    if tracking {
-                        self.track_step(i);
-                    }
-                }
-                Some(_) => {
-                    ax.motion = Some(m);
+            PinEvent::Step => self.track_step(i),
+            PinEvent::End { end } => {
+                let Some(m) = self.axes[i].motion.take() else {
                     return;
-                }
-                None => {
-                    let end = m.src.end_tick().max(ax.move_start.unwrap_or(0));
-                    self.on_motion_end(i, m, end);
-                }
+                };
+                let end = end.max(self.axes[i].move_start.unwrap_or(0));
+                self.on_motion_end(i, m, end);
             }
+            PinEvent::Lost { why } => {
+                let now = self.pins.now();
+                let ax = &mut self.axes[i];
+                eprintln!("warning: board {}: axis {}: {why}", self.name, ax.name);
+                if self.warnings.len() < 100 {
+                    self.warnings.push(format!("axis {}: {why}", ax.name));
+                }
+                if ax.motion.take().is_some() {
+                    ax.state = AxisState::Fault;
+                    ax.fault = Some(why);
+                    ax.move_end = Some(now);
+                }
+                ax.homed = false;
+                ax.trusted = false;
+                ax.marked = false;
+                self.persist(i);
+            }
+            PinEvent::Estop => self.estop_now(),
         }
     }
 
-    fn on_sensor(&mut self, i: usize, ev: FilteredEdge) {
+    fn on_sensor(&mut self, i: usize, ev: FilteredEdge, speed: f64, triggered: Option<i64>) {
         let ax = &mut self.axes[i];
         let Some(m) = ax.motion.as_mut() else { return };
         let h = ax.settings.home_dir as i64;
-        let trigger = match m.purpose {
-            Purpose::Home(HomePhase::Clear) => !ev.active,
-            Purpose::Home(HomePhase::Seek) | Purpose::Home(HomePhase::Approach) => ev.active,
-            Purpose::Home(HomePhase::Backoff) => false,
-            Purpose::Move => {
-                // Closed-loop check (seed 002 §2.3): entering the sensor in the homing
-                // direction, the count must read home_offset at the edge.
-                if ev.active && m.dir == h && !m.stopping {
-                    let speed = m.src.speed_at(ev.tick);
-                    let mut d = ev.count_at_start - ax.settings.home_offset;
-                    if let Some(p) = ax.settings.period {
-                        d = shortest(d, p as i64);
-                    }
-                    ax.drift = Some(d);
-                    ax.drift_checks += 1;
-                    // A confirmed edge is early by at most what the axis covers in two
-                    // debounce times (see hall.rs).
-                    let tol = 1 + (2.0 * speed * ax.settings.debounce).ceil() as i64;
-                    if ax.homed && d.abs() > tol {
-                        ax.trusted = false;
-                    }
-                }
-                false
+        if m.purpose == Purpose::Move && ev.active && m.dir == h && !m.stopping {
+            // Closed-loop check (seed 002 §2.3): entering the sensor in the homing
+            // direction, the count must read home_offset at the edge.
+            let mut d = ev.count_at_start - ax.settings.home_offset;
+            if let Some(p) = ax.settings.period {
+                d = shortest(d, p as i64);
             }
-        };
-        if trigger && !m.stopping {
-            m.edge = Some(ev);
-            self.stop_at(i, ev.tick);
+            ax.drift = Some(d);
+            ax.drift_checks += 1;
+            // A confirmed edge is early by at most what the axis covers in two
+            // debounce times (see hall.rs).
+            let tol = 1 + (2.0 * speed * ax.settings.debounce).ceil() as i64;
+            if ax.homed && d.abs() > tol {
+                ax.trusted = false;
+            }
         }
-    }
-
-    /// Replaces the motion of axis `i` by a controlled stop starting at `tick`.
-    fn stop_at(&mut self, i: usize, tick: u64) {
-        let clock = self.clock_hz;
-        let ax = &mut self.axes[i];
-        let amax = ax.settings.amax;
-        let Some(m) = ax.motion.as_mut() else { return };
-        let v = m.src.speed_at(tick);
-        m.stopping = true;
-        m.src = match stop_profile(v, amax).and_then(|p| start_move(p, clock, tick).ok()) {
-            Some(src) => {
-                m.target = ax.count + m.dir * src.steps_left() as i64;
-                src
-            }
-            None => {
-                m.target = ax.count;
-                Box::new(Stopped(tick))
-            }
-        };
+        if let Some(target) = triggered {
+            m.edge = Some(ev);
+            m.stopping = true;
+            m.target = target;
+        }
     }
 
     fn on_motion_end(&mut self, i: usize, m: Motion, end: u64) {
@@ -477,9 +434,15 @@ impl Board {
         ax.driver.idle_since = end;
         if let Some(p) = ax.period() {
             let shift = ax.count.rem_euclid(p) - ax.count;
-            ax.count += shift;
-            ax.sim_pos += shift;
+            if shift != 0 {
+                if let Err(e) = self.pins.rebase(i, shift, true) {
+                    self.warnings
+                        .push(format!("axis {}: {e}", self.axes[i].name));
+                }
+                self.axes[i].count = self.pins.count(i);
+            }
         }
+        let ax = &mut self.axes[i];
         ax.state = AxisState::Idle;
         let result = match m.purpose {
             Purpose::Move => Ok(()),
@@ -509,108 +472,9 @@ impl Board {
         });
         ax.marked = marker.is_some();
         ax.marker = marker.as_ref().map(|m| (m.from, m.target));
-        if let Err(e) = self.store.put_axis(&ax.name, &ax.record(marker)) {
+        let rec = ax.record(marker, self.pins.sim_position(i));
+        if let Err(e) = self.store.put_axis(&ax.name, &rec) {
             self.warnings.push(format!("axis {}: {e}", ax.name));
-        }
-    }
-
-    // ---- homing --------------------------------------------------------------------------
-
-    fn home_profile(&self, i: usize, steps: u64, speed: f64) -> Result<Profile, CtlError> {
-        let s = &self.axes[i].settings;
-        Ok(MoveSpec {
-            steps: Some(steps),
-            params: MoveParams {
-                vmax: Some(speed.min(s.vmax)),
-                amax: Some(s.amax),
-                ..MoveParams::default()
-            },
-            ..MoveSpec::default()
-        }
-        .plan_on_clock(self.clock_hz)?)
-    }
-
-    fn home_move(
-        &mut self,
-        i: usize,
-        phase: HomePhase,
-        dir: i64,
-        steps: u64,
-        speed: f64,
-        start: u64,
-    ) -> Result<(), CtlError> {
-        let p = self.home_profile(i, steps.max(1), speed)?;
-        self.launch(i, p, dir, Purpose::Home(phase), start)?;
-        self.axes[i].state = AxisState::Homing;
-        Ok(())
-    }
-
-    fn next_home_phase(
-        &mut self,
-        i: usize,
-        phase: HomePhase,
-        m: &Motion,
-        end: u64,
-    ) -> Result<(), CtlError> {
-        let ax = &self.axes[i];
-        let s = ax.settings.clone();
-        let h = s.home_dir as i64;
-        let fail = |why: &str| CtlError::Homing {
-            axis: ax.name.clone(),
-            why: why.to_string(),
-        };
-        match phase {
-            HomePhase::Clear => {
-                if m.edge.is_none() || ax.hall.filtered() {
-                    return Err(fail("could not leave the sensor"));
-                }
-                self.home_move(i, HomePhase::Seek, h, s.home_search, s.home_speed, end)
-            }
-            HomePhase::Seek => {
-                let Some(edge) = m.edge else {
-                    return Err(fail("sensor not found within home_search steps"));
-                };
-                let over = (ax.count - edge.count_at_start).unsigned_abs();
-                self.home_move(
-                    i,
-                    HomePhase::Backoff,
-                    -h,
-                    over + s.home_backoff,
-                    s.home_speed,
-                    end,
-                )
-            }
-            HomePhase::Backoff => {
-                if ax.hall.filtered() {
-                    return Err(fail("sensor still active after backing off"));
-                }
-                let reach = 2 * s.home_backoff + 16;
-                self.home_move(
-                    i,
-                    HomePhase::Approach,
-                    h,
-                    reach,
-                    s.effective_slow_speed(),
-                    end,
-                )
-            }
-            HomePhase::Approach => {
-                let Some(edge) = m.edge else {
-                    return Err(fail("sensor lost on the slow re-approach"));
-                };
-                // The edge is home: re-reference the count, then park on it.
-                let ax = &mut self.axes[i];
-                ax.count += s.home_offset - edge.count_at_start;
-                ax.homed = true;
-                ax.trusted = true;
-                ax.drift = None;
-                let back = s.home_offset - ax.count;
-                if back != 0 {
-                    let p = self.home_profile(i, back.unsigned_abs(), s.home_speed)?;
-                    self.launch(i, p, back.signum(), Purpose::Move, end)?;
-                }
-                Ok(())
-            }
         }
     }
 
@@ -621,31 +485,100 @@ impl Board {
         &mut self,
         i: usize,
         p: Profile,
+        datapath: Option<IntProfile>,
         dir: i64,
         purpose: Purpose,
         start: u64,
     ) -> Result<(), CtlError> {
-        let src = start_move(p, self.clock_hz, start)?;
-        self.launch_source(i, src, dir, purpose, start)
+        let stop_on_sensor = match purpose {
+            Purpose::Home(phase) => phase.stop_on_sensor(),
+            Purpose::Move => None,
+        };
+        let l = Launch {
+            axis: i,
+            datapath,
+            dir,
+            stop_on_sensor,
+            // From rest: the filter has long settled on the present level. (Homing phases
+            // follow each other without a resync, so the sensor's history carries over.)
+            resync_sensor: purpose == Purpose::Move,
+            profile: p,
+        };
+        self.launch_group(vec![(l, purpose)], None, start)
+            .map(|_| ())
     }
 
+    /// Starts moves together through the backend (TDM-timed with a `report`), each
+    /// axis's moving marker durable first. Returns the start tick.
+    fn launch_group(
+        &mut self,
+        moves: Vec<(Launch, Purpose)>,
+        report: Option<&multistep_core::tdm::Report>,
+        now: u64,
+    ) -> Result<u64, CtlError> {
+        let mut marked = Vec::new();
+        let mut launches = Vec::new();
+        for (l, purpose) in moves {
+            let steps = l.profile.steps();
+            if let Err(e) = self.launch_source(l.axis, steps, l.dir, purpose, now) {
+                self.unlaunch(&marked);
+                return Err(e);
+            }
+            marked.push(l.axis);
+            launches.push(l);
+        }
+        match self.pins.start(launches, report, &self.tdm, now) {
+            Ok((start, _)) => {
+                for &i in &marked {
+                    self.axes[i].move_start = Some(start);
+                }
+                Ok(start)
+            }
+            Err(e) => {
+                self.unlaunch(&marked);
+                Err(e)
+            }
+        }
+    }
+
+    /// Takes back moves whose start failed: idle again, markers off the disk.
+    fn unlaunch(&mut self, axes: &[usize]) {
+        for &i in axes {
+            let ax = &mut self.axes[i];
+            ax.motion = None;
+            ax.state = AxisState::Idle;
+            ax.move_start = ax.move_end;
+            ax.marked = false;
+            self.persist(i);
+        }
+    }
+
+    /// The bookkeeping of a move of `steps` on axis `i` from `start`; the moving marker
+    /// is written first (once per sequence of moves).
     fn launch_source(
         &mut self,
         i: usize,
-        src: Box<dyn StepSource>,
+        steps: u64,
         dir: i64,
         purpose: Purpose,
         start: u64,
     ) -> Result<(), CtlError> {
+        let sim_pos = self.pins.sim_position(i);
         let ax = &mut self.axes[i];
-        let target = ax.count + dir * src.steps_left() as i64;
-        if purpose == Purpose::Move {
-            // From rest: the filter has long settled on the present level. (Homing phases
-            // follow each other without a resync, so the sensor's history carries over.)
-            ax.hall.resync(start, ax.count, ax.sim_pos);
+        let target = ax.count + dir * steps as i64;
+        if !ax.marked {
+            let rec = ax.record(
+                Some(MovingMarker {
+                    from: ax.count,
+                    target,
+                }),
+                sim_pos,
+            );
+            self.store.put_axis(&ax.name, &rec)?;
+            ax.marked = true;
+            ax.marker = Some((ax.count, target));
         }
         ax.motion = Some(Motion {
-            src,
             dir,
             target,
             purpose,
@@ -658,23 +591,31 @@ impl Board {
         ax.move_start = Some(start);
         ax.move_end = None;
         ax.last_dir = dir;
-        // The marker is durable before the first step (once per sequence of moves).
-        if ax.marked {
-            return Ok(());
-        }
-        let rec = ax.record(Some(MovingMarker {
-            from: ax.count,
-            target,
-        }));
-        ax.marked = true;
-        ax.marker = Some((ax.count, target));
-        if let Err(e) = self.store.put_axis(&ax.name, &rec) {
-            ax.marked = false;
-            ax.motion = None;
-            ax.state = AxisState::Idle;
+        Ok(())
+    }
+
+    /// Starts a move given as its step source on axis `i` at `start` (simulated pins).
+    pub fn launch_step_source(
+        &mut self,
+        i: usize,
+        src: Box<dyn StepSource>,
+        dir: i64,
+        start: u64,
+    ) -> Result<(), CtlError> {
+        self.check_can_move(i)?;
+        let steps = src.steps_left();
+        self.launch_source(i, steps, dir, Purpose::Move, start)?;
+        if let Err(e) = self.pins.start_source(i, src, dir, start) {
+            self.unlaunch(&[i]);
             return Err(e);
         }
         Ok(())
+    }
+
+    /// The backend's own plan of the move `spec` (see [`BoardBackend::plan_datapath`]);
+    /// the host's profile stays the reference for speeds and timing.
+    fn datapath(&self, spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
+        self.pins.plan_datapath(spec)
     }
 
     fn check_can_move(&self, i: usize) -> Result<(), CtlError> {
@@ -850,6 +791,7 @@ impl Board {
     ) -> Result<PendingGroup, CtlError> {
         self.advance(now);
         let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        let datapaths = self.plan_datapaths(&plan, &profiles, sync, opts)?;
         let before = plan
             .iter()
             .map(|&(i, _)| (self.axes[i].count, self.axes[i].settings.clone()))
@@ -857,6 +799,7 @@ impl Board {
         Ok(PendingGroup {
             plan,
             profiles,
+            datapaths,
             before,
             tdm: self.tdm,
         })
@@ -875,6 +818,7 @@ impl Board {
         let PendingGroup {
             plan,
             profiles,
+            datapaths,
             before,
             ..
         } = pending;
@@ -889,38 +833,74 @@ impl Board {
                 });
             }
         }
-        // One TDM run times the whole group: one start tick for every axis, once every
-        // driver is energized and settled.
-        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
-        let moving_axes: Vec<usize> = plan
-            .iter()
-            .zip(&profiles)
-            .filter(|(_, p)| p.is_some())
-            .map(|(x, _)| x.0)
-            .collect();
-        let ready = self.energize_for_motion(moving_axes);
-        let (start, mut sources) = match report {
-            Some(r) if !moving.is_empty() => start_timed(&moving, r, &self.tdm, ready)?,
-            _ => (ready, Vec::new()),
-        };
-        sources.reverse();
-        let mut out = Vec::new();
-        for (&(i, d), p) in plan.iter().zip(profiles) {
-            match p {
-                Some(_) => {
-                    let src = sources.pop().expect("one source per moving axis");
-                    self.launch_source(i, src, d.signum(), Purpose::Move, start)?
-                }
-                None => {
-                    let ax = &mut self.axes[i];
-                    ax.move_start = Some(start);
-                    ax.move_end = Some(start);
-                }
+        // One TDM run times the whole group: one start tick for every axis.
+        let mut launches = Vec::new();
+        for ((&(i, d), p), datapath) in plan.iter().zip(profiles).zip(datapaths) {
+            if let Some(profile) = p {
+                let l = Launch {
+                    axis: i,
+                    profile,
+                    datapath,
+                    dir: d.signum(),
+                    stop_on_sensor: None,
+                    resync_sensor: true,
+                };
+                launches.push((l, Purpose::Move));
             }
-            let t = self.axes[i].count + d;
-            out.push(self.axes[i].period().map_or(t, |p| t.rem_euclid(p)));
+        }
+        // One start tick for the group, once every moving axis's driver is energized and
+        // settled.
+        let start = if launches.is_empty() {
+            self.now
+        } else {
+            let ready = self.energize_for_motion(launches.iter().map(|l| l.0.axis))?;
+            self.launch_group(launches, report, ready)?
+        };
+        let mut out = Vec::new();
+        for &(i, d) in &plan {
+            let ax = &mut self.axes[i];
+            if d == 0 || ax.motion.is_none() {
+                ax.move_start = Some(start);
+                ax.move_end = Some(start);
+            }
+            let t = ax.count + d;
+            out.push(ax.period().map_or(t, |p| t.rem_euclid(p)));
         }
         Ok(out)
+    }
+
+    /// The backend's own plans of a planned group's moves.
+    fn plan_datapaths(
+        &self,
+        plan: &[(usize, i64)],
+        profiles: &[Option<Profile>],
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<Option<IntProfile>>, CtlError> {
+        let o = self.resolve_opts(opts)?;
+        // A sync group's phases, in whole ticks: the same on every axis (plan_sync gives
+        // every axis the phase times ta·s, tb·s, tc·s).
+        let (ta, tb, tc) = sync_phases(&o);
+        let whole = |t: f64| (t * self.clock_hz).round() / self.clock_hz;
+        plan.iter()
+            .zip(profiles)
+            .map(|(&(i, d), p)| {
+                let Some(p) = p else { return Ok(None) };
+                let mut o = o.clone();
+                o.profile = Some(self.family_name(i, &o).to_string());
+                if sync {
+                    let s = p.duration() / (ta + tb + tc);
+                    let p = &mut o.params;
+                    (p.accel_time, p.cruise_time, p.decel_time) = (
+                        Some(whole(ta * s)),
+                        Some(whole(tb * s)),
+                        Some(whole(tc * s)),
+                    );
+                    (p.start_speed, p.end_speed) = (None, None);
+                }
+                self.datapath(&self.spec(i, d.unsigned_abs(), &o))
+            })
+            .collect()
     }
 
     /// Same start and finish: every axis gets the same phase times (a quarter accelerating,
@@ -932,16 +912,7 @@ impl Board {
         opts: &MoveOpts,
     ) -> Result<Vec<Option<Profile>>, CtlError> {
         let opts = self.resolve_opts(opts)?;
-        let (ta, tb, tc) = if opts.has_phase_times() {
-            let p = &opts.params;
-            (
-                p.accel_time.unwrap_or(0.0),
-                p.cruise_time.unwrap_or(0.0),
-                p.decel_time.unwrap_or(0.0),
-            )
-        } else {
-            (0.25, 0.5, 0.25)
-        };
+        let (ta, tb, tc) = sync_phases(&opts);
         let phase = |i: usize, d: i64, s: f64| -> Result<Profile, CtlError> {
             let mut o = opts.clone();
             o.profile = Some(self.family_name(i, &opts).to_string());
@@ -971,27 +942,6 @@ impl Board {
             .collect()
     }
 
-    /// Starts homing axis `i` at `now`.
-    pub fn home(&mut self, axis: &str, now: u64) -> Result<(), CtlError> {
-        self.advance(now);
-        let i = self.index(axis)?;
-        self.check_can_move(i)?;
-        let s = self.axes[i].settings.clone();
-        let h = s.home_dir as i64;
-        {
-            let ax = &mut self.axes[i];
-            ax.homed = false;
-            ax.hall.resync(self.now, ax.count, ax.sim_pos);
-        }
-        let start = self.energize_for_motion([i]);
-        let (phase, dir) = if self.axes[i].hall.filtered() {
-            (HomePhase::Clear, -h)
-        } else {
-            (HomePhase::Seek, h)
-        };
-        self.home_move(i, phase, dir, s.home_search, s.home_speed, start)
-    }
-
     /// Controlled stop (decelerates at amax) of one axis or all; homing is abandoned.
     pub fn stop(&mut self, axis: Option<&str>, now: u64) -> Result<(), CtlError> {
         self.advance(now);
@@ -1006,7 +956,8 @@ impl Board {
             if let Some(m) = self.axes[i].motion.as_mut() {
                 m.purpose = Purpose::Move;
                 if !m.stopping {
-                    self.stop_at(i, self.now);
+                    m.stopping = true;
+                    m.target = self.pins.stop(i, self.now)?;
                 }
                 self.axes[i].state = AxisState::Moving;
             }
@@ -1019,7 +970,13 @@ impl Board {
     /// can slip, so its count may be wrong (the simulation itself loses no steps).
     pub fn estop(&mut self, now: u64) {
         self.advance(now);
+        self.estop_now();
+    }
+
+    /// [`Board::estop`] at the board's present tick.
+    fn estop_now(&mut self) {
         self.estopped = true;
+        self.pins.estop(self.now);
         for i in 0..self.axes.len() {
             let ax = &mut self.axes[i];
             if ax.motion.take().is_some() {
@@ -1035,6 +992,12 @@ impl Board {
     /// Clears an emergency stop and axis faults.
     pub fn reset(&mut self, now: u64) {
         self.advance(now);
+        if let Err(e) = self.pins.clear_estop() {
+            if self.warnings.len() < 100 {
+                self.warnings.push(format!("reset: {e}"));
+            }
+            return;
+        }
         self.estopped = false;
         for ax in &mut self.axes {
             if ax.state == AxisState::Fault {
@@ -1054,33 +1017,40 @@ impl Board {
                 let speed = ax
                     .motion
                     .as_ref()
-                    .map_or(0.0, |m| m.dir as f64 * m.src.speed_at(self.now));
+                    .map_or(0.0, |m| m.dir as f64 * self.pins.speed(i, self.now));
                 let track = ax.motion.as_ref().and_then(|m| m.track.as_ref());
+                // The link down: the axis cannot be reached, whatever it was doing.
+                let link = self.pins.fault(i);
                 AxisStatus {
                     axis: ax.name.clone(),
                     number: i,
                     position: ax.count,
                     units: ax.count as f64 / ax.settings.steps_per_unit,
-                    state: ax.state,
+                    state: if link.is_some() {
+                        AxisState::Fault
+                    } else {
+                        ax.state
+                    },
                     homed: ax.homed,
-                    trusted: ax.trusted,
+                    // Not reachable: its count cannot be confirmed.
+                    trusted: ax.trusted && link.is_none(),
                     target: ax
                         .motion
                         .as_ref()
                         .filter(|_| track.is_none())
                         .map(|m| m.target),
                     speed,
-                    sensor: ax.hall.filtered(),
+                    sensor: self.pins.sensor(i),
                     drift: ax.drift,
                     drift_checks: ax.drift_checks,
                     move_start: ax.move_start,
                     move_end: match (&ax.motion, track) {
                         (Some(_), Some(_)) => None,
-                        (Some(m), None) => Some(m.src.end_tick()),
+                        (Some(_), None) => self.pins.end_tick(i),
                         (None, _) => ax.move_end,
                     },
-                    fault: ax.fault.clone(),
-                    sim_position: ax.sim_pos,
+                    fault: link.or_else(|| ax.fault.clone()),
+                    sim_position: self.pins.sim_position(i),
                     dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                     rate: track.map(|t| t.signed_rate()),
                     enabled: ax.driver.enabled,
@@ -1110,10 +1080,8 @@ impl Board {
         // stored under the name, also when the axis was given by number
         let name = self.axes[i].name.clone();
         self.store.put_settings(&name, &s)?;
-        let clock = self.clock_hz;
-        let ax = &mut self.axes[i];
-        ax.hall = Axis::make_hall(&s, clock);
-        ax.settings = s;
+        self.pins.configure(i, &s);
+        self.axes[i].settings = s;
         Ok(())
     }
 
@@ -1186,19 +1154,12 @@ impl Board {
 
     /// Simulation: the mechanics lose `steps` steps that the count does not see.
     pub fn sim_slip(&mut self, axis: &str, steps: i64, now: u64) -> Result<(), CtlError> {
-        if !self.simulated {
+        if !self.pins.is_simulated() {
             return Err(CtlError::NotSimulated);
         }
         self.advance(now);
         let i = self.index(axis)?;
-        let to = self.axes[i].sim_pos as i128 + steps as i128;
-        if to.abs() > 2 * MAX_POSITION as i128 {
-            return Err(CtlError::Setting(format!(
-                "the simulated mechanics stay within ±{}",
-                2 * MAX_POSITION
-            )));
-        }
-        self.axes[i].sim_pos = to as i64;
+        self.pins.slip(i, steps)?;
         self.persist(i);
         Ok(())
     }
@@ -1209,15 +1170,16 @@ impl Board {
         let m: BTreeMap<String, crate::store::SimMechanics> = self
             .axes
             .iter()
-            .filter(|a| a.motion.is_some())
-            .filter_map(|a| {
+            .enumerate()
+            .filter(|(_, a)| a.motion.is_some())
+            .filter_map(|(i, a)| {
                 let (from, target) = a.marker?;
                 Some((
                     a.name.clone(),
                     crate::store::SimMechanics {
                         from,
                         target,
-                        sim_position: a.sim_pos,
+                        sim_position: self.pins.sim_position(i),
                     },
                 ))
             })
@@ -1234,22 +1196,18 @@ impl Board {
     }
 }
 
-/// The source of a stop that needs no steps: ends on its tick.
-struct Stopped(u64);
-
-impl StepSource for Stopped {
-    fn peek(&mut self) -> Option<u64> {
-        None
-    }
-    fn take(&mut self) {}
-    fn speed_at(&self, _: u64) -> f64 {
-        0.0
-    }
-    fn end_tick(&self) -> u64 {
-        self.0
-    }
-    fn steps_left(&self) -> u64 {
-        0
+/// A sync group's phase times before stretching: as given, else a quarter accelerating,
+/// half cruising, a quarter decelerating.
+fn sync_phases(o: &MoveOpts) -> (f64, f64, f64) {
+    if o.has_phase_times() {
+        let p = &o.params;
+        (
+            p.accel_time.unwrap_or(0.0),
+            p.cruise_time.unwrap_or(0.0),
+            p.decel_time.unwrap_or(0.0),
+        )
+    } else {
+        (0.25, 0.5, 0.25)
     }
 }
 

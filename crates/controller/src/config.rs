@@ -33,6 +33,9 @@ pub struct BoardSection {
     pub clock_hz: f64,
     /// Depth of each axis's period FIFO in the TDM engine.
     pub fifo_depth: usize,
+    /// The FPGA board behind the axes, `serial:DEVICE[@BAUD]`; none: simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link: Option<String>,
 }
 
 impl Default for BoardSection {
@@ -41,6 +44,7 @@ impl Default for BoardSection {
             name: "board".into(),
             clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
             fifo_depth: 4,
+            link: None,
         }
     }
 }
@@ -112,6 +116,9 @@ impl BoardConfig {
                 "board.clock_hz must be in [1000, 1e9] (got {})",
                 self.board.clock_hz
             )));
+        }
+        if let Some(l) = &self.board.link {
+            crate::backend::LinkSpec::parse(l)?;
         }
         if !(1..=1024).contains(&self.board.fifo_depth) {
             return Err(CtlError::Setting(format!(

@@ -3,6 +3,7 @@
 //! host tools, a future web page) goes through [`Controller`]'s methods.
 
 use crate::axis::AxisStatus;
+use crate::backend::{BoardBackend, SimBackend};
 use crate::board::Board;
 use crate::config::BoardConfig;
 use crate::error::CtlError;
@@ -63,12 +64,28 @@ impl Controller {
         store: Store,
         time_scale: f64,
     ) -> Result<Controller, CtlError> {
+        let sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        Controller::open_backend(config, store, time_scale, Box::new(sim))
+    }
+
+    /// Runs the board on the given pins; hardware runs in real time (time scale 1).
+    pub fn open_backend(
+        config: &BoardConfig,
+        store: Store,
+        time_scale: f64,
+        pins: Box<dyn BoardBackend>,
+    ) -> Result<Controller, CtlError> {
         if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
             return Err(CtlError::Setting(format!(
                 "time scale must be in (0, 10000] (got {time_scale})"
             )));
         }
-        let mut board = Board::open(config, store)?;
+        if pins.clock_hz().is_some() && time_scale != 1.0 {
+            return Err(CtlError::Setting(format!(
+                "a real board runs in real time: time scale 1 (got {time_scale})"
+            )));
+        }
+        let mut board = Board::open_with(config, store, pins)?;
         // Stored values brought into range, said once at start-up (and kept for `info`).
         for w in board.warnings() {
             eprintln!("warning: {w}");
@@ -89,7 +106,7 @@ impl Controller {
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = lock(&board);
-                        if b.needs_ticks() {
+                        if b.needs_polling() {
                             b.advance(clock.now());
                             if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {
                                 b.save_sim();
@@ -204,6 +221,8 @@ impl Controller {
                     format!("time_scale={}", self.time_scale),
                     format!("tick={now}"),
                     format!("estop={}", b.is_estopped() as u8),
+                    format!("estop_input={}", b.estop_input() as u8),
+                    format!("backend={}", b.backend()),
                 ];
                 v.extend(b.warnings().iter().map(|w| format!("warning={w}")));
                 v

@@ -45,6 +45,9 @@ pub enum CtlError {
     Connection(String),
     #[error("'sim' commands exist only on a simulated board")]
     NotSimulated,
+    /// A command this board's backend cannot carry out yet.
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 impl CtlError {
@@ -69,6 +72,7 @@ impl CtlError {
             CtlError::Unauthorized(_) => 16,
             CtlError::Connection(_) => 17,
             CtlError::NotSimulated => 18,
+            CtlError::Unsupported(_) => 19,
         }
     }
 

@@ -1,13 +1,15 @@
 //! # multistep-controller
 //!
-//! A simulated stepper-motor controller board after seed 002: up to 16 axes driven by the
-//! exact edge generator, Hall-sensor homing with a debounce filter, positions persisted
-//! in redb, periodic axes, named positions and speed presets, and a line protocol served
-//! over TCP and serial lines. [`Controller`] is the one API: the protocol, the host
+//! A stepper-motor controller board after seed 002: up to 16 axes, Hall-sensor homing with
+//! a debounce filter, positions persisted in redb, periodic axes, named positions and speed
+//! presets, and a line protocol served over TCP and serial lines. Its pins are a
+//! [`backend::BoardBackend`]: simulated (edges from the exact edge generator, simulated
+//! mechanics and sensors) or the FPGA board over its serial host link. [`Controller`] is the one API: the protocol, the host
 //! client and any other front end call its methods.
 
 pub mod access;
 pub mod axis;
+pub mod backend;
 pub mod board;
 pub mod client;
 pub mod config;

@@ -14,6 +14,7 @@ fn config(axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
             name: "t".into(),
             clock_hz: CLOCK,
             fifo_depth: 4,
+            link: None,
         },
         axes: axes
             .into_iter()

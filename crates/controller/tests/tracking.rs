@@ -15,6 +15,7 @@ fn config(clock_hz: f64, axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
             name: "t".into(),
             clock_hz,
             fifo_depth: 4,
+            link: None,
         },
         axes: axes
             .into_iter()
@@ -431,7 +432,7 @@ fn drivers_are_energized_before_motion_and_released_at_rest() {
         s.enabled && !s.enable_level,
         "active low: the line is low when enabled"
     );
-    assert!(b.needs_ticks());
+    assert!(b.needs_polling());
     b.advance(1_999_999);
     assert!(st(&mut b, "X").enabled);
     b.advance(2_000_000);

@@ -22,6 +22,7 @@ fn board(dir: &std::path::Path, amax: f64) -> Board {
             name: "mount".into(),
             clock_hz: F as f64,
             fifo_depth: 4,
+            link: None,
         },
         axes: vec![AxisConfig {
             name: "ra".into(),

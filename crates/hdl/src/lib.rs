@@ -15,6 +15,7 @@ pub mod pnr;
 pub mod report;
 pub mod testbench;
 pub mod tools;
+pub mod verilator;
 
 pub use board::{BoardTop, BOARD_LIBRARY, MAX_BAUD_ERROR};
 pub use emit::{Arch, Design, LIBRARY};

@@ -789,7 +789,14 @@ impl<T: std::io::Read + std::io::Write> HostLink<T> {
             if n == 0 {
                 return Err(LinkError::Io("the stream closed".into()));
             }
-            if let Some(r) = self.decoder.push(&buf[..n]).into_iter().next() {
+            // A reply with another seq answers an earlier request whose reply never came
+            // in time (a host killed mid-request, a timeout): skipped.
+            let found = self
+                .decoder
+                .push(&buf[..n])
+                .into_iter()
+                .find(|r| !matches!(r, Ok(y) if y.seq != req.seq));
+            if let Some(r) = found {
                 // what is left of a bad frame must not be taken for the next reply
                 self.decoder = ReplyDecoder::new();
                 return r?.answer(&req);

@@ -274,3 +274,247 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
         trace,
     })
 }
+
+/// A move's edges need not be known in advance: the same integration as [`run`], fed one
+/// edge at a time as it happens (hardware in the loop), in either direction.
+///
+/// The command after an edge holds ω* over the interval to the *next* edge, so an edge is
+/// integrated past only once the next one is known; until then the rotor is integrated
+/// provisionally as after a move's last edge (ω* = 0), and redone when the next edge comes.
+/// An edge followed by no other within [`Incremental::HOLD_S`] is taken as its move's last.
+/// For one move in one direction the trajectory equals [`run`]'s, grid point by grid point.
+#[derive(Clone, Debug)]
+pub struct Incremental {
+    plants: [Plant; 2],
+    table: SineTable,
+    ideal: bool,
+    dt: f64,
+    micro: f64,
+    clock: f64,
+    /// Integrated up to just before `pending`'s tick.
+    done: Stepper,
+    /// The last edge fed, not yet applied: (tick, −1 / 0 / +1).
+    pending: (u64, i64),
+    /// `pending` is no edge but where a long quiet time was committed (ω* stays 0).
+    at_rest: bool,
+    /// `done` with `pending` applied as a move's last edge, integrated further.
+    ahead: Option<Stepper>,
+    /// Committed grid points (t, rotor angle in the move's frame), when recording.
+    pub trace: Option<Vec<(f64, f64)>>,
+}
+
+/// The integrator's state at a point of time.
+#[derive(Clone, Copy, Debug)]
+struct Stepper {
+    x: State,
+    u: Command,
+    t: f64,
+    k: u64,
+    pos: i64,
+    /// The direction of the last edge: +1 or −1 (the load opposes it).
+    dir: f64,
+}
+
+impl Incremental {
+    /// The longest gap after which an edge counts as its move's last (s).
+    pub const HOLD_S: f64 = 0.05;
+
+    /// A rotor at rest at position 0, energized, at tick 0 of a `clock_hz` clock.
+    pub fn new(m: &Motor, cfg: &SimConfig, clock_hz: f64) -> Result<Incremental, SimError> {
+        cfg.driver.validate()?;
+        m.validate()?;
+        if !(clock_hz.is_finite() && clock_hz > 0.0) {
+            return Err(SimError::BadSetting {
+                field: "clock",
+                value: clock_hz,
+                why: "must be > 0",
+            });
+        }
+        check_step(m, cfg)?;
+        let plants = [
+            Plant::new(m, &cfg.driver, 1.0),
+            Plant::new(m, &cfg.driver, -1.0),
+        ];
+        let table = SineTable::new(cfg.driver.current, cfg.driver.microsteps);
+        let (ia_ref, ib_ref) = table.at(0, 1.0);
+        let u = Command {
+            ia_ref,
+            ib_ref,
+            omega_ref: 0.0,
+        };
+        let mut x: State = [0.0; NSTATE];
+        x[IA] = ia_ref;
+        x[IB] = ib_ref;
+        x[ZA] = plants[0].r * ia_ref;
+        x[ZB] = plants[0].r * ib_ref;
+        Ok(Incremental {
+            plants,
+            table,
+            ideal: cfg.driver.mode == DriverMode::Ideal,
+            dt: cfg.dt,
+            micro: m.microstep_angle(cfg.driver.microsteps),
+            clock: clock_hz,
+            done: Stepper {
+                x,
+                u,
+                t: 0.0,
+                k: 0,
+                pos: 0,
+                dir: 1.0,
+            },
+            pending: (0, 0),
+            at_rest: false,
+            ahead: None,
+            trace: None,
+        })
+    }
+
+    /// One STEP edge at `tick` (not before the previous one) in the direction `forward`.
+    pub fn edge(&mut self, tick: u64, forward: bool) -> Result<(), SimError> {
+        let (prev, _) = self.pending;
+        if tick < prev {
+            return Err(SimError::EdgesBackwards { prev, next: tick });
+        }
+        let held = (tick - prev) as f64 / self.clock > Self::HOLD_S;
+        let d = if forward { 1 } else { -1 };
+        let mut s = self.done;
+        self.apply_pending(&mut s, (!held).then_some((tick, d)), true);
+        self.done = s;
+        self.pending = (tick, d);
+        self.at_rest = false;
+        self.ahead = None;
+        Ok(())
+    }
+
+    /// Integrates (provisionally past the last edge) up to the last grid point at or
+    /// before `tick`.
+    pub fn advance_to(&mut self, tick: u64) {
+        let te = tick as f64 / self.clock;
+        let mut s = match self.ahead {
+            Some(s) => s,
+            None => {
+                let mut s = self.done;
+                self.apply_pending(&mut s, None, false);
+                s
+            }
+        };
+        while ((s.k + 1) as f64 * self.dt) <= te {
+            let t_grid = (s.k + 1) as f64 * self.dt;
+            let h = t_grid - s.t;
+            self.rk4(&mut s, h);
+            s.t = t_grid;
+            s.k += 1;
+        }
+        // a long quiet time: the pending edge was its move's last, for good
+        if te - self.pending.0 as f64 / self.clock > Self::HOLD_S {
+            self.done = s;
+            self.pending = (tick, 0);
+            self.at_rest = true;
+            self.ahead = None;
+            return;
+        }
+        self.ahead = Some(s);
+    }
+
+    /// Integrates `s` along the grid to the pending edge and applies it, with ω* to
+    /// `next` (tick and direction; none: the move's last edge, ω* = 0). With `commit`,
+    /// records the trace.
+    fn apply_pending(&mut self, s: &mut Stepper, next: Option<(u64, i64)>, commit: bool) {
+        let (e, d) = self.pending;
+        let te = e as f64 / self.clock;
+        loop {
+            let t_grid = (s.k + 1) as f64 * self.dt;
+            if te <= t_grid {
+                break;
+            }
+            self.rk4(s, t_grid - s.t);
+            s.t = t_grid;
+            s.k += 1;
+            if commit {
+                if let Some(tr) = self.trace.as_mut() {
+                    tr.push((t_grid, s.dir * s.x[TH]));
+                }
+            }
+        }
+        if te > s.t {
+            self.rk4(s, te - s.t);
+            s.t = te;
+        }
+        if d != 0 {
+            s.pos += d;
+            s.dir = d as f64;
+        }
+        let next = next.filter(|_| !self.at_rest);
+        if let (0, Some((_, nd))) = (d, next) {
+            // the start of a move: it goes the way of its first edge
+            s.dir = nd as f64;
+        }
+        let omega_ref = match next.map(|(n, _)| n) {
+            Some(n) => s.dir * self.micro * self.clock / (n.saturating_sub(e).max(1)) as f64,
+            None => 0.0,
+        };
+        let (ia_ref, ib_ref) = self
+            .table
+            .at(s.pos.unsigned_abs(), if s.pos < 0 { -1.0 } else { 1.0 });
+        s.u = Command {
+            ia_ref,
+            ib_ref,
+            omega_ref,
+        };
+    }
+
+    /// Lets time pass to `tick` without integrating: for a rotor at rest, whose state no
+    /// longer changes (the pending edge is taken as its move's last).
+    pub fn rest_to(&mut self, tick: u64) {
+        let mut s = match self.ahead {
+            Some(s) => s,
+            None => {
+                let mut s = self.done;
+                self.apply_pending(&mut s, None, false);
+                s
+            }
+        };
+        let k = ((tick as f64 / self.clock) / self.dt).floor() as u64;
+        if k > s.k {
+            s.k = k;
+            s.t = k as f64 * self.dt;
+        }
+        self.done = s;
+        self.pending = (tick.max(self.pending.0), 0);
+        self.at_rest = true;
+        self.ahead = None;
+    }
+
+    fn rk4(&self, s: &mut Stepper, h: f64) {
+        let p = &self.plants[usize::from(s.dir < 0.0)];
+        if self.ideal {
+            rk4::<true>(p, &mut s.x, &s.u, h)
+        } else {
+            rk4::<false>(p, &mut s.x, &s.u, h)
+        }
+    }
+
+    fn latest(&self) -> &Stepper {
+        self.ahead.as_ref().unwrap_or(&self.done)
+    }
+
+    /// The rotor's position in microsteps (0 at the start) at the latest time integrated.
+    pub fn rotor_microsteps(&self) -> f64 {
+        self.latest().x[TH] / self.micro
+    }
+
+    /// The commanded position: edges fed, forward minus backward.
+    pub fn commanded(&self) -> i64 {
+        self.done.pos + self.pending.1
+    }
+
+    /// The rotor speed (rad/s) at the latest time integrated.
+    pub fn speed(&self) -> f64 {
+        self.latest().x[OM]
+    }
+
+    /// The latest time integrated (s).
+    pub fn time(&self) -> f64 {
+        self.latest().t
+    }
+}

@@ -20,6 +20,7 @@ pub mod analysis;
 pub mod driver;
 pub mod error;
 pub mod experiments;
+pub mod hall;
 pub mod integrate;
 pub mod measures;
 pub mod model;

@@ -30,22 +30,24 @@ impl Default for Driver {
 }
 
 impl Board {
-    /// Energizes the drivers of `axes` that are released; returns the first tick at which
-    /// all of them may step (now, or later by `enable_settle`).
-    pub(super) fn energize_for_motion(&mut self, axes: impl IntoIterator<Item = usize>) -> u64 {
+    /// Energizes the drivers of `axes` that are released (through the backend); returns
+    /// the first tick at which all of them may step (now, or later by `enable_settle`).
+    pub(super) fn energize_for_motion(
+        &mut self,
+        axes: impl IntoIterator<Item = usize>,
+    ) -> Result<u64, CtlError> {
         let now = self.now;
-        let clock = self.clock_hz;
-        axes.into_iter()
-            .map(|i| {
-                let ax = &mut self.axes[i];
-                if !ax.driver.enabled {
-                    ax.driver.enabled = true;
-                    ax.driver.ready_at = now + settle_ticks(ax.settings.enable_settle, clock);
-                }
-                ax.driver.ready_at.max(now)
-            })
-            .max()
-            .unwrap_or(now)
+        let mut ready = now;
+        for i in axes {
+            let ax = &mut self.axes[i];
+            if !ax.driver.enabled {
+                self.pins.set_enabled(i, true)?;
+                ax.driver.enabled = true;
+                ax.driver.ready_at = now + settle_ticks(ax.settings.enable_settle, self.clock_hz);
+            }
+            ready = ready.max(ax.driver.ready_at);
+        }
+        Ok(ready)
     }
 
     /// `energize AXIS`: the driver holds the motor from now (the first step waits for
@@ -53,7 +55,7 @@ impl Board {
     pub fn energize(&mut self, axis: &str, now: u64) -> Result<(), CtlError> {
         self.advance(now);
         let i = self.index(axis)?;
-        self.energize_for_motion([i]);
+        self.energize_for_motion([i])?;
         self.axes[i].driver.idle_since = self.now;
         Ok(())
     }
@@ -69,20 +71,21 @@ impl Board {
                 state: ax.state.name(),
             });
         }
-        self.release_axis(i);
-        Ok(())
+        self.release_axis(i)
     }
 
-    fn release_axis(&mut self, i: usize) {
+    fn release_axis(&mut self, i: usize) -> Result<(), CtlError> {
         let ax = &mut self.axes[i];
         if !ax.driver.enabled {
-            return;
+            return Ok(());
         }
+        self.pins.set_enabled(i, false)?;
         ax.driver.enabled = false;
         if !ax.settings.release_keeps_position {
             ax.trusted = false;
             self.persist(i);
         }
+        Ok(())
     }
 
     /// Whether an energized axis at rest waits for its `idle_release`.
@@ -106,7 +109,12 @@ impl Board {
                 && ax.driver.enabled
                 && self.now >= since.saturating_add(settle_ticks(after, self.clock_hz))
             {
-                self.release_axis(i);
+                if let Err(e) = self.release_axis(i) {
+                    if self.warnings.len() < 100 {
+                        self.warnings
+                            .push(format!("axis {}: release: {e}", self.axes[i].name));
+                    }
+                }
             }
         }
     }

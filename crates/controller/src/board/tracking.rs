@@ -54,6 +54,12 @@ impl Board {
         if self.estopped {
             return Err(CtlError::EStopped);
         }
+        if !self.pins.can_track() {
+            return Err(CtlError::Unsupported(format!(
+                "tracking is not supported on {} (moves, homing and stops are)",
+                self.pins.describe()
+            )));
+        }
         let want = self.rate_value(rate)?;
         let s = &self.axes[i].settings;
         let steps = in_steps(want, s.steps_per_unit)?;
@@ -106,10 +112,18 @@ impl Board {
         at: u64,
     ) -> Result<(), CtlError> {
         let dir = if negative { -1 } else { 1 };
-        let ready = self.energize_for_motion([i]).max(at);
+        let ready = self.energize_for_motion([i])?.max(at);
         let src = TrackSource::new(self.clock_hz, limits, rate, ready)?;
         self.check_room(i, dir, src.stop_steps_bound())?;
-        self.launch_source(i, Box::new(src), dir, Purpose::Move, ready)?;
+        // The tracker is the step source the backend runs; its open end counts no steps.
+        self.launch_source(i, 0, dir, Purpose::Move, ready)?;
+        if let Err(e) = self.pins.start_source(i, Box::new(src), dir, ready) {
+            self.unlaunch(&[i]);
+            return Err(e);
+        }
+        // Each step is looked at only where a soft limit lies ahead.
+        let watch = self.room(i, dir).is_some() && self.limit_ahead(i, dir).is_some();
+        self.pins.watch_steps(i, watch);
         let ax = &mut self.axes[i];
         ax.state = AxisState::Tracking;
         if let Some(m) = ax.motion.as_mut() {
@@ -171,7 +185,7 @@ impl Board {
             return Ok(());
         };
         let dir = m.dir;
-        let Some(src) = m.src.as_track() else {
+        let Some(src) = self.pins.tracker(i) else {
             return Ok(());
         };
         if accel.is_some_and(|a| a != src.limits().amax) {
@@ -199,7 +213,7 @@ impl Board {
         let Some(m) = ax.motion.as_mut() else {
             return Ok(());
         };
-        let (Some(src), Some(t)) = (m.src.as_track(), m.track.as_mut()) else {
+        let (Some(src), Some(t)) = (self.pins.tracker(i), m.track.as_mut()) else {
             return Ok(());
         };
         src.set_rate(step_rate)?;
@@ -229,7 +243,7 @@ impl Board {
         let Some(t) = m.track.as_mut() else {
             return false;
         };
-        if let Some(src) = m.src.as_track() {
+        if let Some(src) = self.pins.tracker(i) {
             // A stop is always plannable: the tracker plans it from the speed it has.
             let _ = src.set_rate(Rate::ZERO);
         }
@@ -244,47 +258,69 @@ impl Board {
         true
     }
 
-    /// After each step of a tracking axis: periodic axes wrap into `[0, period)`; on
-    /// others, a stop starts while the soft limit ahead is still farther than the stop.
-    pub(super) fn track_step(&mut self, i: usize) {
-        let ax = &mut self.axes[i];
-        if let Some(p) = ax.period() {
-            if ax.count < 0 || ax.count >= p {
-                let shift = ax.count.rem_euclid(p) - ax.count;
-                ax.count += shift;
-                ax.sim_pos += shift;
-            }
-            return;
+    /// The soft limit in direction `dir` of axis `i`, if it has one.
+    fn limit_ahead(&self, i: usize, dir: i64) -> Option<i64> {
+        let s = &self.axes[i].settings;
+        match dir {
+            1 => s.soft_max,
+            _ => s.soft_min,
         }
-        let Some(m) = ax.motion.as_mut() else { return };
-        let limit = match m.dir {
-            1 => ax.settings.soft_max,
-            _ => ax.settings.soft_min,
+    }
+
+    /// After a step (or a sensor edge) of a tracking axis that is not periodic: a stop
+    /// starts while the soft limit ahead is still farther than the stop.
+    pub(super) fn track_step(&mut self, i: usize) {
+        let Some(m) = self.axes[i].motion.as_ref() else {
+            return;
         };
         // without a soft limit ahead, ±1e15 microsteps are centuries away at any rate
-        if m.stopping || limit.is_none() {
+        if m.track.is_none() || m.stopping || self.limit_ahead(i, m.dir).is_none() {
             return;
         }
         let dir = m.dir;
-        let bound = m.src.as_track().map_or(0, |s| s.stop_steps_bound());
+        let bound = self.pins.tracker(i).map_or(0, |s| s.stop_steps_bound());
         if self.room(i, dir).is_some_and(|room| room <= bound as i64) {
             self.stop_tracking(i);
         }
     }
 
-    /// Stops a tracking axis whose jog lease lapses by `until`, at the lease's tick.
-    pub(super) fn track_lease(&mut self, i: usize, until: u64) {
-        let due = self.axes[i]
-            .motion
-            .as_ref()
+    /// A tracking periodic axis's count wraps into `[0, period)` (the same place, renamed).
+    pub(super) fn track_wrap(&mut self, i: usize) {
+        let ax = &self.axes[i];
+        let Some(p) = ax.period() else { return };
+        if !ax.motion.as_ref().is_some_and(|m| m.track.is_some()) || (0..p).contains(&ax.count) {
+            return;
+        }
+        let shift = ax.count.rem_euclid(p) - ax.count;
+        if let Err(e) = self.pins.rebase(i, shift, true) {
+            self.warnings.push(format!("axis {}: {e}", ax.name));
+        }
+        self.axes[i].count = self.pins.count(i);
+    }
+
+    /// The earliest tick at which a running jog lease lapses.
+    pub(super) fn next_lease(&self) -> Option<u64> {
+        self.axes
+            .iter()
+            .filter_map(|a| a.motion.as_ref())
             .filter(|m| !m.stopping)
-            .and_then(|m| m.track.as_ref())
-            .and_then(|t| t.lease)
-            .filter(|&l| l <= until);
-        if let Some(l) = due {
-            self.advance_axis(i, l);
+            .filter_map(|m| m.track.as_ref()?.lease)
+            .min()
+    }
+
+    /// Stops the tracking axes whose jog lease lapsed by now; false when none did.
+    pub(super) fn stop_lapsed_leases(&mut self) -> bool {
+        let now = self.now;
+        let lapsed: Vec<usize> = (0..self.axes.len())
+            .filter(|&i| {
+                let m = self.axes[i].motion.as_ref().filter(|m| !m.stopping);
+                m.and_then(|m| m.track?.lease).is_some_and(|l| l <= now)
+            })
+            .collect();
+        for &i in &lapsed {
             self.stop_tracking(i);
         }
+        !lapsed.is_empty()
     }
 
     /// A tracking motion came to rest at `end`: a reversal goes on the other way.

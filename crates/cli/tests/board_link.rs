@@ -1,0 +1,500 @@
+//! The controller's behaviour on both pin backends, as real processes: `multistep serve`
+//! on the simulated board, and `multistep serve --board-link` on the FPGA board's RTL run
+//! by `multistep board-sim` (hardware in the loop). The same script gets the same answers
+//! on both; on the board every position reported trusted equals the board's counter.
+
+use multistep_controller::client::{Client, Endpoint};
+use multistep_controller::{AxisState, AxisStatus};
+use multistep_hdl::link::{AxisReg, HostLink, Reg};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_multistep");
+
+/// Which pins stand behind the service.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pins {
+    Sim,
+    Hil,
+}
+
+/// `multistep board-sim`: the board's RTL behind a pseudo-terminal.
+struct BoardSim {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    pty: String,
+}
+
+impl BoardSim {
+    /// The ULX3S build (50 MHz, 0.33 s pieces) with `axes` axes, every sensor as in
+    /// [`CONFIG`].
+    fn start(axes: usize, extra: &[&str]) -> BoardSim {
+        let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verilator");
+        let mut child = Command::new(BIN)
+            .args([
+                "board-sim",
+                "--board",
+                "ulx3s-25f",
+                "--axes",
+                &axes.to_string(),
+            ])
+            .args([
+                "--sensor-at",
+                "-300",
+                "--sensor-width",
+                "200",
+                "--home-dir",
+                "-1",
+            ])
+            .args(extra)
+            .arg("--cache-dir")
+            .arg(cache)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn multistep board-sim");
+        let stdin = child.stdin.take().unwrap();
+        let mut stdout = BufReader::new(child.stdout.take().unwrap());
+        let mut first = String::new();
+        stdout.read_line(&mut first).unwrap();
+        let pty = first
+            .trim()
+            .strip_prefix("pty ")
+            .unwrap_or_else(|| panic!("board-sim said: {first}"))
+            .to_string();
+        BoardSim {
+            child,
+            stdin,
+            stdout,
+            pty,
+        }
+    }
+
+    fn send(&mut self, line: &str) {
+        writeln!(self.stdin, "{line}").unwrap();
+        self.stdin.flush().unwrap();
+    }
+
+    /// The board's state as board-sim reports it (one JSON line).
+    fn state(&mut self) -> serde_json::Value {
+        self.send("state");
+        let mut line = String::new();
+        self.stdout.read_line(&mut line).unwrap();
+        serde_json::from_str(&line).unwrap_or_else(|e| panic!("state: {e}: {line}"))
+    }
+}
+
+impl Drop for BoardSim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Server {
+    child: Child,
+    addr: String,
+}
+
+impl Server {
+    fn start(data: &Path, config: &Path, link: Option<&str>) -> Server {
+        let mut cmd = Command::new(BIN);
+        cmd.args(["serve", "--listen", "127.0.0.1:0", "--data"])
+            .arg(data)
+            .arg("--board-config")
+            .arg(config)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        if let Some(l) = link {
+            cmd.args(["--board-link", l]);
+        }
+        let mut child = cmd.spawn().expect("spawn multistep serve");
+        let mut first = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        let addr = first.trim().rsplit("tcp://").next().unwrap().to_string();
+        assert!(addr.contains(':'), "serve said: {first}");
+        Server { child, addr }
+    }
+
+    fn kill9(&mut self) {
+        self.child.kill().unwrap();
+        self.child.wait().unwrap();
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A service on its pins, with the board's RTL behind it for [`Pins::Hil`].
+struct Rig {
+    pins: Pins,
+    dir: tempfile::TempDir,
+    config: PathBuf,
+    board: Option<BoardSim>,
+    server: Server,
+    client: Client,
+    /// Positions reported trusted that differed from the board's counter.
+    mismatches: usize,
+    /// Each axis's last idle position and whether it was trusted.
+    last: [Option<(i64, bool)>; 2],
+    checked: bool,
+}
+
+/// A board whose axes home onto a Hall sensor whose edge is at -300 (home_offset 500): short
+/// moves (every piece within the board's 0.33 s) so the RTL simulation runs them in seconds.
+const CONFIG: &str = "[board]\nname = \"t\"\n";
+
+/// One axis of [`CONFIG`] (every axis the same).
+const AXIS: &str = r#"
+vmax = 4000.0
+amax = 40000.0
+home_dir = -1
+home_offset = 500
+home_speed = 2000.0
+home_slow_speed = 500.0
+home_backoff = 40
+home_search = 500
+debounce = 0.00002
+[axis.sim]
+sensor_at = -300
+sensor_width = 200
+"#;
+
+/// [`CONFIG`] with the axes X and Y.
+fn config() -> String {
+    let axis = |n: &str| format!("[[axis]]\nname = \"{n}\"{AXIS}");
+    format!("{CONFIG}{}{}", axis("X"), axis("Y"))
+}
+
+impl Rig {
+    fn new(pins: Pins) -> Rig {
+        Rig::with_config(pins, &config(), &[])
+    }
+
+    /// With the config `text` and, on the board, board-sim's extra flags `board_args`
+    /// (its sensors as the config's `sim` settings describe them).
+    fn with_config(pins: Pins, text: &str, board_args: &[&str]) -> Rig {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("board.toml");
+        std::fs::write(&config, text).unwrap();
+        let board = (pins == Pins::Hil).then(|| BoardSim::start(2, board_args));
+        let link = board.as_ref().map(|b| format!("serial:{}", b.pty));
+        let server = Server::start(&dir.path().join("data"), &config, link.as_deref());
+        let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
+        Rig {
+            pins,
+            dir,
+            config,
+            board,
+            server,
+            client,
+            mismatches: 0,
+            last: [None; 2],
+            checked: false,
+        }
+    }
+
+    fn restart_after_kill9(&mut self) {
+        self.server.kill9();
+        let link = self.board.as_ref().map(|b| format!("serial:{}", b.pty));
+        self.server = Server::start(&self.dir.path().join("data"), &self.config, link.as_deref());
+        self.client = Client::connect(&Endpoint::Tcp(self.server.addr.clone())).unwrap();
+    }
+
+    fn req(&mut self, line: &str) -> Vec<String> {
+        self.client
+            .request(line)
+            .unwrap_or_else(|e| panic!("{:?}: {line}: {e}", self.pins))
+    }
+
+    /// The axis's status; on the board a trusted position is checked against its counter.
+    fn status(&mut self, axis: &str) -> AxisStatus {
+        let s = self
+            .client
+            .status()
+            .unwrap()
+            .into_iter()
+            .find(|s| s.axis == axis)
+            .unwrap();
+        if s.state == AxisState::Idle {
+            self.last[s.number] = Some((s.position, s.trusted));
+        }
+        s
+    }
+
+    /// Stops the service and reads the board's counters over the link itself: every
+    /// position last reported idle and trusted must equal its axis's counter.
+    fn check_counters(&mut self) {
+        let Some(b) = &self.board else { return };
+        self.server.kill9();
+        let port = serialport::new(&b.pty, 3_000_000)
+            .timeout(Duration::from_millis(2000))
+            .open()
+            .expect("the pty opens");
+        let mut l = HostLink::new(port);
+        for (a, last) in self.last.iter().enumerate() {
+            let counter = l
+                .read(Reg::Axis(a as u32, AxisReg::Position))
+                .expect("the board answers") as i32 as i64;
+            if let Some((pos, true)) = last {
+                if *pos != counter {
+                    self.mismatches += 1;
+                    eprintln!("axis {a}: reported {pos} trusted, the board counts {counter}");
+                }
+            }
+        }
+        self.checked = true;
+    }
+
+    fn wait_idle(&mut self, axis: &str) -> AxisStatus {
+        let t0 = Instant::now();
+        loop {
+            let s = self.status(axis);
+            if s.state != AxisState::Moving && s.state != AxisState::Homing {
+                return s;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(300),
+                "{:?}: {axis} never stopped: {s:?}",
+                self.pins
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Waits until the axis is idle and its board answers.
+    fn wait_reachable(&mut self, axis: &str) -> AxisStatus {
+        let t0 = Instant::now();
+        loop {
+            let s = self.wait_idle(axis);
+            if !s.fault.as_deref().unwrap_or("").contains("link") {
+                return s;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(60),
+                "the link never came back: {s:?}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    fn home(&mut self, axis: &str) -> AxisStatus {
+        self.req(&format!("home {axis}"));
+        self.wait_idle(axis)
+    }
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            if !self.checked {
+                self.check_counters();
+            }
+            assert_eq!(
+                self.mismatches, 0,
+                "{:?}: positions reported trusted that differ from the board's counter",
+                self.pins
+            );
+        }
+    }
+}
+
+/// Runs `script` on both backends and returns its answers, which must agree.
+fn on_both<T: PartialEq + std::fmt::Debug>(script: impl Fn(Pins) -> T) -> T {
+    let sim = script(Pins::Sim);
+    let hil = script(Pins::Hil);
+    assert_eq!(sim, hil, "the simulated board and the RTL disagree");
+    sim
+}
+
+#[test]
+fn moves_and_groups_give_the_same_positions_on_both_backends() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("move X 1200");
+        let x = r.wait_idle("X");
+        r.req("group move X=-300 Y=700");
+        let st = r.client.status().unwrap();
+        assert_eq!(st[0].move_start, st[1].move_start, "{pins:?}: one start");
+        let x2 = r.wait_idle("X");
+        let y = r.wait_idle("Y");
+        (x.position, x2.position, y.position, x2.state, y.state)
+    });
+    assert_eq!(got, (1200, 900, 700, AxisState::Idle, AxisState::Idle));
+}
+
+#[test]
+fn homing_finds_the_sensor_and_a_slip_shows_as_drift() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        let h = r.home("X");
+        assert!(h.homed && h.trusted, "{pins:?}: {h:?}");
+        // Lose 30 steps the count does not see, then pass the sensor again.
+        match pins {
+            Pins::Sim => {
+                r.req("sim X slip 30");
+            }
+            Pins::Hil => r.board.as_mut().unwrap().send("slip 0 30"),
+        }
+        r.req("move X 1000");
+        r.wait_idle("X");
+        r.req("move X -1400");
+        let x = r.wait_idle("X");
+        (h.position, x.drift.map(|d| d.abs() >= 25), x.trusted)
+    });
+    assert_eq!(got, (500, Some(true), false));
+}
+
+#[test]
+fn estop_halts_and_reset_clears() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("move X 1200");
+        std::thread::sleep(Duration::from_millis(150));
+        r.req("estop");
+        let x = r.status("X");
+        let refused = r.client.request("move Y 10").is_err();
+        r.req("reset");
+        r.req("move Y 10");
+        let y = r.wait_idle("Y");
+        (x.state, x.trusted, refused, y.position)
+    });
+    assert_eq!(got, (AxisState::Fault, false, true, 10));
+}
+
+#[test]
+fn kill_9_of_serve_keeps_idle_axes_and_untrusts_the_moving_one() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("home Y");
+        r.wait_idle("Y");
+        r.req("move Y 300");
+        r.wait_idle("Y");
+        r.req("move X 1200");
+        std::thread::sleep(Duration::from_millis(150));
+        r.restart_after_kill9();
+        let y = r.status("Y");
+        let x = r.wait_idle("X");
+        (y.position, y.trusted, x.trusted)
+    });
+    assert_eq!(got, (800, true, false));
+}
+
+#[test]
+fn a_board_reset_mid_move_and_a_cut_link_are_reported_and_survived() {
+    let mut r = Rig::new(Pins::Hil);
+    r.home("X");
+    r.req("move X 1200");
+    std::thread::sleep(Duration::from_millis(150));
+    r.board.as_mut().unwrap().send("reset");
+    // The frame in flight at the reset goes unanswered: the link may fail for a moment.
+    let x = r.wait_reachable("X");
+    assert!(!x.trusted && !x.homed, "{x:?}");
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    assert!(x.fault.as_deref().unwrap_or("").contains("reset"), "{x:?}");
+    assert!(r.req("info").iter().any(|l| l.contains("reset")));
+    r.board.as_mut().unwrap().send("cut");
+    std::thread::sleep(Duration::from_millis(1500));
+    let x = r.status("X");
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    assert!(x.fault.as_deref().unwrap_or("").contains("link"), "{x:?}");
+    assert!(!x.trusted, "{x:?}");
+    r.board.as_mut().unwrap().send("restore");
+    r.wait_reachable("X");
+    r.req("reset");
+    let before = r.status("X").position;
+    r.req("move X 50");
+    let x = r.wait_idle("X");
+    assert_eq!((x.position, x.state), (before + 50, AxisState::Idle));
+}
+
+#[test]
+fn homing_under_bouncing_and_glitching_sensors_lands_on_the_edge() {
+    // Bounces and glitches of 10 µs, shorter than the 20 µs debounce.
+    let noisy = config().replace(
+        "sensor_width = 200\n",
+        "sensor_width = 200\nbounce_count = 3\nbounce_time = 0.00001\n\
+         glitch_rate = 300.0\nglitch_max = 0.00001\nglitch_gap = 0.001\n",
+    );
+    let flags = [
+        "--bounce-count",
+        "3",
+        "--bounce-time",
+        "0.00001",
+        "--glitch-rate",
+        "300",
+        "--glitch-max",
+        "0.00001",
+        "--glitch-gap",
+        "0.001",
+    ];
+    let got = on_both(|pins| {
+        let mut r = Rig::with_config(pins, &noisy, &flags);
+        let h = r.home("X");
+        if let Some(b) = r.board.as_mut() {
+            let mech = b.state()["axes"][0]["position"].as_f64().unwrap();
+            assert!(
+                (mech + 300.0).abs() <= 3.0,
+                "home is the edge at -300, the motor is at {mech}"
+            );
+        }
+        (h.position, h.homed, h.trusted, h.fault)
+    });
+    assert_eq!(got, (500, true, true, None));
+}
+
+#[test]
+fn stop_ends_a_move_short_of_its_target_with_the_count_trusted() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.home("X");
+        r.req("move X 1200");
+        std::thread::sleep(Duration::from_millis(150));
+        r.req("stop X");
+        let x = r.wait_idle("X");
+        // The simulated board ramps down at amax; the board halts at once (its count
+        // stays exact: it counts the STEPs it gave).
+        (x.state, x.trusted, x.position > 500 && x.position < 1700)
+    });
+    assert_eq!(got, (AxisState::Idle, true, true));
+}
+
+#[test]
+fn a_bad_or_missing_board_link_stops_serve_with_one_error_line() {
+    let dir = tempfile::tempdir().unwrap();
+    for (link, want) in [
+        ("tcp:127.0.0.1:9", "serial:DEVICE"),
+        ("serial:/dev/x@12", "serial:DEVICE"),
+        ("serial:/nonexistent/tty", "/nonexistent/tty"),
+    ] {
+        let out = Command::new(BIN)
+            .args([
+                "serve",
+                "--listen",
+                "127.0.0.1:0",
+                "--board-link",
+                link,
+                "--data",
+            ])
+            .arg(dir.path().join("data"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{link}");
+        assert_eq!(err.lines().count(), 1, "{link}: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains(want),
+            "{link}: {err}"
+        );
+    }
+}

@@ -1,0 +1,90 @@
+//! `multistep board-sim`: the pty line first, the stdin commands, one `error:` line for bad
+//! input. Needs `verilator` and `g++` (skipped with a message when missing, unless CI is
+//! set: then it fails).
+
+use std::io::{BufRead, BufReader, Write};
+use std::process::{Command, Stdio};
+
+fn exe() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_multistep"))
+}
+
+#[test]
+fn unknown_board_is_one_error_line() {
+    let out = exe()
+        .args(["board-sim", "--board", "nope"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("error:") && err.contains("ulx3s-25f"),
+        "{err}"
+    );
+    let out = exe()
+        .args(["board-sim", "--board", "icebreaker", "--axes", "5"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1..=4"));
+}
+
+#[test]
+fn prints_the_pty_first_and_takes_commands() {
+    let have = ["verilator", "g++"]
+        .iter()
+        .all(|t| multistep_hdl::tools::find(t, t).is_ok());
+    if !have {
+        assert!(
+            std::env::var("CI").map_or(true, |v| v != "true"),
+            "verilator and g++ are needed under CI"
+        );
+        eprintln!("SKIPPED: verilator or g++ missing (apt-get install -y verilator g++)");
+        return;
+    }
+    let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator");
+    let mut child = exe()
+        .args([
+            "board-sim",
+            "--board",
+            "ulx3s-25f",
+            "--axes",
+            "2",
+            "--sensor-at",
+            "3",
+        ])
+        .arg("--cache-dir")
+        .arg(&cache)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    let path = line
+        .strip_prefix("pty ")
+        .expect("the pty line first")
+        .trim();
+    assert!(std::path::Path::new(path).exists(), "{path}");
+    let mut stdin = child.stdin.take().unwrap();
+    writeln!(stdin, "bogus\nslip 1 5\nstate").unwrap();
+    line.clear();
+    out.read_line(&mut line).unwrap();
+    let s: serde_json::Value = serde_json::from_str(&line).unwrap();
+    assert_eq!(s["axes"].as_array().unwrap().len(), 2);
+    assert_eq!(s["axes"][1]["position"], 5.0, "{line}");
+    // the window is (3 - 400, 3]: axis 0 at 0 is in it, axis 1 slipped to 5 is not
+    assert_eq!(s["axes"][0]["hall"], true, "{line}");
+    assert_eq!(s["axes"][1]["hall"], false, "{line}");
+    assert_eq!(s["clock_hz"], 50e6);
+    writeln!(stdin, "quit").unwrap();
+    let st = child.wait().unwrap();
+    assert!(st.success());
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: unknown command \"bogus\""), "{err}");
+}

@@ -1,0 +1,165 @@
+//! What happens at a board's pins. The controller's logic (planning, protocol, presets,
+//! named positions, persistence, homing, periodic axes, groups, e-stop) lives in
+//! [`crate::Board`] once; a [`BoardBackend`] runs its moves and reports what the axes did:
+//! [`SimBackend`] simulates the mechanics and Hall sensors, [`FpgaBackend`] drives the FPGA
+//! board (`ms_board`) over its serial host link.
+
+use crate::axis::AxisSettings;
+use crate::error::CtlError;
+use crate::hall::FilteredEdge;
+use crate::motion::StepSource;
+use crate::tracking::TrackSource;
+use multistep_core::int::IntProfile;
+use multistep_core::{MoveSpec, Profile};
+
+pub mod fpga;
+pub mod sim;
+
+pub use fpga::{FpgaBackend, LinkSpec};
+pub use sim::SimBackend;
+
+/// One axis's move handed to a backend.
+pub struct Launch {
+    pub axis: usize,
+    /// The move as planned on the host's clock (speeds, end tick).
+    pub profile: Profile,
+    /// The backend's own plan of it, when its datapath is not the host's (see
+    /// [`BoardBackend::plan_datapath`]).
+    pub datapath: Option<IntProfile>,
+    /// +1 or -1.
+    pub dir: i64,
+    /// Stop (with the backend's stop ramp) at the first accepted sensor edge to this
+    /// level: `Some(true)` entering the sensor, `Some(false)` leaving it.
+    pub stop_on_sensor: Option<bool>,
+    /// The move starts from rest: the sensor filter restarts on the present level.
+    pub resync_sensor: bool,
+}
+
+/// What an axis did, reported by [`BoardBackend::poll`] in time order per axis.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PinEvent {
+    /// An accepted (filtered) sensor edge while moving.
+    Sensor {
+        edge: FilteredEdge,
+        /// Commanded speed at the edge (steps/s, unsigned).
+        speed: f64,
+        /// The edge triggered the stop armed by [`Launch::stop_on_sensor`]; the axis now
+        /// runs its stop ramp towards `target`.
+        triggered: Option<i64>,
+    },
+    /// The axis's motion ended (it is idle) at tick `end`.
+    End { end: u64 },
+    /// The board lost this axis's count (it was reset or lost power while the axis moved,
+    /// or its counter no longer reads what the host last saw). Any motion is gone.
+    Lost { why: String },
+    /// The board latched its e-stop by itself (its e-stop input).
+    Estop,
+    /// The axis took a step (only while [`BoardBackend::watch_steps`] asks for it).
+    Step,
+}
+
+/// The pins of one board. Time is the board tick `now` the controller passes in.
+pub trait BoardBackend: Send {
+    /// "simulated" or the link, e.g. "serial:/dev/ttyUSB0@3000000".
+    fn describe(&self) -> String;
+    /// Simulated mechanics stand behind the axes (the `sim …` commands work).
+    fn is_simulated(&self) -> bool;
+    /// The board's own clock, when it reports one (the host plans on it).
+    fn clock_hz(&self) -> Option<f64> {
+        None
+    }
+    /// The axis count and mechanics position the controller restored from its store;
+    /// an axis the backend reads back from hardware keeps the hardware's count.
+    fn attach(&mut self, axis: usize, count: i64, sim_position: i64);
+    /// The axis's settings (at start-up and after every change).
+    fn configure(&mut self, axis: usize, settings: &AxisSettings);
+    /// The backend's own plan of a move (`None`: the host's profile is what runs).
+    fn plan_datapath(&self, _spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
+        Ok(None)
+    }
+    /// Starts `moves` together: with a TDM `report` they start on its start tick after
+    /// `now`, else on `now`. Returns the start tick and each move's step count.
+    fn start(
+        &mut self,
+        moves: Vec<Launch>,
+        report: Option<&multistep_core::tdm::Report>,
+        tdm: &multistep_core::tdm::TdmConfig,
+        now: u64,
+    ) -> Result<(u64, Vec<u64>), CtlError>;
+    /// Starts a move given as its step source (a simulated board only).
+    fn start_source(
+        &mut self,
+        _axis: usize,
+        _src: Box<dyn StepSource>,
+        _dir: i64,
+        _start: u64,
+    ) -> Result<u64, CtlError> {
+        Err(CtlError::NotSimulated)
+    }
+    /// Runs a tracker ([`BoardBackend::start_source`] with a rate that changes as it runs).
+    fn can_track(&self) -> bool {
+        false
+    }
+    /// The tracker of an axis tracking (`track`) on a simulated board, whose rate the
+    /// board changes while it runs.
+    fn tracker(&mut self, _axis: usize) -> Option<&mut TrackSource> {
+        None
+    }
+    /// Reports every step of `axis` as [`PinEvent::Step`] while `on` (a tracking axis
+    /// watching its soft limit).
+    fn watch_steps(&mut self, _axis: usize, _on: bool) {}
+    /// Energizes (`on`) or releases the axis's driver: its ENABLE line.
+    fn set_enabled(&mut self, axis: usize, on: bool) -> Result<(), CtlError>;
+    /// Begins one advance of the controller up to some tick (work accounting).
+    fn begin_advance(&mut self) {}
+    /// The next event up to `now`, or `None` once every axis reached it (or the work
+    /// budget of this advance is used up).
+    fn poll(&mut self, now: u64) -> Option<(usize, PinEvent)>;
+    /// The tick the backend has advanced to.
+    fn now(&self) -> u64;
+    /// Controlled stop of a moving axis from `now`; returns its new target.
+    fn stop(&mut self, axis: usize, now: u64) -> Result<i64, CtlError>;
+    /// Emergency stop: every axis halts at once.
+    fn estop(&mut self, now: u64);
+    /// Clears the e-stop (refused while the board's e-stop input is active).
+    fn clear_estop(&mut self) -> Result<(), CtlError>;
+    /// The board's e-stop input is active.
+    fn estop_input(&self) -> bool {
+        false
+    }
+    /// The axis's step count.
+    fn count(&self, axis: usize) -> i64;
+    /// Shifts the count by `delta` (homing's re-reference, a periodic axis's wrap);
+    /// `mechanics`: the simulated mechanics shift with it (the same place, renamed).
+    fn rebase(&mut self, axis: usize, delta: i64, mechanics: bool) -> Result<(), CtlError>;
+    /// The sensor's accepted level.
+    fn sensor(&self, axis: usize) -> bool;
+    /// Restarts the sensor filter on the present level at `now`.
+    fn resync_sensor(&mut self, axis: usize, now: u64);
+    /// Commanded speed (steps/s, unsigned) of a moving axis.
+    fn speed(&self, axis: usize, now: u64) -> f64;
+    /// The tick of the last edge of a moving axis's motion.
+    fn end_tick(&self, axis: usize) -> Option<u64>;
+    /// Where the simulated mechanics are (the count, without simulation).
+    fn sim_position(&self, axis: usize) -> i64 {
+        self.count(axis)
+    }
+    /// Simulation: the mechanics lose `steps` the count does not see.
+    fn slip(&mut self, _axis: usize, _steps: i64) -> Result<(), CtlError> {
+        Err(CtlError::NotSimulated)
+    }
+    /// Why the backend cannot reach this axis now (a link failure), if it cannot.
+    fn fault(&self, _axis: usize) -> Option<String> {
+        None
+    }
+    /// Limits the work of one advance (see [`crate::Board::set_work_budget`]).
+    fn set_work_budget(&mut self, _budget: Option<u64>) {}
+    /// Work done so far and the most any one advance did.
+    fn work(&self) -> (u64, u64) {
+        (0, 0)
+    }
+    /// Needs polling while idle (hardware: resets, e-stop input, link state).
+    fn polls_when_idle(&self) -> bool {
+        false
+    }
+}
