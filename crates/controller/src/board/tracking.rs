@@ -288,7 +288,7 @@ impl Board {
     pub(super) fn track_wrap(&mut self, i: usize) {
         let ax = &self.axes[i];
         let Some(p) = ax.period() else { return };
-        if !ax.motion.as_ref().is_some_and(|m| m.track.is_some()) || (0..p).contains(&ax.count) {
+        if ax.motion.as_ref().is_none_or(|m| m.track.is_none()) || (0..p).contains(&ax.count) {
             return;
         }
         let shift = ax.count.rem_euclid(p) - ax.count;
