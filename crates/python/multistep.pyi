@@ -19,6 +19,9 @@ DEFAULT_CLOCK_HZ: float
 MOTORS: List[str]
 #: Velocity-curve families: trapezoid, parabolic, exponential, sine, scurve, scurve4.
 PROFILES: List[str]
+#: A move's numeric keywords (times, speeds, limits, shape fractions), the same for
+#: ``plan``, ``simulate`` and ``Board``'s moves: vmax, amax, jmax, smax, accel_time, …
+MOVE_PARAMS: List[str]
 
 class MultistepError(Exception):
     """Base class of every error multistep raises itself."""

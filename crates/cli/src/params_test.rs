@@ -5,7 +5,7 @@
 
 use crate::{Cli, Cmd};
 use clap::{CommandFactory, FromArgMatches};
-use multistep_controller::protocol::{self, word_of_param, Command, HELP};
+use multistep_controller::protocol::{self, word_of_param, Command};
 use multistep_core::{MoveParams, PARAMS};
 
 fn cli(args: &[&str]) -> Cli {
@@ -55,7 +55,8 @@ fn every_move_value_is_a_flag_a_toml_key_and_a_protocol_word() {
                 "{word}="
             );
         }
-        let opts_line = HELP.iter().find(|l| l.starts_with("opts:")).unwrap();
+        let help = protocol::help();
+        let opts_line = help.iter().find(|l| l.starts_with("opts:")).unwrap();
         let shown = format!(" {}=", word_of_param(p));
         assert!(opts_line.contains(&shown), "help lacks{shown}");
 

@@ -207,7 +207,7 @@ impl Controller {
         };
         Ok(match cmd {
             Command::Nop => vec![],
-            Command::Help => protocol::HELP.iter().map(|s| s.to_string()).collect(),
+            Command::Help => protocol::help(),
             Command::Version => vec![format!(
                 "multistep-controller {}",
                 env!("CARGO_PKG_VERSION")

@@ -799,7 +799,7 @@ pub fn parse_status_line(line: &str) -> Option<Result<(), (u16, String)>> {
     Some(Err((code.parse().unwrap_or(0), msg.to_string())))
 }
 
-/// The text of `help`.
+/// The commands of `help` ([`help`] adds the move options).
 pub const HELP: &[&str] = &[
     "commands (AXIS is an axis name or number; N is microsteps or a number with 'u' for user units):",
     "  move AXIS N [opts]           relative move",
@@ -813,5 +813,16 @@ pub const HELP: &[&str] = &[
     "                               reverses) until stop; again while tracking: change the rate",
     "  rate NAME RATE  rates  release AXIS  energize AXIS",
     "  sim AXIS slip N              simulated boards only: lose N steps",
-    "opts: preset=P profile=F vmax= amax= jmax= smax= accel= cruise= decel= vs= ve= rho= phi= psi=",
 ];
+
+/// The text of `help`: [`HELP`], then the move options, every value of the core's list
+/// by the word the protocol prints for it.
+pub fn help() -> Vec<String> {
+    let mut opts = String::from("opts: preset=P profile=F");
+    for p in PARAMS {
+        opts.push_str(&format!(" {}=", word_of_param(p)));
+    }
+    let mut lines: Vec<String> = HELP.iter().map(|s| s.to_string()).collect();
+    lines.push(opts);
+    lines
+}

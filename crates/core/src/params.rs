@@ -1,7 +1,7 @@
 //! The values that shape a move, defined once: the command line's move flags (clap
-//! `flatten`, feature `clap`), the TDM config's and the stored presets' keys (serde
-//! `flatten`, feature `serde`), the controller protocol's `key=value` words and the Python
-//! package's keywords all read and write [`MoveParams`] through the table [`PARAMS`].
+//! `flatten`, feature `clap`), the controller's stored presets (serde `flatten`, feature
+//! `serde`), and, through the table [`PARAMS`], the TDM config's keys, the controller
+//! protocol's `key=value` words and the Python package's keywords.
 //!
 //! Adding a value means a field here and a row in [`PARAMS`]; a compile-time check
 //! refuses a field without its row.

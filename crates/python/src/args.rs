@@ -3,7 +3,7 @@
 //! a wrong value into a `ValueError`, never a panic.
 
 use crate::errors::{type_err, value_err};
-use multistep_core::{MoveSpec, Segment};
+use multistep_core::{MoveParams, MoveSpec, Param, Segment};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyInt, PyString};
 
@@ -12,18 +12,7 @@ use pyo3::types::{PyBool, PyDict, PyInt, PyString};
 pub struct MoveKw {
     pub profile: Option<String>,
     pub steps: Option<u64>,
-    pub accel_time: Option<f64>,
-    pub cruise_time: Option<f64>,
-    pub decel_time: Option<f64>,
-    pub start_speed: Option<f64>,
-    pub end_speed: Option<f64>,
-    pub vmax: Option<f64>,
-    pub amax: Option<f64>,
-    pub jmax: Option<f64>,
-    pub smax: Option<f64>,
-    pub rho: Option<f64>,
-    pub phi: Option<f64>,
-    pub psi: Option<f64>,
+    pub params: MoveParams,
     pub segments: Vec<Segment>,
 }
 
@@ -31,24 +20,9 @@ impl MoveKw {
     /// Reads one keyword; `Ok(false)` if it is not a move keyword.
     pub fn set(&mut self, key: &str, v: &Bound<'_, PyAny>) -> PyResult<bool> {
         if v.is_none() {
-            return Ok(matches!(
-                key,
-                "profile"
-                    | "steps"
-                    | "accel_time"
-                    | "cruise_time"
-                    | "decel_time"
-                    | "start_speed"
-                    | "end_speed"
-                    | "vmax"
-                    | "amax"
-                    | "jmax"
-                    | "smax"
-                    | "rho"
-                    | "phi"
-                    | "psi"
-                    | "segments"
-            ));
+            return Ok(
+                matches!(key, "profile" | "steps" | "segments") || Param::named(key).is_some()
+            );
         }
         let slot = match key {
             "profile" => {
@@ -63,19 +37,10 @@ impl MoveKw {
                 self.segments = segments(v)?;
                 return Ok(true);
             }
-            "accel_time" => &mut self.accel_time,
-            "cruise_time" => &mut self.cruise_time,
-            "decel_time" => &mut self.decel_time,
-            "start_speed" => &mut self.start_speed,
-            "end_speed" => &mut self.end_speed,
-            "vmax" => &mut self.vmax,
-            "amax" => &mut self.amax,
-            "jmax" => &mut self.jmax,
-            "smax" => &mut self.smax,
-            "rho" => &mut self.rho,
-            "phi" => &mut self.phi,
-            "psi" => &mut self.psi,
-            _ => return Ok(false),
+            _ => match Param::named(key) {
+                Some(p) => (p.slot)(&mut self.params),
+                None => return Ok(false),
+            },
         };
         *slot = Some(number(key, v)?);
         Ok(true)
@@ -85,18 +50,7 @@ impl MoveKw {
         MoveSpec {
             profile: self.profile.as_deref(),
             steps: self.steps,
-            accel_time: self.accel_time,
-            cruise_time: self.cruise_time,
-            decel_time: self.decel_time,
-            start_speed: self.start_speed,
-            end_speed: self.end_speed,
-            vmax: self.vmax,
-            amax: self.amax,
-            jmax: self.jmax,
-            smax: self.smax,
-            rho: self.rho,
-            phi: self.phi,
-            psi: self.psi,
+            params: self.params,
             segments: &self.segments,
         }
     }

@@ -7,6 +7,7 @@ use crate::errors::{client_err, type_err, value_err};
 use multistep_controller::client::{Client, Endpoint};
 use multistep_controller::protocol::{parse_amount, Amount};
 use multistep_controller::{Command, MoveOpts};
+use multistep_core::Param;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyInt, PyList, PyString};
 use std::sync::Mutex;
@@ -17,47 +18,20 @@ fn move_opts(func: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<MoveOpt
     let mut o = MoveOpts::default();
     each_kw(func, kwargs, |k, v| {
         if v.is_none() {
-            return Ok(MOVE_KEYS.contains(&k));
+            return Ok(matches!(k, "preset" | "profile") || Param::named(k).is_some());
         }
-        let num = |v: &Bound<'_, PyAny>| number(k, v).map(Some);
         match k {
             "preset" => o.preset = Some(string(k, v)?),
             "profile" => o.profile = Some(string(k, v)?),
-            "vmax" => o.vmax = num(v)?,
-            "amax" => o.amax = num(v)?,
-            "jmax" => o.jmax = num(v)?,
-            "smax" => o.smax = num(v)?,
-            "accel_time" => o.accel_time = num(v)?,
-            "cruise_time" => o.cruise_time = num(v)?,
-            "decel_time" => o.decel_time = num(v)?,
-            "start_speed" => o.start_speed = num(v)?,
-            "end_speed" => o.end_speed = num(v)?,
-            "rho" => o.rho = num(v)?,
-            "phi" => o.phi = num(v)?,
-            "psi" => o.psi = num(v)?,
-            _ => return Ok(false),
+            _ => match Param::named(k) {
+                Some(p) => *(p.slot)(&mut o.params) = Some(number(k, v)?),
+                None => return Ok(false),
+            },
         }
         Ok(true)
     })?;
     Ok(o)
 }
-
-const MOVE_KEYS: [&str; 14] = [
-    "preset",
-    "profile",
-    "vmax",
-    "amax",
-    "jmax",
-    "smax",
-    "accel_time",
-    "cruise_time",
-    "decel_time",
-    "start_speed",
-    "end_speed",
-    "rho",
-    "phi",
-    "psi",
-];
 
 /// An int is microsteps; a str is read as the protocol reads it (`"-400"`, `"12.5u"`).
 fn amount(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Amount> {

@@ -29,5 +29,12 @@ fn multistep(m: &Bound<'_, PyModule>) -> PyResult<()> {
             .collect::<Vec<_>>(),
     )?;
     m.add("PROFILES", multistep_core::Family::NAMES.to_vec())?;
+    m.add(
+        "MOVE_PARAMS",
+        multistep_core::PARAMS
+            .iter()
+            .map(|p| p.name)
+            .collect::<Vec<_>>(),
+    )?;
     Ok(())
 }

@@ -4,8 +4,12 @@
 
 use anyhow::{bail, Context};
 use multistep_core::tdm::{Latencies, Policy, PulseShape, TdmConfig};
-use multistep_core::{MoveParams, MoveSpec, Profile, Segment, StepDirTiming, DEFAULT_CLOCK_HZ};
+use multistep_core::{
+    MoveParams, MoveSpec, Param, Profile, Segment, StepDirTiming, DEFAULT_CLOCK_HZ, PARAMS,
+};
+use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
+use std::fmt;
 use std::path::Path;
 
 #[derive(Deserialize, Debug, Default)]
@@ -32,19 +36,89 @@ pub struct ConfigFile {
     pub axis: Vec<AxisEntry>,
 }
 
-/// One axis: a move by the plan's flag names, in snake_case.
-#[derive(Deserialize, Debug, Default, Clone)]
-#[serde(deny_unknown_fields)]
+/// One axis: a move by the plan's flag names, in snake_case. Read key by key (below):
+/// the move values are the core's list, so a value the core adds is a key here too.
+#[derive(Debug, Default, Clone)]
 pub struct AxisEntry {
     /// Optional label for reports.
     pub name: Option<String>,
     pub profile: Option<String>,
     pub steps: Option<u64>,
     /// Times, speeds, limits and shape fractions by their flag names.
-    #[serde(flatten)]
     pub params: MoveParams,
     /// `[[v0, t, n], ...]`: steps/s, s, steps.
     pub segments: Option<Vec<(f64, f64, u64)>>,
+}
+
+/// Every key of an `[[axis]]` table, for the message that names a wrong one.
+static AXIS_KEYS: [&str; PARAMS.len() + 4] = {
+    let mut keys = [""; PARAMS.len() + 4];
+    (keys[0], keys[1], keys[2]) = ("name", "profile", "steps");
+    let mut i = 0;
+    while i < PARAMS.len() {
+        keys[3 + i] = PARAMS[i].name;
+        i += 1;
+    }
+    keys[PARAMS.len() + 3] = "segments";
+    keys
+};
+
+enum AxisKey {
+    Name,
+    Profile,
+    Steps,
+    Segments,
+    Param(&'static Param),
+}
+
+impl<'de> Deserialize<'de> for AxisKey {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct KeyVisitor;
+        impl Visitor<'_> for KeyVisitor {
+            type Value = AxisKey;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an axis key")
+            }
+            fn visit_str<E: de::Error>(self, key: &str) -> Result<AxisKey, E> {
+                Ok(match key {
+                    "name" => AxisKey::Name,
+                    "profile" => AxisKey::Profile,
+                    "steps" => AxisKey::Steps,
+                    "segments" => AxisKey::Segments,
+                    _ => AxisKey::Param(
+                        Param::named(key).ok_or_else(|| E::unknown_field(key, &AXIS_KEYS))?,
+                    ),
+                })
+            }
+        }
+        d.deserialize_identifier(KeyVisitor)
+    }
+}
+
+impl<'de> Deserialize<'de> for AxisEntry {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct EntryVisitor;
+        impl<'de> Visitor<'de> for EntryVisitor {
+            type Value = AxisEntry;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an [[axis]] table")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<AxisEntry, A::Error> {
+                let mut a = AxisEntry::default();
+                while let Some(key) = map.next_key()? {
+                    match key {
+                        AxisKey::Name => a.name = Some(map.next_value()?),
+                        AxisKey::Profile => a.profile = Some(map.next_value()?),
+                        AxisKey::Steps => a.steps = Some(map.next_value()?),
+                        AxisKey::Segments => a.segments = Some(map.next_value()?),
+                        AxisKey::Param(p) => *(p.slot)(&mut a.params) = Some(map.next_value()?),
+                    }
+                }
+                Ok(a)
+            }
+        }
+        d.deserialize_struct("AxisEntry", &AXIS_KEYS, EntryVisitor)
+    }
 }
 
 impl AxisEntry {
@@ -192,7 +266,14 @@ mod tests {
     #[test]
     fn unknown_keys_and_bad_moves_are_errors() {
         assert!(ConfigFile::parse("fifo_dept = 2").is_err());
-        assert!(ConfigFile::parse("[[axis]]\nstep = 3").is_err());
+        let e = ConfigFile::parse("[[axis]]\nstep = 3")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2") && e.contains("unknown field `step`"),
+            "{e}"
+        );
+        assert!(e.contains("`steps`") && e.contains("`accel_time`"), "{e}");
         let cfg = ConfigFile::parse("[[axis]]\nname = \"x\"\nsteps = 3").unwrap();
         let e = format!("{:#}", cfg.profiles().unwrap_err());
         assert!(e.contains("axis 0 (x)") && e.contains("phase times"), "{e}");
