@@ -478,3 +478,17 @@ fn a_bad_or_missing_board_link_stops_serve_with_one_error_line() {
         );
     }
 }
+
+#[test]
+fn a_sync_group_starts_together_and_reaches_its_targets_on_both_backends() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("group move X=800 Y=-300 sync");
+        let st = r.client.status().unwrap();
+        assert_eq!(st[0].move_start, st[1].move_start, "{pins:?}: one start");
+        let x = r.wait_idle("X");
+        let y = r.wait_idle("Y");
+        (x.position, y.position)
+    });
+    assert_eq!(got, (800, -300));
+}
