@@ -29,9 +29,9 @@ struct BoardSim {
 }
 
 impl BoardSim {
-    /// The ULX3S build (50 MHz, 0.33 s pieces) with `axes` axes, every sensor as in
-    /// [`CONFIG`].
-    fn start(axes: usize, extra: &[&str]) -> BoardSim {
+    /// The ULX3S build (50 MHz, 0.33 s pieces) with `axes` axes, each sensor as the
+    /// board config's `sim.*` settings describe it (the simulated board's too).
+    fn start(axes: usize, config: &Path) -> BoardSim {
         let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verilator");
         let mut child = Command::new(BIN)
             .args([
@@ -41,15 +41,8 @@ impl BoardSim {
                 "--axes",
                 &axes.to_string(),
             ])
-            .args([
-                "--sensor-at",
-                "-300",
-                "--sensor-width",
-                "200",
-                "--home-dir",
-                "-1",
-            ])
-            .args(extra)
+            .arg("--config")
+            .arg(config)
             .arg("--cache-dir")
             .arg(cache)
             .stdin(Stdio::piped())
@@ -178,16 +171,15 @@ fn config() -> String {
 
 impl Rig {
     fn new(pins: Pins) -> Rig {
-        Rig::with_config(pins, &config(), &[])
+        Rig::with_config(pins, &config())
     }
 
-    /// With the config `text` and, on the board, board-sim's extra flags `board_args`
-    /// (its sensors as the config's `sim` settings describe them).
-    fn with_config(pins: Pins, text: &str, board_args: &[&str]) -> Rig {
+    /// With the board config `text`.
+    fn with_config(pins: Pins, text: &str) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
-        let board = (pins == Pins::Hil).then(|| BoardSim::start(2, board_args));
+        let board = (pins == Pins::Hil).then(|| BoardSim::start(2, &config));
         let link = board.as_ref().map(|b| format!("serial:{}", b.pty));
         let server = Server::start(&dir.path().join("data"), &config, link.as_deref());
         let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
@@ -426,20 +418,8 @@ fn homing_under_bouncing_and_glitching_sensors_lands_on_the_edge() {
         "sensor_width = 200\nbounce_count = 3\nbounce_time = 0.00001\n\
          glitch_rate = 300.0\nglitch_max = 0.00001\nglitch_gap = 0.001\n",
     );
-    let flags = [
-        "--bounce-count",
-        "3",
-        "--bounce-time",
-        "0.00001",
-        "--glitch-rate",
-        "300",
-        "--glitch-max",
-        "0.00001",
-        "--glitch-gap",
-        "0.001",
-    ];
     let got = on_both(|pins| {
-        let mut r = Rig::with_config(pins, &noisy, &flags);
+        let mut r = Rig::with_config(pins, &noisy);
         let h = r.home("X");
         if let Some(b) = r.board.as_mut() {
             let mech = b.state()["axes"][0]["position"].as_f64().unwrap();
@@ -497,4 +477,18 @@ fn a_bad_or_missing_board_link_stops_serve_with_one_error_line() {
             "{link}: {err}"
         );
     }
+}
+
+#[test]
+fn a_sync_group_starts_together_and_reaches_its_targets_on_both_backends() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("group move X=800 Y=-300 sync");
+        let st = r.client.status().unwrap();
+        assert_eq!(st[0].move_start, st[1].move_start, "{pins:?}: one start");
+        let x = r.wait_idle("X");
+        let y = r.wait_idle("Y");
+        (x.position, y.position)
+    });
+    assert_eq!(got, (800, -300));
 }

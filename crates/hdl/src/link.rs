@@ -974,6 +974,39 @@ mod tests {
         ));
     }
 
+    #[test]
+    fn a_stale_reply_to_an_earlier_request_is_skipped() {
+        // The reply to a request of a host that died (seq 200), then the answer to ours.
+        let stale = Reply {
+            seq: 200,
+            status: Status::Ok,
+            data: 1,
+        };
+        let ours = Reply {
+            seq: 0,
+            status: Status::Ok,
+            data: 42,
+        };
+        let mut bytes = stale.encode().to_vec();
+        bytes.extend_from_slice(&ours.encode());
+        struct Canned(std::io::Cursor<Vec<u8>>);
+        impl std::io::Read for Canned {
+            fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+                self.0.read(b)
+            }
+        }
+        impl std::io::Write for Canned {
+            fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+                Ok(b.len())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let mut l = HostLink::new(Canned(std::io::Cursor::new(bytes)));
+        assert_eq!(l.read(Reg::Board(BoardReg::Session)), Ok(42));
+    }
+
     proptest! {
         #[test]
         fn decoders_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..64)) {
