@@ -10,9 +10,12 @@ const CLOCK: f64 = 50e6;
 fn edges() -> Vec<u64> {
     let p = MoveSpec {
         steps: Some(3200),
-        accel_time: Some(0.02),
-        cruise_time: Some(0.01),
-        decel_time: Some(0.02),
+        params: multistep_core::MoveParams {
+            accel_time: Some(0.02),
+            cruise_time: Some(0.01),
+            decel_time: Some(0.02),
+            ..Default::default()
+        },
         ..Default::default()
     }
     .plan()
