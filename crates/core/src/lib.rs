@@ -46,6 +46,7 @@ pub mod profile;
 mod real;
 mod shape;
 pub mod spec;
+pub mod stream;
 pub mod summary;
 // the TDM model's own items are documented in its module docs; item docs to follow
 #[allow(missing_docs)]

@@ -5,7 +5,7 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 10] = [
+pub const BOARD_LIBRARY: [(&str, &str); 11] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
@@ -14,6 +14,7 @@ pub const BOARD_LIBRARY: [(&str, &str); 10] = [
     ("ms_link.v", include_str!("../rtl/board/ms_link.v")),
     ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
+    ("ms_stream.v", include_str!("../rtl/board/ms_stream.v")),
     ("ms_regs.v", include_str!("../rtl/board/ms_regs.v")),
     ("ms_board.v", include_str!("../rtl/board/ms_board.v")),
 ];
