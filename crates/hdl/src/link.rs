@@ -433,6 +433,9 @@ impl Request {
     }
 }
 
+/// Each axis's stream buffer on the board (`ms_board`'s `LB` = 9).
+pub const STREAM_BUFFER: u64 = 512;
+
 /// Most bytes in one bulk write.
 pub const BULK_MAX: usize = 255;
 
@@ -775,7 +778,7 @@ pub fn int_profile(
         Move::Phase(m) => {
             if m.family != Family::Trapezoid {
                 return Err(LinkError::Move(format!(
-                    "the board runs trapezoids only, not {:?}",
+                    "the board computes trapezoids only, not {:?} (stream it: hdl regs --stream)",
                     m.family
                 )));
             }
@@ -807,7 +810,7 @@ pub fn int_profile(
         Move::Limits(m) => {
             if m.order != Order::Trapezoid || m.jmax.is_some() || m.smax.is_some() {
                 return Err(LinkError::Move(
-                    "the board runs trapezoids only (no jerk or snap limit)".into(),
+                    "the board computes trapezoids only, no jerk or snap limit (stream it: hdl regs --stream)".into(),
                 ));
             }
             plan(IntProfile::limits(

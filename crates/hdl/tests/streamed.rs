@@ -226,13 +226,13 @@ fn streamed_every_family_two_axes() {
     every_family(2, 5, 0x5eed_0002);
 }
 
-/// A host that sends every chunk 3 ms late: the buffer runs dry, the axis underruns
+/// A host that sends every chunk 12 ms late: the buffer runs dry, the axis underruns
 /// and `State` says so; the edges before the first late one are exact, none is early.
 #[test]
 fn starved_link_is_flagged() {
     let p = params(1);
     let b = BoardTop::new(p.clone(), 3_000_000);
-    let mv = Move::Limits(LimitsMove::scurve4(1500, 100_000.0, 5e7, 2e11, 1e15));
+    let mv = Move::Limits(LimitsMove::scurve4(4000, 150_000.0, 5e7, 2e11, 1e15));
     let m = StreamedMove::plan(&mv, HZ, p.tick_bits).unwrap();
     assert!(
         m.bytes.len() as u64 > 2 * BUFFER,
@@ -243,7 +243,7 @@ fn starved_link_is_flagged() {
         std::slice::from_ref(&m),
         &[true],
         128,
-        150_000,
+        600_000,
         "starved",
     );
     let st = AxisState::decode(rep[reads[0][0]].data).unwrap();
@@ -321,7 +321,7 @@ fn ten_second_moves_over_three_megabaud() {
     let ep = StreamedMove::plan(&pa, HZ, 24).unwrap();
     for m in [&e4, &ep] {
         let secs = *m.edges.last().unwrap() as f64 / HZ as f64;
-        assert!((9.5..10.5).contains(&secs), "{secs} s");
+        assert!((9.5..11.0).contains(&secs), "{secs} s");
     }
     let link = StreamLink {
         clock_hz: HZ as f64,

@@ -43,7 +43,7 @@ module ms_stream #(
     reg [1:0]  st;
     reg [1:0]  esc;        // 0 op, 1 change (2 nibbles), 2 period (6 nibbles)
     reg [2:0]  got;
-    reg [19:0] acc;        // the nibbles so far of a 14 or 15 code
+    reg [19:0] acc;        // the nibbles so far of a 14 or 15 code, shifted in at the top
     reg [24:0] prev;
     initial begin
         wp = {(LB+1){1'b0}};
@@ -69,7 +69,7 @@ module ms_stream #(
     // ---- the nibble decoder ----
     wire [3:0]  n      = half ? cur[7:4] : cur[3:0];
     wire [24:0] p_small  = prev + {21'd0, n} - 25'd7;
-    wire [7:0]  d8     = {n, acc[3:0]};
+    wire [7:0]  d8     = {n, acc[19:16]};
     wire [24:0] p_delta  = prev + {{17{d8[7]}}, d8};
     wire [24:0] p_abs = {1'b0, n, acc[19:0]};
     reg         done_p;
@@ -145,7 +145,7 @@ module ms_stream #(
                             acc <= 20'd0;
                         end else begin
                             got <= got + 1'b1;
-                            acc[4*got +: 4] <= n;
+                            acc <= {n, acc[19:4]};
                         end
                     end
                 endcase
