@@ -357,5 +357,75 @@ fn ten_second_moves_over_three_megabaud() {
         out[0]
     );
     assert!(r.underruns > 0);
-    assert!(out.iter().all(|o| o.first_underrun.is_none_or(|s| s > 16)));
+    assert!(out
+        .iter()
+        .all(|o| !matches!(o.first_underrun, Some(s) if s <= 16)));
+}
+
+/// Bulk writes that must change nothing: one larger than the free space (status 7), one
+/// with a bad CRC (status 1), one to a register that is not `StreamData` or to an axis
+/// beyond K (3); the free count follows only the accepted ones; arming empties the buffer.
+#[test]
+fn bad_bulk_writes_change_nothing() {
+    use multistep_hdl::link::BulkWrite;
+    let b = BoardTop::new(params(1), 3_000_000);
+    let mut h = Host {
+        s: Script::new(),
+        seq: 0,
+        n: 0,
+    };
+    let bulk = |h: &mut Host, addr: u16, len: usize, corrupt: bool| {
+        let w = BulkWrite {
+            seq: h.seq,
+            addr,
+            data: (0..len).map(|i| i as u8).collect(),
+        };
+        let mut f = w.encode().unwrap();
+        if corrupt {
+            f[6] ^= 1;
+        }
+        h.s.bytes(&f).expect_reply();
+        h.seq = h.seq.wrapping_add(1);
+        h.n += 1;
+        h.n - 1
+    };
+    let data = Reg::Axis(0, AxisReg::StreamData).addr();
+    h.write(Reg::Axis(0, AxisReg::StreamSteps), 50);
+    let armed = h.read(Reg::Axis(0, AxisReg::StreamSteps));
+    let f0 = h.read(Reg::Axis(0, AxisReg::StreamFree));
+    let ok1 = bulk(&mut h, data, 255, false);
+    let ok2 = bulk(&mut h, data, 255, false);
+    let full = bulk(&mut h, data, 3, false);
+    let crc = bulk(&mut h, data, 2, true);
+    let wrong = bulk(&mut h, Reg::Axis(0, AxisReg::Position).addr(), 2, false);
+    let beyond = bulk(&mut h, Reg::Axis(3, AxisReg::StreamData).addr(), 2, false);
+    let f1 = h.read(Reg::Axis(0, AxisReg::StreamFree));
+    let plain = h.n;
+    h.write(Reg::Axis(0, AxisReg::StreamData), 7); // not by a plain write
+    h.write(Reg::Axis(0, AxisReg::StreamSteps), 0);
+    let disarmed = h.read(Reg::Axis(0, AxisReg::StreamSteps));
+    let f2 = h.read(Reg::Axis(0, AxisReg::StreamFree));
+    h.s.sync();
+    let dir = tempfile::Builder::new()
+        .prefix("bulk-bad")
+        .tempdir()
+        .unwrap();
+    let log = simulate(&b, &h.s, dir.path(), 2_000_000).unwrap();
+    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
+    assert_eq!(rep.len(), h.n);
+    let st = |i: usize| rep[i].status;
+    assert_eq!((st(armed), rep[armed].data), (Status::Ok, 1));
+    assert_eq!(rep[f0].data, 512);
+    assert_eq!((st(ok1), rep[ok1].data), (Status::Ok, 257));
+    assert_eq!((st(ok2), rep[ok2].data), (Status::Ok, 2));
+    assert_eq!(st(full), Status::StreamFull);
+    assert_eq!(st(crc), Status::BadCrc);
+    assert_eq!(
+        (st(wrong), st(beyond)),
+        (Status::BadAddress, Status::BadAddress)
+    );
+    assert_eq!(rep[f1].data, 2, "only the accepted bulk writes count");
+    assert_eq!(st(plain), Status::BadAddress);
+    assert_eq!((st(disarmed), rep[disarmed].data), (Status::Ok, 0));
+    assert_eq!(rep[f2].data, 512, "arming empties the buffer");
 }

@@ -79,7 +79,7 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
     top.widths()?;
     let clock = p.clock_hz as u64;
     if a.stream {
-        return streamed(a, &board, &top, axes);
+        return streamed(a, board, &top, axes);
     }
     let profile = int_profile(&a.mv.spec().resolve()?, clock)?;
     let m = AxisMove::from_profile(&profile, !a.reverse, &p)?;

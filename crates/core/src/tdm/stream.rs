@@ -16,6 +16,7 @@
 //!
 //! No allocation: the edges are caller slices; everything else is per-axis counters.
 
+use crate::real::fm;
 use crate::stream::StreamEncoder;
 
 /// A bulk frame's bytes besides its data (sync, seq, command, address, length, CRC).
@@ -187,7 +188,7 @@ pub fn run(
         return None;
     }
     let byte_ticks = 10.0 * link.clock_hz / link.baud;
-    let frame_ticks = |n: u64| ((n as f64) * byte_ticks).ceil() as u64;
+    let frame_ticks = |n: u64| fm::ceil((n as f64) * byte_ticks) as u64;
     let mut runs: [Option<AxisRun<'_>>; MAX] = Default::default();
     for (a, &e) in axes.iter().enumerate() {
         let total = coded_len(e)?;
@@ -254,7 +255,7 @@ pub fn run(
         for (a, r) in runs.iter().enumerate().take(axes.len()) {
             if let Some(c) = r.as_ref().and_then(|r| r.next) {
                 let at = go + c.not_before.unwrap_or(0);
-                if pick.is_none_or(|(b, _)| at < b) {
+                if !matches!(pick, Some((b, _)) if b <= at) {
                     pick = Some((at, a));
                 }
             }
