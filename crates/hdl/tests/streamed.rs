@@ -252,6 +252,28 @@ fn starved_link_is_flagged() {
     assert_eq!(got.len(), m.edges.len(), "every step made, late");
     let first_late = got.iter().zip(&m.edges).position(|(g, w)| g != w).unwrap();
     assert!(first_late > 16, "the preload ran exactly ({first_late})");
+    // the core's link model with the same host predicts the same first late step
+    use multistep_core::tdm::stream::{run, StreamAxisReport, StreamLink};
+    let link = StreamLink {
+        clock_hz: HZ as f64,
+        baud: 3e6,
+        buffer: BUFFER,
+        frame: 128,
+        host_delay: 600_000,
+    };
+    let mut out = [StreamAxisReport::default()];
+    run(&link, &[&m.edges[..]], &mut out).unwrap();
+    let predicted = out[0].first_underrun.expect("the model underruns too") as usize;
+    assert!(
+        predicted.abs_diff(first_late) <= 1,
+        "model {predicted}, board {first_late}"
+    );
+    let on_time = StreamLink {
+        host_delay: 0,
+        ..link
+    };
+    run(&on_time, &[&m.edges[..]], &mut out).unwrap();
+    assert_eq!(out[0].first_underrun, None, "on time, neither underruns");
     assert!(
         got.iter().zip(&m.edges).all(|(g, w)| g >= w),
         "no edge early"
@@ -328,6 +350,7 @@ fn ten_second_moves_over_three_megabaud() {
         baud: 3e6,
         buffer: BUFFER,
         frame: 128,
+        host_delay: 0,
     };
     let go = |k: usize| {
         let axes: Vec<&[u64]> = (0..k)

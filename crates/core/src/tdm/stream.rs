@@ -142,6 +142,8 @@ pub struct StreamLink {
     pub buffer: u64,
     /// Data bytes per bulk frame (1..=255).
     pub frame: u64,
+    /// Ticks the host sends each chunk after it may (0: at once; a host falling behind).
+    pub host_delay: u64,
 }
 
 /// One axis of a streamed run.
@@ -254,7 +256,7 @@ pub fn run(
         let mut pick: Option<(u64, usize)> = None;
         for (a, r) in runs.iter().enumerate().take(axes.len()) {
             if let Some(c) = r.as_ref().and_then(|r| r.next) {
-                let at = go + c.not_before.unwrap_or(0);
+                let at = go + c.not_before.map_or(0, |t| t + link.host_delay);
                 if !matches!(pick, Some((b, _)) if b <= at) {
                     pick = Some((at, a));
                 }
@@ -302,6 +304,7 @@ mod tests {
             baud,
             buffer: 512,
             frame: 128,
+            host_delay: 0,
         }
     }
 
