@@ -50,12 +50,13 @@ module ms_stream #(
         rp = {(LB+1){1'b0}};
         arm_q = 1'b0;
         run = 1'b0;
+        pv_ok = 1'b0;
         fault = 1'b0;
         bok = 1'b0;
     end
     assign armed = arm_q;
     assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
-    assign more  = run && (left != 32'd0);
+    assign more  = run && (left != 32'd0 || pv_ok || fault);
 
     // ---- the buffer ----
     /* verilator lint_off WIDTH */
@@ -87,10 +88,14 @@ module ms_stream #(
             p = p_abs;
         end
     end
-    wire dec     = run && (st == S_DEC) && !full && (left != 32'd0) && !fault;
-    wire p_bad   = (p == 25'd0) || (p[24:WD] != {(25-WD){1'b0}});
-    assign push   = dec && done_p && !p_bad;
-    assign period = p[WD-1:0];
+    // a decoded period waits one clock in pv (checked there), so no nibble is decoded
+    // while one waits: the FIFO's room seen at decode is still there at the push
+    reg         pv_ok;     // pv holds a decoded period
+    reg  [24:0] pv;
+    wire dec     = run && (st == S_DEC) && !full && (left != 32'd0) && !fault && !pv_ok;
+    wire p_bad   = (pv == 25'd0) || (pv[24:WD] != {(25-WD){1'b0}});
+    assign push   = pv_ok && !p_bad && run;
+    assign period = pv[WD-1:0];
 
     always @(posedge clk) begin
         if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
@@ -100,13 +105,15 @@ module ms_stream #(
             arm_q <= 1'b0;
             run   <= 1'b0;
             fault <= 1'b0;
+            pv_ok <= 1'b0;
         end else if (arm) begin
             wp    <= {(LB+1){1'b0}};
             rp    <= {(LB+1){1'b0}};
             steps <= arm_steps;
             arm_q <= (arm_steps != 32'd0);
         end else if (halt) begin
-            run <= 1'b0;
+            run   <= 1'b0;
+            pv_ok <= 1'b0;
         end else if (init) begin
             run   <= arm_q;
             arm_q <= 1'b0;
@@ -115,7 +122,10 @@ module ms_stream #(
             st    <= S_FETCH;
             esc   <= 2'd0;
             fault <= 1'b0;
+            pv_ok <= 1'b0;
         end else begin
+            pv_ok <= 1'b0;
+            if (pv_ok && p_bad) fault <= 1'b1;
             if (run) begin
                 case (st)
                     S_FETCH: if (rp != wp && left != 32'd0) begin
@@ -131,13 +141,11 @@ module ms_stream #(
                         half <= 1'b1;
                         if (half) st <= S_FETCH;
                         if (done_p) begin
-                            esc <= 2'd0;
-                            if (p_bad) begin
-                                fault <= 1'b1;
-                            end else begin
-                                prev <= p;
-                                left <= left - 1'b1;
-                            end
+                            esc   <= 2'd0;
+                            prev  <= p;
+                            left  <= left - 1'b1;
+                            pv    <= p;
+                            pv_ok <= 1'b1;
                         end else if (esc == 2'd0) begin
                             if (n == 4'd14) esc <= 2'd1;
                             if (n == 4'd15) esc <= 2'd2;
