@@ -33,7 +33,7 @@ enum HdlCmd {
     /// List the boards `hdl build` supports
     Boards,
     /// Print the link frames and register writes that load a move into a board and start it
-    Regs(regs::RegsArgs),
+    Regs(Box<regs::RegsArgs>),
 }
 
 #[derive(Args, Debug)]

@@ -154,3 +154,66 @@ fn moves_the_board_cannot_run_are_errors() {
         assert_eq!(err.lines().count(), 1, "{err}");
     }
 }
+
+/// `--stream`: a sine move (which the board cannot compute) as DIR, arm, bulk writes and
+/// start; the bulk frames decode, their bytes are the whole code, and the code decodes to
+/// exactly plan's edges.
+#[test]
+fn streamed_moves_list_their_bulk_writes() {
+    use multistep_core::stream::StreamDecoder;
+    use multistep_hdl::link::{AxisReg, BulkWrite};
+    let args = "hdl regs --board ulx3s-25f --axis 1 --stream --profile sine --steps 3000 \
+                --accel-time 0.01 --cruise-time 0.02 --decel-time 0.01";
+    let o = multistep(&args.split_whitespace().collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let mut code = Vec::new();
+    let (mut arms, mut starts, mut later) = (0, 0, 0);
+    for l in text.lines() {
+        if l.starts_with("# from move tick") {
+            later += 1;
+            continue;
+        }
+        if l.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = l.split_whitespace().collect();
+        let bytes: Vec<u8> = (0..f[3].len() / 2)
+            .map(|i| u8::from_str_radix(&f[3][2 * i..2 * i + 2], 16).unwrap())
+            .collect();
+        if bytes[2] == 3 {
+            let b = BulkWrite::decode(&bytes).unwrap();
+            assert_eq!(b.addr, Reg::Axis(1, AxisReg::StreamData).addr());
+            code.extend(b.data);
+        } else {
+            let r = Request::decode(&bytes).unwrap();
+            if r.addr == Reg::Axis(1, AxisReg::StreamSteps).addr() {
+                assert_eq!(r.data, 3000);
+                arms += 1;
+            }
+            if r.addr == Reg::Board(BoardReg::Start).addr() {
+                assert_eq!(r.data, 2);
+                starts += 1;
+            }
+        }
+    }
+    assert_eq!((arms, starts), (1, 1));
+    assert!(later > 0, "bulk writes after the start: {text}");
+    let mut d = StreamDecoder::new();
+    let mut periods = Vec::new();
+    for b in code {
+        d.byte(b, &mut |p| periods.push(u64::from(p))).unwrap();
+    }
+    let edges: Vec<u64> = periods
+        .iter()
+        .scan(0, |t, p| {
+            *t += p;
+            Some(*t)
+        })
+        .collect();
+    let mv = multistep_core::PhaseMove::new(3000, multistep_core::Family::Sine, 0.01, 0.02, 0.01);
+    let want: Vec<u64> = multistep_core::edges(&multistep_core::Move::Phase(mv), 50e6)
+        .unwrap()
+        .collect();
+    assert_eq!(edges, want);
+}

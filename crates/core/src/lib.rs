@@ -48,6 +48,7 @@ mod real;
 mod shape;
 pub mod spec;
 pub mod step_dir;
+pub mod stream;
 pub mod summary;
 // the TDM model's own items are documented in its module docs; item docs to follow
 #[allow(missing_docs)]

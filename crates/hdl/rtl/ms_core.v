@@ -24,6 +24,11 @@
 //              that piece's t0 counted from the last edge computed before the divert.
 //              Ignored if the axis has no more periods to compute.
 //
+// Replayed axes (ms_board's ms_stream; tie to 0 when unused):
+//   stream[a]  at its start the axis does not take the calculator: its periods come on
+//              s_push / s_din while s_more is high (from init_ax[a] on), into the same
+//              FIFO and pulse unit; ax_full[a] is that FIFO's full flag.
+//
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
 module ms_core #(
@@ -56,7 +61,13 @@ module ms_core #(
     output wire [K-1:0]  step,
     output wire [K-1:0]  dir,
     output wire [K-1:0]  busy,
-    output wire [K-1:0]  underrun
+    output wire [K-1:0]  underrun,
+    input  wire [K-1:0]  stream,
+    input  wire [K-1:0]  s_push,
+    input  wire [K*WD-1:0] s_din,
+    input  wire [K-1:0]  s_more,
+    output wire [K-1:0]  init_ax,
+    output wire [K-1:0]  ax_full
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
@@ -205,7 +216,7 @@ module ms_core #(
         end else if (done) begin
             sel <= 1'b1;
         end
-        calc_act <= (calc_act | (do_init ? ini_bit : {K{1'b0}}))
+        calc_act <= (calc_act | (do_init ? ini_bit & ~stream : {K{1'b0}}))
                   & ~((done && mov_end) ? m_bit : {K{1'b0}}) & ~halt;
         div_req  <= (div_req | (divert & calc_act)) & ~(done ? m_bit : {K{1'b0}})
                   & ~halt & ~(do_init ? ini_bit : {K{1'b0}});
@@ -221,24 +232,30 @@ module ms_core #(
             if (go || (group & ~halt) == {K{1'b0}}) pending <= 1'b0;
         end
     end
-    assign ready = pending && ((group & (init_pend | (calc_act & ~fifo_full))) == {K{1'b0}});
+    assign ready = pending &&
+                   ((group & (init_pend | ((calc_act | s_more) & ~fifo_full))) == {K{1'b0}});
+    assign init_ax = do_init ? ini_bit : {K{1'b0}};
+    assign ax_full = fifo_full;
 
     // ---- per axis: FIFO and pulse unit ----
     genvar a;
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
+            // a replayed axis never has the calculator, so the two pushes never collide
+            wire          push = (done && ({1'b0, m} == a)) || s_push[a];
+            wire [WD-1:0] din  = s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
             ms_fifo #(.W(WD), .LD(LF)) u_fifo (
                 .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
-                .push(done && ({1'b0, m} == a)), .din(period[WD-1:0]),
+                .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .full(fifo_full[a]));
             ms_pulse #(.WP(WD)) u_pulse (
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
-                .empty(fifo_empty[a]), .more(calc_act[a]),
-                .arrive(done && ({1'b0, m} == a)), .ain(period[WD-1:0]), .pop(fifo_pop[a]),
+                .empty(fifo_empty[a]), .more(calc_act[a] || s_more[a]),
+                .arrive(push), .ain(din), .pop(fifo_pop[a]),
                 .halt(halt[a]), .step(step[a]), .running(running[a]), .underrun(underrun[a]));
         end
     endgenerate
     assign dir  = dir_r;
-    assign busy = init_pend | calc_act | running | (pending ? group : {K{1'b0}});
+    assign busy = init_pend | calc_act | s_more | running | (pending ? group : {K{1'b0}});
 endmodule

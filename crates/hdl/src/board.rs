@@ -5,7 +5,7 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 10] = [
+pub const BOARD_LIBRARY: [(&str, &str); 11] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
@@ -14,6 +14,7 @@ pub const BOARD_LIBRARY: [(&str, &str); 10] = [
     ("ms_link.v", include_str!("../rtl/board/ms_link.v")),
     ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
+    ("ms_stream.v", include_str!("../rtl/board/ms_stream.v")),
     ("ms_regs.v", include_str!("../rtl/board/ms_regs.v")),
     ("ms_board.v", include_str!("../rtl/board/ms_board.v")),
 ];
@@ -31,6 +32,9 @@ pub struct BoardTop {
     pub baud: u32,
     /// The e-stop input's active level (true: high stops).
     pub estop_active_high: bool,
+    /// Each axis's stream buffer is 2^bits bytes (8..=16), or 0: no replay units (the
+    /// board computes trapezoids only).
+    pub stream_buffer_bits: u32,
 }
 
 impl BoardTop {
@@ -39,6 +43,7 @@ impl BoardTop {
             core,
             baud,
             estop_active_high: true,
+            stream_buffer_bits: 9,
         }
     }
 
@@ -55,6 +60,12 @@ impl BoardTop {
             return Err(HdlError::Param(format!(
                 "baud {} needs 4..=65535 clocks per bit at {hz} Hz",
                 self.baud
+            )));
+        }
+        let lb = self.stream_buffer_bits;
+        if lb != 0 && !(8..=16).contains(&lb) {
+            return Err(HdlError::Param(format!(
+                "stream buffer bits must be 0 or 8..=16, got {lb}"
             )));
         }
         let err = self.baud_error();
@@ -104,6 +115,7 @@ impl BoardTop {
             ("BAUD", self.baud),
             ("ESTOP_ACTIVE", u32::from(self.estop_active_high)),
             ("VERSION", u32::from(crate::link::crate_version())),
+            ("LB", self.stream_buffer_bits),
         ])
     }
 

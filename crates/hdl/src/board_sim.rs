@@ -44,6 +44,20 @@ impl Script {
         self
     }
 
+    /// Sends a bulk write (one reply expected).
+    pub fn send_bulk(&mut self, w: &crate::link::BulkWrite) -> Result<&mut Self, HdlError> {
+        let f = w.encode().map_err(|e| HdlError::Param(e.to_string()))?;
+        self.bytes(&f);
+        self.replies += 1;
+        Ok(self)
+    }
+
+    /// Waits until `ticks` clocks after the last group start (`go`): the move's tick.
+    pub fn at_move_tick(&mut self, ticks: u64) -> &mut Self {
+        self.lines.push(format!("g {ticks} 0"));
+        self
+    }
+
     /// Sends requests back to back.
     pub fn send_all(&mut self, rs: &[Request]) -> &mut Self {
         for r in rs {
@@ -205,7 +219,7 @@ module tb;
     ms_board {params} dut (.clk(clk), .rst_n_async(rst_n), .uart_rx(rx), .uart_tx(tx),
         .estop_in(estop), .hall_in(hall), .limit_in(limit), .step_out(step), .dir_out(dir),
         .enable_out(en), .led(led));
-    integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0;
+    integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0, gocycle = 0;
     reg [8*8-1:0] cmd;
     reg [{k1}:0] pstep, pdir, pen, phs, pls;
     reg [7:0] rb;
@@ -218,7 +232,10 @@ module tb;
     end endgenerate
     // pins are sampled just before each rising edge: `cycle` is the edge they changed after
     always @(posedge clk) begin
-        if (dut.go) $fdisplay(f, \"go %0d\", cycle);
+        if (dut.go) begin
+            $fdisplay(f, \"go %0d\", cycle);
+            gocycle = cycle;
+        end
         if (dut.u_core.start_wr) $fdisplay(f, \"start %0d\", cycle);
         if (dut.req) $fdisplay(f, \"req %0d\", cycle);
         for (a = 0; a < {k}; a = a + 1) begin
@@ -282,6 +299,7 @@ module tb;
                 \"b\": send(c_a[7:0]);
                 \"w\": repeat (c_a) @(posedge clk);
                 \"t\": #(c_a);
+                \"g\": while (cycle < gocycle + c_a) @(posedge clk);
                 \"q\": while (nrx < c_a) @(posedge clk);
                 \"i\": begin
                     @(posedge clk);

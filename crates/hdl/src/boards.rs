@@ -102,6 +102,9 @@ pub struct Board {
     pub constraints: (&'static str, &'static str),
     /// The generated wrapper's top module.
     pub top: &'static str,
+    /// Each axis's stream buffer: 2^bits bytes (0: no replay units, no streamed moves).
+    #[serde(skip)]
+    pub stream_buffer_bits: u32,
 }
 
 /// Every supported board.
@@ -136,6 +139,7 @@ pub const BOARDS: [Board; 2] = [
         },
         constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
         top: "ms_ulx3s_top",
+        stream_buffer_bits: 9,
     },
     Board {
         name: "icebreaker",
@@ -169,10 +173,20 @@ pub const BOARDS: [Board; 2] = [
         },
         constraints: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
         top: "ms_icebreaker_top",
+        // the UP5K is full with two computing axes
+        stream_buffer_bits: 0,
     },
 ];
 
 impl Board {
+    /// The board top level of this board with `params`.
+    pub fn board_top(&self, params: &crate::CoreParams) -> crate::BoardTop {
+        crate::BoardTop {
+            stream_buffer_bits: self.stream_buffer_bits,
+            ..crate::BoardTop::new(params.clone(), self.baud)
+        }
+    }
+
     /// The board named `name`, or a parameter error listing the boards.
     pub fn by_name(name: &str) -> Result<&'static Board, HdlError> {
         BOARDS.iter().find(|b| b.name == name).ok_or_else(|| {

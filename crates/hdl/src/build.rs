@@ -5,7 +5,7 @@
 
 use crate::boards::{Board, Family, Pll};
 use crate::pnr::{place_and_route, Flow, Placed};
-use crate::{BoardTop, CoreParams, HdlError};
+use crate::{CoreParams, HdlError};
 use multistep_core::tdm::{k_max, rate_move, Axis, TdmConfig};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -119,7 +119,7 @@ fn pll(b: &Board, osc: &str) -> String {
 /// The board wrapper: the board's pins (as named in its constraint file), the PLL, the
 /// reset (button or PLL not locked), and `ms_board` on the first `axes` axis wires.
 pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
-    let top = BoardTop::new(params.clone(), b.baud);
+    let top = b.board_top(params);
     let board_params = top.verilog_params()?;
     let (k, max) = (params.axes, b.max_axes);
     let m1 = max - 1;
@@ -193,7 +193,7 @@ pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
 
 /// The Verilog of a board build: the core library, the board top and the wrapper.
 pub fn sources(b: &Board, params: &CoreParams) -> Result<Vec<(String, String)>, HdlError> {
-    let mut files = BoardTop::new(params.clone(), b.baud).files()?;
+    let mut files = b.board_top(params).files()?;
     files.push((format!("{}.v", b.top), wrapper(b, params)?));
     Ok(files)
 }

@@ -13,6 +13,7 @@ mod moves;
 mod params;
 pub mod pnr;
 pub mod report;
+pub mod stream;
 pub mod testbench;
 pub mod tools;
 pub mod verilator;

@@ -4,7 +4,8 @@
 //! [`LinkError`].
 //!
 //! Request (11 bytes): `A5 seq cmd addr_lo addr_hi d0 d1 d2 d3 crc_hi crc_lo`, cmd 1 read,
-//! 2 write. Reply (9 bytes): `5A seq status d0 d1 d2 d3 crc_hi crc_lo`. The CRC is
+//! 2 write; bulk write (cmd 3, [`BulkWrite`]): `A5 seq 03 addr_lo addr_hi len byte0 ..
+//! byte(len−1) crc_hi crc_lo`, up to 255 bytes for a stream buffer. Reply (9 bytes): `5A seq status d0 d1 d2 d3 crc_hi crc_lo`. The CRC is
 //! CRC-16/CCITT-FALSE (`CRC_16_IBM_3740`: polynomial 0x1021, initial 0xFFFF) over every
 //! byte before it; data is little-endian.
 
@@ -66,6 +67,8 @@ impl From<HdlError> for LinkError {
 pub enum Command {
     Read = 1,
     Write = 2,
+    /// A [`BulkWrite`]'s command byte (never in a [`Request`]).
+    Bulk = 3,
 }
 
 /// A reply's status (`ms_link.v`, `ms_regs.v`).
@@ -84,6 +87,8 @@ pub enum Status {
     Estop = 5,
     /// A value out of range (an axis mask with bits beyond K, an empty start).
     BadValue = 6,
+    /// A bulk write larger than the free space of the axis's stream buffer (nothing kept).
+    StreamFull = 7,
 }
 
 impl Status {
@@ -96,6 +101,7 @@ impl Status {
             4 => Status::Busy,
             5 => Status::Estop,
             6 => Status::BadValue,
+            7 => Status::StreamFull,
             c => return Err(LinkError::StatusCode(c)),
         })
     }
@@ -157,6 +163,14 @@ pub enum AxisReg {
     Period = 3,
     /// R/W: the slot of the stop ramp (writable while idle).
     StopSlot = 4,
+    /// R/W: write N >= 1: the axis's next start replays a streamed schedule of N steps
+    /// (the stream buffer is emptied); 0: the next start is computed (writable while
+    /// idle). Read: 1 while armed.
+    StreamSteps = 5,
+    /// R: free bytes in the axis's stream buffer.
+    StreamFree = 6,
+    /// Bulk writes only ([`BulkWrite`]): bytes of the streamed schedule.
+    StreamData = 7,
 }
 
 /// A register address.
@@ -255,6 +269,10 @@ pub struct AxisState {
     pub hall: bool,
     pub limit: bool,
     pub dir: bool,
+    /// The next start replays a streamed schedule.
+    pub stream_armed: bool,
+    /// The replay unit met a bad code and stopped (the axis underruns until stopped).
+    pub stream_fault: bool,
 }
 
 impl AxisState {
@@ -278,6 +296,8 @@ impl AxisState {
             hall: bit(8),
             limit: bit(9),
             dir: bit(10),
+            stream_armed: bit(11),
+            stream_fault: bit(12),
         })
     }
 }
@@ -409,6 +429,62 @@ impl Request {
             command,
             addr: u16::from_le_bytes([f[3], f[4]]),
             data: u32::from_le_bytes([f[5], f[6], f[7], f[8]]),
+        })
+    }
+}
+
+/// Each axis's stream buffer on the board (`ms_board`'s `LB` = 9).
+pub const STREAM_BUFFER: u64 = 512;
+
+/// Most bytes in one bulk write.
+pub const BULK_MAX: usize = 255;
+
+/// A bulk write: up to [`BULK_MAX`] bytes for one register (an axis's `StreamData`) in one
+/// frame of `8 + len` bytes, answered by one [`Reply`] whose data is the buffer's free
+/// bytes after it (status `StreamFull` if it did not fit: nothing is kept).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BulkWrite {
+    pub seq: u8,
+    pub addr: u16,
+    pub data: Vec<u8>,
+}
+
+impl BulkWrite {
+    /// The frame, or an error for more than [`BULK_MAX`] bytes.
+    pub fn encode(&self) -> Result<Vec<u8>, LinkError> {
+        let n = self.data.len();
+        if n > BULK_MAX {
+            return Err(LinkError::Length {
+                what: "bulk write's data",
+                need: BULK_MAX,
+                got: n,
+            });
+        }
+        let mut f = Vec::with_capacity(n + 8);
+        f.extend_from_slice(&[REQUEST_SYNC, self.seq, Command::Bulk as u8]);
+        f.extend_from_slice(&self.addr.to_le_bytes());
+        f.push(n as u8);
+        f.extend_from_slice(&self.data);
+        let c = crc16(&f);
+        f.extend_from_slice(&c.to_be_bytes());
+        Ok(f)
+    }
+
+    /// Decodes one bulk frame (what the board's parser accepts).
+    pub fn decode(f: &[u8]) -> Result<BulkWrite, LinkError> {
+        let n = *f.get(5).ok_or(LinkError::Length {
+            what: "bulk write",
+            need: 8,
+            got: f.len(),
+        })? as usize;
+        let f = frame(f, n + 8, REQUEST_SYNC, "bulk write")?;
+        if f[2] != Command::Bulk as u8 {
+            return Err(LinkError::Command(f[2]));
+        }
+        Ok(BulkWrite {
+            seq: f[1],
+            addr: u16::from_le_bytes([f[3], f[4]]),
+            data: f[6..6 + n].to_vec(),
         })
     }
 }
@@ -702,7 +778,7 @@ pub fn int_profile(
         Move::Phase(m) => {
             if m.family != Family::Trapezoid {
                 return Err(LinkError::Move(format!(
-                    "the board runs trapezoids only, not {:?}",
+                    "the board computes trapezoids only, not {:?} (stream it: hdl regs --stream)",
                     m.family
                 )));
             }
@@ -734,7 +810,7 @@ pub fn int_profile(
         Move::Limits(m) => {
             if m.order != Order::Trapezoid || m.jmax.is_some() || m.smax.is_some() {
                 return Err(LinkError::Move(
-                    "the board runs trapezoids only (no jerk or snap limit)".into(),
+                    "the board computes trapezoids only, no jerk or snap limit (stream it: hdl regs --stream)".into(),
                 ));
             }
             plan(IntProfile::limits(
@@ -895,6 +971,7 @@ mod tests {
                     self.regs.insert(req.addr, req.data);
                     (Status::Ok, 0)
                 }
+                (Command::Bulk, Some(_)) => (Status::BadCommand, 0),
             };
             let mut f = Reply {
                 seq: req.seq,
@@ -1012,6 +1089,7 @@ mod tests {
         fn decoders_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..64)) {
             let _ = Request::decode(&bytes);
             let _ = Reply::decode(&bytes);
+            let _ = BulkWrite::decode(&bytes);
             let mut d = ReplyDecoder::new();
             let _ = d.push(&bytes);
             let _ = AxisState::decode(u32::from_le_bytes([
@@ -1033,6 +1111,15 @@ mod tests {
             got.extend(d.push(&stream[split..]));
             let ok: Vec<Reply> = got.into_iter().filter_map(Result::ok).collect();
             prop_assert_eq!(ok, vec![r, r]);
+        }
+
+        #[test]
+        fn bulk_writes_round_trip(seq in any::<u8>(), addr in any::<u16>(),
+                                  data in proptest::collection::vec(any::<u8>(), 0..=BULK_MAX)) {
+            let w = BulkWrite { seq, addr, data };
+            let f = w.encode().unwrap();
+            prop_assert_eq!(f.len(), w.data.len() + 8);
+            prop_assert_eq!(BulkWrite::decode(&f), Ok(w));
         }
 
         #[test]

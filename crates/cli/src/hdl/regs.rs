@@ -33,6 +33,13 @@ pub struct RegsArgs {
     /// Sequence number of the first frame
     #[arg(long, default_value_t = 0)]
     seq: u8,
+    /// Stream the move: plan's edges, coded and sent in bulk writes to the axis's replay
+    /// unit (any family and mode; the default computes trapezoids on the board)
+    #[arg(long)]
+    stream: bool,
+    /// Data bytes per bulk write when streaming (1-255)
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u16).range(1..=255))]
+    frame: u16,
     #[command(flatten)]
     mv: MoveArgs,
 }
@@ -71,6 +78,9 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
     let top = BoardTop::new(p.clone(), board.baud);
     top.widths()?;
     let clock = p.clock_hz as u64;
+    if a.stream {
+        return streamed(a, board, &top, axes);
+    }
     let profile = int_profile(&a.mv.spec().resolve()?, clock)?;
     let m = AxisMove::from_profile(&profile, !a.reverse, &p)?;
     let mut writes = Vec::new();
@@ -116,6 +126,114 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
             r.addr,
             r.data,
             reg_name(&top, w.reg)
+        )?;
+    }
+    Ok(())
+}
+
+/// `--stream`: the control word (DIR), the arm write, the bulk writes that fit the empty
+/// buffer, the start, then each later bulk write after the move tick it may go at.
+fn streamed(a: &RegsArgs, board: &Board, top: &BoardTop, axes: u32) -> anyhow::Result<()> {
+    use multistep_hdl::link::{core_addr, Request, STREAM_BUFFER};
+    use multistep_hdl::stream::StreamedMove;
+    if a.axis >= axes {
+        anyhow::bail!("axis {} out of range (the board has {axes})", a.axis);
+    }
+    let p = &top.core;
+    let w = top.widths()?;
+    let clock = p.clock_hz as u64;
+    let m = StreamedMove::plan(&a.mv.spec().resolve()?, clock, w.wd)?;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "# multistep hdl regs --stream: board {}, K = {axes}, axis {}, {} Hz, {} baud 8N1",
+        board.name, a.axis, clock, board.baud
+    )?;
+    writeln!(
+        out,
+        "# move: {}, {} steps, last edge at tick {}, {} code bytes ({:.3} per step)",
+        a.mv.describe(),
+        m.steps(),
+        m.edges.last().copied().unwrap_or(0),
+        m.bytes.len(),
+        m.bytes_per_step()
+    )?;
+    writeln!(
+        out,
+        "# seq addr data     frame (hex; bulk writes: data = length)  register"
+    )?;
+    let mut seq = a.seq;
+    let row = |out: &mut std::io::StdoutLock, r: Request, name: String| {
+        let frame: String = r.encode().iter().map(|b| format!("{b:02x}")).collect();
+        writeln!(
+            out,
+            "{:03} {:04x} {:08x} {frame} {name}",
+            r.seq, r.addr, r.data
+        )
+    };
+    let mut writes = Vec::new();
+    if let Some(d) = a.dir_setup {
+        writes.push(RegWrite {
+            reg: Reg::Board(BoardReg::DirSetup),
+            data: d,
+        });
+    }
+    if let Some(pw) = a.pulse_width {
+        writes.push(RegWrite {
+            reg: Reg::Board(BoardReg::PulseWidth),
+            data: pw,
+        });
+    }
+    writes.push(RegWrite {
+        reg: Reg::Core(core_addr(&w, true, a.axis, 1)),
+        data: u32::from(!a.reverse) << 31,
+    });
+    writes.push(m.arm_write(a.axis));
+    for wr in &writes {
+        let r = Request::write(seq, wr.reg, wr.data);
+        row(&mut out, r, reg_name(top, wr.reg))?;
+        seq = seq.wrapping_add(1);
+    }
+    let chunks = m.chunks(STREAM_BUFFER, usize::from(a.frame));
+    let bulk = |out: &mut std::io::StdoutLock, c: &multistep_hdl::stream::Chunk, seq: u8| {
+        let b = m.bulk(a.axis, c.range.clone(), seq);
+        let frame: String = b.encode()?.iter().map(|x| format!("{x:02x}")).collect();
+        writeln!(
+            out,
+            "{:03} {:04x} {:08x} {frame} axis{}.StreamData[{}..{}]",
+            seq,
+            b.addr,
+            b.data.len(),
+            a.axis,
+            c.range.start,
+            c.range.end
+        )?;
+        anyhow::Ok(())
+    };
+    let mut started = false;
+    for c in &chunks {
+        if c.not_before.is_some() && !started {
+            let s = start_write(1 << a.axis);
+            row(
+                &mut out,
+                Request::write(seq, s.reg, s.data),
+                reg_name(top, s.reg),
+            )?;
+            seq = seq.wrapping_add(1);
+            started = true;
+        }
+        if let Some(t) = c.not_before {
+            writeln!(out, "# from move tick {t}")?;
+        }
+        bulk(&mut out, c, seq)?;
+        seq = seq.wrapping_add(1);
+    }
+    if !started {
+        let s = start_write(1 << a.axis);
+        row(
+            &mut out,
+            Request::write(seq, s.reg, s.data),
+            reg_name(top, s.reg),
         )?;
     }
     Ok(())

@@ -15,6 +15,7 @@ pub mod calculator;
 pub mod fifo;
 pub mod pulse;
 pub mod scheduler;
+pub mod stream;
 
 pub use analysis::{k_eq12, k_max, min_period_ticks, rate_move, KMax};
 pub use board::{Axis, AxisStats, Board, Report, TdmConfig, MAX_AXES};

@@ -20,7 +20,9 @@ module ms_board #(
     parameter CLK_HZ   = 50000000,
     parameter BAUD     = 3000000,
     parameter ESTOP_ACTIVE = 1,        // the level of estop_in that stops (1: high)
-    parameter VERSION  = 16'h0001
+    parameter VERSION  = 16'h0001,
+    parameter LB       = 9             // each axis's stream buffer: 2^LB bytes (8..16;
+                                       // 0: no replay units, streamed moves refused)
 ) (
     input  wire         clk,
     input  wire         rst_n_async,
@@ -35,6 +37,7 @@ module ms_board #(
     output wire [3:0]   led
 );
     localparam DIV = (CLK_HZ + BAUD / 2) / BAUD;
+    localparam LBR = (LB == 0) ? 8 : LB;   // the registers' free-count width
 
     wire rst;
     ms_reset u_reset (.clk(clk), .rst_n_async(rst_n_async), .rst(rst));
@@ -58,14 +61,19 @@ module ms_board #(
     wire [7:0]  tx_byte;
     ms_uart_tx #(.DIV(DIV)) u_tx (.clk(clk), .rst(rst), .start(tx_start), .data(tx_byte),
         .tx(uart_tx), .busy(tx_busy));
-    wire        req, req_wr, bad_frame;
+    wire        req, req_wr, req_bulk, bad_frame;
+    wire        bulk_open, bulk_wr;
+    wire [15:0] bulk_addr;
+    wire [7:0]  bulk_len, bulk_idx, bulk_byte;
     wire [15:0] req_addr;
     wire [31:0] req_data, rsp_data;
     wire [7:0]  rsp_status;
     // a gap of 4 character times ends a frame
     ms_link #(.GAP(DIV * 40)) u_link (.clk(clk), .rst(rst), .rx_valid(rx_valid),
         .rx_byte(rx_byte), .req(req), .req_wr(req_wr), .req_addr(req_addr),
-        .req_data(req_data), .rsp_status(rsp_status), .rsp_data(rsp_data),
+        .req_data(req_data), .req_bulk(req_bulk), .bulk_open(bulk_open),
+        .bulk_addr(bulk_addr), .bulk_len(bulk_len), .bulk_wr(bulk_wr), .bulk_idx(bulk_idx),
+        .bulk_byte(bulk_byte), .rsp_status(rsp_status), .rsp_data(rsp_data),
         .tx_start(tx_start), .tx_byte(tx_byte), .tx_busy(tx_busy), .bad_frame(bad_frame));
 
     // ---- registers and core ----
@@ -79,10 +87,15 @@ module ms_board #(
     wire [5:0]    levels;
     wire [K*32-1:0] pos, hall_pos;
     wire [K*WD-1:0] period;
+    // the replay units
+    wire [K-1:0]  s_arm, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
+    wire [K*(LBR+1)-1:0] s_free;
+    wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
-              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD)) u_regs (
+              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR)) u_regs (
         .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
-        .req_data(req_data), .rsp_status(rsp_status), .rsp_data(rsp_data),
+        .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_commit(s_commit),
+        .s_armed(s_armed), .s_bok(s_bok), .s_free(s_free), .s_more(s_more), .s_fault(s_fault), .rsp_status(rsp_status), .rsp_data(rsp_data),
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
         .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
@@ -96,7 +109,12 @@ module ms_board #(
               .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
-        .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun));
+        .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
+        .stream(s_armed), .s_push(s_push), .s_din(s_din), .s_more(s_more), .init_ax(init_ax),
+        .ax_full(ax_full));
+    // a bulk frame's axis: the StreamData register 0x2000 | axis << 4 | 7
+    wire          b_data = (bulk_addr[15:10] == 6'b001000) && (bulk_addr[3:0] == 4'h7);
+    wire [5:0]    b_ax   = bulk_addr[9:4];
 
     // ---- per axis ----
     wire kill = estop_act || estop;
@@ -104,6 +122,25 @@ module ms_board #(
     genvar a;
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
+            if (LB > 0) begin : replay
+                wire mine = b_data && (b_ax == a);
+                ms_stream #(.WD(WD), .LB(LBR)) u_stream (
+                    .clk(clk), .rst(rst), .arm(s_arm[a]), .arm_steps(req_data),
+                    .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
+                    .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
+                    .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
+                    .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
+                    .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
+                    .fault(s_fault[a]));
+            end else begin : no_replay
+                assign s_armed[a] = 1'b0;
+                assign s_bok[a] = 1'b0;
+                assign s_free[a*(LBR+1) +: LBR+1] = {(LBR+1){1'b0}};
+                assign s_push[a] = 1'b0;
+                assign s_din[a*WD +: WD] = {WD{1'b0}};
+                assign s_more[a] = 1'b0;
+                assign s_fault[a] = 1'b0;
+            end
             ms_axis_io #(.WD(WD)) u_io (
                 .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
                 .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
@@ -132,7 +169,8 @@ module ms_board #(
         else if (act != 20'd0) act <= act - 1'b1;
     end
     assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
-    /* verilator lint_off UNUSED */
-    wire unused = rx_ferr;
+    /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
+    wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
+                  (^s_arm) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

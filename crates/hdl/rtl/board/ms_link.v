@@ -4,7 +4,10 @@
 // over the first 9 bytes (ms_crc16). A reply is 9 bytes:
 //     0x5A, seq, status, data[7:0] .. data[31:24], crc[15:8], crc[7:0]
 // with the request's seq, the status (0 ok; ms_regs has the codes) and the data read (0
-// for a write). Bytes before a 0xA5 are skipped; a frame with a gap of more than GAP clocks
+// for a write). A bulk write (cmd 0x03) carries up to 255 bytes for one register:
+//     0xA5, seq, 0x03, addr[7:0], addr[15:8], len, byte 0 .. byte len-1, crc[15:8], crc[7:0]
+// each byte is handed out as it arrives (bulk_open at len, bulk_wr per byte), and the
+// request (req_bulk) follows the CRC only if it checked; the reply is the usual one. Bytes before a 0xA5 are skipped; a frame with a gap of more than GAP clocks
 // between bytes is dropped without a reply (so a host resynchronizes by pausing). A frame
 // with a bad CRC or command gets a reply with that status and is not executed. Replies
 // are shorter than requests, so a host may send requests back to back.
@@ -19,6 +22,13 @@ module ms_link #(
     output reg         req_wr,
     output reg  [15:0] req_addr,
     output reg  [31:0] req_data,
+    output reg         req_bulk,   // with req: a bulk write of bulk_len bytes to req_addr
+    output reg         bulk_open,  // one clock: a bulk frame for bulk_addr, bulk_len bytes
+    output reg  [15:0] bulk_addr,
+    output reg  [7:0]  bulk_len,
+    output reg         bulk_wr,    // one clock: its byte bulk_idx is bulk_byte
+    output reg  [7:0]  bulk_idx,
+    output reg  [7:0]  bulk_byte,
     input  wire [7:0]  rsp_status, // the clock after req
     input  wire [31:0] rsp_data,
     output wire        tx_start,
@@ -27,10 +37,10 @@ module ms_link #(
     output reg         bad_frame   // one clock: a frame failed its CRC or command check
 );
     localparam [7:0] SYNC_REQ = 8'hA5, SYNC_RSP = 8'h5A;
-    localparam [7:0] ST_CRC = 8'h01, ST_CMD = 8'h02;
+    localparam [7:0] ST_CRC = 8'h01, ST_CMD = 8'h02, CMD_BULK = 8'h03;
 
     // ---- receive ----
-    reg  [3:0]  idx;      // bytes of the frame so far
+    reg  [8:0]  idx;      // bytes of the frame so far
     reg  [15:0] crc;
     reg  [7:0]  seq, cmd;
     reg  [15:0] gap;
@@ -38,14 +48,22 @@ module ms_link #(
     reg  [63:0] body;     // addr and data bytes, shifted in (the low 16 bits unused)
     /* verilator lint_on UNUSED */
     wire [15:0] crc_rx;
-    ms_crc16 u_crc_rx (.crc(idx == 4'd0 ? 16'hFFFF : crc), .data(rx_byte), .next(crc_rx));
+    ms_crc16 u_crc_rx (.crc(idx == 9'd0 ? 16'hFFFF : crc), .data(rx_byte), .next(crc_rx));
+    wire        bulk = (cmd == CMD_BULK);
+    // the frame's last byte: 11-byte requests, 8 + len for a bulk write
+    wire [8:0]  last = bulk ? 9'd7 + {1'b0, bulk_len} : 9'd10;
     reg         exec;     // the clock after req: build the reply
     reg         reply;    // load a reply {seq, status, data}
     reg  [7:0]  r_seq, r_st;
     reg  [31:0] r_data;
     initial begin
-        idx = 4'd0;
+        idx = 9'd0;
         req = 1'b0;
+        bulk_open = 1'b0;
+        bulk_wr = 1'b0;
+        req_bulk = 1'b0;
+        cmd = 8'h00;
+        bulk_len = 8'h00;
         exec = 1'b0;
         reply = 1'b0;
         bad_frame = 1'b0;
@@ -55,36 +73,50 @@ module ms_link #(
         exec      <= req;
         reply     <= 1'b0;
         bad_frame <= 1'b0;
+        bulk_open <= 1'b0;
+        bulk_wr   <= 1'b0;
         if (rst) begin
-            idx <= 4'd0;
+            idx <= 9'd0;
             gap <= 16'd0;
         end else if (rx_valid) begin
             gap <= 16'd0;
             crc <= crc_rx;
-            if (idx == 4'd0) begin
-                if (rx_byte == SYNC_REQ) idx <= 4'd1;
+            if (idx == 9'd0) begin
+                if (rx_byte == SYNC_REQ) idx <= 9'd1;
             end else begin
-                idx <= (idx == 4'd10) ? 4'd0 : idx + 1'b1;
-                if (idx == 4'd1) seq <= rx_byte;
-                if (idx == 4'd2) cmd <= rx_byte;
-                if (idx >= 4'd3 && idx <= 4'd8) body <= {rx_byte, body[63:8]};
-                if (idx == 4'd10) begin
+                idx <= (idx == last) ? 9'd0 : idx + 1'b1;
+                if (idx == 9'd1) seq <= rx_byte;
+                if (idx == 9'd2) cmd <= rx_byte;
+                if (idx >= 9'd3 && idx <= 9'd8) body <= {rx_byte, body[63:8]};
+                if (idx == 9'd3) bulk_addr[7:0] <= rx_byte;
+                if (idx == 9'd4) bulk_addr[15:8] <= rx_byte;
+                if (bulk && idx == 9'd5) begin
+                    bulk_len  <= rx_byte;
+                    bulk_open <= 1'b1;
+                end
+                if (bulk && idx >= 9'd6 && idx < 9'd6 + {1'b0, bulk_len}) begin
+                    bulk_wr   <= 1'b1;
+                    bulk_idx  <= idx[7:0] - 8'd6;
+                    bulk_byte <= rx_byte;
+                end
+                if (idx == last) begin
                     r_seq <= seq;
-                    if (crc_rx != 16'd0 || (cmd != 8'h01 && cmd != 8'h02)) begin
+                    if (crc_rx != 16'd0 || (cmd != 8'h01 && cmd != 8'h02 && !bulk)) begin
                         reply     <= 1'b1;
                         bad_frame <= 1'b1;
                         r_st      <= (crc_rx != 16'd0) ? ST_CRC : ST_CMD;
                         r_data    <= 32'd0;
                     end else begin
                         req      <= 1'b1;
-                        req_wr   <= (cmd == 8'h02);
-                        req_addr <= body[31:16];
-                        req_data <= body[63:32];
+                        req_wr   <= (cmd == 8'h02) || bulk;
+                        req_bulk <= bulk;
+                        req_addr <= bulk ? bulk_addr : body[31:16];
+                        req_data <= bulk ? {24'd0, bulk_len} : body[63:32];
                     end
                 end
             end
-        end else if (idx != 4'd0) begin
-            if (gap == GAP[15:0]) idx <= 4'd0;
+        end else if (idx != 9'd0) begin
+            if (gap == GAP[15:0]) idx <= 9'd0;
             else gap <= gap + 1'b1;
         end
         if (exec) begin

@@ -3,8 +3,12 @@
 // are valid in the next. A request that fails a check changes nothing.
 //   0x0000-0x0012  board registers     0x1000 | a  the core's bus word a (write only)
 //   0x2000 | axis << 4 | r              axis registers
+// A bulk write (req_bulk, req_data = its length) goes only to an axis's StreamData (r = 7):
+// its bytes went to the axis's replay unit (ms_stream) as they arrived; here it is
+// committed if it fit, and the reply's data is the free bytes left.
 // Status: 0 ok, 3 unknown register (or the wrong direction), 4 busy (the write would
-// change a running move), 5 e-stop latched, 6 bad value. (1 and 2 are ms_link's.)
+// change a running move), 5 e-stop latched, 6 bad value, 7 the stream buffer has no room
+// for the bulk write. (1 and 2 are ms_link's.)
 module ms_regs #(
     parameter K       = 2,
     parameter LK      = 1,
@@ -18,7 +22,8 @@ module ms_regs #(
     parameter RB      = 2,
     parameter VERSION = 16'h0001,
     parameter CLK_HZ  = 50000000,
-    parameter BAUD    = 3000000
+    parameter BAUD    = 3000000,
+    parameter LB      = 9
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -26,6 +31,7 @@ module ms_regs #(
     input  wire          req_wr,
     input  wire [15:0]   req_addr,
     input  wire [31:0]   req_data,
+    input  wire          req_bulk,
     output reg  [7:0]    rsp_status,
     output reg  [31:0]   rsp_data,
     // the core
@@ -62,9 +68,18 @@ module ms_regs #(
     input  wire          estop_in,   // the e-stop input, synchronized, active high
     output reg           estop,      // latched
     input  wire          rx_line,    // the UART input, synchronized (session capture)
-    input  wire          bad_frame
+    input  wire          bad_frame,
+    // the replay units (ms_stream)
+    output reg  [K-1:0]  s_arm,      // one clock: StreamSteps of these axes = req_data
+    output reg  [K-1:0]  s_commit,   // one clock: commit the bulk write
+    input  wire [K-1:0]  s_armed,
+    input  wire [K-1:0]  s_bok,
+    input  wire [K*(LB+1)-1:0] s_free,
+    input  wire [K-1:0]  s_more,
+    input  wire [K-1:0]  s_fault
 );
-    localparam [7:0] OK = 8'd0, E_ADDR = 8'd3, E_BUSY = 8'd4, E_ESTOP = 8'd5, E_VALUE = 8'd6;
+    localparam [7:0] OK = 8'd0, E_ADDR = 8'd3, E_BUSY = 8'd4, E_ESTOP = 8'd5, E_VALUE = 8'd6,
+                     E_FULL = 8'd7;
     localparam [31:0] AXES_MASK = (K == 32) ? 32'hFFFF_FFFF : ((32'd1 << K) - 1);
 
     reg [31:0]   dir_setup;
@@ -83,6 +98,8 @@ module ms_regs #(
         estop = 1'b0;
         core_wr = 1'b0;
         divert = {K{1'b0}};
+        s_arm = {K{1'b0}};
+        s_commit = {K{1'b0}};
         setup_cnt = 32'd0;
         setup_need = 32'd0;
     end
@@ -118,6 +135,7 @@ module ms_regs #(
         for (i = 0; i < K; i = i + 1) n = n + {31'd0, mask[i]};
     end
 
+    wire [LB:0] ax_free = s_free[ax[LK-1:0]*(LB+1) +: LB+1];
     // ---- read data ----
     reg [31:0] rd;
     reg        rd_ok;
@@ -150,13 +168,15 @@ module ms_regs #(
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
         end else if (ax_ok) begin
             case (areg)
-                4'h0: rd = {21'd0, core_dir[ax[LK-1:0]], limit_lvl[ax[LK-1:0]], hall_lvl[ax[LK-1:0]],
+                4'h0: rd = {19'd0, s_fault[ax[LK-1:0]], s_armed[ax[LK-1:0]], core_dir[ax[LK-1:0]], limit_lvl[ax[LK-1:0]], hall_lvl[ax[LK-1:0]],
                             hall_flag[ax[LK-1:0]], estopped[ax[LK-1:0]], stopped[ax[LK-1:0]],
                             core_underrun[ax[LK-1:0]], core_busy[ax[LK-1:0]], state_code};
                 4'h1: rd = pos[ax[LK-1:0]*32 +: 32];
                 4'h2: rd = hall_pos[ax[LK-1:0]*32 +: 32];
                 4'h3: rd = {{(32-WD){1'b0}}, period[ax[LK-1:0]*WD +: WD]};
                 4'h4: rd = {{(32-LS){1'b0}}, slot[ax[LK-1:0]]};
+                4'h5: rd = {31'd0, s_armed[ax[LK-1:0]]};
+                4'h6: rd = {{(31-LB){1'b0}}, ax_free};
                 default: rd_ok = 1'b0;
             endcase
         end else begin
@@ -183,12 +203,13 @@ module ms_regs #(
             endcase
         end else if (ax_ok) begin
             case (areg)
-                4'h1, 4'h4: wst = ax_busy ? E_BUSY : OK;
+                4'h1, 4'h4, 4'h5: wst = ax_busy ? E_BUSY : OK;
                 default: wst = E_ADDR;
             endcase
         end else if (c_ok) begin
             wst = c_busy ? E_BUSY : OK;
         end
+        if (req_bulk) wst = (ax_ok && areg == 4'h7) ? (s_bok[ax[LK-1:0]] ? OK : E_FULL) : E_ADDR;
     end
     wire wr_ok = req && req_wr && (wst == OK);
     wire w_board = wr_ok && is_board;
@@ -203,9 +224,12 @@ module ms_regs #(
         hall_clr <= {K{1'b0}};
         stop_req <= {K{1'b0}};
         divert   <= hall_edge & hall_stop & core_busy;
+        s_arm    <= {K{1'b0}};
+        s_commit <= {K{1'b0}};
         if (req) begin
             rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
-            rsp_data   <= (req_wr || !rd_ok) ? 32'd0 : rd;
+            rsp_data   <= (req_bulk && wst == OK) ? {{(31-LB){1'b0}}, ax_free - {{(LB-7){1'b0}}, req_data[7:0]}}
+                        : (req_wr || !rd_ok) ? 32'd0 : rd;
         end
         if (rst) begin
             estop        <= 1'b0;
@@ -269,6 +293,8 @@ module ms_regs #(
             if (w_axis) begin
                 if (areg == 4'h1) pos_wr[ax[LK-1:0]] <= 1'b1;
                 if (areg == 4'h4) slot[ax[LK-1:0]] <= req_data[LS-1:0];
+                if (areg == 4'h5 && !req_bulk) s_arm[ax[LK-1:0]] <= 1'b1;
+                if (req_bulk) s_commit[ax[LK-1:0]] <= 1'b1;
             end
             if (wr_ok && is_core) begin
                 core_wr   <= 1'b1;
@@ -286,5 +312,5 @@ module ms_regs #(
     end
     assign go = core_ready && (setup_cnt >= setup_need) && !estop && !estop_in;
     assign halt = (rst || estop || estop_in) ? {K{1'b1}}
-                 : (stop_req | (limit_edge & limit_stop));
+                 : (stop_req | (limit_edge & limit_stop) | (hall_edge & hall_stop & s_more));
 endmodule

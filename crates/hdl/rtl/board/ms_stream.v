@@ -1,0 +1,164 @@
+// ms_stream: one axis's replay unit for a host-computed edge schedule (multistep_core::
+// stream, docs/HDL.md "Streamed moves"). The host arms it with the move's step count
+// (which clears its byte buffer), fills the buffer with bulk frames and keeps it ahead;
+// from the core's init of the axis at the group's start the unit decodes the nibble code
+// into periods and pushes them into the axis's FIFO, whose pulse unit makes the edges as
+// for computed pieces. Nibbles, low first: 0 pad; 1-13 the previous period + (n - 7);
+// 14 + 2 nibbles: + a signed 8-bit change; 15 + 6 nibbles: the period itself.
+// A bulk frame's bytes are written past the committed data and committed only when its
+// CRC checked (bcommit), and only if it fit the free space when it began (bok).
+// A decoded period of 0 or wider than WD bits stops the decoder (fault): the axis
+// underruns, flagged, until the host stops it.
+module ms_stream #(
+    parameter WD = 24,
+    parameter LB = 9       // buffer of 2^LB bytes
+) (
+    input  wire          clk,
+    input  wire          rst,
+    input  wire          arm,       // StreamSteps write: the next start of the axis replays
+    input  wire [31:0]   arm_steps, // that many steps (0 disarms)
+    input  wire          bopen,     // a bulk frame for this axis begins, blen bytes
+    input  wire [7:0]    blen,
+    input  wire          bwr,       // its byte bidx
+    input  wire [7:0]    bidx,
+    input  wire [7:0]    bbyte,
+    input  wire          bcommit,   // its CRC checked and it was accepted
+    input  wire          init,      // the core initializes the axis (the group's start)
+    input  wire          halt,
+    input  wire          full,      // the axis's FIFO
+    output wire          armed,
+    output reg           bok,       // the open bulk frame fits
+    output wire [LB:0]   free,      // free bytes in the buffer
+    output wire          push,
+    output wire [WD-1:0] period,
+    output wire          more,      // periods still to push
+    output reg           fault
+);
+    localparam [1:0] S_FETCH = 2'd0, S_LOAD = 2'd1, S_DEC = 2'd2;
+    reg [7:0]  mem [0:(1<<LB)-1];
+    reg [LB:0] wp, rp;
+    reg [7:0]  rdata, cur;
+    reg        arm_q, run, half;
+    reg [31:0] steps, left;
+    reg [1:0]  st;
+    reg [1:0]  esc;        // 0 op, 1 change (2 nibbles), 2 period (6 nibbles)
+    reg [2:0]  got;
+    reg [19:0] acc;        // the nibbles so far of a 14 or 15 code, shifted in at the top
+    reg [24:0] prev;
+    initial begin
+        wp = {(LB+1){1'b0}};
+        rp = {(LB+1){1'b0}};
+        arm_q = 1'b0;
+        run = 1'b0;
+        pv_ok = 1'b0;
+        fault = 1'b0;
+        bok = 1'b0;
+    end
+    assign armed = arm_q;
+    assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
+    assign more  = run && (left != 32'd0 || pv_ok || fault);
+
+    // ---- the buffer ----
+    /* verilator lint_off WIDTH */
+    wire [LB-1:0] waddr = wp[LB-1:0] + bidx;
+    /* verilator lint_on WIDTH */
+    always @(posedge clk) begin
+        if (bwr && bok) mem[waddr] <= bbyte;
+        rdata <= mem[rp[LB-1:0]];
+    end
+
+    // ---- the nibble decoder ----
+    wire [3:0]  n      = half ? cur[7:4] : cur[3:0];
+    wire [24:0] p_small  = prev + {21'd0, n} - 25'd7;
+    wire [7:0]  d8     = {n, acc[19:16]};
+    wire [24:0] p_delta  = prev + {{17{d8[7]}}, d8};
+    wire [24:0] p_abs = {1'b0, n, acc[19:0]};
+    reg         done_p;
+    reg  [24:0] p;
+    always @(*) begin
+        done_p = 1'b0;
+        p = p_small;
+        if (esc == 2'd0) begin
+            done_p = (n != 4'd0) && (n != 4'd14) && (n != 4'd15);
+        end else if (esc == 2'd1) begin
+            done_p = (got == 3'd1);
+            p = p_delta;
+        end else begin
+            done_p = (got == 3'd5);
+            p = p_abs;
+        end
+    end
+    // a decoded period waits one clock in pv (checked there), so no nibble is decoded
+    // while one waits: the FIFO's room seen at decode is still there at the push
+    reg         pv_ok;     // pv holds a decoded period
+    reg  [24:0] pv;
+    wire dec     = run && (st == S_DEC) && !full && (left != 32'd0) && !fault && !pv_ok;
+    wire p_bad   = (pv == 25'd0) || (pv[24:WD] != {(25-WD){1'b0}});
+    assign push   = pv_ok && !p_bad && run;
+    assign period = pv[WD-1:0];
+
+    always @(posedge clk) begin
+        if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
+        if (rst) begin
+            wp    <= {(LB+1){1'b0}};
+            rp    <= {(LB+1){1'b0}};
+            arm_q <= 1'b0;
+            run   <= 1'b0;
+            fault <= 1'b0;
+            pv_ok <= 1'b0;
+        end else if (arm) begin
+            wp    <= {(LB+1){1'b0}};
+            rp    <= {(LB+1){1'b0}};
+            steps <= arm_steps;
+            arm_q <= (arm_steps != 32'd0);
+        end else if (halt) begin
+            run   <= 1'b0;
+            pv_ok <= 1'b0;
+        end else if (init) begin
+            run   <= arm_q;
+            arm_q <= 1'b0;
+            left  <= steps;
+            prev  <= 25'd0;
+            st    <= S_FETCH;
+            esc   <= 2'd0;
+            fault <= 1'b0;
+            pv_ok <= 1'b0;
+        end else begin
+            pv_ok <= 1'b0;
+            if (pv_ok && p_bad) fault <= 1'b1;
+            if (run) begin
+                case (st)
+                    S_FETCH: if (rp != wp && left != 32'd0) begin
+                        rp <= rp + 1'b1;
+                        st <= S_LOAD;
+                    end
+                    S_LOAD: begin
+                        cur  <= rdata;
+                        half <= 1'b0;
+                        st   <= S_DEC;
+                    end
+                    default: if (dec) begin
+                        half <= 1'b1;
+                        if (half) st <= S_FETCH;
+                        if (done_p) begin
+                            esc   <= 2'd0;
+                            prev  <= p;
+                            left  <= left - 1'b1;
+                            pv    <= p;
+                            pv_ok <= 1'b1;
+                        end else if (esc == 2'd0) begin
+                            if (n == 4'd14) esc <= 2'd1;
+                            if (n == 4'd15) esc <= 2'd2;
+                            got <= 3'd0;
+                            acc <= 20'd0;
+                        end else begin
+                            got <= got + 1'b1;
+                            acc <= {n, acc[19:4]};
+                        end
+                    end
+                endcase
+            end
+        end
+        if (bopen) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;
+    end
+endmodule
