@@ -40,6 +40,7 @@ module ms_stream #(
     reg [7:0]  rdata, cur;
     reg        arm_q, run, half;
     reg [31:0] steps, left;
+    reg        left_nz;    // left != 0, registered (off the register-check paths)
     reg [1:0]  st;
     reg [1:0]  esc;        // 0 op, 1 change (2 nibbles), 2 period (6 nibbles)
     reg [2:0]  got;
@@ -51,12 +52,13 @@ module ms_stream #(
         arm_q = 1'b0;
         run = 1'b0;
         pv_ok = 1'b0;
+        left_nz = 1'b0;
         fault = 1'b0;
         bok = 1'b0;
     end
     assign armed = arm_q;
     assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
-    assign more  = run && (left != 32'd0 || pv_ok || fault);
+    assign more  = run && (left_nz || pv_ok || fault);
 
     // ---- the buffer ----
     /* verilator lint_off WIDTH */
@@ -92,7 +94,7 @@ module ms_stream #(
     // while one waits: the FIFO's room seen at decode is still there at the push
     reg         pv_ok;     // pv holds a decoded period
     reg  [24:0] pv;
-    wire dec     = run && (st == S_DEC) && !full && (left != 32'd0) && !fault && !pv_ok;
+    wire dec     = run && (st == S_DEC) && !full && left_nz && !fault && !pv_ok;
     wire p_bad   = (pv == 25'd0) || (pv[24:WD] != {(25-WD){1'b0}});
     assign push   = pv_ok && !p_bad && run;
     assign period = pv[WD-1:0];
@@ -118,6 +120,7 @@ module ms_stream #(
             run   <= arm_q;
             arm_q <= 1'b0;
             left  <= steps;
+            left_nz <= (steps != 32'd0);
             prev  <= 25'd0;
             st    <= S_FETCH;
             esc   <= 2'd0;
@@ -128,7 +131,7 @@ module ms_stream #(
             if (pv_ok && p_bad) fault <= 1'b1;
             if (run) begin
                 case (st)
-                    S_FETCH: if (rp != wp && left != 32'd0) begin
+                    S_FETCH: if (rp != wp && left_nz) begin
                         rp <= rp + 1'b1;
                         st <= S_LOAD;
                     end
@@ -144,6 +147,7 @@ module ms_stream #(
                             esc   <= 2'd0;
                             prev  <= p;
                             left  <= left - 1'b1;
+                            left_nz <= (left != 32'd1);
                             pv    <= p;
                             pv_ok <= 1'b1;
                         end else if (esc == 2'd0) begin
