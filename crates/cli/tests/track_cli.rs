@@ -142,3 +142,61 @@ fn bad_input_is_one_error_line() {
         );
     }
 }
+
+/// The simulated board's edges while tracking are exactly `plan --track`'s: its count
+/// steps up on every printed edge tick and at no other tick.
+#[test]
+fn the_boards_tracking_edges_are_plan_tracks_edges() {
+    use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
+    use multistep_controller::protocol::{RateArg, SignedRate, TrackOpts};
+    use multistep_controller::store::Store;
+    use multistep_controller::{AxisSettings, Board};
+    for (rate, amax, seconds) in [("15041/324", "200", "30"), ("31999.9", "64000", "2")] {
+        let out = plan(&[
+            "--track",
+            rate,
+            "--amax",
+            amax,
+            "--duration",
+            seconds,
+            "--clock",
+            "1e6",
+            "--format",
+            "csv",
+        ]);
+        let edges: Vec<u64> = csv_rows(&out).iter().map(|r| r.1).collect();
+        assert!(edges.len() > 1000, "{rate}: {} edges", edges.len());
+        let dir = tempfile::tempdir().unwrap();
+        let config = BoardConfig {
+            board: BoardSection {
+                name: "b".into(),
+                clock_hz: 1e6,
+                fifo_depth: 4,
+                link: None,
+            },
+            axes: vec![AxisConfig {
+                name: "X".into(),
+                settings: AxisSettings {
+                    vmax: 40_000.0,
+                    amax: amax.parse().unwrap(),
+                    ..AxisSettings::default()
+                },
+            }],
+            alpaca: None,
+        };
+        let mut b = Board::open(&config, Store::open(dir.path()).unwrap()).unwrap();
+        let r = RateArg::Value(SignedRate::parse(rate).unwrap().unwrap());
+        b.track("X", &r, &TrackOpts::default(), None, 0).unwrap();
+        let pos = |b: &mut Board, t: u64| b.status(&[], t).unwrap()[0].position;
+        for (k, &e) in edges.iter().enumerate() {
+            if e > 0 {
+                assert_eq!(pos(&mut b, e - 1), k as i64, "{rate}: before edge {k}");
+            }
+            assert_eq!(
+                pos(&mut b, e),
+                k as i64 + 1,
+                "{rate}: on edge {k} at tick {e}"
+            );
+        }
+    }
+}
