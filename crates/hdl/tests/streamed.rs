@@ -223,7 +223,7 @@ fn streamed_every_family_one_axis() {
 
 #[test]
 fn streamed_every_family_two_axes() {
-    every_family(2, 5, 0x5eed_0002);
+    every_family(2, 3, 0x5eed_0002);
 }
 
 /// A host that sends every chunk 12 ms late: the buffer runs dry, the axis underruns
@@ -451,4 +451,42 @@ fn bad_bulk_writes_change_nothing() {
     assert_eq!(st(plain), Status::BadAddress);
     assert_eq!((st(disarmed), rep[disarmed].data), (Status::Ok, 0));
     assert_eq!(rep[f2].data, 512, "arming empties the buffer");
+}
+
+/// A board without replay units (`LB` = 0, as the iCEBreaker) frames a bulk write by its
+/// length and answers it "no room" (status 7) without executing anything; the requests
+/// around it are answered as usual.
+#[test]
+fn a_board_without_replay_units_answers_bulk_writes_no_room() {
+    use multistep_hdl::link::BulkWrite;
+    let mut b = BoardTop::new(params(1), 3_000_000);
+    b.stream_buffer_bits = 0;
+    let mut h = Host {
+        s: Script::new(),
+        seq: 0,
+        n: 0,
+    };
+    h.write(Reg::Axis(0, AxisReg::Position), 77);
+    // data bytes that look like frame starts must not resynchronize the link
+    let w = BulkWrite {
+        seq: h.seq,
+        addr: Reg::Axis(0, AxisReg::StreamData).addr(),
+        data: vec![0xA5; 40],
+    };
+    h.s.bytes(&w.encode().unwrap()).expect_reply();
+    h.seq = h.seq.wrapping_add(1);
+    h.n += 1;
+    let bulk = h.n - 1;
+    let pos = h.read(Reg::Axis(0, AxisReg::Position));
+    h.s.sync();
+    let dir = tempfile::Builder::new()
+        .prefix("bulk-none")
+        .tempdir()
+        .unwrap();
+    let log = simulate(&b, &h.s, dir.path(), 1_000_000).unwrap();
+    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
+    assert_eq!(rep.len(), h.n);
+    assert_eq!(rep[0].status, Status::Ok);
+    assert_eq!((rep[bulk].status, rep[bulk].seq), (Status::StreamFull, 1));
+    assert_eq!((rep[pos].status, rep[pos].data), (Status::Ok, 77));
 }

@@ -78,6 +78,26 @@ fn wait_idle(l: &mut HostLink<Port>) {
     }
 }
 
+/// Waits until the simulated motors are at rest: with the board idle and no motor
+/// settling, simulated time stops. (A move sent while a rotor still rings after the last
+/// one starts from a state that depends on the wall clock.)
+fn wait_settled(sim: &BoardSim) {
+    let t0 = Instant::now();
+    let mut last = sim.state().unwrap().ticks;
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        let now = sim.state().unwrap().ticks;
+        if now == last {
+            return;
+        }
+        last = now;
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "the motors never settle"
+        );
+    }
+}
+
 fn edges_log(path: &std::path::Path, axes: usize) -> (Vec<u64>, Vec<Vec<u64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut go = Vec::new();
@@ -212,6 +232,7 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
     w.push(start_write(0b1));
     l.write_all(&w).unwrap();
     wait_idle(&mut l);
+    wait_settled(&sim);
     let st = l.axis_state(0).unwrap();
     assert!(st.hall_flag, "the pass was seen");
     assert!(!st.hall, "past the window at the end");
@@ -241,6 +262,7 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
     l.write_all(&w).unwrap();
     wait_idle(&mut l);
     assert_eq!(l.read(Reg::Axis(0, AxisReg::Position)).unwrap(), 0);
+    wait_settled(&sim);
     sim.slip(0, 64).unwrap();
     let mut w = move_writes(&p, 0, &m, 0).unwrap();
     w.push(start_write(0b1));

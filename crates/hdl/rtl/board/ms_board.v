@@ -69,7 +69,7 @@ module ms_board #(
     wire [31:0] req_data, rsp_data;
     wire [7:0]  rsp_status;
     // a gap of 4 character times ends a frame
-    ms_link #(.GAP(DIV * 40)) u_link (.clk(clk), .rst(rst), .rx_valid(rx_valid),
+    ms_link #(.GAP(DIV * 40), .BULK(LB > 0)) u_link (.clk(clk), .rst(rst), .rx_valid(rx_valid),
         .rx_byte(rx_byte), .req(req), .req_wr(req_wr), .req_addr(req_addr),
         .req_data(req_data), .req_bulk(req_bulk), .bulk_open(bulk_open),
         .bulk_addr(bulk_addr), .bulk_len(bulk_len), .bulk_wr(bulk_wr), .bulk_idx(bulk_idx),

@@ -12,7 +12,9 @@
 // with a bad CRC or command gets a reply with that status and is not executed. Replies
 // are shorter than requests, so a host may send requests back to back.
 module ms_link #(
-    parameter GAP = 1024
+    parameter GAP  = 1024,
+    parameter BULK = 1      // 0: no replay units; a bulk frame is framed, then answered
+                            // status 7 (no room) here, with no request
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -37,7 +39,7 @@ module ms_link #(
     output reg         bad_frame   // one clock: a frame failed its CRC or command check
 );
     localparam [7:0] SYNC_REQ = 8'hA5, SYNC_RSP = 8'h5A;
-    localparam [7:0] ST_CRC = 8'h01, ST_CMD = 8'h02, CMD_BULK = 8'h03;
+    localparam [7:0] ST_CRC = 8'h01, ST_CMD = 8'h02, ST_FULL = 8'h07, CMD_BULK = 8'h03;
 
     // ---- receive ----
     reg  [8:0]  idx;      // bytes of the frame so far
@@ -50,6 +52,7 @@ module ms_link #(
     wire [15:0] crc_rx;
     ms_crc16 u_crc_rx (.crc(idx == 9'd0 ? 16'hFFFF : crc), .data(rx_byte), .next(crc_rx));
     wire        bulk = (cmd == CMD_BULK);
+    wire        bulk_req = bulk && (BULK != 0);   // a bulk frame that becomes a request
     // the frame's last byte: 11-byte requests, 8 + len for a bulk write
     wire [8:0]  last = bulk ? 9'd7 + {1'b0, bulk_len} : 9'd10;
     reg         exec;     // the clock after req: build the reply
@@ -106,12 +109,16 @@ module ms_link #(
                         bad_frame <= 1'b1;
                         r_st      <= (crc_rx != 16'd0) ? ST_CRC : ST_CMD;
                         r_data    <= 32'd0;
+                    end else if (bulk && BULK == 0) begin
+                        reply     <= 1'b1;
+                        r_st      <= ST_FULL;
+                        r_data    <= 32'd0;
                     end else begin
                         req      <= 1'b1;
-                        req_wr   <= (cmd == 8'h02) || bulk;
-                        req_bulk <= bulk;
-                        req_addr <= bulk ? bulk_addr : body[31:16];
-                        req_data <= bulk ? {24'd0, bulk_len} : body[63:32];
+                        req_wr   <= (cmd == 8'h02) || bulk_req;
+                        req_bulk <= bulk_req;
+                        req_addr <= bulk_req ? bulk_addr : body[31:16];
+                        req_data <= bulk_req ? {24'd0, bulk_len} : body[63:32];
                     end
                 end
             end
