@@ -241,8 +241,11 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
     // the rotor by (its lag), plus the steps during the debounce time
     let during_debounce = v as f64 * f64::from(DEBOUNCE) / p.clock_hz;
     let lag = hp - 1200.0 - during_debounce;
+    // a glitch next to the sensor edge (they come at random simulated times) moves the
+    // accepted edge by up to its length: 0.2 ms, 3.2 steps at v
+    let glitch_steps = v as f64 * 0.0002;
     assert!(
-        (-1.0..=32.0).contains(&lag),
+        (-1.0 - glitch_steps..=32.0 + glitch_steps).contains(&lag),
         "HallPosition {hp}: lag {lag} microsteps (debounce {during_debounce} steps)"
     );
     let s = sim.state().unwrap();
@@ -270,7 +273,7 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
     wait_idle(&mut l);
     let hp2 = l.read(Reg::Axis(0, AxisReg::HallPosition)).unwrap() as i32 as f64;
     assert!(
-        (hp - 64.0 - hp2).abs() <= 2.0,
+        (hp - 64.0 - hp2).abs() <= 2.0 + 2.0 * glitch_steps,
         "after a 64-step slip the Hall edge comes at {hp2}, first at {hp}"
     );
     let a = &sim.state().unwrap().axes[0];
