@@ -134,7 +134,7 @@ pub fn track_error(e: TrackError) -> CtlError {
         TrackError::BadAmax(_) | TrackError::BadStartSpeed(_) | TrackError::BadClock(_) => {
             CtlError::Setting(e.to_string())
         }
-        TrackError::TooLong => CtlError::Timing(e.to_string()),
+        TrackError::TooLong | TrackError::NotInteger => CtlError::Timing(e.to_string()),
     }
 }
 
