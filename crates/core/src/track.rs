@@ -48,6 +48,17 @@ pub enum TrackError {
     #[error("the integer datapath runs trapezoid ramps (no jmax) within 512-bit values")]
     /// An integer tracker was given an S-curve ramp, or one too wide for its datapath.
     NotInteger,
+    #[error("the duration must be a number of seconds greater than zero (got {0})")]
+    /// A stretch of tracking to print is not a positive number of seconds.
+    BadDuration(f64),
+    #[error("a ramp from {from} to {to} steps/s needs amax (or a start speed equal to the rate)")]
+    /// A ramp is needed but no acceleration was given.
+    NeedsAmax {
+        /// The start speed (steps/s).
+        from: f64,
+        /// The rate (steps/s, nearest f64).
+        to: f64,
+    },
 }
 
 /// The text of a rate that could not be read, kept without allocation.
@@ -245,6 +256,51 @@ pub struct TrackLimits {
     pub amax: f64,
     /// Maximum jerk (steps/s³): S-curve ramps when given, trapezoid ramps otherwise.
     pub jmax: Option<f64>,
+}
+
+/// The first seconds of open-ended motion, as `multistep plan --track` prints them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackRun {
+    /// The rate to ramp to and cruise at.
+    pub rate: Rate,
+    /// Seconds of edges (the last edge is at most `⌊duration·f⌋`).
+    pub duration: f64,
+    /// Speed at tick 0 (steps/s).
+    pub start_speed: f64,
+    /// The ramp's acceleration; needed unless the start speed is the rate.
+    pub amax: Option<f64>,
+    /// The ramp's jerk (S-curve ramps), if given.
+    pub jmax: Option<f64>,
+}
+
+impl TrackRun {
+    /// The tracker at tick 0 and the last tick to keep, `⌊duration·f⌋`.
+    pub fn start<R: RampEdges>(&self, clock_hz: f64) -> Result<(TrackerOf<R>, u64), TrackError> {
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            return Err(TrackError::BadDuration(self.duration));
+        }
+        let amax = match self.amax {
+            Some(a) => a,
+            // no ramp to plan: amax is never consulted
+            None if self.start_speed == self.rate.to_f64() => 1.0,
+            None => {
+                return Err(TrackError::NeedsAmax {
+                    from: self.start_speed,
+                    to: self.rate.to_f64(),
+                })
+            }
+        };
+        let limits = TrackLimits {
+            amax,
+            jmax: self.jmax,
+        };
+        let tracker = TrackerOf::new(clock_hz, limits, self.start_speed, self.rate)?;
+        let end = self.duration * clock_hz;
+        if end >= (1u64 << 62) as f64 {
+            return Err(TrackError::TooLong);
+        }
+        Ok((tracker, fm::floor(end) as u64))
+    }
 }
 
 /// A cruise at an exact rate from an exact origin: the quotient + remainder accumulator.
