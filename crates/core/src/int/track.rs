@@ -19,9 +19,11 @@
 //! - decelerating (B < 0): `⌈(2|B|·G + 2^s·A − ⌊√Y'⌋) / 2^(s+1)·|B|⌉`;
 //! - constant speed (B = 0): `⌈(G·A + 2^s·M_i) / 2^s·A⌉`.
 //!
-//! Per step: one 512-bit add, one square root with remainder, one divide. The widths are
-//! checked when a piece is entered (an error, never a wrong edge).
+//! Per step: one add, one square root with remainder, one divide; in u128 when every value
+//! of the piece fits (a ramp from rest), else in 512 bits. The widths are checked when a
+//! piece is entered (an error, never a wrong edge).
 
+use super::isqrt::isqrt_u128;
 use crate::profile::Profile;
 use crate::track::{RampEdges, TrackError, TrackerOf};
 use crypto_bigint::{NonZero, U512};
@@ -191,11 +193,16 @@ fn round_ticks(clock: u64, t: f64) -> Option<u64> {
 }
 
 fn to_u64(x: &W) -> Option<u64> {
-    (x.bits_vartime() <= 64).then(|| {
+    low_bits(x, 64).map(|v| v as u64)
+}
+
+/// x as u128 when it is below 2^bits (bits ≤ 128).
+fn low_bits(x: &W, bits: u32) -> Option<u128> {
+    (x.bits_vartime() <= bits).then(|| {
         let b = x.to_le_bytes();
-        let mut lo = [0u8; 8];
-        lo.copy_from_slice(&b[..8]);
-        u64::from_le_bytes(lo)
+        let mut lo = [0u8; 16];
+        lo.copy_from_slice(&b[..16]);
+        u128::from_le_bytes(lo)
     })
 }
 
@@ -217,6 +224,52 @@ pub(super) struct Kernel {
     /// Accel: `n − (2^s·A − 2B·G)`; decel: `2|B|·G + 2^s·A + n`.
     off: Si,
     n: NonZero<W>,
+    /// The same state in u128 when every value of the piece fits (pieces from tick 0
+    /// with short binary fractions, such as a ramp from rest): the same steps, with
+    /// the crate's integer square root.
+    narrow: Option<Narrow>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Narrow {
+    y: u128,
+    dy: u128,
+    off: i128,
+    n: u128,
+}
+
+impl Narrow {
+    /// [`Kernel::edge`] in u128 (every value below 2^126, checked on entry).
+    #[inline]
+    fn edge(&mut self, mode: Mode) -> Option<u64> {
+        let num = match mode {
+            Mode::Accel => {
+                let r = isqrt_u128(self.y);
+                let up = r + (r * r != self.y) as u128;
+                self.y += self.dy;
+                up as i128 + self.off
+            }
+            Mode::Decel => {
+                let r = isqrt_u128(self.y);
+                self.y = self.y.saturating_sub(self.dy);
+                self.off - r as i128
+            }
+            Mode::Linear => {
+                let y = self.y;
+                self.y += self.dy;
+                y as i128
+            }
+        };
+        if num <= 0 {
+            return Some(0);
+        }
+        u64::try_from((num as u128 - 1) / self.n).ok()
+    }
+}
+
+/// x as u128 when it is below 2^126.
+fn narrow(x: &W) -> Option<u128> {
+    low_bits(x, 126)
 }
 
 impl Kernel {
@@ -283,18 +336,33 @@ impl Kernel {
         if y_end.bits_vartime() > MAX_BITS || off.mag.bits_vartime() >= MAX_BITS {
             return None;
         }
+        let small = || {
+            // y only grows (accel, linear) or shrinks (decel) from y or to y_end
+            narrow(&y_end)?;
+            let m = narrow(&off.mag)? as i128;
+            Some(Narrow {
+                y: narrow(&y)?,
+                dy: narrow(&dy)?,
+                off: if off.neg { -m } else { m },
+                n: narrow(&n).filter(|&n| n > 0)?,
+            })
+        };
         Some(Kernel {
             mode,
             y,
             dy,
             off,
             n: NonZero::new(n).into_option()?,
+            narrow: small(),
         })
     }
 
     /// The next step's edge, ticks from the ramp's start (`None`: past the 64-bit range).
     #[inline]
     fn edge(&mut self) -> Option<u64> {
+        if let Some(nw) = &mut self.narrow {
+            return nw.edge(self.mode);
+        }
         // the numerator of ⌈num/n⌉ − 1, which is 0 when num ≤ 0 (a clamped step)
         let num = match self.mode {
             Mode::Accel => {
@@ -444,6 +512,47 @@ mod tests {
         assert_eq!(places(12.0), Some(0));
         let v = scaled(-0.375, 4).unwrap();
         assert!(v.neg && v.mag == W::from_u64(6));
+    }
+
+    /// Every piece of a few ramps, stepped by its u128 kernel where it has one and by the
+    /// 512-bit kernel: the same edges; and both paths are taken.
+    #[test]
+    fn narrow_and_wide_kernels_agree() {
+        use crate::track::{Rate, TrackLimits, Tracker};
+        let (mut narrow_pieces, mut wide_pieces) = (0, 0);
+        for (start, rate, amax) in [
+            (0.0, Rate::new(15041, 324).unwrap(), 200.0),
+            (1000.3, Rate::new(10, 3).unwrap(), 3000.0),
+            (0.0, Rate::new(319_999, 10).unwrap(), 64_000.0),
+            (77.7, Rate::new(123_457, 1000).unwrap(), 50.0),
+        ] {
+            let limits = TrackLimits { amax, jmax: None };
+            let t = Tracker::new(50e6, limits, start, rate).unwrap();
+            let p = t.ramp_profile().unwrap();
+            let mut first = 1;
+            for k in 0..p.len() {
+                let end = floor_u64(p.end_of(k)).min(p.steps() - 1);
+                if first > end {
+                    continue;
+                }
+                let mut auto = Kernel::enter(p, 50_000_000, k, first).unwrap();
+                let mut wide = auto;
+                wide.narrow = None;
+                if auto.narrow.is_some() {
+                    narrow_pieces += 1;
+                } else {
+                    wide_pieces += 1;
+                }
+                for i in first..=end {
+                    assert_eq!(auto.edge(), wide.edge(), "piece {k} step {i}");
+                }
+                first = end + 1;
+            }
+        }
+        assert!(
+            narrow_pieces > 0 && wide_pieces > 0,
+            "{narrow_pieces} {wide_pieces}"
+        );
     }
 
     #[test]
