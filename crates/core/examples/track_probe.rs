@@ -1,9 +1,11 @@
 //! One run of one tracker, for timing and instruction counting under valgrind:
-//! `track_probe ramp|cruise float|int|none [STEPS]`. `ramp`: from rest towards 2·10⁵
+//! `track_probe ramp|cruise float|int|tdm-float|tdm-int|none [STEPS]` (`tdm-*`: the
+//! tracker as the one axis of a TDM board, run to just past its last edge; `cruise` only). `ramp`: from rest towards 2·10⁵
 //! steps/s at amax 2·10⁴ steps/s² (10⁶ ramp steps, all taken from the ramp); `cruise`:
 //! 31999.9 steps/s from that speed (no ramp), at 50 MHz. `none` sets up and stops: its
 //! count is the fixed cost to subtract. Prints the edges' checksum and edges/s.
 use multistep_core::int::IntTracker;
+use multistep_core::tdm::{Axis, Board, TdmConfig};
 use multistep_core::{Rate, TrackLimits, Tracker};
 use std::time::Instant;
 
@@ -30,6 +32,28 @@ fn main() {
             .unwrap()
             .take(steps as usize)
             .fold(0u64, u64::wrapping_add),
+        "tdm-float" | "tdm-int" => {
+            let axis = if imp == "tdm-int" {
+                Axis::tracking_int(IntTracker::new(50e6, limits, start, rate).unwrap())
+            } else {
+                Axis::tracking(Tracker::new(50e6, limits, start, rate).unwrap())
+            };
+            // past the last edge of the cruise case (no ramp): half a step's margin
+            let until = ((steps as f64 + 0.5) / rate.to_f64() * 50e6) as u64;
+            let mut axes = [axis.unwrap()];
+            let (mut sum, mut n) = (0u64, 0u64);
+            Board::new(TdmConfig::default(), &mut axes)
+                .unwrap()
+                .run_tracking(until, &mut [], |p| {
+                    if p.step <= steps {
+                        sum = sum.wrapping_add(p.rise);
+                        n += 1;
+                    }
+                })
+                .unwrap();
+            assert_eq!(n, steps);
+            sum
+        }
         _ => 0,
     };
     let s = t.elapsed().as_secs_f64();
