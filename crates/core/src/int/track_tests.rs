@@ -217,6 +217,13 @@ fn scurve_ramps_are_refused_by_the_integer_tracker() {
     // no ramp, no refusal: a cruise from the start speed
     let mut t = IntTracker::new(F as f64, limits, 100.0, r).unwrap();
     assert_eq!(t.next(), Some(500_000));
+    // a change that needs an S-curve ramp is refused, and the cruise goes on untouched
+    assert_eq!(
+        t.set_rate(Rate::new(200, 1).unwrap()),
+        Err(TrackError::NotInteger)
+    );
+    assert_eq!(t.rate(), r);
+    assert_eq!(t.next(), Some(1_000_000));
 }
 
 /// A random exact rate between 0.5 and 2·10⁵ steps/s with a denominator up to 2^24.
