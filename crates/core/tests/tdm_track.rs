@@ -243,3 +243,29 @@ fn sidereal_day_in_the_engine() {
     let (pulses, _) = run_case(&kinds, Vec::new(), 24 * 3600 * F, 1).unwrap();
     assert!(pulses[0].len() > 4_000_000);
 }
+
+/// `Board::run` ends with the last move: a tracking axis beside it is cut there (its edges
+/// so far its tracker's), and a board of tracking axes alone returns at once.
+#[test]
+fn run_ends_with_the_last_move() {
+    let mv = a_move(1000, 4000.0);
+    let kinds = [sidereal_from_rest(), Kind::Move(mv.clone())];
+    let mut axes: Vec<Axis> = kinds.iter().map(axis).collect();
+    let mut pulses = vec![Vec::new(); 2];
+    let r = Board::new(TdmConfig::default(), &mut axes)
+        .unwrap()
+        .run(|p| pulses[p.axis].push(p));
+    assert_eq!(pulses[1].len(), 1000);
+    let end = pulses[1].last().unwrap().rise;
+    let want = reference(&kinds[0], 0, &[], pulses[0].len());
+    assert!(!want.is_empty());
+    for (p, e) in pulses[0].iter().zip(&want) {
+        assert_eq!(p.rise - r.start_tick, *e);
+        assert!(p.rise <= end + 2 * F, "cut near the move's end");
+    }
+    let mut alone = [axis(&sidereal_from_rest())];
+    let r = Board::new(TdmConfig::default(), &mut alone)
+        .unwrap()
+        .run(|_| {});
+    assert_eq!(r.edges, 0);
+}

@@ -424,11 +424,11 @@ impl<'a> Board<'a> {
         self.cfg.step_dir.dir_setup_ticks.max(fill)
     }
 
-    /// Runs every axis to its last step, handing each pulse to `sink`. An open-ended
-    /// (tracking) axis runs until its tracker stops, which without commands is never:
-    /// boards with tracking axes run by [`Board::run_tracking`].
+    /// Runs every axis to its last step, handing each pulse to `sink`. Open-ended
+    /// (tracking) axes have no last step: this run ends with the last move, and cuts
+    /// them there (with no move, at once); they run by [`Board::run_tracking`].
     pub fn run<F: FnMut(StepPulse)>(self, sink: F) -> Report {
-        self.run_inner(TICK_LIMIT, &mut [], sink)
+        self.run_inner(TICK_LIMIT, &mut [], true, sink)
     }
 
     /// Runs until the calculator's clock passes `until` (or every axis is done), handing
@@ -453,13 +453,14 @@ impl<'a> Board<'a> {
         if commands.windows(2).any(|w| w[1].tick < w[0].tick) {
             return Err(TdmError::CommandOrder);
         }
-        Ok(self.run_inner(until, commands, sink))
+        Ok(self.run_inner(until, commands, false, sink))
     }
 
     fn run_inner<F: FnMut(StepPulse)>(
         self,
         until: u64,
         commands: &mut [TrackCommand],
+        until_moves_end: bool,
         mut sink: F,
     ) -> Report {
         let k = self.axes.len();
@@ -481,7 +482,15 @@ impl<'a> Board<'a> {
         let mut next = 0usize;
         let mut cmd = 0usize;
         let mut done = [false; MAX_AXES];
+        let mut moves_left = self
+            .axes
+            .iter()
+            .filter(|a| !a.gen.is_tracking() && a.remaining() > 0)
+            .count();
         loop {
+            if until_moves_end && moves_left == 0 {
+                break;
+            }
             let picked = queue.pick(policy, t, need, &mut next);
             // commands due by the next decision (or by the horizon when the queue is idle)
             let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));
@@ -513,6 +522,7 @@ impl<'a> Board<'a> {
             need[m] = rise;
             if a.stats.steps == a.steps {
                 done[m] = true;
+                moves_left -= 1;
                 a.finish(m, rise, &mut sink);
             } else {
                 queue.insert(m, a.fifo.room_tick(), t);
