@@ -7,6 +7,7 @@ steps/s², jerk steps/s³, snap steps/s⁴, edges and periods clock ticks at ``c
 from __future__ import annotations
 
 import os
+from fractions import Fraction
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, TypedDict, Union, final
 
 import numpy as np
@@ -208,6 +209,31 @@ def simulate(
     a dict of numpy arrays sampled every ``trace_interval`` (s) (see ``SimTrace``).
     """
 
+#: A tracking rate in steps/s: a str read exactly (``"46.4228"``, ``"15041/324"``), an
+#: int, an exact ``Fraction`` or a float (its exact binary value).
+Rate = Union[str, int, Fraction, float]
+
+def track(
+    rate: Rate,
+    duration: float,
+    *,
+    amax: Optional[float] = None,
+    start_speed: float = 0.0,
+    jmax: Optional[float] = None,
+    clock: float = 50e6,
+    integer: bool = False,
+) -> npt.NDArray[np.uint64]:
+    """The edges of open-ended motion, exactly as ``multistep plan --track`` prints them.
+
+    A ramp from ``start_speed`` to ``rate`` within ``amax`` (steps/s², needed unless the
+    start speed is the rate; an S-curve with ``jmax``), then a cruise at exactly ``rate``:
+    every edge (ticks at ``clock`` Hz) up to ``duration`` s. ``integer=True`` runs the
+    integer tracker (trapezoid ramps only), which gives the same edges.
+
+    Raises ``PlanError`` (a ``ValueError``) with the command line's message for a rate or
+    limit it refuses, ``TypeError`` for a value of the wrong type.
+    """
+
 @final
 class Board:
     """A session with one controller board (``multistep serve`` or real hardware).
@@ -273,6 +299,21 @@ class Board:
         """The board's version line."""
     def sim_slip(self, axis: str, steps: int) -> None:
         """Simulation only: the mechanics lose ``steps`` steps the count does not see."""
+    def track(
+        self, axis: str, rate: Rate, *, amax: Optional[float] = None, lease: Optional[float] = None
+    ) -> List[str]:
+        """Ramps ``axis`` to ``rate`` (steps/s; a str may be ``"0.5u"`` in user units/s or
+        a stored rate's name; negative runs backwards) and runs at exactly that rate until
+        ``stop`` or a new ``track`` (0 stops). ``amax`` (steps/s²) for the ramps, ``lease``
+        (s, at most 60) stops the axis unless the command comes again."""
+    def rate(self, name: str, rate: Rate) -> None:
+        """Stores the named rate ``name`` on the board, for ``track(axis, name)``."""
+    def rates(self) -> List[str]:
+        """The named rates (``"NAME RATE"``)."""
+    def release(self, axis: str) -> None:
+        """Releases the driver of idle ``axis`` (it may then be turned by hand)."""
+    def energize(self, axis: str) -> None:
+        """Energizes the driver of ``axis``."""
     def raw(self, line: str) -> List[str]:
         """Sends one raw protocol line; returns its data lines."""
     def close(self) -> None:

@@ -7,7 +7,7 @@ use crate::plan::{itoa_buf, write_row};
 use anyhow::{bail, Context};
 use clap::Args;
 use multistep_core::track::TrackSegment;
-use multistep_core::{Rate, TrackLimits, Tracker};
+use multistep_core::{EdgeGenerator, Rate, TrackRun};
 use serde::Serialize;
 use std::io::Write;
 
@@ -61,28 +61,14 @@ pub fn run(track: &TrackArgs, mv: &MoveArgs, clock: f64, format: Format) -> anyh
     let text = track.track.as_deref().unwrap_or_default();
     let rate = Rate::parse(text)?;
     let duration = track.duration.context("--track needs --duration S")?;
-    if !(duration.is_finite() && duration > 0.0) {
-        bail!("--duration must be a number of seconds greater than zero (got {duration})");
-    }
-    let start = mv.params.start_speed.unwrap_or(0.0);
-    let amax = match mv.params.amax {
-        Some(a) => a,
-        // no ramp to plan: amax is never consulted
-        None if start == rate.to_f64() => 1.0,
-        None => bail!(
-            "--track from {start} to {text} steps/s needs --amax (or --start-speed equal to the rate)"
-        ),
-    };
-    let limits = TrackLimits {
-        amax,
+    let run = TrackRun {
+        rate,
+        duration,
+        start_speed: mv.params.start_speed.unwrap_or(0.0),
+        amax: mv.params.amax,
         jmax: mv.params.jmax,
     };
-    let mut tr = Tracker::new(clock, limits, start, rate)?;
-    let end = duration * clock;
-    if end >= (1u64 << 62) as f64 {
-        bail!("--duration {duration} s is too many ticks at {clock} Hz");
-    }
-    let end = end.floor() as u64;
+    let (mut tr, end) = run.start::<EdgeGenerator>(clock)?;
     let stdout = std::io::stdout();
     if let Format::Csv = format {
         let mut w = std::io::BufWriter::with_capacity(1 << 16, stdout.lock());

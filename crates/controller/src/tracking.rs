@@ -131,10 +131,12 @@ pub fn track_error(e: TrackError) -> CtlError {
         TrackError::BadRate(_) | TrackError::NegativeRate | TrackError::RateTooFine => {
             CtlError::syntax(format!("rate: {e}"))
         }
-        TrackError::BadAmax(_) | TrackError::BadStartSpeed(_) | TrackError::BadClock(_) => {
-            CtlError::Setting(e.to_string())
-        }
-        TrackError::TooLong => CtlError::Timing(e.to_string()),
+        TrackError::BadAmax(_)
+        | TrackError::BadStartSpeed(_)
+        | TrackError::BadClock(_)
+        | TrackError::BadDuration(_)
+        | TrackError::NeedsAmax { .. } => CtlError::Setting(e.to_string()),
+        TrackError::TooLong | TrackError::NotInteger => CtlError::Timing(e.to_string()),
     }
 }
 

@@ -23,7 +23,7 @@ fn axes(k: usize) -> Vec<Axis> {
 fn bench(c: &mut Criterion) {
     for k in [16, 64] {
         let mut axes = axes(k);
-        let edges: u64 = axes.iter().map(|a| a.profile().steps()).sum();
+        let edges: u64 = axes.iter().map(|a| a.profile().unwrap().steps()).sum();
         let mut g = c.benchmark_group(format!("tdm_{k}_axes"));
         g.throughput(Throughput::Elements(edges));
         g.sample_size(20);
@@ -49,7 +49,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let mut sum = 0u64;
                 for a in &axes {
-                    for e in EdgeGenerator::new(a.profile().clone(), F).unwrap() {
+                    for e in EdgeGenerator::new(a.profile().unwrap().clone(), F).unwrap() {
                         sum = sum.wrapping_add(e);
                     }
                 }

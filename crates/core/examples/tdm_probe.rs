@@ -31,7 +31,7 @@ fn main() {
     };
     if mode == "gen" {
         for a in &axes {
-            for e in EdgeGenerator::new(a.profile().clone(), 50e6).unwrap() {
+            for e in EdgeGenerator::new(a.profile().unwrap().clone(), 50e6).unwrap() {
                 s = s.wrapping_add(e);
             }
         }

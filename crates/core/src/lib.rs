@@ -67,7 +67,7 @@ pub use shape::Shape;
 pub use spec::MoveSpec;
 pub use step_dir::{PulseShape, StepDirTiming};
 pub use summary::{MoveName, PlanSummary};
-pub use track::{Rate, TrackError, TrackLimits, Tracker};
+pub use track::{Rate, TrackError, TrackLimits, TrackRun, Tracker, TrackerOf};
 
 /// Seed 000's clock: 50 MHz.
 pub const DEFAULT_CLOCK_HZ: f64 = 50_000_000.0;

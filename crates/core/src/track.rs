@@ -45,6 +45,20 @@ pub enum TrackError {
     #[error("the tick count left the 64-bit range")]
     /// The motion ran past the 64-bit tick range.
     TooLong,
+    #[error("the integer datapath runs trapezoid ramps (no jmax) within 512-bit values")]
+    /// An integer tracker was given an S-curve ramp, or one too wide for its datapath.
+    NotInteger,
+    #[error("the duration must be a number of seconds greater than zero (got {0})")]
+    /// A stretch of tracking to print is not a positive number of seconds.
+    BadDuration(f64),
+    #[error("a ramp from {from} to {to} steps/s needs amax (or a start speed equal to the rate)")]
+    /// A ramp is needed but no acceleration was given.
+    NeedsAmax {
+        /// The start speed (steps/s).
+        from: f64,
+        /// The rate (steps/s, nearest f64).
+        to: f64,
+    },
 }
 
 /// The text of a rate that could not be read, kept without allocation.
@@ -244,6 +258,51 @@ pub struct TrackLimits {
     pub jmax: Option<f64>,
 }
 
+/// The first seconds of open-ended motion, as `multistep plan --track` prints them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackRun {
+    /// The rate to ramp to and cruise at.
+    pub rate: Rate,
+    /// Seconds of edges (the last edge is at most `⌊duration·f⌋`).
+    pub duration: f64,
+    /// Speed at tick 0 (steps/s).
+    pub start_speed: f64,
+    /// The ramp's acceleration; needed unless the start speed is the rate.
+    pub amax: Option<f64>,
+    /// The ramp's jerk (S-curve ramps), if given.
+    pub jmax: Option<f64>,
+}
+
+impl TrackRun {
+    /// The tracker at tick 0 and the last tick to keep, `⌊duration·f⌋`.
+    pub fn start<R: RampEdges>(&self, clock_hz: f64) -> Result<(TrackerOf<R>, u64), TrackError> {
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            return Err(TrackError::BadDuration(self.duration));
+        }
+        let amax = match self.amax {
+            Some(a) => a,
+            // no ramp to plan: amax is never consulted
+            None if self.start_speed == self.rate.to_f64() => 1.0,
+            None => {
+                return Err(TrackError::NeedsAmax {
+                    from: self.start_speed,
+                    to: self.rate.to_f64(),
+                })
+            }
+        };
+        let limits = TrackLimits {
+            amax,
+            jmax: self.jmax,
+        };
+        let tracker = TrackerOf::new(clock_hz, limits, self.start_speed, self.rate)?;
+        let end = self.duration * clock_hz;
+        if end >= (1u64 << 62) as f64 {
+            return Err(TrackError::TooLong);
+        }
+        Ok((tracker, fm::floor(end) as u64))
+    }
+}
+
 /// A cruise at an exact rate from an exact origin: the quotient + remainder accumulator.
 #[derive(Clone, Copy, Debug)]
 struct Cruise {
@@ -324,14 +383,41 @@ impl Cruise {
     }
 }
 
+/// What runs a tracker's ramps: the float [`EdgeGenerator`] ([`Tracker`]) or the integer
+/// [`IntRamp`](crate::int::IntRamp) ([`IntTracker`](crate::int::IntTracker)). Both give the
+/// edges of the ramp's profile, ticks from the ramp's start.
+pub trait RampEdges: Clone + core::fmt::Debug + Sized {
+    /// Starts the ramp `profile` on a clock of `clock_hz`.
+    fn start(profile: Profile, clock_hz: u64) -> Result<Self, TrackError>;
+    /// The next step's edge; `None` after the last.
+    fn next_edge(&mut self) -> Option<u64>;
+    /// The ramp's profile.
+    fn profile(&self) -> &Profile;
+}
+
+impl RampEdges for EdgeGenerator {
+    fn start(profile: Profile, clock_hz: u64) -> Result<Self, TrackError> {
+        EdgeGenerator::new(profile, clock_hz as f64).map_err(TrackError::Ramp)
+    }
+
+    #[inline]
+    fn next_edge(&mut self) -> Option<u64> {
+        self.next()
+    }
+
+    fn profile(&self) -> &Profile {
+        EdgeGenerator::profile(self)
+    }
+}
+
 /// What the axis is doing now.
 // The ramp's generator is large, but boxing would allocate (the crate is no_std, no alloc).
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
-enum Stage {
+enum Stage<R> {
     /// A ramp started at tick `start`, step `base`, towards `target`.
     Ramp {
-        gen: EdgeGenerator,
+        gen: R,
         start: u64,
         base: u64,
         target: Rate,
@@ -372,11 +458,14 @@ pub enum TrackSegment {
 ///
 /// Iterating yields the edge tick of every step (1, 2, 3, …) in order; the stream ends only
 /// after a stop (and resumes if a new rate is given).
+///
+/// [`Tracker`] runs ramps in f64, [`IntTracker`](crate::int::IntTracker) in integers; both
+/// give the same edges.
 #[derive(Clone, Debug)]
-pub struct Tracker {
+pub struct TrackerOf<R: RampEdges> {
     clock: u64,
     limits: TrackLimits,
-    stage: Stage,
+    stage: Stage<R>,
     /// Origin of the current cruise, kept for [`Tracker::segment`].
     cruise_origin: (u64, u64, u128, u32),
     /// A rate change asked for during a ramp: applied when the ramp ends.
@@ -387,14 +476,17 @@ pub struct Tracker {
     speed: f64,
 }
 
-impl Tracker {
+/// The tracker with float ramps ([`EdgeGenerator`]).
+pub type Tracker = TrackerOf<EdgeGenerator>;
+
+impl<R: RampEdges> TrackerOf<R> {
     /// Starts at tick 0, step 0, moving at `start_speed` steps/s, towards `rate`.
     pub fn new(
         clock_hz: f64,
         limits: TrackLimits,
         start_speed: f64,
         rate: Rate,
-    ) -> Result<Tracker, TrackError> {
+    ) -> Result<Self, TrackError> {
         if !(clock_hz >= 1.0 && clock_hz <= (1u64 << 53) as f64 && fm::floor(clock_hz) == clock_hz)
         {
             return Err(TrackError::BadClock(clock_hz));
@@ -405,7 +497,7 @@ impl Tracker {
         if !(start_speed.is_finite() && start_speed >= 0.0) {
             return Err(TrackError::BadStartSpeed(start_speed));
         }
-        let mut t = Tracker {
+        let mut t = TrackerOf {
             clock: clock_hz as u64,
             limits,
             stage: Stage::Stopped,
@@ -567,8 +659,7 @@ impl Tracker {
         let (start, base) = (self.last_edge, self.steps);
         match self.plan_ramp(self.speed, rate)? {
             Some(profile) => {
-                let gen =
-                    EdgeGenerator::new(profile, self.clock as f64).map_err(TrackError::Ramp)?;
+                let gen = R::start(profile, self.clock)?;
                 self.stage = Stage::Ramp {
                     gen,
                     start,
@@ -633,7 +724,7 @@ impl Tracker {
     }
 }
 
-impl Iterator for Tracker {
+impl<R: RampEdges> Iterator for TrackerOf<R> {
     type Item = u64;
 
     fn next(&mut self) -> Option<u64> {
@@ -646,7 +737,7 @@ impl Iterator for Tracker {
                     start,
                     base: _,
                     target,
-                } => match gen.next() {
+                } => match gen.next_edge() {
                     Some(e) => start.checked_add(e)?,
                     None => {
                         let (start, t, target) = (*start, gen.profile().duration(), *target);

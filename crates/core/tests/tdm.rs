@@ -48,7 +48,7 @@ fn plan_edges(p: &Profile, clock: f64) -> Vec<u64> {
 /// only grows, by exactly the reported delays; no lateness without a reported underrun.
 fn check_against_plan(r: &Report, axes: &[Axis], pulses: &[Vec<StepPulse>], clock: f64) {
     for (m, a) in axes.iter().enumerate() {
-        let plan = plan_edges(a.profile(), clock);
+        let plan = plan_edges(a.profile().unwrap(), clock);
         let got = &pulses[m];
         assert_eq!(got.len(), plan.len(), "axis {m}: every step emitted once");
         let (mut late, mut jumps) = (0u64, 0u64);
@@ -330,7 +330,7 @@ proptest! {
         prop_assert!(r.min_slack_ticks >= 0);
         prop_assert_eq!(r.start_skew_ticks, 0);
         for (a, got) in axes.iter().zip(&pulses) {
-            let plan = plan_edges(a.profile(), F);
+            let plan = plan_edges(a.profile().unwrap(), F);
             prop_assert_eq!(got.len(), plan.len());
             prop_assert!(got.iter().zip(&plan).all(|(p, e)| p.rise == r.start_tick + e));
         }

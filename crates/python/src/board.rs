@@ -5,7 +5,7 @@
 use crate::args::{each_kw, number, signed, string};
 use crate::errors::{client_err, type_err, value_err};
 use multistep_controller::client::{Client, Endpoint};
-use multistep_controller::protocol::{parse_amount, Amount};
+use multistep_controller::protocol::{parse_amount, Amount, RateArg, SignedRate, TrackOpts};
 use multistep_controller::{Command, MoveOpts};
 use multistep_core::Param;
 use pyo3::prelude::*;
@@ -45,6 +45,26 @@ fn amount(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Amount> {
     Err(type_err(format!(
         "{name} is microsteps as an int, or user units as a str such as '12.5u'"
     )))
+}
+
+/// A str as the protocol reads it (a rate, or a stored rate's name); a number or an exact
+/// fraction by its sign and exact magnitude.
+fn rate_arg(py: Python<'_>, v: &Bound<'_, PyAny>) -> PyResult<RateArg> {
+    if v.is_instance_of::<PyString>() {
+        let s: String = v.extract()?;
+        let s = s.trim();
+        return match SignedRate::parse(s) {
+            Some(r) => r.map(RateArg::Value).map_err(|e| value_err(e.to_string())),
+            None => Ok(RateArg::Preset(s.to_string())),
+        };
+    }
+    let negative = !v.is_instance_of::<PyBool>() && v.lt(0).unwrap_or(false);
+    let mag = if negative { v.neg()? } else { v.clone() };
+    Ok(RateArg::Value(SignedRate {
+        negative,
+        rate: crate::track::rate(py, &mag)?,
+        units: false,
+    }))
 }
 
 fn lines(py: Python<'_>, data: Vec<String>) -> PyResult<Py<PyAny>> {
@@ -384,6 +404,60 @@ impl Board {
             },
         )
         .map(drop)
+    }
+
+    /// Open-ended motion: ramps `axis` to `rate` and runs at exactly that rate until
+    /// `stop` (or a new `track`, which changes the rate; 0 stops). `rate` is steps/s as a
+    /// str (`"15041/324"`, `"-46.4228"`, `"0.5u"` in user units/s, or a stored rate's
+    /// name), an int, a `fractions.Fraction` or a float (its exact binary value); negative
+    /// runs backwards. `amax` (steps/s²) sets the ramps' acceleration, `lease` (s, at most
+    /// 60) stops the axis unless the command comes again within it. Returns the board's
+    /// data lines.
+    #[pyo3(signature = (axis, rate, *, amax = None, lease = None))]
+    fn track(
+        &self,
+        py: Python<'_>,
+        axis: &str,
+        rate: &Bound<'_, PyAny>,
+        amax: Option<f64>,
+        lease: Option<f64>,
+    ) -> PyResult<Py<PyAny>> {
+        let cmd = Command::Track {
+            axis: axis.to_string(),
+            rate: rate_arg(py, rate)?,
+            opts: TrackOpts { amax, lease },
+        };
+        lines(py, self.send(py, cmd)?)
+    }
+
+    /// Stores the named rate `name` (kept with the board), for `track(axis, name)`.
+    fn rate(&self, py: Python<'_>, name: &str, rate: &Bound<'_, PyAny>) -> PyResult<()> {
+        let RateArg::Value(rate) = rate_arg(py, rate)? else {
+            return Err(value_err(format!("'{}' is not a rate", rate.str()?)));
+        };
+        let cmd = Command::RatePreset {
+            name: name.to_string(),
+            rate,
+        };
+        self.send(py, cmd).map(drop)
+    }
+
+    /// The named rates, one line each (`NAME RATE`).
+    fn rates(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        lines(py, self.send(py, Command::Rates)?)
+    }
+
+    /// Releases (de-energizes) the driver of idle `axis`; a released axis may be turned by
+    /// hand and becomes untrusted unless the board keeps its position.
+    fn release(&self, py: Python<'_>, axis: &str) -> PyResult<()> {
+        let axis = axis.to_string();
+        self.send(py, Command::Release { axis }).map(drop)
+    }
+
+    /// Energizes the driver of `axis`.
+    fn energize(&self, py: Python<'_>, axis: &str) -> PyResult<()> {
+        let axis = axis.to_string();
+        self.send(py, Command::Energize { axis }).map(drop)
     }
 
     /// Sends one raw protocol line; returns its data lines.

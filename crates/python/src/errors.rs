@@ -2,7 +2,7 @@
 //! errors' own text, the same the command line prints after `error: `.
 
 use multistep_controller::client::ClientError;
-use multistep_core::PlanError;
+use multistep_core::{PlanError, TrackError};
 use multistep_sim::SimError;
 use pyo3::exceptions::{PyConnectionError, PyException, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -103,6 +103,14 @@ fn new_err(py: Python<'_>, class: &'static Class, msg: String) -> PyErr {
 
 pub fn plan_err(py: Python<'_>, e: PlanError) -> PyErr {
     new_err(py, &PLAN_ERROR, e.to_string())
+}
+
+/// A refused rate or tracking limit is a `PlanError`, with the command line's message.
+pub fn track_err(py: Python<'_>, e: TrackError) -> PyErr {
+    match e {
+        TrackError::Ramp(p) => plan_err(py, p),
+        other => new_err(py, &PLAN_ERROR, other.to_string()),
+    }
 }
 
 pub fn sim_err(py: Python<'_>, e: SimError) -> PyErr {

@@ -8,6 +8,7 @@ mod board;
 mod errors;
 mod plan;
 mod simulate;
+mod track;
 
 use pyo3::prelude::*;
 
@@ -16,6 +17,7 @@ fn multistep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(track::track, m)?)?;
     m.add_class::<plan::Plan>()?;
     m.add_class::<plan::Chunks>()?;
     m.add_class::<board::Board>()?;

@@ -48,10 +48,12 @@ pub mod isqrt;
 #[allow(missing_docs)]
 mod piece;
 mod plan;
+pub mod track;
 
 pub use gen::IntEdgeGenerator;
 pub use piece::{IntPiece, KernelMode, StepKernel};
 pub use plan::{limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
+pub use track::{IntRamp, IntTracker};
 
 use thiserror::Error;
 
@@ -95,3 +97,5 @@ pub enum IntError {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod track_tests;

@@ -648,6 +648,8 @@ fn sizes() {
             "IntEdgeGenerator<&IntProfile<3>, 3>",
             size_of::<IntEdgeGenerator<&IntProfile<3>, 3>>(),
         ),
+        ("Tracker", size_of::<crate::Tracker>()),
+        ("IntTracker", size_of::<super::IntTracker>()),
     ];
     for (name, bytes) in rows {
         std::println!("{name:40} {bytes:6} B");

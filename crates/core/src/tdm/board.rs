@@ -21,8 +21,10 @@ pub use super::scheduler::MAX_AXES;
 use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
+use crate::int::IntTracker;
 use crate::profile::Profile;
 use crate::step_dir::StepDirTiming;
+use crate::track::{Rate, TrackError, Tracker};
 
 /// What a board is built from besides its axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,11 +86,66 @@ impl AxisStats {
 /// independent square roots and divides (a simulation speed-up; the model is unchanged).
 const LOOKAHEAD: usize = 16;
 
+/// Where an axis's edges come from: a move (a known number of steps) or open-ended motion
+/// (a tracker, float or integer, with its state at the start so the axis can run again).
+// the sources are large, but boxing would allocate (the crate is no_std, no alloc)
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+enum Source {
+    Move(EdgeGenerator),
+    Track { now: Tracker, start: Tracker },
+    IntTrack { now: IntTracker, start: IntTracker },
+}
+
+impl Source {
+    fn clock(&self) -> f64 {
+        match self {
+            Source::Move(g) => g.clock(),
+            Source::Track { now, .. } => now.clock_hz() as f64,
+            Source::IntTrack { now, .. } => now.clock_hz() as f64,
+        }
+    }
+
+    fn is_tracking(&self) -> bool {
+        !matches!(self, Source::Move(_))
+    }
+}
+
+/// A rate change (a stop when the rate is zero) for a tracking axis, handed to its source
+/// when the calculator's clock reaches `tick`: it applies after the steps computed by then
+/// (those already in the FIFO run as computed), as [`Tracker::set_rate`] does after the
+/// steps produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrackCommand {
+    /// Calculator tick at which the command arrives.
+    pub tick: u64,
+    pub axis: usize,
+    pub rate: Rate,
+    /// Filled by the run: the axis's steps computed when the change was applied (`None`:
+    /// not delivered, because the run ended first or the axis had already stopped).
+    pub applied_after: Option<u64>,
+    /// Filled by the run: the tracker refused the rate (its motion is unchanged).
+    pub refused: Option<TrackError>,
+}
+
+impl TrackCommand {
+    /// `rate` for `axis` at `tick`.
+    pub fn new(tick: u64, axis: usize, rate: Rate) -> TrackCommand {
+        TrackCommand {
+            tick,
+            axis,
+            rate,
+            applied_after: None,
+            refused: None,
+        }
+    }
+}
+
 /// One axis: the source of its exact periods, its FIFO and its pulse unit.
 #[derive(Clone, Debug)]
 pub struct Axis {
-    gen: EdgeGenerator,
-    /// Steps of the move.
+    gen: Source,
+    /// Steps of the move (`u64::MAX` when open-ended).
     steps: u64,
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
@@ -101,9 +158,39 @@ pub struct Axis {
 
 impl Axis {
     pub fn new(profile: Profile, clock_hz: f64) -> Result<Axis, TdmError> {
+        Axis::with_source(
+            profile.steps(),
+            Source::Move(EdgeGenerator::new(profile, clock_hz)?),
+        )
+    }
+
+    /// An open-ended axis whose edges are `tracker`'s (from its current state); rates
+    /// change through [`Board::run_tracking`]'s commands.
+    pub fn tracking(tracker: Tracker) -> Result<Axis, TdmError> {
+        Axis::with_source(
+            u64::MAX,
+            Source::Track {
+                start: tracker.clone(),
+                now: tracker,
+            },
+        )
+    }
+
+    /// [`Axis::tracking`] with the integer tracker.
+    pub fn tracking_int(tracker: IntTracker) -> Result<Axis, TdmError> {
+        Axis::with_source(
+            u64::MAX,
+            Source::IntTrack {
+                start: tracker.clone(),
+                now: tracker,
+            },
+        )
+    }
+
+    fn with_source(steps: u64, gen: Source) -> Result<Axis, TdmError> {
         Ok(Axis {
-            steps: profile.steps(),
-            gen: EdgeGenerator::new(profile, clock_hz)?,
+            steps,
+            gen,
             ahead: [0; LOOKAHEAD],
             ahead_pos: 0,
             ahead_len: 0,
@@ -116,8 +203,12 @@ impl Axis {
 
     /// Back to step 0 with an empty FIFO, so the same axes can run again.
     fn reset(&mut self, depth: usize, shape: PulseShape) -> Result<(), TdmError> {
-        // back to step 1 in place (no copy of the profile)
-        self.gen.seek(1);
+        match &mut self.gen {
+            // back to step 1 in place (no copy of the profile)
+            Source::Move(g) => g.seek(1),
+            Source::Track { now, start } => *now = start.clone(),
+            Source::IntTrack { now, start } => *now = start.clone(),
+        }
         self.ahead_pos = 0;
         self.ahead_len = 0;
         self.prev_edge = 0;
@@ -130,8 +221,17 @@ impl Axis {
     /// The exact edge (ticks from the start) of the next step.
     #[inline]
     fn next_edge(&mut self) -> Option<u64> {
+        // a tracker's edges one at a time: a rate change applies after the steps computed
+        match &mut self.gen {
+            Source::Move(_) => {}
+            Source::Track { now, .. } => return now.next(),
+            Source::IntTrack { now, .. } => return now.next(),
+        }
         if self.ahead_pos == self.ahead_len {
-            self.ahead_len = self.gen.fill(&mut self.ahead);
+            let Source::Move(g) = &mut self.gen else {
+                return None;
+            };
+            self.ahead_len = g.fill(&mut self.ahead);
             self.ahead_pos = 0;
             if self.ahead_len == 0 {
                 return None;
@@ -183,13 +283,37 @@ impl Axis {
         self.stats.merged_pulses = self.pulse.merged();
     }
 
-    /// Periods not computed yet.
+    /// Periods not computed yet (`u64::MAX` while a tracker runs).
     fn remaining(&self) -> u64 {
-        self.gen.remaining() + (self.ahead_len - self.ahead_pos) as u64
+        match &self.gen {
+            Source::Move(g) => g.remaining() + (self.ahead_len - self.ahead_pos) as u64,
+            Source::Track { now, .. } if !now.rate().is_zero() || now.ramp_profile().is_some() => {
+                u64::MAX
+            }
+            Source::IntTrack { now, .. }
+                if !now.rate().is_zero() || now.ramp_profile().is_some() =>
+            {
+                u64::MAX
+            }
+            _ => 0,
+        }
     }
 
-    pub fn profile(&self) -> &Profile {
-        self.gen.profile()
+    /// The move's profile (`None` on a tracking axis).
+    pub fn profile(&self) -> Option<&Profile> {
+        match &self.gen {
+            Source::Move(g) => Some(g.profile()),
+            _ => None,
+        }
+    }
+
+    /// Gives a tracking axis's source a new rate; `Ok(false)` on a move.
+    fn set_rate(&mut self, rate: Rate) -> Result<bool, TrackError> {
+        match &mut self.gen {
+            Source::Move(_) => Ok(false),
+            Source::Track { now, .. } => now.set_rate(rate).map(|_| true),
+            Source::IntTrack { now, .. } => now.set_rate(rate).map(|_| true),
+        }
     }
 
     pub fn stats(&self) -> &AxisStats {
@@ -256,14 +380,17 @@ impl<'a> Board<'a> {
             return Err(TdmError::ZeroPulseWidth);
         }
         // Worst case: every period computed after the last edge of the longest move.
-        let work: u128 = axes
-            .iter()
-            .map(|a| a.profile().steps() as u128)
-            .sum::<u128>()
+        // (tracking axes are bounded by the run's horizon, checked when it is given)
+        let moves = || {
+            axes.iter().filter_map(|a| match &a.gen {
+                Source::Move(g) => Some(g),
+                _ => None,
+            })
+        };
+        let work: u128 = moves().map(|g| g.profile().steps() as u128).sum::<u128>()
             * cfg.latencies.latency() as u128
-            + axes
-                .iter()
-                .map(|a| a.gen.last_edge_tick() as u128)
+            + moves()
+                .map(|g| g.last_edge_tick() as u128)
                 .max()
                 .unwrap_or(0)
             + cfg.step_dir.dir_setup_ticks as u128;
@@ -297,8 +424,45 @@ impl<'a> Board<'a> {
         self.cfg.step_dir.dir_setup_ticks.max(fill)
     }
 
-    /// Runs every axis to its last step, handing each pulse to `sink`.
-    pub fn run<F: FnMut(StepPulse)>(self, mut sink: F) -> Report {
+    /// Runs every axis to its last step, handing each pulse to `sink`. Open-ended
+    /// (tracking) axes have no last step: this run ends with the last move, and cuts
+    /// them there (with no move, at once); they run by [`Board::run_tracking`].
+    pub fn run<F: FnMut(StepPulse)>(self, sink: F) -> Report {
+        self.run_inner(TICK_LIMIT, &mut [], true, sink)
+    }
+
+    /// Runs until the calculator's clock passes `until` (or every axis is done), handing
+    /// each pulse to `sink` and each command to its tracking axis when the clock reaches
+    /// its tick (`commands` in tick order; the run fills in when each applied). At the
+    /// horizon every axis still running closes its last pulse as a move's last pulse.
+    /// Moves run exactly as in [`Board::run`].
+    pub fn run_tracking<F: FnMut(StepPulse)>(
+        self,
+        until: u64,
+        commands: &mut [TrackCommand],
+        sink: F,
+    ) -> Result<Report, TdmError> {
+        if until >= TICK_LIMIT / 2 {
+            return Err(TdmError::TooLong);
+        }
+        for c in commands.iter() {
+            if !self.axes.get(c.axis).is_some_and(|a| a.gen.is_tracking()) {
+                return Err(TdmError::NotTracking { axis: c.axis });
+            }
+        }
+        if commands.windows(2).any(|w| w[1].tick < w[0].tick) {
+            return Err(TdmError::CommandOrder);
+        }
+        Ok(self.run_inner(until, commands, false, sink))
+    }
+
+    fn run_inner<F: FnMut(StepPulse)>(
+        self,
+        until: u64,
+        commands: &mut [TrackCommand],
+        until_moves_end: bool,
+        mut sink: F,
+    ) -> Report {
         let k = self.axes.len();
         let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
         // Hot scheduling state, contiguous and outside the (large) axes.
@@ -316,19 +480,59 @@ impl<'a> Board<'a> {
         let policy = self.cfg.policy;
         let mut t = 0u64;
         let mut next = 0usize;
-        while let Some((now, m)) = queue.pick(policy, t, need, &mut next) {
+        let mut cmd = 0usize;
+        let mut done = [false; MAX_AXES];
+        let mut moves_left = self
+            .axes
+            .iter()
+            .filter(|a| !a.gen.is_tracking() && a.remaining() > 0)
+            .count();
+        loop {
+            if until_moves_end && moves_left == 0 {
+                break;
+            }
+            let picked = queue.pick(policy, t, need, &mut next);
+            // commands due by the next decision (or by the horizon when the queue is idle)
+            let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));
+            while let Some(c) = commands.get_mut(cmd).filter(|c| c.tick <= now) {
+                cmd += 1;
+                let a = &mut self.axes[c.axis];
+                if done[c.axis] {
+                    continue;
+                }
+                match a.set_rate(c.rate) {
+                    Ok(_) => c.applied_after = Some(a.stats.steps),
+                    Err(e) => c.refused = Some(e),
+                }
+            }
+            let Some((now, m)) = picked else { break };
+            if now > until {
+                break;
+            }
             t = now;
             let a = &mut self.axes[m];
             let Some(rise) = a.compute(m, t + lat, need[m], &mut sink) else {
+                // a tracker that stopped: its last pulse closes as a move's last pulse
+                done[m] = true;
+                if a.stats.steps > 0 {
+                    a.finish(m, need[m], &mut sink);
+                }
                 continue;
             };
             need[m] = rise;
             if a.stats.steps == a.steps {
+                done[m] = true;
+                moves_left -= 1;
                 a.finish(m, rise, &mut sink);
             } else {
                 queue.insert(m, a.fifo.room_tick(), t);
             }
             t += ii;
+        }
+        for (m, a) in self.axes.iter_mut().enumerate() {
+            if !done[m] && a.stats.steps > 0 {
+                a.finish(m, need[m], &mut sink);
+            }
         }
         self.report(start)
     }

@@ -18,7 +18,7 @@ pub mod scheduler;
 pub mod stream;
 
 pub use analysis::{k_eq12, k_max, min_period_ticks, rate_move, KMax};
-pub use board::{Axis, AxisStats, Board, Report, TdmConfig, MAX_AXES};
+pub use board::{Axis, AxisStats, Board, Report, TdmConfig, TrackCommand, MAX_AXES};
 pub use calculator::Latencies;
 pub use fifo::{Fifo, MAX_FIFO_DEPTH};
 pub use pulse::{PulseShape, PulseUnit, StepPulse};
@@ -48,6 +48,10 @@ pub enum TdmError {
     },
     #[error("the run could last past tick 2^57 (the scheduler's tick range)")]
     TooLong,
+    #[error("axis {axis} is not a tracking axis (or there is no such axis)")]
+    NotTracking { axis: usize },
+    #[error("tracking commands must be in tick order")]
+    CommandOrder,
     #[error("unknown policy (expected round-robin or earliest-deadline)")]
     UnknownPolicy,
     #[error(transparent)]

@@ -1,0 +1,262 @@
+//! The integer tracker against the float tracker and against exact references: every
+//! edge of both trackers is the same, ramp edges pass DESIGN.md §1's exactness test
+//! `p((e − ½)/f) < i ≤ p((e + ½)/f)` evaluated on the ramp's f64 pieces as the binary
+//! rationals they are (astro-float at a precision that rounds nothing), and cruise edges
+//! equal `⌈X₀ + k·f·den/num − ½⌉` by one exact division.
+
+extern crate std;
+
+use super::IntTracker;
+use crate::profile::Profile;
+use crate::track::{Rate, TrackError, TrackLimits, TrackSegment, Tracker};
+use astro_float::{BigFloat, RoundingMode};
+use proptest::prelude::*;
+
+const F: u64 = 50_000_000;
+/// Enough bits that sums and products of f64s and tick counts round nothing.
+const P: usize = 3072;
+const RM: RoundingMode = RoundingMode::None;
+
+fn bf(x: f64) -> BigFloat {
+    BigFloat::from_f64(x, P)
+}
+
+fn bu(x: u128) -> BigFloat {
+    BigFloat::from_u128(x, P)
+}
+
+/// Whether `p(x2/2 ticks) ≥ i` on `profile` (the piece holding that time, as DESIGN.md §1
+/// evaluates p), exactly: `f²·p0 + f·c1·u + c2·u² ≥ f²·i` with u the local time in ticks.
+fn reached(profile: &Profile, x2: u128, i: u64) -> bool {
+    let f = bu(F as u128);
+    let x = bu(x2).div(&bu(2), P, RM);
+    if x.cmp(&f.mul(&bf(profile.duration()), P, RM)).unwrap() >= 0 {
+        return profile.steps() >= i;
+    }
+    if x2 == 0 {
+        return i == 0;
+    }
+    // the last piece starting at or before x
+    let k = profile
+        .pieces()
+        .iter()
+        .rposition(|p| x.cmp(&f.mul(&bf(p.t0), P, RM)).unwrap() >= 0)
+        .unwrap_or(0);
+    let p = profile.piece(k);
+    let (c1, c2) = p.quadratic().unwrap();
+    let mut u = x.sub(&f.mul(&bf(p.t0), P, RM), P, RM);
+    let ud = f.mul(&bf(p.dur), P, RM);
+    if u.cmp(&ud).unwrap() > 0 {
+        u = ud;
+    }
+    let f2 = f.mul(&f, P, RM);
+    let lhs = f2
+        .mul(&bf(p.p0), P, RM)
+        .add(&f.mul(&bf(c1), P, RM).mul(&u, P, RM), P, RM)
+        .add(&bf(c2).mul(&u, P, RM).mul(&u, P, RM), P, RM);
+    lhs.cmp(&f2.mul(&bu(i as u128), P, RM)).unwrap() >= 0
+}
+
+/// DESIGN.md §1's test for ramp step `i` at local tick `e`; the last step is at
+/// `round(f·T)` (a half tick up).
+fn ramp_edge_exact(profile: &Profile, i: u64, e: u64) -> bool {
+    if i == profile.steps() {
+        let x = bu(F as u128)
+            .mul(&bf(profile.duration()), P, RM)
+            .add(&bf(0.5), P, RM);
+        return x.cmp(&bu(e as u128)).unwrap() >= 0 && x.cmp(&bu(e as u128 + 1)).unwrap() < 0;
+    }
+    let below = e == 0 || !reached(profile, 2 * e as u128 - 1, i);
+    below && reached(profile, 2 * e as u128 + 1, i)
+}
+
+/// `⌈X₀ + k·f·den/num − ½⌉` with X₀ = o + c/2^b: numerator and denominator times
+/// 2^(b+1)·num, one 512-bit division (every value below 2^400).
+fn cruise_edge(rate: Rate, o: u64, c: u128, b: u32, k: u64) -> u64 {
+    use crypto_bigint::{NonZero, U512};
+    let w = U512::from_u128;
+    let (num, den) = (w(rate.num()), w(rate.den()));
+    let s = U512::ONE.shl_vartime(b);
+    let d = s.shl_vartime(1).wrapping_mul(&num);
+    let x = d
+        .wrapping_mul(&w(o as u128))
+        .wrapping_add(&w(c).wrapping_mul(&num).shl_vartime(1))
+        .wrapping_add(
+            &w(k as u128 * F as u128)
+                .wrapping_mul(&den)
+                .wrapping_mul(&s)
+                .shl_vartime(1),
+        )
+        .wrapping_sub(&s.wrapping_mul(&num));
+    let (q, r) = x.div_rem_vartime(&NonZero::new(d).unwrap());
+    let q = q.to_le_bytes();
+    u64::from_le_bytes(q[..8].try_into().unwrap()) + (r != U512::ZERO) as u64
+}
+
+/// Two trackers in lock-step, every edge checked.
+struct Pair {
+    int: IntTracker,
+    float: Tracker,
+    steps: u64,
+    ramp_edges: u64,
+    cruise_edges: u64,
+    exact_ramp_checks: u64,
+    /// The ramp running: its start tick and step, and how many of its edges to check
+    /// exactly (the first and last of each ramp and a stride between).
+    ramp: Option<(u64, u64)>,
+}
+
+impl Pair {
+    fn new(limits: TrackLimits, start: f64, rate: Rate) -> Pair {
+        Pair {
+            int: IntTracker::new(F as f64, limits, start, rate).unwrap(),
+            float: Tracker::new(F as f64, limits, start, rate).unwrap(),
+            steps: 0,
+            ramp_edges: 0,
+            cruise_edges: 0,
+            exact_ramp_checks: 0,
+            ramp: None,
+        }
+    }
+
+    fn set_rate(&mut self, r: Rate) -> Result<(), TestCaseError> {
+        let a = self.int.set_rate(r);
+        let b = self.float.set_rate(r);
+        prop_assert_eq!(&a, &b);
+        prop_assert!(a.is_ok());
+        Ok(())
+    }
+
+    /// Up to `n` steps; false when the stream ended.
+    fn run(&mut self, n: u64) -> Result<bool, TestCaseError> {
+        for _ in 0..n {
+            let (a, b) = (self.int.next(), self.float.next());
+            prop_assert_eq!(a, b, "step {}", self.steps + 1);
+            let Some(e) = a else { return Ok(false) };
+            self.steps += 1;
+            prop_assert_eq!(self.int.segment(), self.float.segment());
+            match self.int.segment() {
+                TrackSegment::Ramp {
+                    start_tick,
+                    start_step,
+                } => {
+                    if self.ramp != Some((start_tick, start_step)) {
+                        self.ramp = Some((start_tick, start_step));
+                    }
+                    let p = self.int.ramp_profile().unwrap();
+                    let i = self.steps - start_step;
+                    let n = p.steps();
+                    if i <= 64 || i + 64 >= n || i % 97 == 0 {
+                        prop_assert!(
+                            ramp_edge_exact(p, i, e - start_tick),
+                            "ramp step {} of {}: edge {}",
+                            i,
+                            n,
+                            e - start_tick
+                        );
+                        self.exact_ramp_checks += 1;
+                    }
+                    self.ramp_edges += 1;
+                }
+                TrackSegment::Cruise {
+                    rate,
+                    start_step,
+                    origin_tick,
+                    frac_num,
+                    frac_bits,
+                } => {
+                    let k = self.steps - start_step;
+                    prop_assert_eq!(
+                        e,
+                        cruise_edge(rate, origin_tick, frac_num, frac_bits, k),
+                        "cruise step {}",
+                        k
+                    );
+                    self.cruise_edges += 1;
+                }
+                TrackSegment::Stopped => prop_assert!(false, "an edge while stopped"),
+            }
+        }
+        Ok(true)
+    }
+}
+
+/// 24 simulated hours at the sidereal rate, from rest: every edge of the integer tracker
+/// equals the float tracker's and the exact cruise formula's.
+#[test]
+fn sidereal_24_hours_int_equals_float_and_exact() {
+    let limits = TrackLimits {
+        amax: 200.0,
+        jmax: None,
+    };
+    let rate = Rate::new(15041, 324).unwrap();
+    let mut pair = Pair::new(limits, 0.0, rate);
+    // 24 h at 15041/324 steps/s: 4 010 933 steps (and the few of the ramp)
+    let steps = 24 * 3600 * 15041 / 324;
+    assert!(pair.run(steps).unwrap());
+    let last = pair.int.last_edge();
+    assert!(
+        last > 24 * 3600 * F - F && last < 24 * 3600 * F + F,
+        "{last}"
+    );
+    assert!(pair.ramp_edges > 0 && pair.cruise_edges > 4_000_000);
+    assert!(pair.exact_ramp_checks == pair.ramp_edges);
+}
+
+#[test]
+fn scurve_ramps_are_refused_by_the_integer_tracker() {
+    let limits = TrackLimits {
+        amax: 100.0,
+        jmax: Some(1000.0),
+    };
+    let r = Rate::new(100, 1).unwrap();
+    assert_eq!(
+        IntTracker::new(F as f64, limits, 0.0, r).err(),
+        Some(TrackError::NotInteger)
+    );
+    // no ramp, no refusal: a cruise from the start speed
+    let mut t = IntTracker::new(F as f64, limits, 100.0, r).unwrap();
+    assert_eq!(t.next(), Some(500_000));
+    // a change that needs an S-curve ramp is refused, and the cruise goes on untouched
+    assert_eq!(
+        t.set_rate(Rate::new(200, 1).unwrap()),
+        Err(TrackError::NotInteger)
+    );
+    assert_eq!(t.rate(), r);
+    assert_eq!(t.next(), Some(1_000_000));
+}
+
+/// A random exact rate between 0.5 and 2·10⁵ steps/s with a denominator up to 2^24.
+fn any_rate() -> impl Strategy<Value = Rate> {
+    (0.5f64..2e5, 1u128..(1 << 24))
+        .prop_map(|(r, den)| Rate::new(((r * den as f64) as u128).max(1), den).unwrap())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+
+    /// Random rates, start speeds and limits; a change after a random number of steps
+    /// (often inside the first ramp) and a stop after another: every edge of the integer
+    /// tracker equals the float tracker's and the exact references.
+    #[test]
+    fn int_tracker_equals_float_and_exact(
+        r1 in any_rate(), r2 in any_rate(), start in 0.0f64..2.0, amax_exp in 0.7f64..4.0,
+        n1 in 1u64..6000, n2 in 1u64..6000, restart in any::<bool>(),
+    ) {
+        // amax from 5 to 10⁴ times the fastest speed: a ramp of at most a tenth of its
+        // rate in steps
+        let amax = r1.to_f64().max(r2.to_f64()).max(start * r1.to_f64()) * 10f64.powf(amax_exp);
+        let limits = TrackLimits { amax, jmax: None };
+        let mut pair = Pair::new(limits, start * r1.to_f64(), r1);
+        pair.run(n1)?;
+        pair.set_rate(r2)?;
+        pair.run(n2)?;
+        pair.set_rate(Rate::ZERO)?;
+        prop_assert!(!pair.run(u64::MAX)?, "a stop ends the stream");
+        if restart {
+            pair.set_rate(r1)?;
+            pair.run(n1)?;
+        }
+        prop_assert!(pair.ramp_edges > 0);
+    }
+}
