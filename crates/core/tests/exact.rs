@@ -149,6 +149,26 @@ fn check_all(
         "{} edges near a half tick went the other way",
         c.near
     );
+    // fold and fill (constant-speed and ramp runs in local variables) give the edges
+    // checked above one step at a time
+    let mut g = EdgeGenerator::new(prof.clone(), clock).unwrap();
+    let stepped: Vec<u64> = std::iter::from_fn(|| g.next()).collect();
+    let folded = EdgeGenerator::new(prof.clone(), clock)
+        .unwrap()
+        .fold(Vec::new(), |mut v, e| {
+            v.push(e);
+            v
+        });
+    prop_assert_eq!(&folded, &stepped);
+    let (mut g, mut buf, mut filled) = (
+        EdgeGenerator::new(prof.clone(), clock).unwrap(),
+        [0u64; 13],
+        Vec::new(),
+    );
+    while let k @ 1.. = g.fill(&mut buf) {
+        filled.extend_from_slice(&buf[..k]);
+    }
+    prop_assert_eq!(&filled, &stepped);
     let gen = EdgeGenerator::new(prof.clone(), clock).unwrap();
     let last = gen.last_edge_tick();
     prop_assert_eq!(gen.periods().sum::<u64>(), last);
