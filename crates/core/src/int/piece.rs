@@ -149,6 +149,8 @@ pub(crate) struct IntRamp {
     four_a: i128,
     b: i128,
     eight_b: i128,
+    /// `2A·t`, `|B|·t²`, `4A + 8|B|·D` and `4M` stay below 2^62 for every `t ≤ 2D + 1`.
+    narrow: bool,
 }
 
 impl IntRamp {
@@ -173,6 +175,16 @@ impl IntRamp {
         // number 1.5·2^52, exact for τ < 2^51 (`ramp` checks D)
         let e = ((tau + MAGIC).to_bits() & ((1u64 << 52) - 1)) - (1u64 << 51);
         // 4·P at 2e + 1 as t·(2A + B·t): two wide multiplies by the 64-bit t
+        if self.narrow {
+            // the same in 64 bits: every exact value of this piece is below 2^62
+            let (m4, t) = (m4 as i64, (2 * e + 1) as i64);
+            let above =
+                t.wrapping_mul((self.two_a as i64).wrapping_add((self.b as i64).wrapping_mul(t)));
+            let below = above
+                .wrapping_sub(self.four_a as i64)
+                .wrapping_sub((self.eight_b as i64).wrapping_mul(e as i64));
+            return (above >= m4 && below < m4).then_some(e);
+        }
         let t = (2 * e + 1) as i128;
         let above = t.wrapping_mul(self.two_a.wrapping_add(self.b.wrapping_mul(t)));
         let below = above
@@ -472,7 +484,27 @@ impl IntPiece {
             four_a: 4 * self.a as i128,
             b: self.b,
             eight_b: self.b.wrapping_mul(8),
+            narrow: self.fits_62(),
         })
+    }
+
+    /// Whether every value of [`IntRamp::next_local`]'s check fits in 62 bits.
+    fn fits_62(&self) -> bool {
+        let lim = 1u128 << 62;
+        let small = |x: Option<u128>| x.is_some_and(|x| x < lim);
+        let t = 2 * self.dur as u128 + 1;
+        let b = self.b.unsigned_abs();
+        small(self.a.checked_mul(2 * t))
+            && small(b.checked_mul(t).and_then(|x| x.checked_mul(t)))
+            && small(
+                b.checked_mul(8 * self.dur as u128 + 8)
+                    .and_then(|x| x.checked_add(4 * self.a)),
+            )
+            && small(
+                self.m_end
+                    .checked_add(self.den)
+                    .and_then(|x| x.checked_mul(4)),
+            )
     }
 
     /// The exact kernel's local edge, out of the ramp loop (rarely taken).
@@ -541,9 +573,21 @@ mod tests {
             let Ok(p) = IntPiece::new(0, dur, g, u, w, s) else { return Ok(()) };
             prop_assert!(p.kernel().is_some());
             let wide = p.forced_wide();
+            // the ramp run's check, in 64 and in 128 bits: a tick it gives is the scan's
+            let mut ramps = p.ramp(0).map(|r| [r, IntRamp { narrow: false, ..r }]);
+            if let Some([r, _]) = &ramps {
+                prop_assert!(r.narrow);
+            }
             for j in 0..p.steps {
                 let m = p.target(p.first + j).unwrap();
                 let want = brute_edge(&p, m);
+                if let Some(rs) = &mut ramps {
+                    for r in rs.iter_mut() {
+                        if let Some(e) = r.next_local() {
+                            prop_assert_eq!(p.t0 + e, want, "ramp {:?} step {}", p, j);
+                        }
+                    }
+                }
                 prop_assert_eq!(p.edge(j), want, "{:?} step {}", p, j);
                 prop_assert_eq!(p.t0 + p.kernel().unwrap().local_edge(j), want);
                 prop_assert_eq!(wide.edge(j), want, "wide {:?} step {}", p, j);
