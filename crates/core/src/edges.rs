@@ -386,6 +386,38 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         }
     }
 
+    /// The least and greatest period between the remaining edges (the first measured
+    /// from tick `last`) and the last edge, as folding them one by one finds them, but
+    /// each constant-speed run in O(1) from its accumulator. `None` when no step remains.
+    pub fn period_extremes(&mut self, last: u64) -> Option<(u64, u64, u64)> {
+        let (mut lo, mut hi, mut last, mut any) = (u64::MAX, 0u64, last, false);
+        loop {
+            if self.run_left > 0 {
+                let (acc, n) = (self.acc, self.run_left);
+                let first = acc.edge_after(0);
+                let (a, b) = acc.period_range(n).unwrap_or((u64::MAX, 0));
+                lo = lo.min(first - last).min(a);
+                hi = hi.max(first - last).max(b);
+                last = acc.edge_after(n - 1);
+                any = true;
+                self.run_left = 0;
+            }
+            if self.next_f <= self.ramp_hi {
+                (lo, hi, last) = self.ramp_run((lo, hi, last), &mut |(lo, hi, last), e| {
+                    (lo.min(e - last), hi.max(e - last), e)
+                });
+                any = true;
+            }
+            match self.step_general() {
+                Some(e) => {
+                    (lo, hi, last) = (lo.min(e - last), hi.max(e - last), e);
+                    any = true;
+                }
+                None => return any.then_some((lo, hi, last)),
+            }
+        }
+    }
+
     fn entered(mut self, k: usize) -> Self {
         self.enter(k);
         self

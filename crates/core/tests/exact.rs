@@ -169,6 +169,19 @@ fn check_all(
         filled.extend_from_slice(&buf[..k]);
     }
     prop_assert_eq!(&filled, &stepped);
+    // the summary's period range (constant-speed runs in O(1)) is the edges'
+    let want = stepped.iter().scan(0, |last, &e| {
+        let p = e - *last;
+        *last = e;
+        Some(p)
+    });
+    let want = want.fold(None, |m: Option<(u64, u64)>, p| {
+        Some(m.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))
+    });
+    let got = EdgeGenerator::new(prof.clone(), clock)
+        .unwrap()
+        .period_extremes(0);
+    prop_assert_eq!(got, want.map(|(lo, hi)| (lo, hi, *stepped.last().unwrap())));
     let gen = EdgeGenerator::new(prof.clone(), clock).unwrap();
     let last = gen.last_edge_tick();
     prop_assert_eq!(gen.periods().sum::<u64>(), last);
