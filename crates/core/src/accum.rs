@@ -51,6 +51,22 @@ impl StepAccumulator {
         e
     }
 
+    /// The current edge and the least and greatest of the `n − 1` periods between it
+    /// and the `n − 1` edges after it (`None` for n ≤ 1), without moving: every period
+    /// is `⌊w/den⌋` plus one on a carry, and the `n − 1` steps carry
+    /// `⌊(r + (n − 1)·(w mod den))/den⌋` times.
+    pub fn period_range(&self, n: u64) -> Option<(u64, u64)> {
+        let steps = n.checked_sub(1).filter(|&k| k > 0)?;
+        let carries = (self.r as u128 + steps as u128 * self.dr as u128) / self.den as u128;
+        let lo = if carries < steps as u128 {
+            self.dq
+        } else {
+            self.dq + 1
+        };
+        let hi = if carries > 0 { self.dq + 1 } else { self.dq };
+        Some((lo, hi))
+    }
+
     /// The edge `n` steps after the current one (without moving).
     pub fn edge_after(&self, n: u64) -> u64 {
         let r = self.r as u128 + n as u128 * self.dr as u128;
@@ -241,6 +257,23 @@ mod tests {
             for i in i0..i0 + 300 {
                 proptest::prop_assert_eq!(acc.next_edge(), reference(t0, p0, c1, f, i), "step {}", i);
             }
+        }
+    }
+
+    proptest::proptest! {
+        /// `period_range` is the least and greatest difference of the edges it skips.
+        #[test]
+        fn period_range_matches_the_edges(
+            y in 0u128..1 << 40, w in 1u128..1 << 20, den in 1u128..1 << 20, n in 0u64..300,
+        ) {
+            let acc = StepAccumulator::new(y, w, den).unwrap();
+            let mut a = acc;
+            let e: std::vec::Vec<u64> = (0..n).map(|_| a.next_edge()).collect();
+            let want = e.windows(2).map(|p| p[1] - p[0]).fold(None, |m, p| match m {
+                None => Some((p, p)),
+                Some((lo, hi)) => Some((p.min(lo), p.max(hi))),
+            });
+            proptest::prop_assert_eq!(acc.period_range(n), want);
         }
     }
 

@@ -37,6 +37,153 @@ fn nearest_tick(x: f64) -> (u64, f64) {
     (tick, 0.5 - (x - r).abs())
 }
 
+/// Where a piece starts (time and position) and how long it lasts.
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    t0: f64,
+    p0: f64,
+    dur: f64,
+}
+
+impl Span {
+    #[inline(always)]
+    fn of(p: &Piece) -> Span {
+        Span {
+            t0: p.t0,
+            p0: p.p0,
+            dur: p.dur,
+        }
+    }
+}
+
+/// A constant-acceleration piece `advance = c1·τ + c2·τ²` (c2 ≠ 0) with its per-step
+/// constants hoisted, and a per-piece bound that decides most steps with one multiply.
+#[derive(Clone, Copy, Debug)]
+struct Ramp {
+    c1: f64,
+    /// `c1²` and `4·c2` (exact: a power of two), so `r` is the same value as `c1·c1 + 4·c2·n`.
+    c1_sq: f64,
+    c2_4: f64,
+    /// `1/(2·c2)`, for the divide-free root `τ = (s − c1)/(2c2)` where `fast`.
+    h: f64,
+    /// A bound on the tick error times the speed s, maximised over the piece, for the
+    /// formula in use: a step whose `dist·s` exceeds it is decided without the per-step
+    /// bound (∞: never).
+    quick: f64,
+    fast: bool,
+}
+
+impl Ramp {
+    const NONE: Ramp = Ramp {
+        c1: 0.0,
+        c1_sq: 0.0,
+        c2_4: 0.0,
+        h: 0.0,
+        quick: f64::INFINITY,
+        fast: false,
+    };
+
+    /// The constants of piece `p` (`c1`, `c2` its quadratic coefficients) at `clock`, for
+    /// steps `i ≤ i_max`.
+    ///
+    /// Merged form `τ = 2n/(c1 + s)`: its per-step test ([`Ramp::exact`]) divided by
+    /// `den = c1 + s > 0` reads `dist·s > k_err·(τ·(5s + R/den) + i) + (8ε·x + 2·10⁻⁹)·s`;
+    /// over the piece τ ≤ dur, i ≤ i_max, x ≤ f·(t0 + dur), s ≤ s_max, and R/den ≤ s_max
+    /// when c2 > 0 (R = s²) or ≤ R_max/c1 when c2 < 0.
+    ///
+    /// Divide-free form `τ = (s − c1)·h`, `h = fl(1/(2c2))`: r carries
+    /// `Δr ≤ 2ε·R + 4|c2|·ε·i` (its three roundings and n's), so
+    /// `|Δs| ≤ Δr/s + ε·s/2` (`|√a − √b| ≤ |a − b|/√b`, with the computed s), and the
+    /// difference, h and the product add `2ε·τ`: `Δτ·s ≤ ε·(R/|c2| + 2i + s²/(4|c2|) +
+    /// 2·dur·s)`, plus the sum and product of x as in the merged form. Near `s ≈ c1`
+    /// (a decel's start) this is the cancellation `ε·c1/|c2|` in absolute time, which the
+    /// bound carries; where that makes it larger than the merged form's, the merged
+    /// form (one divide more) is used.
+    ///
+    /// `quick` is twice the right side at those maxima (with a relative margin for the
+    /// rounding of its own terms), so `dist·s > quick` decides the tick.
+    fn new(p: &Piece, c1: f64, c2: f64, clock: f64, i_max: f64) -> Ramp {
+        let n_max = (i_max - p.p0).max(0.0) * (1.0 + 1e-9);
+        let r_max = (c1 * c1 + 4.0 * c2.abs() * n_max) * (1.0 + 1e-9);
+        let s_max = fm::sqrt(if c2 > 0.0 { r_max } else { c1 * c1 }) * (1.0 + 1e-6);
+        let rd_max = if c2 > 0.0 {
+            s_max
+        } else if c1 > 0.0 {
+            r_max / c1 * (1.0 + 1e-6)
+        } else {
+            f64::INFINITY
+        };
+        let i_max = i_max * (1.0 + 1e-6);
+        let x_term = (8.0 * EPS * (p.t0 + p.dur) * clock * (1.0 + 1e-6) + 2e-9) * s_max;
+        let k_err = 2.0 * clock * EPS;
+        let merged = 2.0 * (k_err * (p.dur * (5.0 * s_max + rd_max) + i_max) + x_term);
+        let c2a = c2.abs();
+        let free = 2.0
+            * (0.5
+                * k_err
+                * (1.0 + 1e-6)
+                * (r_max / c2a + 2.0 * i_max + s_max * s_max / (4.0 * c2a) + 2.0 * p.dur * s_max)
+                + x_term);
+        let ok = |q: f64| c1 >= 0.0 && q.is_finite() && p.dur.is_finite() && i_max.is_finite();
+        let fast = c2 != 0.0 && ok(free) && (!ok(merged) || free <= 4.0 * merged);
+        let quick = match (fast, ok(merged)) {
+            (true, _) => free,
+            (false, true) => merged,
+            (false, false) => f64::INFINITY,
+        };
+        Ramp {
+            c1,
+            c1_sq: c1 * c1,
+            c2_4: 4.0 * c2,
+            h: 1.0 / (2.0 * c2),
+            quick,
+            fast,
+        }
+    }
+
+    /// Local time of step i, its nearest tick, and whether f64 decides that tick: the
+    /// piece's closed form and bound first ([`Ramp::new`]), the merged form with its
+    /// per-step bound where that bound cannot decide.
+    #[inline(always)]
+    fn locate(&self, p: Span, i: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+        let n = i - p.p0;
+        let r = self.c1_sq + self.c2_4 * n;
+        let s = fm::sqrt(r.max(0.0));
+        let tau = if self.fast {
+            (s - self.c1) * self.h
+        } else {
+            2.0 * n / (self.c1 + s)
+        };
+        // `tau.min(dur)` in one instruction (a NaN τ gives dur in both)
+        let tau = if tau < p.dur { tau } else { p.dur };
+        let x = (p.t0 + tau) * clock;
+        let (tick, dist) = nearest_tick(x);
+        if dist * s > self.quick {
+            return (tau, tick, true);
+        }
+        self.exact(p, i, n, s, k_err, clock)
+    }
+
+    /// Seed 000's merged closed form `τ = 2n/(c1 + √(c1² + 4c2·n))` (one root, one
+    /// divide, no cancellation) with its per-step error bound.
+    #[inline(never)]
+    fn exact(&self, p: Span, i: f64, n: f64, s: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+        let c1 = self.c1;
+        let den = c1 + s;
+        let tau = (2.0 * n / den).min(p.dur);
+        let x = (p.t0 + tau) * clock;
+        let (tick, dist) = nearest_tick(x);
+        // Error bound (ticks) times s·den, so no division is needed: the radicand's
+        // rounding (R = c1² + 4|c2|n, over s), the root and quotient (≤ 5 ulp, using
+        // s ≤ den), n's own rounding (ε·i, over the speed s), and the final sum and
+        // product (4ε·x); doubled for safety.
+        let big_r = c1 * c1 + self.c2_4.abs() * n;
+        let sd = s * den;
+        let bound = k_err * (tau * (5.0 * sd + big_r) + i * den) + (8.0 * EPS * x + 2e-9) * sd;
+        (tau, tick, dist * sd > bound)
+    }
+}
+
 /// Streams the edge tick of every step of a profile, in order.
 ///
 /// It owns its profile (`EdgeGenerator<Profile>`, the default: about 5 KB) or borrows it
@@ -58,10 +205,12 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     cur_end: f64,
     /// The current piece has constant acceleration: `advance = c1·τ + c2·τ²`.
     quad: bool,
-    c1: f64,
-    c2: f64,
     /// ... with zero acceleration and positive speed: `τ = n/c1`.
     cruise: bool,
+    /// Constant acceleration, not cruise: the closed form with its per-piece constants.
+    ramp: Ramp,
+    /// Last step (as f64) a ramp run may give in the current piece: inside it, before N.
+    ramp_hi: f64,
     inv_c1: f64,
     /// Local times of the last three steps in the current piece (newest first) and how
     /// many of them are valid: the next step's Newton guess extrapolates them.
@@ -69,8 +218,8 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     nhist: u8,
     /// The current piece's law with its constants hoisted, if it is shaped.
     shaped: Option<ShapedLaw>,
-    /// A bound on |acceleration| over the current (Newton) piece, if one is known.
-    shaped_amax: Option<f64>,
+    /// A bound on |acceleration| over the current (Newton) piece; NaN if none is known.
+    shaped_amax: f64,
     v_prev: f64,
     last_edge: u64,
     settled: u64,
@@ -110,14 +259,14 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             cur,
             cur_end,
             quad: cur.quadratic().is_some(),
-            c1: cur.quadratic().map_or(0.0, |q| q.0),
-            c2: cur.quadratic().map_or(0.0, |q| q.1),
             cruise: false,
+            ramp: Ramp::NONE,
+            ramp_hi: 0.0,
             inv_c1: 0.0,
             hist: [0.0; 3],
             nhist: 0,
             shaped: None,
-            shaped_amax: None,
+            shaped_amax: f64::NAN,
             v_prev: 0.0,
             last_edge: 0,
             settled: 0,
@@ -188,6 +337,19 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 k += n;
                 continue;
             }
+            if self.next_f <= self.ramp_hi {
+                let n = (self.ramp_hi - self.next_f + 1.0).min((out.len() - k) as f64) as usize;
+                let (slots, _) = out[k..].split_at_mut(n);
+                let mut it = slots.iter_mut();
+                self.ramp_steps(n as u64, 0u8, |z, e| {
+                    if let Some(slot) = it.next() {
+                        *slot = e;
+                    }
+                    z
+                });
+                k += n;
+                continue;
+            }
             match self.step_general() {
                 Some(e) => {
                     out[k] = e;
@@ -214,9 +376,44 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 self.acc = acc;
                 self.run_left = 0;
             }
+            if self.next_f <= self.ramp_hi {
+                out = self.ramp_run(out, &mut f);
+            }
             match self.step_general() {
                 Some(e) => out = f(out, e),
                 None => return out,
+            }
+        }
+    }
+
+    /// The least and greatest period between the remaining edges (the first measured
+    /// from tick `last`) and the last edge, as folding them one by one finds them, but
+    /// each constant-speed run in O(1) from its accumulator. `None` when no step remains.
+    pub fn period_extremes(&mut self, last: u64) -> Option<(u64, u64, u64)> {
+        let (mut lo, mut hi, mut last, mut any) = (u64::MAX, 0u64, last, false);
+        loop {
+            if self.run_left > 0 {
+                let (acc, n) = (self.acc, self.run_left);
+                let first = acc.edge_after(0);
+                let (a, b) = acc.period_range(n).unwrap_or((u64::MAX, 0));
+                lo = lo.min(first - last).min(a);
+                hi = hi.max(first - last).max(b);
+                last = acc.edge_after(n - 1);
+                any = true;
+                self.run_left = 0;
+            }
+            if self.next_f <= self.ramp_hi {
+                (lo, hi, last) = self.ramp_run((lo, hi, last), &mut |(lo, hi, last), e| {
+                    (lo.min(e - last), hi.max(e - last), e)
+                });
+                any = true;
+            }
+            match self.step_general() {
+                Some(e) => {
+                    (lo, hi, last) = (lo.min(e - last), hi.max(e - last), e);
+                    any = true;
+                }
+                None => return any.then_some((lo, hi, last)),
             }
         }
     }
@@ -232,9 +429,9 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         self.cur_end = self.profile().end_of(k);
         let q = self.cur.quadratic();
         self.quad = q.is_some();
-        (self.c1, self.c2) = q.unwrap_or((0.0, 0.0));
-        self.cruise = self.quad && self.c2 == 0.0 && self.c1 > 0.0;
-        self.inv_c1 = if self.cruise { 1.0 / self.c1 } else { 0.0 };
+        let (c1, c2) = q.unwrap_or((0.0, 0.0));
+        self.cruise = self.quad && c2 == 0.0 && c1 > 0.0;
+        self.inv_c1 = if self.cruise { 1.0 / c1 } else { 0.0 };
         self.nhist = 0;
         self.v_prev = 0.0;
         self.shaped = match self.cur.law {
@@ -247,26 +444,80 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             Law::Poly { .. } => None,
         };
         self.shaped_amax = match self.cur.law {
-            Law::Shaped { .. } => self.shaped.and_then(|l| l.max_abs_acceleration()),
+            Law::Shaped { .. } => self
+                .shaped
+                .and_then(|l| l.max_abs_acceleration())
+                .unwrap_or(f64::NAN),
             // |2c2 + 6c3·τ + 12c4·τ²| on τ ∈ [0, dur], with a margin for rounding
             Law::Poly { c2, c3, c4, .. } => {
                 let d = self.cur.dur;
-                Some(1.001 * (2.0 * c2.abs() + 6.0 * c3.abs() * d + 12.0 * c4.abs() * d * d))
+                1.001 * (2.0 * c2.abs() + 6.0 * c3.abs() * d + 12.0 * c4.abs() * d * d)
             }
         };
+        self.ramp = Ramp::NONE;
+        self.ramp_hi = 0.0;
+        if self.quad && !self.cruise {
+            // steps of a piece before the last are ≤ its end; the last piece's are < N
+            let last_piece = k + 1 >= self.profile().len();
+            let i_max = if last_piece {
+                self.cur_end.max(self.last_f)
+            } else {
+                self.cur_end
+            };
+            self.ramp = Ramp::new(&self.cur, c1, c2, self.clock, i_max);
+            self.ramp_hi = fm::floor(self.cur_end).min(self.last_f - 1.0);
+        }
         self.cruise_exact = None;
         if self.cruise {
             let p = &self.cur;
             // a step (and a tick) inside the piece on both sides, so that float rounding
             // of its ends never matters; step N keeps its own rule
-            let margin = 1.0 + self.c1 / self.clock;
+            let margin = 1.0 + c1 / self.clock;
             let lo = fm::floor(p.p0 + margin) + 1.0;
             let hi = (fm::ceil(self.cur_end - margin) - 1.0).min(self.last_f - 1.0);
             if lo <= hi && hi < MAX_TICKS {
-                self.cruise_exact = float_cruise(p.t0, p.p0, self.c1, self.clock);
+                self.cruise_exact = float_cruise(p.t0, p.p0, c1, self.clock);
                 (self.run_lo, self.run_hi) = (lo as u64, hi as u64);
             }
         }
+    }
+
+    /// Every step of the current constant-acceleration piece from `next` to `ramp_hi`,
+    /// folded into `out`.
+    #[inline(always)]
+    fn ramp_run<B>(&mut self, out: B, f: &mut impl FnMut(B, u64) -> B) -> B {
+        let n = (self.ramp_hi - self.next_f + 1.0) as u64;
+        self.ramp_steps(n, out, f)
+    }
+
+    /// `n` steps of the current constant-acceleration piece (all inside it and before
+    /// step N), with the piece's constants and the last edge in local variables: the
+    /// closed form, and the settle only where the bound cannot decide.
+    #[inline(always)]
+    fn ramp_steps<B>(&mut self, n: u64, mut out: B, mut f: impl FnMut(B, u64) -> B) -> B {
+        let ramp = self.ramp;
+        let (k_err, clock) = (self.k_err, self.clock);
+        let span = Span::of(&self.cur);
+        let mut last = self.last_edge;
+        // i from an integer counter (exact below 2^53): a float carried from step to step
+        // would be spilled around the rare calls below, a store and reload on every step
+        let first = self.next as i64;
+        for k in 0..n as i64 {
+            let i = (first + k) as f64;
+            let (tau, tick, decided) = ramp.locate(span, i, k_err, clock);
+            let e = if decided {
+                tick
+            } else {
+                self.settle(self.piece, i, tau)
+            };
+            let e = e.max(last);
+            last = e;
+            out = f(out, e);
+        }
+        self.last_edge = last;
+        self.next += n;
+        self.next_f = self.next as f64;
+        out
     }
 
     /// Starts the accumulator at step `self.next` if the current piece runs it there.
@@ -306,22 +557,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             return (tau, tick, dist > bound);
         }
         if self.quad {
-            let (c1, c2) = (self.c1, self.c2);
-            let r = c1 * c1 + 4.0 * c2 * n;
-            let s = fm::sqrt(r.max(0.0));
-            let den = c1 + s;
-            let tau = (2.0 * n / den).min(p.dur);
-            let x = (p.t0 + tau) * f;
-            let (tick, dist) = nearest_tick(x);
-            // Error bound (ticks) times s·den, so no division is needed: the radicand's
-            // rounding (R = c1² + 4|c2|n, over s), the root and quotient (≤ 5 ulp, using
-            // s ≤ den), n's own rounding (ε·i, over the speed s), and the final sum and
-            // product (4ε·x); doubled for safety.
-            let big_r = c1 * c1 + 4.0 * c2.abs() * n;
-            let sd = s * den;
-            let bound =
-                self.k_err * (tau * (5.0 * sd + big_r) + i * den) + (8.0 * EPS * x + 2e-9) * sd;
-            return (tau, tick, dist * sd > bound);
+            return self.ramp.locate(Span::of(p), i, self.k_err, self.clock);
         }
         let p = self.cur;
         let (tau, err) = self.newton(&p, n, EPS * i);
@@ -386,7 +622,8 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 continue;
             }
             tau = next;
-            if let Some(amax) = self.shaped_amax {
+            let amax = self.shaped_amax;
+            if !amax.is_nan() {
                 // Taylor with |a| ≤ amax on the piece: the step leaves |advance − n| ≤
                 // amax·corr²/2 and v ≥ v − amax·|corr| between, so τ is within their ratio
                 let slow = v - amax * corr.abs();
@@ -400,10 +637,8 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 // Newton's error after this step is |a|/(2v)·corr² (quadratic convergence).
                 // |a| at τ, or a bound on it over the piece (one transcendental less)
                 let a = match &self.shaped {
-                    Some(law) => match self.shaped_amax {
-                        Some(amax) => amax,
-                        None => law.acceleration(tau).abs(),
-                    },
+                    Some(law) if amax.is_nan() => law.acceleration(tau).abs(),
+                    Some(_) => amax,
                     None => p.acceleration(tau).abs(),
                 };
                 err_newton = 4.0 * a / (2.0 * v) * corr * corr + 4.0 * EPS * tau;
@@ -431,7 +666,8 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     fn settle_cruise(&self, i: f64) -> Option<u64> {
         let p = &self.cur;
         let f = Dd::new(self.clock);
-        let tau = (Dd::new(i) - Dd::new(p.p0)) / Dd::new(self.c1);
+        let c1 = p.quadratic().map_or(0.0, |q| q.0);
+        let tau = (Dd::new(i) - Dd::new(p.p0)) / Dd::new(c1);
         let x = (Dd::new(p.t0) + tau) * f;
         let up = x.round_half_up();
         // how far x lies above the half tick below `up`; ~0 is an exact tie

@@ -78,16 +78,13 @@ pub struct PlanSummary {
 }
 
 impl PlanSummary {
-    /// Runs `gen` to its end from where it is and summarises the move, at a few
-    /// instructions per edge on top of the generator's (constant-speed runs stay in its
-    /// accumulator loop).
+    /// Runs `gen` to its end from where it is and summarises the move: ramps at a few
+    /// instructions per edge on top of the generator's, each constant-speed run in O(1)
+    /// ([`EdgeGenerator::period_extremes`]).
     pub fn run<P: Borrow<Profile>>(mode: MoveName, gen: &mut EdgeGenerator<P>) -> PlanSummary {
         let (vpk, apk) = gen.profile().peaks();
         let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
-        let (min_p, max_p, last) = gen.fold_edges((u64::MAX, 0u64, 0u64), |(lo, hi, last), e| {
-            let p = e - last;
-            (lo.min(p), hi.max(p), e)
-        });
+        let (min_p, max_p, last) = gen.period_extremes(0).unwrap_or((u64::MAX, 0, 0));
         PlanSummary {
             mode,
             steps,

@@ -149,6 +149,39 @@ fn check_all(
         "{} edges near a half tick went the other way",
         c.near
     );
+    // fold and fill (constant-speed and ramp runs in local variables) give the edges
+    // checked above one step at a time
+    let mut g = EdgeGenerator::new(prof.clone(), clock).unwrap();
+    let stepped: Vec<u64> = std::iter::from_fn(|| g.next()).collect();
+    let folded = EdgeGenerator::new(prof.clone(), clock)
+        .unwrap()
+        .fold(Vec::new(), |mut v, e| {
+            v.push(e);
+            v
+        });
+    prop_assert_eq!(&folded, &stepped);
+    let (mut g, mut buf, mut filled) = (
+        EdgeGenerator::new(prof.clone(), clock).unwrap(),
+        [0u64; 13],
+        Vec::new(),
+    );
+    while let k @ 1.. = g.fill(&mut buf) {
+        filled.extend_from_slice(&buf[..k]);
+    }
+    prop_assert_eq!(&filled, &stepped);
+    // the summary's period range (constant-speed runs in O(1)) is the edges'
+    let want = stepped.iter().scan(0, |last, &e| {
+        let p = e - *last;
+        *last = e;
+        Some(p)
+    });
+    let want = want.fold(None, |m: Option<(u64, u64)>, p| {
+        Some(m.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))
+    });
+    let got = EdgeGenerator::new(prof.clone(), clock)
+        .unwrap()
+        .period_extremes(0);
+    prop_assert_eq!(got, want.map(|(lo, hi)| (lo, hi, *stepped.last().unwrap())));
     let gen = EdgeGenerator::new(prof.clone(), clock).unwrap();
     let last = gen.last_edge_tick();
     prop_assert_eq!(gen.periods().sum::<u64>(), last);

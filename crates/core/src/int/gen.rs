@@ -63,6 +63,16 @@ impl<P: Borrow<IntProfile<N>>, const N: usize> IntEdgeGenerator<P, N> {
                 None => break,
             }
             k += 1;
+            let n = self.ramp_len(out.len() - k);
+            if n > 0 {
+                let mut slots = out[k..k + n as usize].iter_mut();
+                self.ramp_steps(n, (), |(), e| {
+                    if let Some(slot) = slots.next() {
+                        *slot = e;
+                    }
+                });
+                k += n as usize;
+            }
         }
         k
     }
@@ -85,7 +95,53 @@ impl<P: Borrow<IntProfile<N>>, const N: usize> IntEdgeGenerator<P, N> {
                 Some(e) => out = f(out, e),
                 None => return out,
             }
+            let n = self.ramp_len(usize::MAX);
+            if n > 0 {
+                out = self.ramp_steps(n, out, &mut f);
+            }
         }
+    }
+
+    /// Steps (at most `room`) a ramp run may give from here: the rest of the current
+    /// piece if it is a ramp, before step N (which keeps its own rule).
+    #[inline(always)]
+    fn ramp_len(&self, room: usize) -> u64 {
+        if self.left < 2 || self.piece >= self.profile().pieces().len() {
+            return 0;
+        }
+        let p = self.current();
+        if p.is_cruise() || self.j >= p.steps {
+            return 0;
+        }
+        (p.steps - self.j).min(self.left - 1).min(room as u64)
+    }
+
+    /// `n` steps of the current ramp piece with its constants in local variables: the f64
+    /// guess proved in integers, the exact kernel where the proof fails.
+    #[inline(always)]
+    fn ramp_steps<B>(&mut self, n: u64, mut out: B, mut f: impl FnMut(B, u64) -> B) -> B {
+        let p = *self.current();
+        let Some(mut ramp) = p.ramp(self.j) else {
+            for _ in 0..n {
+                let e = p.edge(self.j);
+                self.j += 1;
+                out = f(out, e);
+            }
+            self.left -= n;
+            return out;
+        };
+        let mut j = self.j;
+        for _ in 0..n {
+            let local = match ramp.next_local() {
+                Some(e) => e,
+                None => p.kernel_local_edge(j),
+            };
+            out = f(out, p.t0 + local);
+            j += 1;
+        }
+        self.j = j;
+        self.left -= n;
+        out
     }
 
     #[inline(always)]

@@ -125,6 +125,75 @@ struct WideRadicand {
     dy: U256,
 }
 
+/// 1.5·2^52: adding it rounds a non-negative x < 2^51 to an integer in the low mantissa.
+const MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// [`IntPiece::checked_guess`] for consecutive steps, its constants hoisted and the
+/// target `4M` carried from step to step (one addition).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct IntRamp {
+    a: f64,
+    a_sq: f64,
+    b4: f64,
+    /// `1/(2B)`.
+    h: f64,
+    den: f64,
+    m0: f64,
+    last: f64,
+    /// The step within the piece (below 2^53: as f64 it gives the per-step path's
+    /// guess `m0 + j·den`); an integer, so that no float is carried from step to step.
+    j: i64,
+    m4: i128,
+    dm4: i128,
+    two_a: i128,
+    four_a: i128,
+    b: i128,
+    eight_b: i128,
+    /// `2A·t`, `|B|·t²`, `4A + 8|B|·D` and `4M` stay below 2^62 for every `t ≤ 2D + 1`.
+    narrow: bool,
+}
+
+impl IntRamp {
+    /// The local edge of the current step if the f64 guess proves itself
+    /// (`P(e − ½) < M ≤ P(e + ½)`, as [`IntPiece::checked_guess`]); moves on to the next
+    /// step either way. `4·P(2e − 1)` follows from `4·P(2e + 1)` by the difference
+    /// `4A + 8B·e`: every exact value lies below 2^127, so the wrapping arithmetic gives
+    /// it exactly.
+    #[inline(always)]
+    pub(crate) fn next_local(&mut self) -> Option<u64> {
+        let mf = self.m0 + (self.j as f64) * self.den;
+        let m4 = self.m4;
+        self.j += 1;
+        self.m4 = m4.wrapping_add(self.dm4);
+        // the root (√Y − A)/(2B) without a divide: only a guess, so the cancellation
+        // at a decel's start (ε·A/|2B|, ~10⁻⁸ ticks) costs at most a kernel fallback
+        let tau = (crate::real::fm::sqrt((self.a_sq + self.b4 * mf).max(0.0)) - self.a) * self.h;
+        if !(tau >= 1.0 && tau < self.last) {
+            return None;
+        }
+        // the nearest integer (ties to even: a guess, the check decides) by the magic
+        // number 1.5·2^52, exact for τ < 2^51 (`ramp` checks D)
+        let e = ((tau + MAGIC).to_bits() & ((1u64 << 52) - 1)) - (1u64 << 51);
+        // 4·P at 2e + 1 as t·(2A + B·t): two wide multiplies by the 64-bit t
+        if self.narrow {
+            // the same in 64 bits: every exact value of this piece is below 2^62
+            let (m4, t) = (m4 as i64, (2 * e + 1) as i64);
+            let above =
+                t.wrapping_mul((self.two_a as i64).wrapping_add((self.b as i64).wrapping_mul(t)));
+            let below = above
+                .wrapping_sub(self.four_a as i64)
+                .wrapping_sub((self.eight_b as i64).wrapping_mul(e as i64));
+            return (above >= m4 && below < m4).then_some(e);
+        }
+        let t = (2 * e + 1) as i128;
+        let above = t.wrapping_mul(self.two_a.wrapping_add(self.b.wrapping_mul(t)));
+        let below = above
+            .wrapping_sub(self.four_a)
+            .wrapping_sub(self.eight_b.wrapping_mul(e as i128));
+        (above >= m4 && below < m4).then_some(e)
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IntPiece {
     /// Start tick and duration in ticks.
@@ -385,6 +454,66 @@ impl IntPiece {
         (p4(2 * e + 1) >= m4 && p4(2 * e - 1) < m4).then_some(e)
     }
 
+    /// The guess-and-check state for a run of this piece's steps from step j, with the
+    /// piece's constants in local variables; `None` on Cruise and on wide pieces.
+    #[inline]
+    pub(crate) fn ramp(&self, j: u64) -> Option<IntRamp> {
+        if self.kernel.mode == KernelMode::Cruise || self.wide.is_some() {
+            return None;
+        }
+        let [a, b, den, m0, last] = self.guess.map(f64::from_bits);
+        if !(last < (1u64 << 50) as f64) {
+            return None;
+        }
+        let m = self
+            .den
+            .wrapping_mul((self.first + j) as u128)
+            .wrapping_sub(self.c);
+        Some(IntRamp {
+            a,
+            a_sq: a * a,
+            b4: 4.0 * b,
+            h: 1.0 / (2.0 * b),
+            den,
+            m0,
+            last,
+            j: j as i64,
+            m4: (4 * m) as i128,
+            dm4: (4 * self.den) as i128,
+            two_a: 2 * self.a as i128,
+            four_a: 4 * self.a as i128,
+            b: self.b,
+            eight_b: self.b.wrapping_mul(8),
+            narrow: self.fits_62(),
+        })
+    }
+
+    /// Whether every value of [`IntRamp::next_local`]'s check fits in 62 bits.
+    fn fits_62(&self) -> bool {
+        let lim = 1u128 << 62;
+        let small = |x: Option<u128>| x.is_some_and(|x| x < lim);
+        let t = 2 * self.dur as u128 + 1;
+        let b = self.b.unsigned_abs();
+        small(self.a.checked_mul(2 * t))
+            && small(b.checked_mul(t).and_then(|x| x.checked_mul(t)))
+            && small(
+                b.checked_mul(8 * self.dur as u128 + 8)
+                    .and_then(|x| x.checked_add(4 * self.a)),
+            )
+            && small(
+                self.m_end
+                    .checked_add(self.den)
+                    .and_then(|x| x.checked_mul(4)),
+            )
+    }
+
+    /// The exact kernel's local edge, out of the ramp loop (rarely taken).
+    #[cold]
+    #[inline(never)]
+    pub(crate) fn kernel_local_edge(&self, j: u64) -> u64 {
+        self.kernel.local_edge(j)
+    }
+
     /// [`StepKernel::local_edge`] with a 256-bit radicand (the root is below 2^126).
     fn wide_local_edge(&self, w: &WideRadicand, j: u64) -> u64 {
         let d = U256::from_u64(j).wrapping_mul(&w.dy);
@@ -444,9 +573,21 @@ mod tests {
             let Ok(p) = IntPiece::new(0, dur, g, u, w, s) else { return Ok(()) };
             prop_assert!(p.kernel().is_some());
             let wide = p.forced_wide();
+            // the ramp run's check, in 64 and in 128 bits: a tick it gives is the scan's
+            let mut ramps = p.ramp(0).map(|r| [r, IntRamp { narrow: false, ..r }]);
+            if let Some([r, _]) = &ramps {
+                prop_assert!(r.narrow);
+            }
             for j in 0..p.steps {
                 let m = p.target(p.first + j).unwrap();
                 let want = brute_edge(&p, m);
+                if let Some(rs) = &mut ramps {
+                    for r in rs.iter_mut() {
+                        if let Some(e) = r.next_local() {
+                            prop_assert_eq!(p.t0 + e, want, "ramp {:?} step {}", p, j);
+                        }
+                    }
+                }
                 prop_assert_eq!(p.edge(j), want, "{:?} step {}", p, j);
                 prop_assert_eq!(p.t0 + p.kernel().unwrap().local_edge(j), want);
                 prop_assert_eq!(wide.edge(j), want, "wide {:?} step {}", p, j);

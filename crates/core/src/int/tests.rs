@@ -28,14 +28,61 @@ impl Rng {
     }
 }
 
+/// The edges by `fold` (ramp and cruise runs in local variables), which every test below
+/// checks; `paths_agree` checks `next` and `fill` against it.
 fn int_edges(p: IntProfile) -> Vec<u64> {
-    let e: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
+    let e = IntEdgeGenerator::new(p.clone()).fold(Vec::new(), |mut v, e| {
+        v.push(e);
+        v
+    });
     assert_eq!(e.len() as u64, p.steps());
     e
 }
 
 fn float_edges(p: Profile, hz: u64) -> Vec<u64> {
-    EdgeGenerator::new(p, hz as f64).unwrap().collect()
+    EdgeGenerator::new(p, hz as f64)
+        .unwrap()
+        .fold(Vec::new(), |mut v, e| {
+            v.push(e);
+            v
+        })
+}
+
+/// Drains a generator through `fill` in chunks of `chunk`.
+fn filled(mut fill: impl FnMut(&mut [u64]) -> usize, chunk: usize) -> Vec<u64> {
+    let (mut buf, mut out) = (vec![0; chunk], Vec::new());
+    loop {
+        let k = fill(&mut buf);
+        if k == 0 {
+            return out;
+        }
+        out.extend_from_slice(&buf[..k]);
+    }
+}
+
+/// `next` one edge at a time and `fill` in chunks of `chunk` give `fold`'s edges, on
+/// both generators; the integer edges are the nearest ticks.
+fn paths_agree(m: &IntPhaseMove, hz: u64, chunk: usize) -> Result<(), TestCaseError> {
+    let Ok(p) = IntProfile::phase(m, IntClock::hz(hz)) else {
+        return Ok(());
+    };
+    let folded = int_edges(p.clone());
+    assert_exact(&p, &folded, &|| format!("{m:?} at {hz} Hz"));
+    let mut g = IntEdgeGenerator::new(p.clone());
+    let stepped: Vec<u64> = core::iter::from_fn(|| g.next()).collect();
+    prop_assert_eq!(&stepped, &folded, "int next");
+    let mut g = IntEdgeGenerator::new(p);
+    prop_assert_eq!(&filled(|b| g.fill(b), chunk), &folded, "int fill");
+    let Ok(fp) = try_float_phase(m, hz) else {
+        return Ok(());
+    };
+    let folded = float_edges(fp.clone(), hz);
+    let mut g = EdgeGenerator::new(fp.clone(), hz as f64).unwrap();
+    let stepped: Vec<u64> = core::iter::from_fn(|| g.next()).collect();
+    prop_assert_eq!(&stepped, &folded, "float next");
+    let mut g = EdgeGenerator::new(fp, hz as f64).unwrap();
+    prop_assert_eq!(&filled(|b| g.fill(b), chunk), &folded, "float fill");
+    Ok(())
 }
 
 fn assert_exact(p: &IntProfile, edges: &[u64], what: &dyn Fn() -> String) {
@@ -53,6 +100,10 @@ fn assert_exact(p: &IntProfile, edges: &[u64], what: &dyn Fn() -> String) {
 }
 
 fn float_phase(m: &IntPhaseMove, hz: u64) -> Profile {
+    try_float_phase(m, hz).unwrap()
+}
+
+fn try_float_phase(m: &IntPhaseMove, hz: u64) -> Result<Profile, PlanError> {
     let s = hz as f64;
     Profile::phase(&PhaseMove {
         steps: m.steps,
@@ -63,7 +114,6 @@ fn float_phase(m: &IntPhaseMove, hz: u64) -> Profile {
         end_speed: m.end_speed as f64,
         family: Family::Trapezoid,
     })
-    .unwrap()
 }
 
 /// Phase moves whose f64 profile is exactly the rational one: power-of-two accel and
@@ -451,6 +501,19 @@ proptest! {
             prop_assert!(e.windows(2).all(|w| w[0] <= w[1]));
             prop_assert!(e.iter().all(|&t| t <= p.end_tick()));
         }
+    }
+
+    /// Ramp and cruise runs (`fold`, `fill`) give the per-step path's edges on random
+    /// trapezoids with and without rests, at 50 MHz and odd clocks, whatever the chunk.
+    #[test]
+    fn fold_fill_and_next_agree(
+        seed in any::<u64>(), odd in any::<bool>(), chunk in 1usize..40,
+    ) {
+        let mut r = Rng(seed);
+        let hz = if odd { r.range(1_000, 100_000_000) | 1 } else { 50_000_000 };
+        let t = hz / 100;
+        let m = random_phase(&mut r, 3_000, [(0, t), (0, t), (1, t)], 20_000, true);
+        paths_agree(&m, hz, chunk)?;
     }
 
     /// Any segment chain the planner accepts is exact on every edge (odd clocks too).
