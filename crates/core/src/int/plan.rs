@@ -180,7 +180,7 @@ impl<const N: usize> IntProfile<N> {
         // speeds in units of 1/G steps/tick, G = F·W
         let g = checked(f.checked_mul(w))?;
         let (vs, ve) = (m.start_speed as u128, m.end_speed as u128);
-        let shed = checked(vs.checked_mul(ta))? + checked(ve.checked_mul(tc))?;
+        let shed = checked(checked(vs.checked_mul(ta))?.checked_add(checked(ve.checked_mul(tc))?))?;
         let two_nf = checked(f.checked_mul(2 * m.steps as u128))?;
         let vm = two_nf.checked_sub(shed).ok_or(IntError::CannotShed)?;
         let (us, ue) = (checked(vs.checked_mul(w))?, checked(ve.checked_mul(w))?);
@@ -188,7 +188,8 @@ impl<const N: usize> IntProfile<N> {
         let mut s = 0u128;
         for (dur, u0, u1) in [(ta, us, vm), (tb, vm, vm), (tc, vm, ue)] {
             p.push(dur as u64, g, u0, u1, s)?;
-            s = checked(checked((u0 + u1).checked_mul(dur))?.checked_add(s))?;
+            let sum = checked(u0.checked_add(u1))?;
+            s = checked(checked(sum.checked_mul(dur))?.checked_add(s))?;
         }
         p.finish()
     }
@@ -341,7 +342,7 @@ pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMov
     } else {
         checked(two_aqn.checked_add(ends))?
     };
-    if vp2x2 < 2 * sq(vs.max(ve))? || vp2x2 == 0 {
+    if vp2x2 < checked(sq(vs.max(ve))?.checked_mul(2))? || vp2x2 == 0 {
         return Err(IntError::TooShortForLimits);
     }
     let wide = |x: u128| U256::from_u128(x);
@@ -369,10 +370,12 @@ pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMov
         Some(k) => {
             let k2x2 = wide(k).wrapping_mul(&wide(k)).wrapping_mul(&wide(2));
             let ok = |tb: u128| -> Result<bool, IntError> {
-                let w = wide(checked(checked(tb.checked_mul(2))?.checked_add(ta + tc))?);
+                let w = wide(checked(
+                    checked(tb.checked_mul(2))?.checked_add(checked(ta.checked_add(tc))?),
+                )?);
                 Ok(w.wrapping_mul(&w).wrapping_mul(&wide(vp2x2)) >= k2x2)
             };
-            let est = (k / vp_est.max(1)).saturating_sub(ta + tc) / 2;
+            let est = (k / vp_est.max(1)).saturating_sub(ta.saturating_add(tc)) / 2;
             least(est, ok)?
         }
     };
