@@ -520,9 +520,17 @@ impl<R: RampEdges> TrackerOf<R> {
         // plan it now so a bad rate is refused at once
         let _ = self.plan_ramp(self.speed, rate)?;
         if let Stage::Ramp {
-            gen, start, base, ..
+            gen,
+            start,
+            base,
+            target,
         } = &self.stage
         {
+            // already ramping there: keep the ramp (near the end of a ramp to a stop the
+            // speed at the last step is tiny, and a ramp planned from it would crawl)
+            if *target == rate && self.pending.is_none() {
+                return Ok(());
+            }
             if self.limits.jmax.is_some() {
                 self.pending = Some(rate);
                 return Ok(());
