@@ -224,10 +224,7 @@ impl Axis {
     #[inline]
     fn next_edge(&mut self) -> Option<u64> {
         if self.ahead_pos == self.ahead_len {
-            self.refill();
-            if self.ahead_len == 0 {
-                return None;
-            }
+            return self.refill();
         }
         // `% LOOKAHEAD` spares a bounds check (`ahead_pos < ahead_len <= LOOKAHEAD`)
         let e = self.ahead[self.ahead_pos % LOOKAHEAD];
@@ -235,23 +232,24 @@ impl Axis {
         Some(e)
     }
 
-    /// Refills the look-ahead from the source: a batch of a move's edges, a tracker's
-    /// edges one at a time (a rate change applies after the steps computed).
-    #[inline(never)]
-    fn refill(&mut self) {
-        self.ahead_pos = 0;
-        let one = |e: Option<u64>, ahead: &mut [u64; LOOKAHEAD]| match e {
-            Some(e) => {
-                ahead[0] = e;
-                1
+    /// The next edge when the look-ahead is empty: a move refills it with a batch; a
+    /// tracker's edges come one at a time, past it (a rate change applies after the steps
+    /// computed), so a tracking axis always lands here.
+    #[inline]
+    fn refill(&mut self) -> Option<u64> {
+        match &mut self.gen {
+            Source::Move(g) => {
+                self.ahead_len = g.fill(&mut self.ahead);
+                self.ahead_pos = 0;
+                if self.ahead_len == 0 {
+                    return None;
+                }
+                self.ahead_pos = 1;
+                Some(self.ahead[0])
             }
-            None => 0,
-        };
-        self.ahead_len = match &mut self.gen {
-            Source::Move(g) => g.fill(&mut self.ahead),
-            Source::Track { now, .. } => one(now.next(), &mut self.ahead),
-            Source::IntTrack { now, .. } => one(now.next(), &mut self.ahead),
-        };
+            Source::Track { now, .. } => now.next(),
+            Source::IntTrack { now, .. } => now.next(),
+        }
     }
 
     /// Computes the next period, which is ready at tick `ready` and needed at `due`, and
