@@ -42,6 +42,7 @@
 //! rejects such moves).
 
 // the kernel's items are described in the module docs above; item docs to follow
+mod cubic;
 #[allow(missing_docs)]
 mod gen;
 pub mod isqrt;

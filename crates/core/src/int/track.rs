@@ -23,12 +23,14 @@
 //! of the piece fits (a ramp from rest), else in 512 bits. The widths are checked when a
 //! piece is entered (an error, never a wrong edge).
 
+use super::cubic::Cubic;
 use super::isqrt::isqrt_u128;
+use crate::piece::Law;
 use crate::profile::Profile;
 use crate::track::{RampEdges, TrackError, TrackerOf};
 use crypto_bigint::{NonZero, U512};
 
-type W = U512;
+pub(super) type W = U512;
 
 /// The float [`Tracker`](crate::Tracker)'s motion with every edge in integers: ramps by
 /// [`IntRamp`], cruises by the shared quotient + remainder accumulator.
@@ -39,37 +41,37 @@ const MAX_BITS: u32 = 510;
 
 /// A signed 512-bit value, for planning a piece (the per-step path is unsigned).
 #[derive(Clone, Copy, Debug)]
-struct Si {
-    neg: bool,
-    mag: W,
+pub(super) struct Si {
+    pub(super) neg: bool,
+    pub(super) mag: W,
 }
 
 impl Si {
-    const ZERO: Si = Si {
+    pub(super) const ZERO: Si = Si {
         neg: false,
         mag: W::ZERO,
     };
 
-    fn pos(mag: W) -> Si {
+    pub(super) fn pos(mag: W) -> Si {
         Si { neg: false, mag }
     }
 
-    fn from_u128(x: u128) -> Si {
+    pub(super) fn from_u128(x: u128) -> Si {
         Si::pos(W::from_u128(x))
     }
 
-    fn is_zero(&self) -> bool {
+    pub(super) fn is_zero(&self) -> bool {
         self.mag == W::ZERO
     }
 
-    fn neg(self) -> Si {
+    pub(super) fn neg(self) -> Si {
         Si {
             neg: !self.neg && !self.is_zero(),
             mag: self.mag,
         }
     }
 
-    fn mul(self, o: Si) -> Option<Si> {
+    pub(super) fn mul(self, o: Si) -> Option<Si> {
         if self.mag.bits_vartime() + o.mag.bits_vartime() > MAX_BITS {
             return None;
         }
@@ -80,7 +82,7 @@ impl Si {
         })
     }
 
-    fn shl(self, k: u32) -> Option<Si> {
+    pub(super) fn shl(self, k: u32) -> Option<Si> {
         if self.mag.bits_vartime() + k > MAX_BITS {
             return None;
         }
@@ -90,7 +92,7 @@ impl Si {
         })
     }
 
-    fn add(self, o: Si) -> Option<Si> {
+    pub(super) fn add(self, o: Si) -> Option<Si> {
         if self.mag.bits_vartime().max(o.mag.bits_vartime()) >= MAX_BITS {
             return None;
         }
@@ -112,13 +114,13 @@ impl Si {
         })
     }
 
-    fn sub(self, o: Si) -> Option<Si> {
+    pub(super) fn sub(self, o: Si) -> Option<Si> {
         self.add(o.neg())
     }
 }
 
 /// `x = ±m·2^e` exactly (m < 2^53 odd, or 0), from the bits; `None` for infinities and NaN.
-fn split(x: f64) -> Option<(bool, u64, i32)> {
+pub(super) fn split(x: f64) -> Option<(bool, u64, i32)> {
     let bits = x.to_bits();
     let neg = bits >> 63 == 1;
     let exp = ((bits >> 52) & 0x7ff) as i32;
@@ -134,13 +136,13 @@ fn split(x: f64) -> Option<(bool, u64, i32)> {
 }
 
 /// Binary places an f64 needs to be an integer (0 for zero and integers).
-fn places(x: f64) -> Option<u32> {
+pub(super) fn places(x: f64) -> Option<u32> {
     let (_, m, e) = split(x)?;
     Some(if m == 0 || e >= 0 { 0 } else { (-e) as u32 })
 }
 
 /// `x·2^s` as an exact integer (`s` at least [`places`] of x).
-fn scaled(x: f64, s: u32) -> Option<Si> {
+pub(super) fn scaled(x: f64, s: u32) -> Option<Si> {
     let (neg, m, e) = split(x)?;
     if m == 0 {
         return Some(Si::ZERO);
@@ -151,7 +153,7 @@ fn scaled(x: f64, s: u32) -> Option<Si> {
 }
 
 /// ⌊x⌋ of a non-negative f64 in integers (saturating; 0 below 1 and for negatives).
-fn floor_u64(x: f64) -> u64 {
+pub(super) fn floor_u64(x: f64) -> u64 {
     match split(x) {
         Some((false, m, e)) if m != 0 => {
             if e >= 0 {
@@ -192,7 +194,7 @@ fn round_ticks(clock: u64, t: f64) -> Option<u64> {
     u64::try_from(r).ok()
 }
 
-fn to_u64(x: &W) -> Option<u64> {
+pub(super) fn to_u64(x: &W) -> Option<u64> {
     low_bits(x, 64).map(|v| v as u64)
 }
 
@@ -394,8 +396,26 @@ impl Kernel {
     }
 }
 
-/// A tracker's ramp (a trapezoid [`Profile`] from the float planner) with every edge in
-/// integers: the same edges as [`EdgeGenerator`](crate::EdgeGenerator) on that profile.
+/// A piece's per-step state: the closed form (constant acceleration) or the search by
+/// the exactness test (constant jerk, [`Cubic`]).
+#[derive(Clone, Copy, Debug)]
+enum PieceKernel {
+    Quadratic(Kernel),
+    Cubic(Cubic),
+}
+
+impl PieceKernel {
+    fn enter(r: &IntRamp, k: usize, i: u64) -> Option<PieceKernel> {
+        match r.profile.piece(k).quadratic() {
+            Some(_) => Kernel::enter(&r.profile, r.clock, k, i).map(PieceKernel::Quadratic),
+            None => Cubic::enter(&r.profile, r.clock, k, i, r.end_tick).map(PieceKernel::Cubic),
+        }
+    }
+}
+
+/// A tracker's ramp (a trapezoid or S-curve [`Profile`] from the float planner) with every
+/// edge in integers: the same edges as [`EdgeGenerator`](crate::EdgeGenerator) on that
+/// profile.
 #[derive(Clone, Debug)]
 pub struct IntRamp {
     profile: Profile,
@@ -404,17 +424,23 @@ pub struct IntRamp {
     next: u64,
     end_tick: u64,
     last_edge: u64,
+    /// The two edges before `last_edge` and how many of the three are known: the cubic
+    /// search starts from their quadratic extrapolation.
+    prev: [u64; 2],
+    known: u8,
     piece: usize,
     /// ⌊end of the current piece⌋: steps up to it belong to it (as the float generator
     /// assigns them).
     piece_end: u64,
-    kernel: Option<Kernel>,
+    kernel: Option<PieceKernel>,
 }
 
 impl IntRamp {
-    /// The ramp `profile` on a clock of `clock_hz` (trapezoid pieces only).
+    /// The ramp `profile` on a clock of `clock_hz` (pieces of constant acceleration or
+    /// constant jerk).
     pub fn new(profile: Profile, clock_hz: u64) -> Result<IntRamp, TrackError> {
-        if profile.pieces().iter().any(|p| p.quadratic().is_none()) {
+        let cubic = |p: &crate::piece::Piece| matches!(p.law, Law::Poly { c4, .. } if c4 == 0.0);
+        if !profile.pieces().iter().all(cubic) {
             return Err(TrackError::NotInteger);
         }
         let end_tick = round_ticks(clock_hz, profile.duration()).ok_or(TrackError::TooLong)?;
@@ -428,6 +454,9 @@ impl IntRamp {
             next: 1,
             end_tick,
             last_edge: 0,
+            prev: [0; 2],
+            // tick 0 is the edge of the step before the ramp
+            known: 1,
             piece: 0,
             kernel: None,
         })
@@ -436,6 +465,18 @@ impl IntRamp {
     /// The profile played.
     pub fn profile(&self) -> &Profile {
         &self.profile
+    }
+
+    /// Where the next edge probably is: the edges' quadratic extrapolation (edge times
+    /// are smooth), or the last edge and a gallop from it.
+    fn guess(&self) -> u64 {
+        let (e1, [e2, e3]) = (self.last_edge as i128, self.prev.map(|e| e as i128));
+        let g = match self.known {
+            3 => 3 * (e1 - e2) + e3,
+            2 => 2 * e1 - e2,
+            _ => e1 + 1,
+        };
+        g.clamp(e1, u64::MAX as i128) as u64
     }
 }
 
@@ -461,9 +502,16 @@ impl Iterator for IntRamp {
             }
             self.piece = k;
             self.piece_end = floor_u64(self.profile.end_of(k));
-            self.kernel = Some(Kernel::enter(&self.profile, self.clock, k, i)?);
+            self.kernel = Some(PieceKernel::enter(self, k, i)?);
         }
-        let e = self.kernel.as_mut()?.edge()?.max(self.last_edge);
+        let guess = self.guess();
+        let e = match self.kernel.as_mut()? {
+            PieceKernel::Quadratic(q) => q.edge()?,
+            PieceKernel::Cubic(c) => c.edge(self.last_edge, guess),
+        }
+        .max(self.last_edge);
+        self.prev = [self.last_edge, self.prev[0]];
+        self.known = (self.known + 1).min(3);
         self.last_edge = e;
         Some(e)
     }
@@ -478,7 +526,7 @@ impl RampEdges for IntRamp {
         for k in 0..r.profile.len() {
             let end = floor_u64(r.profile.end_of(k));
             if first < r.profile.steps() && first <= end {
-                Kernel::enter(&r.profile, r.clock, k, first).ok_or(TrackError::NotInteger)?;
+                PieceKernel::enter(&r, k, first).ok_or(TrackError::NotInteger)?;
                 first = end.saturating_add(1);
             }
         }
