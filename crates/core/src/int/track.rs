@@ -3,11 +3,14 @@
 //! float tracker's edge for the same inputs.
 //!
 //! A tracker's cruise is already integer (quotient + remainder in u128). Its ramps are
-//! limits-mode trapezoids planned by the float planner (the same plan as the float tracker:
-//! planning is not the per-step path); [`IntRamp`] takes that plan's f64 coefficients as the
-//! exact binary rationals they are (decomposed bit by bit, no float arithmetic) and finds
-//! each step's nearest tick exactly, with no correction step, by the same identity as the
-//! integer kernel (module docs of [`crate::int`]): `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉`.
+//! limits-mode trapezoids or S-curves planned by the float planner (the same plan as the
+//! float tracker: planning is not the per-step path); [`IntRamp`] takes that plan's f64
+//! coefficients as the exact binary rationals they are (decomposed bit by bit, no float
+//! arithmetic). On a constant-acceleration piece it finds each step's nearest tick
+//! exactly, with no correction step, by the same identity as the integer kernel (module
+//! docs of [`crate::int`]): `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉`. A constant-jerk piece of an
+//! S-curve (cubic in time) has no such closed form; its edges come from the exactness test
+//! itself, evaluated in integers at half ticks (`int/cubic.rs`).
 //!
 //! # One piece `p(τ) = p0 + c1·τ + c2·τ²` starting at `t0` (all f64, so binary rationals)
 //! With the common scale 2^S that makes `p0, c1, c2` integers, u the local time in ticks and
