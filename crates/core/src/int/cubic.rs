@@ -57,26 +57,16 @@ fn tc(x: &Si) -> Option<Tc> {
         *limb = u64::from_le_bytes(w);
     }
     if x.neg {
-        negate(&mut v, LIMBS);
+        negate_l(&mut v);
     }
     Some(v)
 }
 
+/// `acc = acc·m + b` modulo 2^(64L) (exact while the value fits: checked on entry).
 #[inline(always)]
-fn negate(v: &mut Tc, n: usize) {
-    let mut carry = 1u64;
-    for limb in v.iter_mut().take(n) {
-        let (s, c) = (!*limb).overflowing_add(carry);
-        *limb = s;
-        carry = c as u64;
-    }
-}
-
-/// `acc = acc·m + b` modulo 2^(64n) (exact while the value fits: checked on entry).
-#[inline(always)]
-fn mul_add(acc: &mut Tc, m: u64, b: &Tc, n: usize) {
+fn mul_add<const L: usize>(acc: &mut [u64; L], m: u64, b: &[u64; L]) {
     let (mut mc, mut ac) = (0u128, false);
-    for k in 0..n {
+    for k in 0..L {
         let t = acc[k] as u128 * m as u128 + mc;
         mc = t >> 64;
         let (s1, c1) = (t as u64).overflowing_add(b[k]);
@@ -86,10 +76,10 @@ fn mul_add(acc: &mut Tc, m: u64, b: &Tc, n: usize) {
     }
 }
 
-#[inline(always)]
-fn sub_assign(a: &mut Tc, b: &Tc, n: usize) {
+/// `a −= b` on every limb.
+fn sub_assign(a: &mut Tc, b: &Tc) {
     let mut borrow = false;
-    for k in 0..n {
+    for k in 0..LIMBS {
         let (d1, b1) = a[k].overflowing_sub(b[k]);
         let (d2, b2) = d1.overflowing_sub(borrow as u64);
         a[k] = d2;
@@ -121,14 +111,23 @@ pub(super) struct Cubic {
     e_r: u64,
     /// Limbs in use.
     n: usize,
-    /// Ticks the search may try: `[0, hi]`, with `|e − e_r|` within the checked widths.
+    /// Ticks the search may try, `[lo, hi]`: those whose upper half tick lies in the
+    /// piece, `f·t0 ≤ e + ½` and `e − ½ < f·(t0 + dur)` (the cubic's extension beyond the
+    /// piece may turn back, so it is never consulted; a step's time lies in its piece).
+    lo: u64,
     hi: u64,
 }
 
 impl Cubic {
     /// Piece `k` of `profile` (c4 = 0) on a clock of `clock` Hz, its next step being `i`;
-    /// edges up to `hi` ticks. `None`: not a cubic piece or too wide for 512 bits.
-    pub(super) fn enter(profile: &Profile, clock: u64, k: usize, i: u64, hi: u64) -> Option<Cubic> {
+    /// edges up to `end` ticks. `None`: not a cubic piece or too wide for 512 bits.
+    pub(super) fn enter(
+        profile: &Profile,
+        clock: u64,
+        k: usize,
+        i: u64,
+        end: u64,
+    ) -> Option<Cubic> {
         let p = profile.piece(k);
         let Law::Poly { c1, c2, c3, c4 } = p.law else {
             return None;
@@ -193,7 +192,11 @@ impl Cubic {
             (red(big_a3), red(big_a2), red(big_a1), red(a0), red(big_k));
         // widths: every Horner partial sum below 2^(64n − 1) for |d| ≤ dmax and every
         // A0 of the piece's steps (A0 falls by K a step: its extremes are the ends)
-        let dmax = hi.max(e_r).saturating_add(1);
+        let (lo, hi) = (
+            nearest_tick(clock, p.t0, 0.0)?,
+            nearest_tick(clock, p.t0, p.dur)?.min(end),
+        );
+        let dmax = end.max(e_r).saturating_add(1);
         let db = 64 - dmax.leading_zeros();
         let span = profile
             .steps()
@@ -221,77 +224,154 @@ impl Cubic {
             k: tc(&big_k)?,
             e_r,
             n,
+            lo,
             hi,
         })
     }
 
-    /// Whether the upper half tick of tick e has reached the current step: `N_i(e) ≥ 0`.
+    /// `N_i(e)` on `L` limbs (`L ≥ n`: the values are sign-extended to every limb).
     #[inline(always)]
-    fn reached(&self, e: u64) -> bool {
+    fn value<const L: usize>(&self, e: u64) -> [u64; L] {
         let (c, m) = if e >= self.e_r {
             (&self.pos, e - self.e_r)
         } else {
             (&self.neg, self.e_r - e)
         };
-        let n = self.n;
-        let mut acc = c[0];
-        mul_add(&mut acc, m, &c[1], n);
-        mul_add(&mut acc, m, &c[2], n);
-        mul_add(&mut acc, m, &self.a0, n);
-        acc[n - 1] >> 63 == 0
+        let part = |x: &Tc| -> [u64; L] { core::array::from_fn(|k| x[k]) };
+        let mut acc = part(&c[0]);
+        mul_add(&mut acc, m, &part(&c[1]));
+        mul_add(&mut acc, m, &part(&c[2]));
+        mul_add(&mut acc, m, &part(&self.a0));
+        acc
     }
 
-    /// The next step's edge: the least tick from `lo` (the last edge) whose upper half
-    /// tick has reached it, searched from `guess`; `hi` (the ramp's end) when none has.
-    pub(super) fn edge(&mut self, lo: u64, guess: u64) -> u64 {
+    /// The next step's edge and where in the tick before it the exact time lies (see
+    /// [`Cubic::edge_on`]).
+    pub(super) fn edge(&mut self, lo: u64, guess: u64) -> (u64, Option<u32>) {
+        match self.n {
+            0..=2 => self.edge_on::<2>(lo, guess),
+            3 => self.edge_on::<3>(lo, guess),
+            4 => self.edge_on::<4>(lo, guess),
+            5 | 6 => self.edge_on::<6>(lo, guess),
+            _ => self.edge_on::<LIMBS>(lo, guess),
+        }
+    }
+
+    /// The least tick from `lo` (the last edge) whose upper half tick has reached the next
+    /// step, searched from `guess` within the piece; the piece's last tick when none has
+    /// (as the float generator clamps a step's time to its piece). With it, when
+    /// the tick before was tried too, the fraction φ (in 2^-32) of the exact crossing
+    /// `x* ≈ e − 1 + φ` of `N_i` between the two (linear interpolation of the two
+    /// values, for the next guess only: the edge is decided by the signs).
+    fn edge_on<const L: usize>(&mut self, lo: u64, guess: u64) -> (u64, Option<u32>) {
+        let lo = lo.max(self.lo);
         let hi = self.hi.max(lo);
         let g = guess.clamp(lo, hi);
-        // below: a tick known not reached (lo − 1 stands for every tick before lo);
-        // above: a tick known reached (hi + 1: none up to hi)
-        let (mut below, mut above) = (None::<u64>, hi + 1);
-        if self.reached(g) {
-            above = g;
-            let mut step = 1u64;
-            loop {
-                match g.checked_sub(step).filter(|&c| c >= lo) {
-                    None => break,
-                    Some(c) if self.reached(c) => above = c,
-                    Some(c) => {
-                        below = Some(c);
-                        break;
-                    }
+        let reached = |v: &[u64; L]| v[L - 1] >> 63 == 0;
+        // below: a tick known not reached and its value (None: every tick before lo);
+        // above: a tick known reached and its value (hi + 1: none up to hi)
+        let mut below: Option<(u64, [u64; L])> = None;
+        let mut above: (u64, Option<[u64; L]>) = (hi + 1, None);
+        let v = self.value::<L>(g);
+        let mut step = 1u64;
+        if reached(&v) {
+            above = (g, Some(v));
+            while let Some(c) = g.checked_sub(step).filter(|&c| c >= lo) {
+                let v = self.value::<L>(c);
+                if !reached(&v) {
+                    below = Some((c, v));
+                    break;
                 }
+                above = (c, Some(v));
                 step = step.saturating_mul(2);
             }
         } else {
-            below = Some(g);
-            let mut step = 1u64;
-            loop {
-                match g.checked_add(step).filter(|&c| c <= hi) {
-                    None => break,
-                    Some(c) if self.reached(c) => {
-                        above = c;
-                        break;
-                    }
-                    Some(c) => below = Some(c),
+            below = Some((g, v));
+            while let Some(c) = g.checked_add(step).filter(|&c| c <= hi) {
+                let v = self.value::<L>(c);
+                if reached(&v) {
+                    above = (c, Some(v));
+                    break;
                 }
+                below = Some((c, v));
                 step = step.saturating_mul(2);
             }
         }
-        // bisect (below, above]: below None is lo − 1
-        let mut b = below.map_or(lo, |x| x + 1); // least candidate
-        while b < above {
-            let mid = b + (above - b) / 2;
-            if self.reached(mid) {
-                above = mid;
+        // bisect (below, above]
+        loop {
+            let b = below.map_or(lo, |(x, _)| x + 1); // the least candidate
+            if b >= above.0 {
+                break;
+            }
+            let mid = b + (above.0 - b) / 2;
+            let v = self.value::<L>(mid);
+            if reached(&v) {
+                above = (mid, Some(v));
             } else {
-                b = mid + 1;
+                below = Some((mid, v));
             }
         }
-        let n = self.n;
+        let frac = match (below, above) {
+            (Some((b, vb)), (a, Some(va))) if b + 1 == a => fraction(&vb, &va),
+            _ => None,
+        };
         let k = self.k;
-        sub_assign(&mut self.a0, &k, n);
-        above.min(hi)
+        sub_assign(&mut self.a0, &k);
+        (above.0.min(hi), frac)
+    }
+}
+
+/// `⌈f·(a + b) − ½⌉` (0 if negative), the tick nearest to the time a + b, exactly.
+fn nearest_tick(clock: u64, a: f64, b: f64) -> Option<u64> {
+    let s = places(a)?.max(places(b)?);
+    // 2^s·f·(a + b) = X; ⌈(2X − 2^s)/2^(s+1)⌉
+    let one = Si::pos(W::ONE);
+    let x = scaled(a, s)?
+        .add(scaled(b, s)?)?
+        .mul(Si::from_u128(clock as u128))?;
+    let num = x.shl(1)?.sub(one.shl(s)?)?;
+    if num.neg {
+        return Some(0);
+    }
+    let up = num.add(one.shl(s + 1)?)?.sub(one)?;
+    super::track::to_u64(&up.mag.shr_vartime(s + 1))
+}
+
+/// `φ = −vb/(va − vb)` in 2^-32 (vb < 0 ≤ va, two's complement) from the top bits of
+/// both: the crossing's place between two ticks, for guessing only.
+fn fraction<const L: usize>(vb: &[u64; L], va: &[u64; L]) -> Option<u32> {
+    let mut num = *vb;
+    negate_l(&mut num);
+    let mut den = *va;
+    add_l(&mut den, &num);
+    // the top 62 bits of den and the same bits of num (num ≤ den)
+    let top = (0..L).rev().find(|&k| den[k] != 0)?;
+    let pair = |x: &[u64; L]| {
+        let hi = x[top] as u128;
+        let lo = if top > 0 { x[top - 1] as u128 } else { 0 };
+        (hi << 64) | lo
+    };
+    let sh = 128 - (den[top].leading_zeros()) - 62;
+    let (n62, d62) = ((pair(&num) >> sh) as u64, (pair(&den) >> sh) as u64);
+    (d62 > 0).then(|| (((n62 as u128) << 32) / d62 as u128).min(u32::MAX as u128) as u32)
+}
+
+fn negate_l<const L: usize>(v: &mut [u64; L]) {
+    let mut carry = 1u64;
+    for limb in v.iter_mut() {
+        let (s, c) = (!*limb).overflowing_add(carry);
+        *limb = s;
+        carry = c as u64;
+    }
+}
+
+fn add_l<const L: usize>(a: &mut [u64; L], b: &[u64; L]) {
+    let mut carry = false;
+    for k in 0..L {
+        let (s1, c1) = a[k].overflowing_add(b[k]);
+        let (s2, c2) = s1.overflowing_add(carry as u64);
+        a[k] = s2;
+        carry = c1 | c2;
     }
 }
 
@@ -301,7 +381,6 @@ mod tests {
 
     #[test]
     fn twos_complement_horner() {
-        let n = 2;
         let v = |x: i128| {
             tc(&if x < 0 {
                 Si::from_u128(x.unsigned_abs()).neg()
@@ -310,17 +389,29 @@ mod tests {
             })
             .unwrap()
         };
-        let back = |a: &Tc| ((a[1] as u128) << 64 | a[0] as u128) as i128;
-        let mut acc = v(-7);
-        mul_add(&mut acc, 1000, &v(3), n);
+        let two = |x: &Tc| [x[0], x[1]];
+        let back = |a: &[u64; 2]| ((a[1] as u128) << 64 | a[0] as u128) as i128;
+        let mut acc = two(&v(-7));
+        mul_add(&mut acc, 1000, &two(&v(3)));
         assert_eq!(back(&acc), -6997);
-        mul_add(&mut acc, 1 << 40, &v(-5), n);
+        mul_add(&mut acc, 1 << 40, &two(&v(-5)));
         assert_eq!(back(&acc), -6997 * (1i128 << 40) - 5);
-        sub_assign(&mut acc, &v(-6997 * (1i128 << 40)), n);
-        assert_eq!(back(&acc), -5);
+        let mut w = v(-5);
+        sub_assign(&mut w, &v(-6997 * (1i128 << 40)));
+        assert_eq!(back(&two(&w)), 6997 * (1i128 << 40) - 5);
         let s = shr_floor(Si::from_u128(7).neg(), 1);
         assert!(s.neg && s.mag == W::from_u64(4));
         let s = shr_floor(Si::from_u128(8).neg(), 2);
         assert!(s.neg && s.mag == W::from_u64(2));
+        assert_eq!(nearest_tick(10, 0.25, 0.0), Some(2)); // 2.5: a tie goes down
+        assert_eq!(nearest_tick(10, 0.25, 0.125), Some(4)); // 3.75
+        assert_eq!(nearest_tick(10, 0.0, 0.0), Some(0));
+        assert_eq!(nearest_tick(3, 0.5, 0.5), Some(3));
+        // the crossing of −1 → 3 is a quarter of the way
+        assert_eq!(fraction(&two(&v(-1)), &two(&v(3))), Some(1 << 30));
+        assert_eq!(
+            fraction(&two(&v(-(3 << 100))), &two(&v(1 << 100))),
+            Some(3 << 30)
+        );
     }
 }

@@ -427,9 +427,10 @@ pub struct IntRamp {
     next: u64,
     end_tick: u64,
     last_edge: u64,
-    /// The two edges before `last_edge` and how many of the three are known: the cubic
-    /// search starts from their quadratic extrapolation.
-    prev: [u64; 2],
+    /// The exact times of the last three steps (newest first), ticks in 2^-32 (to the
+    /// precision the search learns them; a tick's middle otherwise), and how many are
+    /// known: the cubic search starts from their quadratic extrapolation.
+    times: [i128; 3],
     known: u8,
     piece: usize,
     /// ⌊end of the current piece⌋: steps up to it belong to it (as the float generator
@@ -457,8 +458,8 @@ impl IntRamp {
             next: 1,
             end_tick,
             last_edge: 0,
-            prev: [0; 2],
             // tick 0 is the edge of the step before the ramp
+            times: [0; 3],
             known: 1,
             piece: 0,
             kernel: None,
@@ -470,16 +471,17 @@ impl IntRamp {
         &self.profile
     }
 
-    /// Where the next edge probably is: the edges' quadratic extrapolation (edge times
-    /// are smooth), or the last edge and a gallop from it.
+    /// Where the next edge probably is: ⌈x⌉ of the step times' quadratic extrapolation x
+    /// (step times are smooth), or the tick after the last edge (the search gallops).
     fn guess(&self) -> u64 {
-        let (e1, [e2, e3]) = (self.last_edge as i128, self.prev.map(|e| e as i128));
-        let g = match self.known {
-            3 => 3 * (e1 - e2) + e3,
-            2 => 2 * e1 - e2,
-            _ => e1 + 1,
+        let [x1, x2, x3] = self.times;
+        let x = match self.known {
+            3 => 3 * (x1 - x2) + x3,
+            2 => 2 * x1 - x2,
+            _ => return self.last_edge + 1,
         };
-        g.clamp(e1, u64::MAX as i128) as u64
+        let up = (x + (1 << 32) - 1) >> 32;
+        up.clamp(self.last_edge as i128, u64::MAX as i128) as u64
     }
 }
 
@@ -508,12 +510,14 @@ impl Iterator for IntRamp {
             self.kernel = Some(PieceKernel::enter(self, k, i)?);
         }
         let guess = self.guess();
-        let e = match self.kernel.as_mut()? {
-            PieceKernel::Quadratic(q) => q.edge()?,
+        let (e, frac) = match self.kernel.as_mut()? {
+            PieceKernel::Quadratic(q) => (q.edge()?, None),
             PieceKernel::Cubic(c) => c.edge(self.last_edge, guess),
-        }
-        .max(self.last_edge);
-        self.prev = [self.last_edge, self.prev[0]];
+        };
+        let e = e.max(self.last_edge);
+        // the step's time: e − 1 + φ, or half a tick before its edge
+        let x = ((e as i128) << 32) - frac.map_or(1 << 31, |f| (1i128 << 32) - f as i128);
+        self.times = [x, self.times[0], self.times[1]];
         self.known = (self.known + 1).min(3);
         self.last_edge = e;
         Some(e)

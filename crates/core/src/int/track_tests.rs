@@ -307,3 +307,28 @@ proptest! {
         pair.script(n1, &[(r2, n2), (r3, n3)], restart.then_some((r1, n1)))?;
     }
 }
+
+/// A ramp from 166 388 down to 1323 steps/s that dips to 131 steps/s and comes back (the
+/// S-curve planner's shortest change): the cubic of the piece after the dip, extended
+/// backwards, rises again before the piece starts, and the one before it turns back after
+/// its end. The search stays inside each piece, so every edge is still the float
+/// tracker's and exact.
+#[test]
+fn scurve_cubics_are_searched_inside_their_pieces() {
+    let amax = 166_388.0 * 10f64.powf(3.5142302352473354);
+    let limits = TrackLimits {
+        amax,
+        jmax: Some(amax * 10f64.powf(0.3)),
+    };
+    let mut pair = Pair::new(limits, 0.0, Rate::new(1, 1).unwrap());
+    pair.script(
+        1,
+        &[
+            (Rate::new(166_388, 1).unwrap(), 552),
+            (Rate::new(1323, 1).unwrap(), 2100),
+        ],
+        None,
+    )
+    .unwrap();
+    assert!(pair.ramp_edges > 4000, "{}", pair.ramp_edges);
+}
