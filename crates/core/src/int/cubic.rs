@@ -76,10 +76,10 @@ fn mul_add<const L: usize>(acc: &mut [u64; L], m: u64, b: &[u64; L]) {
     }
 }
 
-/// `a −= b` on every limb.
-fn sub_assign(a: &mut Tc, b: &Tc) {
+/// `a −= b` on the first L limbs (a piece's values are read on L limbs only).
+fn sub_assign<const L: usize>(a: &mut Tc, b: &Tc) {
     let mut borrow = false;
-    for k in 0..LIMBS {
+    for k in 0..L {
         let (d1, b1) = a[k].overflowing_sub(b[k]);
         let (d2, b2) = d1.overflowing_sub(borrow as u64);
         a[k] = d2;
@@ -316,7 +316,7 @@ impl Cubic {
             _ => None,
         };
         let k = self.k;
-        sub_assign(&mut self.a0, &k);
+        sub_assign::<L>(&mut self.a0, &k);
         (above.0.min(hi), frac)
     }
 }
@@ -397,7 +397,7 @@ mod tests {
         mul_add(&mut acc, 1 << 40, &two(&v(-5)));
         assert_eq!(back(&acc), -6997 * (1i128 << 40) - 5);
         let mut w = v(-5);
-        sub_assign(&mut w, &v(-6997 * (1i128 << 40)));
+        sub_assign::<LIMBS>(&mut w, &v(-6997 * (1i128 << 40)));
         assert_eq!(back(&two(&w)), 6997 * (1i128 << 40) - 5);
         let s = shr_floor(Si::from_u128(7).neg(), 1);
         assert!(s.neg && s.mag == W::from_u64(4));

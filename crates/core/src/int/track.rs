@@ -509,16 +509,29 @@ impl Iterator for IntRamp {
             self.piece_end = floor_u64(self.profile.end_of(k));
             self.kernel = Some(PieceKernel::enter(self, k, i)?);
         }
-        let guess = self.guess();
-        let (e, frac) = match self.kernel.as_mut()? {
-            PieceKernel::Quadratic(q) => (q.edge()?, None),
-            PieceKernel::Cubic(c) => c.edge(self.last_edge, guess),
+        let guess = match self.kernel {
+            Some(PieceKernel::Cubic(_)) => self.guess(),
+            _ => 0,
+        };
+        let e = match &mut self.kernel {
+            Some(PieceKernel::Quadratic(q)) => {
+                // the closed form needs no history: the cubic search's first step after
+                // this piece gallops from the last edge
+                self.known = 0;
+                q.edge()?
+            }
+            Some(PieceKernel::Cubic(c)) => {
+                let (e, frac) = c.edge(self.last_edge, guess);
+                let e = e.max(self.last_edge);
+                // the step's time: e − 1 + φ, or half a tick before its edge
+                let x = ((e as i128) << 32) - frac.map_or(1 << 31, |f| (1i128 << 32) - f as i128);
+                self.times = [x, self.times[0], self.times[1]];
+                self.known = (self.known + 1).min(3);
+                e
+            }
+            None => return None,
         };
         let e = e.max(self.last_edge);
-        // the step's time: e − 1 + φ, or half a tick before its edge
-        let x = ((e as i128) << 32) - frac.map_or(1 << 31, |f| (1i128 << 32) - f as i128);
-        self.times = [x, self.times[0], self.times[1]];
-        self.known = (self.known + 1).min(3);
         self.last_edge = e;
         Some(e)
     }
