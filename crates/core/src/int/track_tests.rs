@@ -287,7 +287,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
 
     /// S-curve ramps (jmax): random rates, start speeds, amax and jmax; a change after a
     /// random number of steps (often inside the first ramp, where it waits for the ramp's
@@ -331,4 +331,69 @@ fn scurve_cubics_are_searched_inside_their_pieces() {
     )
     .unwrap();
     assert!(pair.ramp_edges > 4000, "{}", pair.ramp_edges);
+}
+
+/// Clocks from 1 MHz to 2^53 Hz with S-curve ramps: the integer tracker gives the float
+/// tracker's edges, or refuses the ramp with a typed error when its values need more than
+/// 512 bits (never a wrong edge, never a panic).
+#[test]
+fn scurve_clocks_up_to_2_pow_53_equal_or_refuse() {
+    let limits = TrackLimits {
+        amax: 3000.0,
+        jmax: Some(40_000.0),
+    };
+    let (mut ran, mut refused) = (0, 0);
+    for clock in [1e6, 5e7, 1e9, (1u64 << 40) as f64, (1u64 << 53) as f64] {
+        for rate in [
+            Rate::new(15041, 324).unwrap(),
+            Rate::new(319_999, 10).unwrap(),
+        ] {
+            let Ok(float) = Tracker::new(clock, limits, 0.0, rate) else {
+                // a ramp of more than 2^50 ticks: refused by both
+                assert!(IntTracker::new(clock, limits, 0.0, rate).is_err());
+                continue;
+            };
+            match IntTracker::new(clock, limits, 0.0, rate) {
+                Ok(int) => {
+                    let n = 3000;
+                    let a: std::vec::Vec<u64> = int.take(n).collect();
+                    let b: std::vec::Vec<u64> = float.take(n).collect();
+                    assert_eq!(a, b, "clock {clock}, rate {rate:?}");
+                    ran += 1;
+                }
+                Err(e) => {
+                    assert_eq!(e, crate::track::TrackError::NotInteger);
+                    refused += 1;
+                }
+            }
+        }
+    }
+    std::println!("{ran} ran, {refused} refused");
+    assert!(ran >= 6, "{ran} ran, {refused} refused");
+}
+
+/// A constant-jerk piece whose values need more than 512 bits (a coefficient of a
+/// thousand binary places), or a piece of higher order, is a typed error when the ramp
+/// starts, not a panic or a wrong edge.
+#[test]
+fn too_wide_or_quartic_pieces_are_refused() {
+    use super::IntRamp;
+    use crate::track::{RampEdges, TrackError};
+    let limits = TrackLimits {
+        amax: 200.0,
+        jmax: Some(1000.0),
+    };
+    let t = Tracker::new(F as f64, limits, 0.0, Rate::new(100, 1).unwrap()).unwrap();
+    let p = t.ramp_profile().unwrap().clone();
+    assert!(IntRamp::start(p.clone(), F).is_ok());
+    let k = (0..p.len())
+        .find(|&k| matches!(p.piece(k).law, Law::Poly { c3, .. } if c3 != 0.0))
+        .unwrap();
+    for (c3, c4) in [(1e-300, 0.0), (0.5, 1.0)] {
+        let mut q = p.clone();
+        if let Law::Poly { c3: a, c4: b, .. } = &mut q.pieces[k].law {
+            (*a, *b) = (c3, c4);
+        }
+        assert_eq!(IntRamp::start(q, F).err(), Some(TrackError::NotInteger));
+    }
 }
