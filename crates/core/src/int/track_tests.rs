@@ -397,3 +397,32 @@ fn too_wide_or_quartic_pieces_are_refused() {
         assert_eq!(IntRamp::start(q, F).err(), Some(TrackError::NotInteger));
     }
 }
+
+/// `plan --track`'s runs ([`TrackRun`](crate::TrackRun), what the command line and the
+/// Python `track(..., integer=True)` play) with S-curve ramps: the integer tracker's edges
+/// up to the duration are the float tracker's.
+#[test]
+fn track_runs_with_jmax_int_equals_float() {
+    use super::IntRamp;
+    use crate::edges::EdgeGenerator;
+    use crate::TrackRun;
+    let run = |rate: &str, duration, amax, jmax, start_speed| TrackRun {
+        rate: Rate::parse(rate).unwrap(),
+        duration,
+        start_speed,
+        amax: Some(amax),
+        jmax: Some(jmax),
+    };
+    for r in [
+        run("46.4228", 3.0, 500.0, 5000.0, 300.0),
+        run("15041/324", 30.0, 200.0, 2000.0, 0.0),
+        run("31999.9", 0.5, 64000.0, 1e6, 1000.0),
+    ] {
+        let (a, end) = r.start::<IntRamp>(F as f64).unwrap();
+        let (b, _) = r.start::<EdgeGenerator>(F as f64).unwrap();
+        let a: std::vec::Vec<u64> = a.take_while(|&e| e <= end).collect();
+        let b: std::vec::Vec<u64> = b.take_while(|&e| e <= end).collect();
+        assert!(a.len() > 100);
+        assert_eq!(a, b, "{r:?}");
+    }
+}
