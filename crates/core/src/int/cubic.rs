@@ -29,10 +29,15 @@
 //! needs, checked on entry), for each tick tried.
 //!
 //! # The search
-//! The caller passes a guess (the edges' quadratic extrapolation: edge times are smooth,
-//! so it is usually right or one tick off); the search probes the guess and its neighbour,
-//! gallops by doubling strides when they are not enough (a ramp's first steps) and
-//! bisects the bracket, so a step costs two evaluations when the guess is right.
+//! Only ticks whose upper half tick lies in the piece are tried (a step's exact time lies
+//! in its piece; the cubic extended past the piece may turn back). The caller passes a
+//! guess, `⌈x⌉` of the quadratic extrapolation x of the last three step times (smooth);
+//! the search learns each step's time to 2^-32 tick from the two values around its edge
+//! (`N_i(e − 1) < 0 ≤ N_i(e)`, linearly interpolated from their top bits), so the guess
+//! is nearly always the edge. The search probes the guess and its neighbour, gallops by
+//! doubling strides when they are not enough (a piece's first steps) and bisects the
+//! bracket: two evaluations a step when the guess is right. Guesses only order the
+//! work; every edge is decided by the signs of `N_i`.
 
 use super::track::{places, scaled, split, Si, W};
 use crate::piece::Law;
