@@ -26,22 +26,19 @@ struct BoardSim {
     stdin: ChildStdin,
     stdout: BufReader<ChildStdout>,
     pty: String,
+    /// The link: `serial:PTY@BAUD`.
+    link: String,
+    baud: u32,
 }
 
 impl BoardSim {
-    /// The ULX3S build (50 MHz, 0.33 s pieces) with `axes` axes, each sensor as the
-    /// board config's `sim.*` settings describe it (the simulated board's too); every
-    /// STEP rise logged to `edges`.
-    fn start(axes: usize, config: &Path, edges: &Path) -> BoardSim {
+    /// `board`'s build at its `baud` (the ULX3S: 50 MHz, 0.33 s pieces) with `axes` axes,
+    /// each sensor as the board config's `sim.*` settings describe it (the simulated
+    /// board's too); every STEP rise logged to `edges`.
+    fn start_board(board: &str, baud: u32, axes: usize, config: &Path, edges: &Path) -> BoardSim {
         let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verilator");
         let mut child = Command::new(BIN)
-            .args([
-                "board-sim",
-                "--board",
-                "ulx3s-25f",
-                "--axes",
-                &axes.to_string(),
-            ])
+            .args(["board-sim", "--board", board, "--axes", &axes.to_string()])
             .arg("--config")
             .arg(config)
             .arg("--edges")
@@ -66,7 +63,9 @@ impl BoardSim {
             child,
             stdin,
             stdout,
+            link: format!("serial:{pty}@{baud}"),
             pty,
+            baud,
         }
     }
 
@@ -179,12 +178,18 @@ impl Rig {
 
     /// With the board config `text`.
     fn with_config(pins: Pins, text: &str) -> Rig {
+        Rig::on_board(pins, text, "ulx3s-25f", 3_000_000)
+    }
+
+    /// With the board config `text`, on `board`'s build for [`Pins::Hil`].
+    fn on_board(pins: Pins, text: &str, board: &str, baud: u32) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
         let edges = dir.path().join("edges.log");
-        let board = (pins == Pins::Hil).then(|| BoardSim::start(2, &config, &edges));
-        let link = board.as_ref().map(|b| format!("serial:{}", b.pty));
+        let board =
+            (pins == Pins::Hil).then(|| BoardSim::start_board(board, baud, 2, &config, &edges));
+        let link = board.as_ref().map(|b| b.link.clone());
         let server = Server::start(&dir.path().join("data"), &config, link.as_deref());
         let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
         Rig {
@@ -202,7 +207,7 @@ impl Rig {
 
     fn restart_after_kill9(&mut self) {
         self.server.kill9();
-        let link = self.board.as_ref().map(|b| format!("serial:{}", b.pty));
+        let link = self.board.as_ref().map(|b| b.link.clone());
         self.server = Server::start(&self.dir.path().join("data"), &self.config, link.as_deref());
         self.client = Client::connect(&Endpoint::Tcp(self.server.addr.clone())).unwrap();
     }
@@ -236,7 +241,7 @@ impl Rig {
             return Vec::new();
         };
         self.server.kill9();
-        let port = serialport::new(&b.pty, 3_000_000)
+        let port = serialport::new(&b.pty, b.baud)
             .timeout(Duration::from_millis(2000))
             .open()
             .expect("the pty opens");
@@ -690,4 +695,28 @@ fn tracking_rate_change_reversal_and_stop_on_both_backends() {
             None
         )
     );
+}
+
+#[test]
+fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
+    // the iCEBreaker build (18 MHz, 1 Mbaud): no stream buffers
+    let mut r = Rig::on_board(Pins::Hil, &config(), "icebreaker", 1_000_000);
+    for line in [
+        "move X 300 profile=sine accel=0.1 cruise=0.05 decel=0.1",
+        "track X 100",
+    ] {
+        let e = r.client.request(line).unwrap_err().to_string();
+        assert!(e.contains("no replay units"), "{line}: {e}");
+    }
+    assert!(r
+        .client
+        .request("track X 100")
+        .unwrap_err()
+        .to_string()
+        .contains("error:19"));
+    // a computed move still runs (every piece within 2^20 ticks at 18 MHz: 58 ms)
+    r.req("move X 120 vmax=2000");
+    let x = r.wait_idle("X");
+    assert_eq!((x.position, x.state), (120, AxisState::Idle));
+    assert_eq!(r.check_counters()[0], 120, "the board's Position register");
 }

@@ -103,6 +103,10 @@ pub trait BoardBackend: Send {
     fn can_track(&self) -> bool {
         false
     }
+    /// Why [`BoardBackend::can_track`] is false.
+    fn why_no_tracking(&self) -> String {
+        "moves, homing and stops are".into()
+    }
     /// The tracker of an axis tracking (`track`) on a simulated board, whose rate the
     /// board changes while it runs.
     fn tracker(&mut self, _axis: usize) -> Option<&mut TrackSource> {

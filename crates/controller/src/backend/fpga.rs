@@ -765,6 +765,8 @@ fn params_of(id: &BuildId) -> CoreParams {
         kernel_bits: id.kernel_bits,
         radix_bits: id.radix_bits,
         clock_hz: id.clock_hz as f64,
+        // the longest piece its tick bits hold (the default 0.3 s needs 24 bits at 50 MHz)
+        max_piece_s: ((1u64 << id.tick_bits.min(63)) - 1) as f64 / id.clock_hz.max(1) as f64,
         ..CoreParams::default()
     }
 }
@@ -888,6 +890,10 @@ impl BoardBackend for FpgaBackend {
 
     fn can_track(&self) -> bool {
         self.streams
+    }
+
+    fn why_no_tracking(&self) -> String {
+        NO_REPLAY.into()
     }
 
     fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
