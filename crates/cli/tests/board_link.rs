@@ -26,23 +26,23 @@ struct BoardSim {
     stdin: ChildStdin,
     stdout: BufReader<ChildStdout>,
     pty: String,
+    /// The link: `serial:PTY@BAUD`.
+    link: String,
+    baud: u32,
 }
 
 impl BoardSim {
-    /// The ULX3S build (50 MHz, 0.33 s pieces) with `axes` axes, each sensor as the
-    /// board config's `sim.*` settings describe it (the simulated board's too).
-    fn start(axes: usize, config: &Path) -> BoardSim {
+    /// `board`'s build at its `baud` (the ULX3S: 50 MHz, 0.33 s pieces) with `axes` axes,
+    /// each sensor as the board config's `sim.*` settings describe it (the simulated
+    /// board's too); every STEP rise logged to `edges`.
+    fn start_board(board: &str, baud: u32, axes: usize, config: &Path, edges: &Path) -> BoardSim {
         let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verilator");
         let mut child = Command::new(BIN)
-            .args([
-                "board-sim",
-                "--board",
-                "ulx3s-25f",
-                "--axes",
-                &axes.to_string(),
-            ])
+            .args(["board-sim", "--board", board, "--axes", &axes.to_string()])
             .arg("--config")
             .arg(config)
+            .arg("--edges")
+            .arg(edges)
             .arg("--cache-dir")
             .arg(cache)
             .stdin(Stdio::piped())
@@ -63,7 +63,9 @@ impl BoardSim {
             child,
             stdin,
             stdout,
+            link: format!("serial:{pty}@{baud}"),
             pty,
+            baud,
         }
     }
 
@@ -176,11 +178,18 @@ impl Rig {
 
     /// With the board config `text`.
     fn with_config(pins: Pins, text: &str) -> Rig {
+        Rig::on_board(pins, text, "ulx3s-25f", 3_000_000)
+    }
+
+    /// With the board config `text`, on `board`'s build for [`Pins::Hil`].
+    fn on_board(pins: Pins, text: &str, board: &str, baud: u32) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
-        let board = (pins == Pins::Hil).then(|| BoardSim::start(2, &config));
-        let link = board.as_ref().map(|b| format!("serial:{}", b.pty));
+        let edges = dir.path().join("edges.log");
+        let board =
+            (pins == Pins::Hil).then(|| BoardSim::start_board(board, baud, 2, &config, &edges));
+        let link = board.as_ref().map(|b| b.link.clone());
         let server = Server::start(&dir.path().join("data"), &config, link.as_deref());
         let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
         Rig {
@@ -198,7 +207,7 @@ impl Rig {
 
     fn restart_after_kill9(&mut self) {
         self.server.kill9();
-        let link = self.board.as_ref().map(|b| format!("serial:{}", b.pty));
+        let link = self.board.as_ref().map(|b| b.link.clone());
         self.server = Server::start(&self.dir.path().join("data"), &self.config, link.as_deref());
         self.client = Client::connect(&Endpoint::Tcp(self.server.addr.clone())).unwrap();
     }
@@ -225,19 +234,24 @@ impl Rig {
     }
 
     /// Stops the service and reads the board's counters over the link itself: every
-    /// position last reported idle and trusted must equal its axis's counter.
-    fn check_counters(&mut self) {
-        let Some(b) = &self.board else { return };
+    /// position last reported idle and trusted must equal its axis's counter. Returns
+    /// the counters.
+    fn check_counters(&mut self) -> Vec<i64> {
+        let Some(b) = &self.board else {
+            return Vec::new();
+        };
         self.server.kill9();
-        let port = serialport::new(&b.pty, 3_000_000)
+        let port = serialport::new(&b.pty, b.baud)
             .timeout(Duration::from_millis(2000))
             .open()
             .expect("the pty opens");
         let mut l = HostLink::new(port);
+        let mut counters = Vec::new();
         for (a, last) in self.last.iter().enumerate() {
             let counter = l
                 .read(Reg::Axis(a as u32, AxisReg::Position))
                 .expect("the board answers") as i32 as i64;
+            counters.push(counter);
             if let Some((pos, true)) = last {
                 if *pos != counter {
                     self.mismatches += 1;
@@ -246,6 +260,7 @@ impl Rig {
             }
         }
         self.checked = true;
+        counters
     }
 
     fn wait_idle(&mut self, axis: &str) -> AxisStatus {
@@ -278,6 +293,40 @@ impl Rig {
             );
             std::thread::sleep(Duration::from_millis(100));
         }
+    }
+
+    /// The board's STEP rises so far, per axis, in move ticks: each rise less its
+    /// group's go tick and 1 (docs/HDL.md "Tick 0 on the board"); `go[a]` names the go
+    /// line (0-based) of each axis's one move.
+    /// The log is flushed once the board idles (its motors settled): read when it has
+    /// `rises` lines, complete.
+    fn move_edges(&self, go: [usize; 2], rises: usize) -> [Vec<u64>; 2] {
+        let path = self.dir.path().join("edges.log");
+        let t0 = Instant::now();
+        let text = loop {
+            let text = std::fs::read_to_string(&path).unwrap();
+            let n = text.lines().filter(|l| !l.starts_with('#')).count();
+            if n >= rises && text.ends_with('\n') || t0.elapsed() > Duration::from_secs(20) {
+                break text;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        let mut gos = Vec::new();
+        let mut out: [Vec<u64>; 2] = Default::default();
+        for line in text.lines() {
+            if let Some(g) = line.strip_prefix("# go ") {
+                gos.push(g.parse::<u64>().unwrap());
+                continue;
+            }
+            let mut w = line.split_whitespace().map(|x| x.parse::<u64>());
+            let (Some(Ok(a)), Some(Ok(t))) = (w.next(), w.next()) else {
+                panic!("edges log: '{line}'");
+            };
+            let a = a as usize;
+            let g = gos[go[a]];
+            out[a].push(t - g - 1);
+        }
+        out
     }
 
     fn home(&mut self, axis: &str) -> AxisStatus {
@@ -491,4 +540,183 @@ fn a_sync_group_starts_together_and_reaches_its_targets_on_both_backends() {
         (x.position, y.position)
     });
     assert_eq!(got, (800, -300));
+}
+
+/// [`config`] with fast axes (streamed moves at up to 10^6 steps/s).
+fn fast_config() -> String {
+    config().replace(
+        "vmax = 4000.0\namax = 40000.0\n",
+        "vmax = 1000000.0\namax = 1000000000.0\n",
+    )
+}
+
+/// The board's STEP rises are plan's edges (the first difference shown).
+fn same_edges(axis: &str, got: &[u64], want: &[u64]) {
+    let first = got.iter().zip(want).position(|(g, w)| g != w);
+    assert!(
+        got.len() == want.len() && first.is_none(),
+        "{axis}: {} rises, plan {} edges; first difference at {first:?}: {:?} against {:?}",
+        got.len(),
+        want.len(),
+        first.map(|i| &got[i..(i + 3).min(got.len())]),
+        first.map(|i| &want[i..(i + 3).min(want.len())]),
+    );
+}
+
+/// `plan`'s edges of a phase-mode move of `steps` at the board's 50 MHz.
+fn plan_edges(profile: &str, steps: u64, t: (f64, f64, f64)) -> Vec<u64> {
+    plan_edges_of(
+        profile,
+        steps,
+        multistep_core::MoveParams {
+            accel_time: Some(t.0),
+            cruise_time: Some(t.1),
+            decel_time: Some(t.2),
+            ..Default::default()
+        },
+    )
+}
+
+/// `plan`'s edges of a move at the board's 50 MHz.
+fn plan_edges_of(profile: &str, steps: u64, params: multistep_core::MoveParams) -> Vec<u64> {
+    let spec = multistep_core::MoveSpec {
+        profile: Some(profile),
+        steps: Some(steps),
+        params,
+        ..Default::default()
+    };
+    multistep_core::edges(&spec.resolve().unwrap(), 50e6)
+        .unwrap()
+        .collect()
+}
+
+#[test]
+fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
+    // (parabolic starts at an infinite acceleration: every amax refuses it)
+    let got = on_both(|pins| {
+        let mut r = Rig::with_config(pins, &fast_config());
+        r.req("move X 1500 profile=exponential accel=0.05 cruise=0.05 decel=0.05");
+        r.req("move Y -1200 profile=scurve4 accel=0.04 cruise=0.03 decel=0.05");
+        let x = r.wait_idle("X");
+        let y = r.wait_idle("Y");
+        if pins == Pins::Hil {
+            let [ex, ey] = r.move_edges([0, 1], 2700);
+            assert_eq!(
+                r.check_counters(),
+                [1500, -1200],
+                "the board's Position registers"
+            );
+            same_edges(
+                "X",
+                &ex,
+                &plan_edges("exponential", 1500, (0.05, 0.05, 0.05)),
+            );
+            same_edges("Y", &ey, &plan_edges("scurve4", 1200, (0.04, 0.03, 0.05)));
+        }
+        (x.position, y.position, x.state, y.state, y.fault)
+    });
+    assert_eq!(got, (1500, -1200, AxisState::Idle, AxisState::Idle, None));
+}
+
+#[test]
+fn a_cruise_longer_than_a_piece_streams_edge_exact() {
+    // 90 steps at 250 steps/s: a 0.36 s cruise, longer than the board's 2^24-tick piece
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("move X 90 vmax=250");
+        let x = r.wait_idle("X");
+        if pins == Pins::Hil {
+            let [ex, _] = r.move_edges([0, 0], 90);
+            let params = multistep_core::MoveParams {
+                vmax: Some(250.0),
+                amax: Some(40000.0),
+                ..Default::default()
+            };
+            same_edges("X", &ex, &plan_edges_of("trapezoid", 90, params));
+            assert_eq!(r.check_counters()[0], 90, "the board's Position register");
+        }
+        (x.position, x.state, x.fault)
+    });
+    assert_eq!(got, (90, AxisState::Idle, None));
+}
+
+#[test]
+fn a_starved_stream_is_flagged_and_the_count_stays_exact() {
+    // a sine move cruising near 10^6 steps/s needs about 500 kB/s of code: more than the
+    // 3 Mbaud link carries
+    let mut r = Rig::with_config(Pins::Hil, &fast_config());
+    r.req("move X 5900 profile=sine accel=0.002 cruise=0.004 decel=0.002");
+    let x = r.wait_idle("X");
+    assert_eq!((x.position, x.state), (5900, AxisState::Fault), "{x:?}");
+    let why = x.fault.clone().unwrap_or_default();
+    assert!(why.contains("starved") && why.contains("late"), "{x:?}");
+    assert!(r.req("info").iter().any(|l| l.contains("starved")));
+    // the next move clears it
+    r.req("move X -100 profile=sine accel=0.01 decel=0.01");
+    let x = r.wait_idle("X");
+    assert_eq!(
+        (x.position, x.state, x.fault),
+        (5800, AxisState::Idle, None)
+    );
+    assert_eq!(r.check_counters()[0], 5800, "the board's Position register");
+}
+
+#[test]
+fn tracking_rate_change_reversal_and_stop_on_both_backends() {
+    let got = on_both(|pins| {
+        let mut r = Rig::new(pins);
+        r.req("track X 3000");
+        std::thread::sleep(Duration::from_millis(150));
+        r.req("track X 3500");
+        let a = r.status("X");
+        std::thread::sleep(Duration::from_millis(150));
+        r.req("track X -2000");
+        std::thread::sleep(Duration::from_millis(300));
+        let b = r.status("X");
+        r.req("stop X");
+        let x = r.wait_idle("X");
+        if pins == Pins::Hil {
+            assert_eq!(
+                r.check_counters()[0],
+                x.position,
+                "the board's Position register"
+            );
+        }
+        (a.state, a.rate, b.rate, x.state, x.rate, x.fault)
+    });
+    assert_eq!(
+        got,
+        (
+            AxisState::Tracking,
+            Some(3500.0),
+            Some(-2000.0),
+            AxisState::Idle,
+            None,
+            None
+        )
+    );
+}
+
+#[test]
+fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
+    // the iCEBreaker build (18 MHz, 1 Mbaud): no stream buffers
+    let mut r = Rig::on_board(Pins::Hil, &config(), "icebreaker", 1_000_000);
+    for line in [
+        "move X 300 profile=sine accel=0.1 cruise=0.05 decel=0.1",
+        "track X 100",
+    ] {
+        let e = r.client.request(line).unwrap_err().to_string();
+        assert!(e.contains("no replay units"), "{line}: {e}");
+    }
+    assert!(r
+        .client
+        .request("track X 100")
+        .unwrap_err()
+        .to_string()
+        .contains("error:19"));
+    // a computed move still runs (every piece within 2^20 ticks at 18 MHz: 58 ms)
+    r.req("move X 120 vmax=2000");
+    let x = r.wait_idle("X");
+    assert_eq!((x.position, x.state), (120, AxisState::Idle));
+    assert_eq!(r.check_counters()[0], 120, "the board's Position register");
 }

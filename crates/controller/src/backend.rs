@@ -52,6 +52,9 @@ pub enum PinEvent {
     /// The board lost this axis's count (it was reset or lost power while the axis moved,
     /// or its counter no longer reads what the host last saw). Any motion is gone.
     Lost { why: String },
+    /// The axis's motion ended (or runs) late: some edges came later than planned (the
+    /// board's underrun flag, e.g. a streamed move starved by its link); the count is exact.
+    Late { why: String },
     /// The board latched its e-stop by itself (its e-stop input).
     Estop,
     /// The axis took a step (only while [`BoardBackend::watch_steps`] asks for it).
@@ -99,6 +102,10 @@ pub trait BoardBackend: Send {
     /// Runs a tracker ([`BoardBackend::start_source`] with a rate that changes as it runs).
     fn can_track(&self) -> bool {
         false
+    }
+    /// Why [`BoardBackend::can_track`] is false.
+    fn why_no_tracking(&self) -> String {
+        "moves, homing and stops are".into()
     }
     /// The tracker of an axis tracking (`track`) on a simulated board, whose rate the
     /// board changes while it runs.

@@ -397,6 +397,19 @@ impl Board {
                 ax.marked = false;
                 self.persist(i);
             }
+            PinEvent::Late { why } => {
+                let ax = &mut self.axes[i];
+                eprintln!("warning: board {}: axis {}: {why}", self.name, ax.name);
+                if self.warnings.len() < 100 {
+                    self.warnings.push(format!("axis {}: {why}", ax.name));
+                }
+                // Reported after the motion's end: the axis shows it until its next motion.
+                if ax.motion.is_none() {
+                    ax.state = AxisState::Fault;
+                }
+                ax.fault = Some(why);
+                self.persist(i);
+            }
             PinEvent::Estop => self.estop_now(),
         }
     }

@@ -856,8 +856,27 @@ impl<T: std::io::Read + std::io::Write> HostLink<T> {
     pub fn transact(&mut self, mut req: Request) -> Result<u32, LinkError> {
         req.seq = self.seq;
         self.seq = self.seq.wrapping_add(1);
+        self.exchange(&req.encode(), req)
+    }
+
+    /// Sends a bulk write of `data` to `reg` (an axis's `StreamData`) and returns the
+    /// reply's data: the free bytes left in the axis's stream buffer.
+    pub fn bulk(&mut self, reg: Reg, data: &[u8]) -> Result<u32, LinkError> {
+        let b = BulkWrite {
+            seq: self.seq,
+            addr: reg.addr(),
+            data: data.to_vec(),
+        };
+        let frame = b.encode()?;
+        self.seq = self.seq.wrapping_add(1);
+        // the reply is checked against a request of the same seq and address
+        self.exchange(&frame, Request::write(b.seq, reg, 0))
+    }
+
+    /// Sends `frame` and waits for the reply to `req` (its seq).
+    fn exchange(&mut self, frame: &[u8], req: Request) -> Result<u32, LinkError> {
         let io = |e: std::io::Error| LinkError::Io(e.to_string());
-        self.io.write_all(&req.encode()).map_err(io)?;
+        self.io.write_all(frame).map_err(io)?;
         self.io.flush().map_err(io)?;
         let mut buf = [0u8; REPLY_LEN];
         loop {

@@ -490,3 +490,64 @@ fn a_board_without_replay_units_answers_bulk_writes_no_room() {
     assert_eq!((rep[bulk].status, rep[bulk].seq), (Status::StreamFull, 1));
     assert_eq!((rep[pos].status, rep[pos].data), (Status::Ok, 77));
 }
+
+/// An open-ended stream (armed for the most steps, as a tracking host arms it) ends
+/// cleanly when `StreamSteps` is written while it runs: after exactly that many steps,
+/// every rise plan's, no underrun (without the write the axis would underrun, busy).
+#[test]
+fn an_open_ended_stream_ends_after_the_count_written_while_it_runs() {
+    let p = params(2);
+    let b = BoardTop::new(p.clone(), 3_000_000);
+    let w = b.widths().unwrap();
+    let mv = Move::Phase(PhaseMove::new(600, family(3), 0.001, 0.002, 0.001));
+    let m = StreamedMove::plan(&mv, HZ, p.tick_bits).unwrap();
+    let mut h = Host {
+        s: Script::new(),
+        seq: 0,
+        n: 0,
+    };
+    h.write(Reg::Core(core_addr(&w, true, 0, 1)), 1 << 31);
+    h.write(Reg::Axis(0, AxisReg::StreamSteps), u32::MAX);
+    let mut later = Vec::new();
+    for c in m.chunks(BUFFER, 128) {
+        match c.not_before {
+            None => h.bulk(&m, 0, c.range),
+            Some(t) => later.push((t, c.range)),
+        }
+    }
+    h.write(Reg::Board(BoardReg::Start), 1);
+    // the count arrives while the first steps run
+    h.s.at_move_tick(m.edges[20]);
+    let close = h.n;
+    h.write(Reg::Axis(0, AxisReg::StreamSteps), m.steps() as u32);
+    for (t, r) in later {
+        h.s.at_move_tick(t);
+        h.bulk(&m, 0, r);
+    }
+    h.s.sync().idle();
+    let state = h.read(Reg::Axis(0, AxisReg::State));
+    let pos = h.read(Reg::Axis(0, AxisReg::Position));
+    h.s.sync();
+    let dir = tempfile::Builder::new().prefix("open").tempdir().unwrap();
+    let end = *m.edges.last().unwrap();
+    let log = simulate(&b, &h.s, dir.path(), end + 2_000_000).unwrap();
+    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
+    assert_eq!(rep.len(), h.n, "one reply per request");
+    assert!(rep.iter().all(|r| r.status == Status::Ok), "{rep:?}");
+    assert_eq!(
+        rep[close].status,
+        Status::Ok,
+        "the count taken while running"
+    );
+    let st = AxisState::decode(rep[state].data).unwrap();
+    assert!(
+        !st.busy && !st.underrun && st.run == AxisRun::Idle,
+        "{st:?}"
+    );
+    assert_eq!(rep[pos].data, 600, "Position");
+    assert_eq!(
+        rises_after_go(&log, 0),
+        m.edges,
+        "every rise plan's, no more"
+    );
+}

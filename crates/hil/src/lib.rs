@@ -173,7 +173,11 @@ impl BoardSim {
     pub fn start(opts: &Options) -> Result<BoardSim, HilError> {
         let b = Board::by_name(&opts.board)?;
         let params = b.params(opts.axes.unwrap_or(b.default_axes))?;
-        let top = BoardTop::new(params, opts.baud.unwrap_or(b.baud));
+        // the board's own build: its stream buffers (none on the iCEBreaker) included
+        let top = BoardTop {
+            baud: opts.baud.unwrap_or(b.baud),
+            ..b.board_top(&params)
+        };
         top.widths()?;
         let clock_hz = top.core.clock_hz;
         let motor = Motor::load(&opts.motor)?;

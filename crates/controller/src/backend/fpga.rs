@@ -3,15 +3,28 @@
 //! `link::move_writes` and started together by one `Start` write; counts, busy flags, the
 //! Hall latch, the e-stop and the session value are read back from the board's registers.
 //! A link that stops answering faults the board's axes until it answers again.
+//!
+//! On a board with replay units (`ms_stream`) every other move — any family, non-whole
+//! speeds, pieces longer than the tick width — and tracking run streamed: the host codes
+//! the exact edges of `plan` (or of the tracker) and keeps each axis's buffer fed from
+//! the poll loop ([`stream::Feed`]).
+
+mod stream;
 
 use super::{BoardBackend, Launch, PinEvent};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
+use crate::motion::{EdgeSource, StepSource};
+use crate::tracking::TrackSource;
 use multistep_core::int::{IntClock, IntProfile, IntSegment};
 use multistep_core::MoveSpec;
-use multistep_hdl::link::{self, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg, Status};
+use multistep_hdl::link::{
+    self, core_addr, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg, Status, BULK_MAX,
+};
 use multistep_hdl::{AxisMove, CoreParams};
+use stream::Feed;
+
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
@@ -94,6 +107,12 @@ struct FpgaAxis {
     speed: f64,
     running: Option<Running>,
     settings: AxisSettings,
+    /// The streamed schedule of a running streamed move or tracking motion.
+    feed: Option<Feed>,
+    /// The underrun flag was reported for the motion under way.
+    late_told: bool,
+    /// Report each poll of a tracking axis as a step (a soft limit lies ahead).
+    watch: bool,
 }
 
 pub struct FpgaBackend {
@@ -115,6 +134,8 @@ pub struct FpgaBackend {
     enabled: u32,
     last_poll: Option<Instant>,
     polled: bool,
+    /// The board has replay units for streamed moves.
+    streams: bool,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -165,6 +186,9 @@ impl FpgaBackend {
                     speed: 0.0,
                     running: None,
                     settings: AxisSettings::default(),
+                    feed: None,
+                    late_told: false,
+                    watch: false,
                 })
                 .collect(),
             events: VecDeque::new(),
@@ -175,7 +199,9 @@ impl FpgaBackend {
             enabled: ((1u64 << axes) - 1) as u32,
             last_poll: None,
             polled: false,
+            streams: false,
         };
+        b.streams = b.probe_streams().map_err(link_err)?;
         b.setup().map_err(link_err)?;
         b.read_board().map_err(link_err)?;
         Ok(b)
@@ -183,6 +209,39 @@ impl FpgaBackend {
 
     fn mask(&self) -> u32 {
         ((1u64 << self.axes.len()) - 1) as u32
+    }
+
+    /// Whether the board has replay units: an axis's free stream count is its buffer's
+    /// size once arming (a `StreamSteps` write; 0 leaves the axis computed) emptied it;
+    /// without replay units it reads 0.
+    fn probe_streams(&mut self) -> Result<bool, LinkError> {
+        let axes = self.axes.len() as u32;
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        for a in 0..axes {
+            if l.read(Reg::Axis(a, AxisReg::StreamFree))? > 0 {
+                return Ok(true);
+            }
+        }
+        for a in 0..axes {
+            if !l.axis_state(a)?.busy {
+                l.write(Reg::Axis(a, AxisReg::StreamSteps), 0)?;
+                return Ok(l.read(Reg::Axis(a, AxisReg::StreamFree))? > 0);
+            }
+        }
+        Ok(false)
+    }
+
+    /// Sends every streaming axis the code its buffer has room for.
+    fn feed_streams(&mut self) -> Result<(), LinkError> {
+        for i in 0..self.axes.len() {
+            let ax = &mut self.axes[i];
+            let (Some(f), Some(l)) = (ax.feed.as_mut(), self.link.as_mut()) else {
+                continue;
+            };
+            let done = (ax.count - f.count0).unsigned_abs();
+            pump(l, f, i as u32, done)?;
+        }
+        Ok(())
     }
 
     /// The board's registers as the host wants them (after start-up and every reset):
@@ -312,10 +371,35 @@ impl FpgaBackend {
                     0.0
                 };
             } else {
+                if st.stream_armed {
+                    // armed but never started (a refused start): back to computed
+                    l.write(Reg::Axis(a, AxisReg::StreamSteps), 0)?;
+                }
                 let ax = &mut self.axes[i];
                 ax.running = None;
                 ax.speed = 0.0;
+                let feed = ax.feed.take();
                 self.events.push_back((i, PinEvent::End { end: self.now }));
+                if let Some(f) = &feed {
+                    stream_stats(i, f, count);
+                }
+                if st.underrun || st.stream_fault {
+                    let why = late_reason(feed.as_ref(), st.stream_fault);
+                    self.events.push_back((i, PinEvent::Late { why }));
+                }
+                continue;
+            }
+            let ax = &mut self.axes[i];
+            if (st.underrun || st.stream_fault) && !ax.late_told {
+                ax.late_told = true;
+                eprintln!(
+                    "warning: board {}: axis {i}: {}",
+                    self.name,
+                    late_reason(ax.feed.as_ref(), st.stream_fault)
+                );
+            }
+            if ax.watch && ax.feed.is_some() {
+                self.events.push_back((i, PinEvent::Step));
             }
         }
         Ok(())
@@ -331,6 +415,7 @@ impl FpgaBackend {
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let count = l.read(Reg::Axis(i as u32, AxisReg::Position))? as i32 as i64;
             let ax = &mut self.axes[i];
+            ax.feed = None;
             let moved = ax.running.take().is_some();
             if moved || count != ax.count {
                 let why = format!(
@@ -394,10 +479,137 @@ impl FpgaBackend {
         Ok((p, steps))
     }
 
-    fn load(&mut self, l: &Launch, now: u64) -> Result<(Vec<link::RegWrite>, Running), CtlError> {
-        let ip = l.datapath.as_ref().ok_or_else(|| {
-            CtlError::Setting("the board runs moves planned for its datapath only".into())
+    /// The writes that set an axis's DIR and arm its replay unit for `steps` steps (its
+    /// buffer emptied), the Hall and stopped flags cleared.
+    fn arm_writes(
+        &self,
+        axis: usize,
+        dir: i64,
+        steps: u32,
+    ) -> Result<Vec<link::RegWrite>, CtlError> {
+        let a = axis as u32;
+        let w = self
+            .params
+            .widths()
+            .map_err(|e| CtlError::Setting(format!("the board's widths: {e}")))?;
+        Ok(vec![
+            link::RegWrite {
+                reg: Reg::Board(BoardReg::Clear),
+                data: 1 << a,
+            },
+            // DIR through the core's control word (bit 31), as for computed moves
+            link::RegWrite {
+                reg: Reg::Core(core_addr(&w, true, a, 1)),
+                data: u32::from(dir > 0) << 31,
+            },
+            link::RegWrite {
+                reg: Reg::Axis(a, AxisReg::StreamSteps),
+                data: steps,
+            },
+        ])
+    }
+
+    /// A move the datapath cannot compute, streamed: `plan`'s exact edges at the board's
+    /// clock, coded as the buffer makes room.
+    fn load_streamed(
+        &mut self,
+        l: &Launch,
+        now: u64,
+    ) -> Result<(Vec<link::RegWrite>, Running, Option<Feed>), CtlError> {
+        if !self.streams {
+            return Err(CtlError::Setting(NO_REPLAY.into()));
+        }
+        if l.stop_on_sensor == Some(true) {
+            return Err(CtlError::Setting(
+                "a homing search on the board is computed (it stops on the Hall edge with a \
+                 ramp piece): its move must be a trapezoid of whole-number speeds whose \
+                 pieces fit the board's tick width; keep home_search within one piece"
+                    .into(),
+            ));
+        }
+        let clock = self.params.clock_hz;
+        let steps = l.profile.steps();
+        let n = u32::try_from(steps).map_err(|_| {
+            CtlError::Setting(format!(
+                "a streamed move of {steps} steps: the board counts at most {} a move",
+                u32::MAX
+            ))
         })?;
+        let src = EdgeSource::new(l.profile.clone(), clock, 0)?;
+        let mut feed = Feed::new(Box::new(src), 0, self.params.tick_bits, false);
+        feed.dir = l.dir;
+        feed.count0 = self.axes[l.axis].count;
+        self.hall_stop &= !(1 << l.axis);
+        let run = Running {
+            dir: l.dir,
+            stop_on_sensor: l.stop_on_sensor,
+            stopping: false,
+            end_tick: now + (l.profile.duration() * clock).round() as u64,
+            ramp_steps: 0,
+        };
+        Ok((self.arm_writes(l.axis, l.dir, n)?, run, Some(feed)))
+    }
+
+    /// Arms the streaming axes' buffers (their free count is the buffer's size) and sends
+    /// what fits before the start.
+    fn preload(&mut self, feeds: &mut [(usize, Feed)]) -> Result<(), LinkError> {
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        for (i, f) in feeds.iter_mut() {
+            let a = *i as u32;
+            f.buffer = l.read(Reg::Axis(a, AxisReg::StreamFree))?;
+            f.free = f.buffer;
+            if f.buffer == 0 {
+                return Err(LinkError::Move(NO_REPLAY.into()));
+            }
+            pump(l, f, a, 0)?;
+        }
+        Ok(())
+    }
+
+    /// Loads the moves (`writes`) and the Hall stops, preloads the streams, then starts
+    /// `mask` as one group.
+    fn send_start(
+        &mut self,
+        mut writes: Vec<link::RegWrite>,
+        feeds: &mut [(usize, Feed)],
+        mask: u32,
+    ) -> Result<(), CtlError> {
+        self.link()?;
+        writes.push(link::RegWrite {
+            reg: Reg::Board(BoardReg::HallStop),
+            data: self.hall_stop,
+        });
+        let no_link = || LinkError::Io("no link".into());
+        let r = self
+            .link
+            .as_mut()
+            .ok_or_else(no_link)
+            .and_then(|l| l.write_all(&writes))
+            .and_then(|_| self.preload(feeds))
+            .and_then(|_| {
+                let l = self.link.as_mut().ok_or_else(no_link)?;
+                l.write(Reg::Board(BoardReg::Start), mask)
+            });
+        r.map_err(|e| match e {
+            LinkError::Refused {
+                status: Status::Busy,
+                ..
+            } => CtlError::Busy {
+                axis: format!("on {}", self.name),
+                state: "busy",
+            },
+            e => self.failed(e),
+        })
+    }
+
+    fn load(
+        &mut self,
+        l: &Launch,
+        now: u64,
+    ) -> Result<(Vec<link::RegWrite>, Running, Option<Feed>), CtlError> {
+        let Some(ip) = l.datapath.as_ref() else {
+            return self.load_streamed(l, now);
+        };
         let a = l.axis as u32;
         let m = AxisMove::from_profile(ip, l.dir > 0, &self.params)
             .map_err(|e| CtlError::Setting(format!("the board cannot run this move: {e}")))?;
@@ -434,8 +646,111 @@ impl FpgaBackend {
             end_tick: now + ip.end_tick(),
             ramp_steps,
         };
-        Ok((w, run))
+        Ok((w, run, None))
     }
+}
+
+/// Why an axis's motion was late: the board's underrun flag (an edge came late, none
+/// early) or a bad code in its replay unit.
+fn late_reason(feed: Option<&Feed>, bad_code: bool) -> String {
+    match (feed, bad_code) {
+        (_, true) => "the board's replay unit met a bad code and stopped the stream".into(),
+        (Some(_), _) => "stream starved: the link fell behind the streamed move, so some \
+                         edges came late (none early; the count is exact)"
+            .into(),
+        (None, _) => "the board's calculator fell behind: some edges came late (none early; \
+                      the count is exact)"
+            .into(),
+    }
+}
+
+/// With `MULTISTEP_LINK_STATS` set: one line per streamed motion on stderr (steps, link
+/// bytes per step, the least code left in the buffer when the host came to top it up).
+fn stream_stats(axis: usize, f: &Feed, count: i64) {
+    if std::env::var_os("MULTISTEP_LINK_STATS").is_none() {
+        return;
+    }
+    let steps = f.coded().max(1);
+    let framed = f.sent + 8 * f.frames;
+    eprintln!(
+        "link stats: axis {axis}: {} steps ({} counted), {} code bytes in {} frames: \
+         {:.3} code bytes/step, {:.3} with frames; buffer {} bytes, least left {} bytes",
+        f.coded(),
+        (count - f.count0).abs(),
+        f.sent,
+        f.frames,
+        f.sent as f64 / steps as f64,
+        framed as f64 / steps as f64,
+        f.buffer,
+        f.min_left()
+    );
+}
+
+/// Sends `axis` the code its buffer has room for: fills the frame from the feed, sends it
+/// when the free count (the last reply's, read again when it looks short) says it fits.
+/// `done`: the steps the board has made of this motion (a tracker codes only a lead
+/// beyond them).
+fn pump<T: Read + Write>(
+    l: &mut HostLink<T>,
+    f: &mut Feed,
+    axis: u32,
+    done: u64,
+) -> Result<(), LinkError> {
+    let mut refreshed = false;
+    loop {
+        f.fill(BULK_MAX, f.lead_limit(done))
+            .map_err(LinkError::Move)?;
+        let Some(n) = f.next_frame(BULK_MAX.min(f.free as usize)) else {
+            if f.open && f.ended && f.pending() == 0 && !f.closed {
+                // the tracker came to rest: the stream ends after the steps coded, so
+                // the axis ends as a planned move does (no underrun)
+                let n = u32::try_from(f.coded()).unwrap_or(u32::MAX);
+                l.write(Reg::Axis(axis, AxisReg::StreamSteps), n)?;
+                f.closed = true;
+            }
+            if refreshed || f.pending() == 0 {
+                return Ok(());
+            }
+            // the board took code since the last reply
+            f.free = l.read(Reg::Axis(axis, AxisReg::StreamFree))?;
+            f.saw_free();
+            refreshed = true;
+            continue;
+        };
+        let data = f.take(n);
+        f.free = l.bulk(Reg::Axis(axis, AxisReg::StreamData), &data)?;
+        f.sent += n as u64;
+        f.frames += 1;
+    }
+}
+
+/// Why a board refuses what only streaming runs.
+const NO_REPLAY: &str = "the board has no replay units for streamed moves (its build has \
+    no stream buffers: a bulk write answers status 7), so it runs only trapezoids of \
+    whole-number speeds whose pieces fit its tick width, and no tracking";
+
+/// Checks that every period of `plan`'s edges of `mv` at `clock_hz` fits the replay
+/// unit (2 to 2^tick_bits − 1 ticks), before anything starts.
+fn check_streamable(
+    mv: &multistep_core::Move<'_>,
+    clock_hz: f64,
+    tick_bits: u32,
+) -> Result<(), CtlError> {
+    let max = (1u64 << tick_bits.min(63)) - 1;
+    let mut last = 0;
+    for (i, t) in multistep_core::edges(mv, clock_hz)?.enumerate() {
+        let p = t.wrapping_sub(last);
+        if p < 2 || p > max {
+            return Err(CtlError::Setting(format!(
+                "the board cannot stream this move: step {} comes {p} ticks after the one \
+                 before; its replay unit takes 2 to {max} ticks ({:.3} s at its clock)",
+                i + 1,
+                max as f64 / clock_hz
+            )));
+        }
+        last = t;
+    }
+    Ok(())
 }
 
 /// The core's parameters as the board reports them.
@@ -450,6 +765,8 @@ fn params_of(id: &BuildId) -> CoreParams {
         kernel_bits: id.kernel_bits,
         radix_bits: id.radix_bits,
         clock_hz: id.clock_hz as f64,
+        // the longest piece its tick bits hold (the default 0.3 s needs 24 bits at 50 MHz)
+        max_piece_s: ((1u64 << id.tick_bits.min(63)) - 1) as f64 / id.clock_hz.max(1) as f64,
         ..CoreParams::default()
     }
 }
@@ -476,12 +793,26 @@ impl BoardBackend for FpgaBackend {
         }
     }
 
-    /// Trapezoids and seed 000 segments on `multistep_core::int` at the board's clock.
+    /// Trapezoids and seed 000 segments on `multistep_core::int` at the board's clock,
+    /// when every piece fits the datapath; any other move is streamed (`None`: the
+    /// host's plan runs) on a board with replay units, and refused on one without.
     fn plan_datapath(&self, spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
         let mv = spec.resolve()?;
-        link::int_profile(&mv, self.params.clock_hz as u64)
-            .map(Some)
-            .map_err(|e| CtlError::Setting(format!("the board's datapath: {e}")))
+        let computed = link::int_profile(&mv, self.params.clock_hz as u64).and_then(|ip| {
+            AxisMove::from_profile(&ip, true, &self.params)
+                .map(|_| ip)
+                .map_err(|e| LinkError::Move(e.to_string()))
+        });
+        match computed {
+            Ok(ip) => Ok(Some(ip)),
+            Err(_) if self.streams => {
+                check_streamable(&mv, self.params.clock_hz, self.params.tick_bits)?;
+                Ok(None)
+            }
+            Err(e) => Err(CtlError::Setting(format!(
+                "the board's datapath: {e}; {NO_REPLAY}"
+            ))),
+        }
     }
 
     fn start(
@@ -494,37 +825,83 @@ impl BoardBackend for FpgaBackend {
         self.link()?;
         let mut writes = Vec::new();
         let mut runs = Vec::new();
+        let mut feeds = Vec::new();
         let mut mask = 0;
         let mut steps = Vec::new();
         for l in &moves {
-            let (w, run) = self.load(l, now)?;
+            let (w, run, feed) = self.load(l, now)?;
             writes.extend(w);
             mask |= 1 << l.axis;
-            steps.push(l.datapath.as_ref().map_or(0, |p| p.steps()));
+            steps.push(l.datapath.as_ref().map_or(l.profile.steps(), |p| p.steps()));
             runs.push((l.axis, run));
+            feeds.extend(feed.map(|f| (l.axis, f)));
         }
-        writes.push(link::RegWrite {
-            reg: Reg::Board(BoardReg::HallStop),
-            data: self.hall_stop,
-        });
-        writes.push(link::start_write(mask));
-        let r = self.link()?.write_all(&writes);
-        if let Err(e) = r {
-            return Err(match e {
-                LinkError::Refused {
-                    status: Status::Busy,
-                    ..
-                } => CtlError::Busy {
-                    axis: format!("on {}", self.name),
-                    state: "busy",
-                },
-                e => self.failed(e),
-            });
-        }
+        self.send_start(writes, &mut feeds, mask)?;
         for (i, run) in runs {
-            self.axes[i].running = Some(run);
+            let ax = &mut self.axes[i];
+            ax.running = Some(run);
+            ax.late_told = false;
+            ax.feed = None;
+        }
+        for (i, f) in feeds {
+            self.axes[i].feed = Some(f);
         }
         Ok((now, steps))
+    }
+
+    /// Tracking, streamed: the tracker's exact edges, coded a short lead ahead of the
+    /// board's count so that a rate change or stop takes effect soon after it is asked for.
+    fn start_source(
+        &mut self,
+        axis: usize,
+        src: Box<dyn StepSource>,
+        dir: i64,
+        start: u64,
+    ) -> Result<u64, CtlError> {
+        if !self.streams {
+            return Err(CtlError::Unsupported(format!(
+                "tracking on {}: {NO_REPLAY}",
+                self.name
+            )));
+        }
+        self.link()?;
+        let end_tick = src.end_tick();
+        let mut feed = Feed::new(src, start, self.params.tick_bits, true);
+        feed.dir = dir;
+        feed.count0 = self.axes[axis].count;
+        self.hall_stop &= !(1 << axis);
+        // open-ended: armed for the most steps, closed with the real count at rest
+        let writes = self.arm_writes(axis, dir, u32::MAX)?;
+        let mut feeds = [(axis, feed)];
+        self.send_start(writes, &mut feeds, 1 << axis)?;
+        let [(_, feed)] = feeds;
+        let ax = &mut self.axes[axis];
+        ax.running = Some(Running {
+            dir,
+            stop_on_sensor: None,
+            stopping: false,
+            end_tick,
+            ramp_steps: 0,
+        });
+        ax.late_told = false;
+        ax.feed = Some(feed);
+        Ok(start)
+    }
+
+    fn can_track(&self) -> bool {
+        self.streams
+    }
+
+    fn why_no_tracking(&self) -> String {
+        NO_REPLAY.into()
+    }
+
+    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
+        self.axes[axis].feed.as_mut()?.tracker()
+    }
+
+    fn watch_steps(&mut self, axis: usize, on: bool) {
+        self.axes[axis].watch = on;
     }
 
     fn begin_advance(&mut self) {
@@ -542,7 +919,7 @@ impl BoardBackend for FpgaBackend {
             }
             if due && self.link.is_some() {
                 self.last_poll = Some(Instant::now());
-                if let Err(e) = self.read_board() {
+                if let Err(e) = self.feed_streams().and_then(|_| self.read_board()) {
                     self.failed(e);
                 }
             }
@@ -575,6 +952,8 @@ impl BoardBackend for FpgaBackend {
                 if let Some(r) = ax.running.as_mut() {
                     r.stopping = true;
                 }
+                // halted: the rest of a stream is not sent
+                ax.feed = None;
                 Ok(ax.count)
             }
             Err(e) => Err(self.failed(e)),
@@ -591,6 +970,7 @@ impl BoardBackend for FpgaBackend {
         for ax in &mut self.axes {
             ax.running = None;
             ax.speed = 0.0;
+            ax.feed = None;
         }
     }
 

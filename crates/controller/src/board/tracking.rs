@@ -56,8 +56,9 @@ impl Board {
         }
         if !self.pins.can_track() {
             return Err(CtlError::Unsupported(format!(
-                "tracking is not supported on {} (moves, homing and stops are)",
-                self.pins.describe()
+                "tracking is not supported on {} ({})",
+                self.pins.describe(),
+                self.pins.why_no_tracking()
             )));
         }
         let want = self.rate_value(rate)?;

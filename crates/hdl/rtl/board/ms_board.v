@@ -88,13 +88,14 @@ module ms_board #(
     wire [K*32-1:0] pos, hall_pos;
     wire [K*WD-1:0] period;
     // the replay units
-    wire [K-1:0]  s_arm, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
+    wire [K-1:0]  s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
     wire [K*(LBR+1)-1:0] s_free;
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
               .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR)) u_regs (
         .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
-        .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_commit(s_commit),
+        .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_retarget(s_retarget),
+        .s_commit(s_commit),
         .s_armed(s_armed), .s_bok(s_bok), .s_free(s_free), .s_more(s_more), .s_fault(s_fault), .rsp_status(rsp_status), .rsp_data(rsp_data),
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
@@ -126,6 +127,7 @@ module ms_board #(
                 wire mine = b_data && (b_ax == a);
                 ms_stream #(.WD(WD), .LB(LBR)) u_stream (
                     .clk(clk), .rst(rst), .arm(s_arm[a]), .arm_steps(req_data),
+                    .retarget_in(s_retarget[a]),
                     .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
                     .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
                     .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
@@ -171,6 +173,6 @@ module ms_board #(
     assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

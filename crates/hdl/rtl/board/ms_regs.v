@@ -71,6 +71,7 @@ module ms_regs #(
     input  wire          bad_frame,
     // the replay units (ms_stream)
     output reg  [K-1:0]  s_arm,      // one clock: StreamSteps of these axes = req_data
+    output reg  [K-1:0]  s_retarget, // one clock: the running streams' step count = req_data
     output reg  [K-1:0]  s_commit,   // one clock: commit the bulk write
     input  wire [K-1:0]  s_armed,
     input  wire [K-1:0]  s_bok,
@@ -99,6 +100,7 @@ module ms_regs #(
         core_wr = 1'b0;
         divert = {K{1'b0}};
         s_arm = {K{1'b0}};
+        s_retarget = {K{1'b0}};
         s_commit = {K{1'b0}};
         setup_cnt = 32'd0;
         setup_need = 32'd0;
@@ -203,7 +205,9 @@ module ms_regs #(
             endcase
         end else if (ax_ok) begin
             case (areg)
-                4'h1, 4'h4, 4'h5: wst = ax_busy ? E_BUSY : OK;
+                4'h1, 4'h4: wst = ax_busy ? E_BUSY : OK;
+                // StreamSteps of an axis replaying a stream: its new step count
+                4'h5: wst = (ax_busy && !s_more[ax[LK-1:0]]) ? E_BUSY : OK;
                 default: wst = E_ADDR;
             endcase
         end else if (c_ok) begin
@@ -225,6 +229,7 @@ module ms_regs #(
         stop_req <= {K{1'b0}};
         divert   <= hall_edge & hall_stop & core_busy;
         s_arm    <= {K{1'b0}};
+        s_retarget <= {K{1'b0}};
         s_commit <= {K{1'b0}};
         if (req) begin
             rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
@@ -293,7 +298,11 @@ module ms_regs #(
             if (w_axis) begin
                 if (areg == 4'h1) pos_wr[ax[LK-1:0]] <= 1'b1;
                 if (areg == 4'h4) slot[ax[LK-1:0]] <= req_data[LS-1:0];
-                if (areg == 4'h5 && !req_bulk) s_arm[ax[LK-1:0]] <= 1'b1;
+                // on an axis replaying a stream: its new step count
+                if (areg == 4'h5 && !req_bulk) begin
+                    if (ax_busy) s_retarget[ax[LK-1:0]] <= 1'b1;
+                    else s_arm[ax[LK-1:0]] <= 1'b1;
+                end
                 if (req_bulk) s_commit[ax[LK-1:0]] <= 1'b1;
             end
             if (wr_ok && is_core) begin

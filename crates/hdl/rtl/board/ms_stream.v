@@ -9,6 +9,9 @@
 // CRC checked (bcommit), and only if it fit the free space when it began (bok).
 // A decoded period of 0 or wider than WD bits stops the decoder (fault): the axis
 // underruns, flagged, until the host stops it.
+// A StreamSteps write while the axis runs (retarget) sets the running stream's step count
+// to arm_steps, so an open-ended stream (armed for the most steps) ends cleanly after the
+// steps the host coded; a count at or below the steps decoded ends it after them.
 module ms_stream #(
     parameter WD = 24,
     parameter LB = 9       // buffer of 2^LB bytes
@@ -17,6 +20,7 @@ module ms_stream #(
     input  wire          rst,
     input  wire          arm,       // StreamSteps write: the next start of the axis replays
     input  wire [31:0]   arm_steps, // that many steps (0 disarms)
+    input  wire          retarget_in, // StreamSteps write while the axis runs: its count
     input  wire          bopen,     // a bulk frame for this axis begins, blen bytes
     input  wire [7:0]    blen,
     input  wire          bwr,       // its byte bidx
@@ -39,8 +43,8 @@ module ms_stream #(
     reg [LB:0] wp, rp;
     reg [7:0]  rdata, cur;
     reg        arm_q, run, half;
-    reg [31:0] steps, left;
-    reg        left_nz;    // left != 0, registered (off the register-check paths)
+    reg [31:0] steps, done;
+    reg        left_nz;    // done < steps, registered (off the register-check paths)
     reg [1:0]  st;
     reg [1:0]  esc;        // 0 op, 1 change (2 nibbles), 2 period (6 nibbles)
     reg [2:0]  got;
@@ -59,6 +63,9 @@ module ms_stream #(
     assign armed = arm_q;
     assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
     assign more  = run && (left_nz || pv_ok || fault);
+    wire retarget = retarget_in && more;
+    wire [31:0] steps_n = retarget ? arm_steps : steps;   // the count from this clock on
+    wire [31:0] done_1  = done + 1'b1;
 
     // ---- the buffer ----
     /* verilator lint_off WIDTH */
@@ -119,7 +126,7 @@ module ms_stream #(
         end else if (init) begin
             run   <= arm_q;
             arm_q <= 1'b0;
-            left  <= steps;
+            done  <= 32'd0;
             left_nz <= (steps != 32'd0);
             prev  <= 25'd0;
             st    <= S_FETCH;
@@ -129,6 +136,10 @@ module ms_stream #(
         end else begin
             pv_ok <= 1'b0;
             if (pv_ok && p_bad) fault <= 1'b1;
+            if (retarget) begin
+                steps   <= arm_steps;
+                left_nz <= (done < arm_steps);
+            end
             if (run) begin
                 case (st)
                     S_FETCH: if (rp != wp && left_nz) begin
@@ -146,8 +157,8 @@ module ms_stream #(
                         if (done_p) begin
                             esc   <= 2'd0;
                             prev  <= p;
-                            left  <= left - 1'b1;
-                            left_nz <= (left != 32'd1);
+                            done  <= done_1;
+                            left_nz <= (done_1 < steps_n);
                             pv    <= p;
                             pv_ok <= 1'b1;
                         end else if (esc == 2'd0) begin

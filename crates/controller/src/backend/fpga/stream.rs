@@ -1,0 +1,239 @@
+//! An axis's streamed schedule on the board's replay unit (docs/HDL.md "Streamed moves"):
+//! the exact edges of a planned move or a tracker, coded (`multistep_core::stream`) as the
+//! board's buffer makes room for them.
+
+use crate::motion::StepSource;
+use crate::tracking::TrackSource;
+use multistep_core::stream::StreamEncoder;
+use std::collections::VecDeque;
+
+/// Least bytes worth a bulk frame while more code is to come (a frame costs 8 bytes
+/// more than its data and one reply).
+pub const MIN_FRAME: usize = 64;
+/// How far (in time at the tracker's speed) a tracking axis's code may run ahead of the
+/// board's count: a rate change or stop takes effect that much after it is asked for.
+pub const TRACK_LEAD_S: f64 = 0.01;
+/// Steps a tracking axis's code may always run ahead (the FIFO's, and a slow rate's).
+pub const TRACK_LEAD_MIN: u64 = 16;
+
+/// One axis's stream: its edge source, the coder, and the code not yet sent.
+pub struct Feed {
+    src: Box<dyn StepSource>,
+    /// The source's tick of the move's tick 0 (the board's `Start`).
+    start: u64,
+    enc: StreamEncoder,
+    pending: VecDeque<u8>,
+    /// The last edge coded (move ticks).
+    last: u64,
+    /// The longest period the replay unit takes (its tick bits).
+    max_period: u64,
+    /// The source gave its last edge and the code is complete.
+    pub ended: bool,
+    /// Open-ended (a tracker): armed for the most steps; `StreamSteps` is written with the
+    /// real count once the tracker comes to rest (`closed`).
+    pub open: bool,
+    pub closed: bool,
+    /// The last fill stopped at its step limit (a tracker's lead): what is coded goes now.
+    held: bool,
+    /// Free bytes in the board's buffer, as the board last said.
+    pub free: u32,
+    /// The buffer's size (the free count after arming).
+    pub buffer: u32,
+    /// Bytes sent and bulk frames sent.
+    pub sent: u64,
+    pub frames: u64,
+    /// The least code left in the buffer when the host read its free count to top it up
+    /// (while more was to come).
+    min_left: Option<u32>,
+    /// The board's count when the stream started, and the direction.
+    pub count0: i64,
+    pub dir: i64,
+}
+
+impl Feed {
+    pub fn new(src: Box<dyn StepSource>, start: u64, tick_bits: u32, open: bool) -> Feed {
+        Feed {
+            src,
+            start,
+            enc: StreamEncoder::new(),
+            pending: VecDeque::new(),
+            last: 0,
+            max_period: (1u64 << tick_bits.min(63)) - 1,
+            ended: false,
+            open,
+            closed: false,
+            held: false,
+            free: 0,
+            buffer: 0,
+            sent: 0,
+            frames: 0,
+            min_left: None,
+            count0: 0,
+            dir: 1,
+        }
+    }
+
+    /// Notes the free count just read (the buffer's margin before topping up).
+    pub fn saw_free(&mut self) {
+        if !self.ended {
+            let left = self.buffer.saturating_sub(self.free);
+            self.min_left = Some(self.min_left.map_or(left, |m| m.min(left)));
+        }
+    }
+
+    /// The least code left in the buffer seen while more was to come (bytes).
+    pub fn min_left(&self) -> u32 {
+        self.min_left.unwrap_or(self.buffer)
+    }
+
+    /// Steps coded so far.
+    pub fn coded(&self) -> u64 {
+        self.enc.steps()
+    }
+
+    /// The tracker behind an open-ended stream.
+    pub fn tracker(&mut self) -> Option<&mut TrackSource> {
+        self.src.as_track()
+    }
+
+    /// Commanded speed (steps/s) at the last edge coded.
+    pub fn speed(&self) -> f64 {
+        self.src.speed_at(self.start.saturating_add(self.last))
+    }
+
+    /// Codes edges until `want` bytes wait to be sent, the source ends, or `max_steps`
+    /// steps are coded. A period the replay unit cannot take (0, 1 or wider than its tick
+    /// bits) is an error naming the step.
+    pub fn fill(&mut self, want: usize, max_steps: u64) -> Result<(), String> {
+        self.held = self.coded() >= max_steps;
+        while !self.ended && self.pending.len() < want && !self.held {
+            let Some(t) = self.src.peek() else {
+                let p = &mut self.pending;
+                self.enc.finish(&mut |b| p.push_back(b));
+                self.ended = true;
+                break;
+            };
+            let t = t.saturating_sub(self.start);
+            let period = t.wrapping_sub(self.last);
+            if t <= self.last && self.coded() > 0 || period < 2 || period > self.max_period {
+                return Err(format!(
+                    "step {}: a period of {period} ticks; the board's replay unit takes 2 to {}",
+                    self.coded() + 1,
+                    self.max_period
+                ));
+            }
+            let p = &mut self.pending;
+            self.enc
+                .edge(t, &mut |b| p.push_back(b))
+                .map_err(|e| e.to_string())?;
+            self.src.take();
+            self.last = t;
+            self.held = self.coded() >= max_steps;
+        }
+        Ok(())
+    }
+
+    /// Bytes waiting to be sent.
+    pub fn pending(&self) -> usize {
+        self.pending.len()
+    }
+
+    /// The next frame's bytes: up to `max`, at least [`MIN_FRAME`] unless that is all
+    /// the code there is for now (`None`: nothing worth sending now).
+    pub fn next_frame(&self, max: usize) -> Option<usize> {
+        let n = self.pending.len().min(max);
+        let all = (self.ended || self.held) && n == self.pending.len();
+        (n > 0 && (n >= MIN_FRAME || all)).then_some(n)
+    }
+
+    pub fn take(&mut self, n: usize) -> Vec<u8> {
+        self.pending.drain(..n).collect()
+    }
+
+    /// Steps a tracking stream may have coded when the board has made `done`.
+    pub fn lead_limit(&self, done: u64) -> u64 {
+        if !self.open {
+            return u64::MAX;
+        }
+        let lead = (self.speed() * TRACK_LEAD_S).ceil().min(1e9) as u64;
+        done.saturating_add(lead.max(TRACK_LEAD_MIN))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::EdgeSource;
+    use multistep_core::stream::StreamDecoder;
+    use multistep_core::{Family, PhaseMove, Profile};
+
+    fn profile(steps: u64) -> Profile {
+        Profile::phase(&PhaseMove {
+            steps,
+            accel_time: 0.01,
+            cruise_time: 0.01,
+            decel_time: 0.01,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family: Family::Parabolic,
+        })
+        .unwrap()
+    }
+
+    /// The frames decode to exactly the generator's edges.
+    #[test]
+    fn frames_carry_the_exact_edges() {
+        let p = profile(1500);
+        let want: Vec<u64> = multistep_core::EdgeGenerator::new(p.clone(), 50e6)
+            .unwrap()
+            .collect();
+        let src = EdgeSource::new(p, 50e6, 777).unwrap();
+        let mut f = Feed::new(Box::new(src), 777, 24, false);
+        let mut bytes = Vec::new();
+        loop {
+            f.fill(200, u64::MAX).unwrap();
+            let Some(n) = f.next_frame(100) else { break };
+            assert!(n >= MIN_FRAME || f.ended, "{n}");
+            bytes.extend(f.take(n));
+        }
+        assert!(f.ended && f.pending() == 0);
+        let mut d = StreamDecoder::new();
+        let mut got = Vec::new();
+        let mut t = 0u64;
+        for b in bytes {
+            d.byte(b, &mut |p| {
+                t += u64::from(p);
+                got.push(t)
+            })
+            .unwrap();
+        }
+        assert_eq!(got, want);
+        assert_eq!(f.coded(), 1500);
+    }
+
+    #[test]
+    fn a_period_beyond_the_tick_bits_is_refused_by_step() {
+        // 1500 steps in 0.03 s: the first period is far above 2^10 ticks
+        let src = EdgeSource::new(profile(1500), 50e6, 0).unwrap();
+        let mut f = Feed::new(Box::new(src), 0, 10, false);
+        let e = f.fill(100, u64::MAX).unwrap_err();
+        assert!(e.starts_with("step 1: a period of"), "{e}");
+    }
+
+    #[test]
+    fn a_tracking_stream_stays_within_its_lead() {
+        use multistep_core::{Rate, TrackLimits};
+        let limits = TrackLimits {
+            amax: 1e5,
+            jmax: None,
+        };
+        let src = TrackSource::new(50e6, limits, Rate::new(20_000, 1).unwrap(), 0).unwrap();
+        let mut f = Feed::new(Box::new(src), 0, 24, true);
+        f.fill(10_000, f.lead_limit(0)).unwrap();
+        assert_eq!(f.coded(), TRACK_LEAD_MIN);
+        // at speed: 10 ms at 20 000 steps/s ahead of the board
+        f.fill(100_000, 5000).unwrap();
+        assert_eq!(f.lead_limit(1000), 1200);
+        assert!(!f.ended);
+    }
+}
