@@ -25,8 +25,9 @@ pub struct ServeArgs {
     /// Board configuration (TOML: board name, axes and their settings); default: axes X Y Z A
     #[arg(long, value_name = "FILE")]
     pub board_config: Option<PathBuf>,
-    /// Drive the FPGA board on this link (serial:DEVICE[@BAUD], baud 3000000 unless
-    /// given) instead of the simulated board; overrides the config's board.link
+    /// Drive the FPGA board on this link (serial:DEVICE[@BAUD][,timeout=SECONDS], baud
+    /// 3000000 and reply timeout 0.5 s unless given) instead of the simulated board;
+    /// overrides the config's board.link
     #[arg(long, value_name = "LINK")]
     pub board_link: Option<String>,
     /// Simulated time runs this many times faster than the wall clock (1 with a board link)

@@ -26,7 +26,8 @@ struct BoardSim {
     stdin: ChildStdin,
     stdout: BufReader<ChildStdout>,
     pty: String,
-    /// The link: `serial:PTY@BAUD`.
+    /// The link: `serial:PTY@BAUD,timeout=3` (a simulated board on a busy machine can take
+    /// longer than a real board's 0.5 s to answer).
     link: String,
     baud: u32,
 }
@@ -63,7 +64,7 @@ impl BoardSim {
             child,
             stdin,
             stdout,
-            link: format!("serial:{pty}@{baud}"),
+            link: format!("serial:{pty}@{baud},timeout=3"),
             pty,
             baud,
         }
@@ -445,8 +446,15 @@ fn a_board_reset_mid_move_and_a_cut_link_are_reported_and_survived() {
     assert!(x.fault.as_deref().unwrap_or("").contains("reset"), "{x:?}");
     assert!(r.req("info").iter().any(|l| l.contains("reset")));
     r.board.as_mut().unwrap().send("cut");
-    std::thread::sleep(Duration::from_millis(1500));
-    let x = r.status("X");
+    // the link fails at the first request left unanswered for the timeout
+    let t0 = Instant::now();
+    let x = loop {
+        let x = r.status("X");
+        if x.fault.as_deref().unwrap_or("").contains("link") || t0.elapsed().as_secs() > 30 {
+            break x;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
     assert_eq!(x.state, AxisState::Fault, "{x:?}");
     assert!(x.fault.as_deref().unwrap_or("").contains("link"), "{x:?}");
     assert!(!x.trusted, "{x:?}");

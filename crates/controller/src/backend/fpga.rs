@@ -38,21 +38,36 @@ pub const RECONNECT_PERIOD: Duration = Duration::from_millis(500);
 /// How often an idle board is read (its e-stop input, resets, Hall level).
 pub const IDLE_POLL: Duration = Duration::from_millis(50);
 
-/// A board link: `serial:DEVICE[@BAUD]`.
+/// A board link: `serial:DEVICE[@BAUD][,timeout=SECONDS]`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LinkSpec {
     pub device: String,
     pub baud: u32,
+    /// How long a request waits for its reply ([`REPLY_TIMEOUT`] unless given): a board
+    /// answers within a millisecond, a simulated one (`board-sim`) on a busy machine may
+    /// need seconds.
+    pub timeout: Duration,
 }
+
+/// The range of `timeout=` (seconds).
+pub const TIMEOUT_RANGE: std::ops::RangeInclusive<f64> = 0.01..=60.0;
 
 impl LinkSpec {
     pub fn parse(s: &str) -> Result<LinkSpec, CtlError> {
         let bad = || {
             CtlError::Setting(format!(
-                "board link '{s}': expected serial:DEVICE or serial:DEVICE@BAUD (BAUD 1200 to 100000000)"
+                "board link '{s}': expected serial:DEVICE[@BAUD][,timeout=SECONDS] (BAUD 1200 \
+                 to 100000000, SECONDS 0.01 to 60)"
             ))
         };
         let rest = s.strip_prefix("serial:").ok_or_else(bad)?;
+        let (rest, timeout) = match rest.rsplit_once(",timeout=") {
+            Some((r, t)) => match t.parse::<f64>() {
+                Ok(t) if TIMEOUT_RANGE.contains(&t) => (r, Duration::from_secs_f64(t)),
+                _ => return Err(bad()),
+            },
+            None => (rest, REPLY_TIMEOUT),
+        };
         let (device, baud) = match rest.rsplit_once('@') {
             Some((d, b)) => (d, b.parse::<u32>().map_err(|_| bad())?),
             None => (rest, DEFAULT_BAUD),
@@ -63,13 +78,18 @@ impl LinkSpec {
         Ok(LinkSpec {
             device: device.to_string(),
             baud,
+            timeout,
         })
     }
 }
 
 impl std::fmt::Display for LinkSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "serial:{}@{}", self.device, self.baud)
+        write!(f, "serial:{}@{}", self.device, self.baud)?;
+        if self.timeout != REPLY_TIMEOUT {
+            write!(f, ",timeout={}", self.timeout.as_secs_f64())?;
+        }
+        Ok(())
     }
 }
 
@@ -80,12 +100,12 @@ impl<T: Read + Write + Send> Port for T {}
 /// Opens the stream (again, after a failure).
 pub type Opener = Box<dyn FnMut() -> Result<Box<dyn Port>, String> + Send>;
 
-/// Opens the serial device of `spec` (8N1, [`REPLY_TIMEOUT`]).
+/// Opens the serial device of `spec` (8N1, its reply timeout).
 pub fn serial_opener(spec: &LinkSpec) -> Opener {
     let spec = spec.clone();
     Box::new(move || {
         serialport::new(&spec.device, spec.baud)
-            .timeout(REPLY_TIMEOUT)
+            .timeout(spec.timeout)
             .open()
             .map(|p| Box::new(p) as Box<dyn Port>)
             .map_err(|e| format!("{}: {e}", spec.device))
@@ -1079,8 +1099,21 @@ mod tests {
             LinkSpec::parse("serial:/dev/ttyUSB0").unwrap(),
             LinkSpec {
                 device: "/dev/ttyUSB0".into(),
-                baud: DEFAULT_BAUD
+                baud: DEFAULT_BAUD,
+                timeout: REPLY_TIMEOUT,
             }
+        );
+        let slow = LinkSpec::parse("serial:/dev/pts/3@115200,timeout=2.5").unwrap();
+        assert_eq!(
+            (slow.baud, slow.timeout),
+            (115_200, Duration::from_millis(2500))
+        );
+        assert_eq!(LinkSpec::parse(&slow.to_string()).unwrap(), slow);
+        assert_eq!(
+            LinkSpec::parse("serial:/dev/x,timeout=0.01")
+                .unwrap()
+                .timeout,
+            Duration::from_millis(10)
         );
         assert_eq!(
             LinkSpec::parse("serial:/dev/pts/3@115200").unwrap().baud,
@@ -1093,6 +1126,10 @@ mod tests {
             "serial:/dev/x@",
             "serial:/dev/x@12",
             "/dev/x",
+            "serial:/dev/x,timeout=0",
+            "serial:/dev/x,timeout=61",
+            "serial:/dev/x,timeout=NaN",
+            "serial:/dev/x@9600,timeout=",
         ] {
             let e = LinkSpec::parse(bad).unwrap_err().to_string();
             assert!(e.contains("serial:DEVICE"), "{bad}: {e}");
