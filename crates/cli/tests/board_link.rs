@@ -728,3 +728,31 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
     assert_eq!((x.position, x.state), (120, AxisState::Idle));
     assert_eq!(r.check_counters()[0], 120, "the board's Position register");
 }
+
+#[test]
+fn tracking_stops_before_the_soft_limit_on_both_backends() {
+    // at 3000 steps/s the board holds 30 steps of code ahead of its count: the stop must
+    // allow for them, or the axis crosses the limit
+    let text = config().replacen("vmax = 4000.0", "soft_max = 400\nvmax = 4000.0", 1);
+    let got = on_both(|pins| {
+        let mut r = Rig::with_config(pins, &text);
+        r.req("track X 3000");
+        let t0 = Instant::now();
+        while r.status("X").state == AxisState::Tracking {
+            assert!(t0.elapsed().as_secs() < 120, "{pins:?}: never stopped");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let x = r.wait_idle("X");
+        if pins == Pins::Hil {
+            assert_eq!(
+                r.check_counters()[0],
+                x.position,
+                "the board's Position register"
+            );
+        }
+        assert!(x.position <= 400, "{pins:?}: crossed the soft limit: {x:?}");
+        assert!(x.position >= 300, "{pins:?}: stopped far short: {x:?}");
+        (x.state, x.fault)
+    });
+    assert_eq!(got, (AxisState::Idle, None));
+}

@@ -112,6 +112,11 @@ pub trait BoardBackend: Send {
     fn tracker(&mut self, _axis: usize) -> Option<&mut TrackSource> {
         None
     }
+    /// Steps of `axis` already committed beyond its count: a stop asked for now makes
+    /// them before its ramp (a board fed a lead of its stream; none on a simulated board).
+    fn steps_ahead(&self, _axis: usize) -> u64 {
+        0
+    }
     /// Reports every step of `axis` as [`PinEvent::Step`] while `on` (a tracking axis
     /// watching its soft limit).
     fn watch_steps(&mut self, _axis: usize, _on: bool) {}

@@ -920,6 +920,13 @@ impl BoardBackend for FpgaBackend {
         self.axes[axis].feed.as_mut()?.tracker()
     }
 
+    fn steps_ahead(&self, axis: usize) -> u64 {
+        let ax = &self.axes[axis];
+        ax.feed.as_ref().map_or(0, |f| {
+            f.committed_ahead((ax.count - f.count0).unsigned_abs())
+        })
+    }
+
     fn watch_steps(&mut self, axis: usize, on: bool) {
         self.axes[axis].watch = on;
     }

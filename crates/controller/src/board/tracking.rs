@@ -186,6 +186,7 @@ impl Board {
             return Ok(());
         };
         let dir = m.dir;
+        let ahead = self.pins.steps_ahead(i);
         let Some(src) = self.pins.tracker(i) else {
             return Ok(());
         };
@@ -208,7 +209,7 @@ impl Board {
         let forward = (dir < 0) == negative || rate.is_zero();
         let step_rate = if forward { rate } else { Rate::ZERO };
         // one step may be taken already (the board looks one edge ahead)
-        let bound = src.stop_bound_after(step_rate)? + 1;
+        let bound = (src.stop_bound_after(step_rate)? + 1).saturating_add(ahead);
         self.check_room(i, dir, bound)?;
         let ax = &mut self.axes[i];
         let Some(m) = ax.motion.as_mut() else {
@@ -280,7 +281,12 @@ impl Board {
         }
         let dir = m.dir;
         let bound = self.pins.tracker(i).map_or(0, |s| s.stop_steps_bound());
-        if self.room(i, dir).is_some_and(|room| room <= bound as i64) {
+        // a board's stream is coded ahead of its count: the stop begins after that
+        let bound = bound.saturating_add(self.pins.steps_ahead(i));
+        if self
+            .room(i, dir)
+            .is_some_and(|room| room <= bound.min(i64::MAX as u64) as i64)
+        {
             self.stop_tracking(i);
         }
     }

@@ -150,6 +150,16 @@ impl Feed {
         self.pending.drain(..n).collect()
     }
 
+    /// Steps a stop asked for now still makes before its ramp when the board has made
+    /// `done`: those coded already and those the next fill may code before the host looks
+    /// again.
+    pub fn committed_ahead(&self, done: u64) -> u64 {
+        let lead = self.lead_limit(done).saturating_sub(done);
+        self.coded()
+            .saturating_sub(done)
+            .saturating_add(lead.min(u64::MAX / 2))
+    }
+
     /// Steps a tracking stream may have coded when the board has made `done`.
     pub fn lead_limit(&self, done: u64) -> u64 {
         if !self.open {
