@@ -756,3 +756,59 @@ fn tracking_stops_before_the_soft_limit_on_both_backends() {
     });
     assert_eq!(got, (AxisState::Idle, None));
 }
+
+#[test]
+fn a_periodic_axis_wraps_while_it_tracks_on_both_backends() {
+    // the board's counter is not writable while the axis runs: the host wraps its reading
+    // and writes the counter once the axis rests
+    let text = config().replacen("vmax = 4000.0", "period = 500\nvmax = 4000.0", 1);
+    on_both(|pins| {
+        let mut r = Rig::with_config(pins, &text);
+        r.req("track X 3000");
+        let t0 = Instant::now();
+        while r.status("X").speed < 2999.0 {
+            assert!(
+                t0.elapsed().as_secs() < 60,
+                "{pins:?}: never reached the rate"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        // until the count wraps (it comes back below where it was)
+        let mut last = r.status("X").position;
+        let mid = loop {
+            let s = r.status("X");
+            assert!((0..500).contains(&s.position), "{pins:?}: {s:?}");
+            if s.position < last {
+                break s;
+            }
+            last = s.position;
+            assert!(t0.elapsed().as_secs() < 120, "{pins:?}: never wrapped");
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        r.req("stop X");
+        let x = r.wait_idle("X");
+        assert!((0..500).contains(&x.position), "{pins:?}: {x:?}");
+        assert_eq!(
+            (x.state, x.trusted),
+            (AxisState::Idle, mid.trusted),
+            "{x:?}"
+        );
+        if pins == Pins::Hil {
+            let rises = r.move_edges([0, 0], 501)[0].len() as i64;
+            assert!(
+                rises > 500,
+                "the axis turned less than a period: {rises} steps"
+            );
+            assert_eq!(
+                x.position,
+                rises % 500,
+                "the wrapped count of {rises} steps"
+            );
+            assert_eq!(
+                r.check_counters()[0],
+                x.position,
+                "the board's Position register"
+            );
+        }
+    });
+}

@@ -123,6 +123,10 @@ struct Running {
 
 struct FpgaAxis {
     count: i64,
+    /// Added to the board's `Position` while the axis runs: a periodic axis wraps its
+    /// count mid-motion, when the board's counter cannot be written (it is written, and
+    /// this folded into it, once the axis rests).
+    offset: i64,
     sensor: bool,
     speed: f64,
     running: Option<Running>,
@@ -202,6 +206,7 @@ impl FpgaBackend {
             axes: (0..axes)
                 .map(|_| FpgaAxis {
                     count: 0,
+                    offset: 0,
                     sensor: false,
                     speed: 0.0,
                     running: None,
@@ -332,15 +337,15 @@ impl FpgaBackend {
             let a = i as u32;
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let st = l.axis_state(a)?;
-            let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64;
             let ax = &mut self.axes[i];
+            let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + ax.offset;
             ax.count = count;
             ax.sensor = st.hall;
             let Some(r) = ax.running.as_mut() else {
                 continue;
             };
             if st.hall_flag {
-                let hp = l.read(Reg::Axis(a, AxisReg::HallPosition))? as i32 as i64;
+                let hp = l.read(Reg::Axis(a, AxisReg::HallPosition))? as i32 as i64 + ax.offset;
                 l.write(Reg::Board(BoardReg::Clear), 1 << a)?;
                 let trigger = !r.stopping && r.stop_on_sensor == Some(true);
                 r.stopping |= trigger;
@@ -364,7 +369,7 @@ impl FpgaBackend {
                 // axis halts at once (homing speed).
                 l.write(Reg::Board(BoardReg::Stop), 1 << a)?;
                 r.stopping = true;
-                let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64;
+                let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + ax.offset;
                 ax.count = count;
                 let edge = FilteredEdge {
                     tick: self.now,
@@ -398,6 +403,11 @@ impl FpgaBackend {
                 let ax = &mut self.axes[i];
                 ax.running = None;
                 ax.speed = 0.0;
+                if ax.offset != 0 {
+                    // at rest: the board's counter takes the wrapped count
+                    l.write(Reg::Axis(a, AxisReg::Position), ax.count as i32 as u32)?;
+                    ax.offset = 0;
+                }
                 let feed = ax.feed.take();
                 self.events.push_back((i, PinEvent::End { end: self.now }));
                 if let Some(f) = &feed {
@@ -436,6 +446,7 @@ impl FpgaBackend {
             let count = l.read(Reg::Axis(i as u32, AxisReg::Position))? as i32 as i64;
             let ax = &mut self.axes[i];
             ax.feed = None;
+            ax.offset = 0;
             let moved = ax.running.take().is_some();
             if moved || count != ax.count {
                 let why = format!(
@@ -975,7 +986,7 @@ impl BoardBackend for FpgaBackend {
         match r {
             Ok(p) => {
                 let ax = &mut self.axes[axis];
-                ax.count = p as i32 as i64;
+                ax.count = p as i32 as i64 + ax.offset;
                 if let Some(r) = ax.running.as_mut() {
                     r.stopping = true;
                 }
@@ -1053,7 +1064,17 @@ impl BoardBackend for FpgaBackend {
     }
 
     fn rebase(&mut self, axis: usize, delta: i64, _mechanics: bool) -> Result<(), CtlError> {
-        let to = self.axes[axis].count + delta;
+        let ax = &mut self.axes[axis];
+        if ax.running.is_some() {
+            // the counter runs (and is not writable): the host shifts its reading
+            ax.offset += delta;
+            ax.count += delta;
+            if let Some(f) = ax.feed.as_mut() {
+                f.count0 += delta;
+            }
+            return Ok(());
+        }
+        let to = ax.count + delta;
         let v = i32::try_from(to).map_err(|_| {
             CtlError::Setting(format!("the board's 32-bit counter cannot hold {to}"))
         })?;
