@@ -794,11 +794,23 @@ fn a_periodic_axis_wraps_while_it_tracks_on_both_backends() {
             "{x:?}"
         );
         if pins == Pins::Hil {
-            let rises = r.move_edges([0, 0], 501)[0].len() as i64;
+            let edges = r.move_edges([0, 0], 501)[0].clone();
+            let rises = edges.len() as i64;
             assert!(
                 rises > 500,
                 "the axis turned less than a period: {rises} steps"
             );
+            // up to the stop, the board's edges are `plan --track 3000 --amax 40000`'s
+            let limits = multistep_core::TrackLimits {
+                amax: 40_000.0,
+                jmax: None,
+            };
+            let rate = multistep_core::Rate::parse("3000").unwrap();
+            let plan: Vec<u64> = multistep_core::Tracker::new(50e6, limits, 0.0, rate)
+                .unwrap()
+                .take(500)
+                .collect();
+            assert_eq!(edges[..500], plan[..], "the board's first 500 edges");
             assert_eq!(
                 x.position,
                 rises % 500,
