@@ -122,7 +122,9 @@ pub enum BoardReg {
     Baud = 0x04,
     /// R: the session value: the clock count at the first start bit after a reset.
     Session = 0x05,
-    /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 31:16 bad frames.
+    /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 3 the pending group
+    /// is armed (waits for SYNC), 4 the SYNC edge came before the armed group was ready,
+    /// 5 the SYNC line (synchronized), 6 the armed group is ready, 31:16 bad frames.
     Status = 0x06,
     /// R: busy axes.
     Busy = 0x07,
@@ -148,6 +150,14 @@ pub enum BoardReg {
     LimitStop = 0x11,
     /// W: clear the Hall flag, the stopped and e-stopped flags of these axes.
     Clear = 0x12,
+    /// W: load these axes as one group, as `Start` does, but hold its start for the next
+    /// falling edge of the SYNC line (boards built with SYNC).
+    Arm = 0x13,
+    /// W: pull the SYNC line low for 1 us (at least 4 clocks).
+    Fire = 0x14,
+    /// R: the free-running clock count at the last falling edge of the SYNC line (after
+    /// the synchronizer).
+    SyncTick = 0x15,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).
