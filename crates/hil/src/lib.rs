@@ -356,7 +356,8 @@ impl World {
     fn new(opts: &Options) -> Result<(World, BoardTop), HilError> {
         let b = Board::by_name(&opts.board)?;
         let params = b.params(opts.axes.unwrap_or(b.default_axes))?;
-        let top = BoardTop::new(params, opts.baud.unwrap_or(b.baud));
+        let mut top = BoardTop::new(params, opts.baud.unwrap_or(b.baud));
+        top.sync = b.sync;
         top.widths()?;
         let clock_hz = top.core.clock_hz;
         let motor = Motor::load(&opts.motor)?;

@@ -5,7 +5,7 @@
 //! when missing, unless CI is set).
 
 use multistep_core::int::{IntClock, IntEdgeGenerator, IntLimitsMove, IntProfile};
-use multistep_hdl::link::{move_writes, BoardReg, HostLink, Reg};
+use multistep_hdl::link::{self, move_writes, BoardReg, HostLink, Reg};
 use multistep_hdl::AxisMove;
 use multistep_hil::multi::{BoardClock, MultiBoardSim, MultiOptions};
 use multistep_hil::Options;
@@ -109,13 +109,13 @@ fn two_boards_on_one_sync_line_start_together() {
     let m = AxisMove::from_profile(&prof, true, &p).unwrap();
     for h in &mut l {
         h.write_all(&move_writes(&p, 0, &m, 0).unwrap()).unwrap();
-        h.write(Reg::Board(BoardReg::Arm), 1).unwrap();
+        h.write_all(&[link::arm_write(1)]).unwrap();
     }
-    // armed (bit 3) and ready (bit 6) on both, then fire from board 0
-    for h in &mut l {
-        wait_status(h, 0x48, 0x48);
-    }
-    l[0].write(Reg::Board(BoardReg::Fire), 1).unwrap();
+    // armed and ready on both, then fire from board 0
+    let first = link::fire_armed(&mut l, 0, 10_000, || {
+        std::thread::sleep(Duration::from_millis(5))
+    })
+    .unwrap();
     for h in &mut l {
         wait_status(h, 0x0C, 0);
         let t0 = Instant::now();
@@ -127,10 +127,6 @@ fn two_boards_on_one_sync_line_start_together() {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
-    let first: Vec<u32> = l
-        .iter_mut()
-        .map(|h| h.read(Reg::Board(BoardReg::SyncTick)).unwrap())
-        .collect();
     // a second fire, from board 1, with nothing armed: only the counts
     l[1].write(Reg::Board(BoardReg::Fire), 1).unwrap();
     std::thread::sleep(Duration::from_millis(20));
@@ -171,7 +167,7 @@ fn two_boards_on_one_sync_line_start_together() {
     let c: Vec<BoardClock> = logs.iter().map(|l| edges(l).0).collect();
     let fall = go_ps[0] - 2.5 * period;
     let count = |i: usize| ((fall - c[i].start_ps) / c[i].period_ps).floor() as i64;
-    let offset = i64::from(first[0]) - i64::from(first[1]);
+    let offset = link::sync_offsets(&first)[1];
     assert!(
         (offset - (count(0) - count(1))).abs() <= 1,
         "offset {offset}"
