@@ -287,3 +287,66 @@ fn boards_without_sync_refuse_arm_fire_and_sync_tick() {
         "{name}"
     );
 }
+
+/// A fire before the armed group is ready (here: inside a 20 000-clock DIR setup) starts
+/// it as soon as it is, with Status's late bit; a Stop cancels an armed group, so a later
+/// fire starts nothing.
+#[test]
+fn a_fire_before_ready_starts_late_and_a_stop_cancels_an_armed_group() {
+    let name = "sync-late";
+    let p = params(1);
+    let clock = SimClock {
+        period_ps: 20_000,
+        start_ps: 0,
+    };
+    let boards = [(BoardTop::new(p.clone(), 12_500_000), clock)];
+    let mut rng = Rng(0x5_1c03);
+    let (im, m) = random_move(&mut rng, &p, 100_000, 8_000);
+    let mut h = Host::new(1);
+    h.write(0, Reg::Board(BoardReg::DirSetup), 20_000);
+    for w in move_writes(&p, 0, &m, 0).unwrap() {
+        h.write(0, w.reg, w.data);
+    }
+    h.write(0, Reg::Board(BoardReg::Arm), 1);
+    h.write(0, Reg::Board(BoardReg::Fire), 1);
+    h.s.sync().idle(0);
+    let late = h.read(0, Reg::Board(BoardReg::Status));
+    let tick = h.read(0, Reg::Board(BoardReg::SyncTick));
+    // armed again, stopped, fired: nothing starts
+    for w in move_writes(&p, 0, &m, 0).unwrap() {
+        h.write(0, w.reg, w.data);
+    }
+    h.write(0, Reg::Board(BoardReg::Arm), 1);
+    h.write(0, Reg::Board(BoardReg::Stop), 1);
+    h.write(0, Reg::Board(BoardReg::Fire), 1);
+    h.s.sync().delay_ns(2_000);
+    let after = h.read(0, Reg::Board(BoardReg::Status));
+    h.s.sync();
+    let log = run(&boards, &h.s, name);
+    let rep = answers(&log, &h, 0, name);
+    for (i, r) in rep.iter().enumerate() {
+        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
+    }
+    // late (bit 4), nothing pending or armed, the line idle
+    assert_eq!(rep[late].data & 0x7C, 0x30, "{name}: late status");
+    assert_eq!(rep[after].data & 0x08, 0, "{name}: the stop disarmed");
+    assert_eq!(log.sync_falls.len(), 2, "{name}: two fires");
+    assert_eq!(log.go[0].len(), 1, "{name}: only the first group starts");
+    let (fall, frees) = &log.sync_falls[0];
+    assert_eq!(
+        u64::from(rep[tick].data),
+        frees[0] + SYNC_LAG,
+        "{name}: SyncTick"
+    );
+    let g = log.go[0][0];
+    // the group waited out its DIR setup, far past the fall
+    assert!(
+        g.free > frees[0] + SYNC_LAG + 15_000,
+        "{name}: go {g:?}, fall {frees:?}"
+    );
+    let want: Vec<u64> = IntEdgeGenerator::new(im.profile())
+        .map(|t| g.ps + (t + 1) * clock.period_ps)
+        .collect();
+    assert_eq!(log.rises(0, 0), want, "{name}: rises after the late start");
+    assert!(g.ps > *fall, "{name}");
+}

@@ -358,9 +358,10 @@ module ms_regs #(
     end
     // the DIR setup: the group goes no earlier than dir_setup + n + 2 clocks after the
     // start write (n axes), as the core TDM model's start = max(dir_setup, prefill) from
-    // its tick 0, which is n + 2 clocks after the start write (docs/HDL.md, "Tick 0")
+    // its tick 0, which is n + 2 clocks after the start write (docs/HDL.md, "Tick 0");
+    // an Arm is a start write too (its group then also waits for SYNC)
     always @(posedge clk) begin
-        if (w_board && breg == 8'h09) setup_cnt <= 32'd0;
+        if (w_board && (breg == 8'h09 || breg == 8'h13)) setup_cnt <= 32'd0;
         else if (setup_cnt != 32'hFFFF_FFFF) setup_cnt <= setup_cnt + 1'b1;
     end
     assign sync_oe = sync_en && (fire_cnt != 8'd0);
