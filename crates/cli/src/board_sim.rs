@@ -1,9 +1,11 @@
 //! `multistep board-sim`: the board's RTL in Verilator behind a pseudo-terminal, driving
 //! simulated motors and Hall sensors (hardware in the loop). Prints `pty PATH` first, then
-//! takes one control command per line on stdin.
+//! takes one control command per line on stdin. With `--boards N`, N boards in one
+//! process on one time base, SYNC wired between them: one `pty PATH` line per board.
 
 use anyhow::Context;
 use clap::Args;
+use multistep_hil::multi::{MultiBoardSim, MultiOptions};
 use multistep_hil::{BoardSim, Options, SensorOptions};
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
@@ -66,6 +68,16 @@ pub struct BoardSimArgs {
     /// Where built models are cached (default $XDG_CACHE_HOME/multistep/verilator)
     #[arg(long)]
     cache_dir: Option<PathBuf>,
+    /// Run this many boards (alike) on one time base, their SYNC pins wired together; the
+    /// edge log of board i is FILE.i, control lines take `@i` for board i
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    boards: u32,
+    /// Per board: its clock's rate error in ppm (comma-separated; missing: 0)
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    ppm: Vec<f64>,
+    /// Per board: the instant its clock starts, µs (comma-separated; missing: 0)
+    #[arg(long, value_delimiter = ',')]
+    power_up_us: Vec<f64>,
 }
 
 fn check(what: &str, x: f64, lo: f64, hi: f64) -> anyhow::Result<()> {
@@ -97,20 +109,57 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
         realtime: a.realtime,
         cache_dir: a.cache_dir.clone(),
     };
+    if a.boards > 1 || !a.ppm.is_empty() || !a.power_up_us.is_empty() {
+        if a.realtime {
+            anyhow::bail!("--realtime runs one board only");
+        }
+        let boards = (0..a.boards)
+            .map(|i| Options {
+                edges: a
+                    .edges
+                    .as_ref()
+                    .map(|p| PathBuf::from(format!("{}.{i}", p.display()))),
+                ..opts.clone()
+            })
+            .collect();
+        let sim = MultiBoardSim::start(&MultiOptions {
+            boards,
+            ppm: a.ppm.clone(),
+            power_up_us: a.power_up_us.clone(),
+        })?;
+        let mut out = std::io::stdout().lock();
+        for p in &sim.pty_paths {
+            writeln!(out, "pty {p}")?;
+        }
+        out.flush()?;
+        serve_lines(|l| sim.command(l))?;
+        return Ok(sim.quit()?);
+    }
     let sim = BoardSim::start(&opts)?;
     let mut out = std::io::stdout().lock();
     writeln!(out, "pty {}", sim.pty_path)?;
     out.flush()?;
+    drop(out);
+    serve_lines(|l| sim.command(l))?;
+    Ok(sim.quit()?)
+}
+
+/// Control lines from stdin until `quit` (then returns); at the end of stdin, serves
+/// until killed.
+fn serve_lines(
+    command: impl Fn(&str) -> Result<(Option<String>, bool), multistep_hil::HilError>,
+) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
     for line in std::io::stdin().lock().lines() {
         let line = line.context("reading stdin")?;
-        match sim.command(&line) {
+        match command(&line) {
             Ok((text, stop)) => {
                 if let Some(t) = text {
                     writeln!(out, "{t}")?;
                     out.flush()?;
                 }
                 if stop {
-                    return Ok(sim.quit()?);
+                    return Ok(());
                 }
             }
             Err(e) => eprintln!("error: {e}"),

@@ -30,8 +30,9 @@ fn unknown_board_is_one_error_line() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("1..=4"));
 }
 
-#[test]
-fn prints_the_pty_first_and_takes_commands() {
+/// The model cache of these tests, or None (skipped, with a message) when verilator or
+/// g++ is missing (under CI that fails).
+fn model_cache() -> Option<std::path::PathBuf> {
     let have = ["verilator", "g++"]
         .iter()
         .all(|t| multistep_hdl::tools::find(t, t).is_ok());
@@ -41,9 +42,16 @@ fn prints_the_pty_first_and_takes_commands() {
             "verilator and g++ are needed under CI"
         );
         eprintln!("SKIPPED: verilator or g++ missing (apt-get install -y verilator g++)");
-        return;
+        return None;
     }
-    let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator");
+    Some(std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator"))
+}
+
+#[test]
+fn prints_the_pty_first_and_takes_commands() {
+    let Some(cache) = model_cache() else {
+        return;
+    };
     let mut child = exe()
         .args([
             "board-sim",
@@ -87,4 +95,57 @@ fn prints_the_pty_first_and_takes_commands() {
     std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.starts_with("error: unknown command \"bogus\""), "{err}");
+}
+
+#[test]
+fn two_boards_print_two_ptys_and_take_board_prefixes() {
+    let Some(cache) = model_cache() else {
+        return;
+    };
+    let mut child = exe()
+        .args([
+            "board-sim",
+            "--board",
+            "ulx3s-25f",
+            "--axes",
+            "2",
+            "--boards",
+            "2",
+            "--ppm",
+            "0,-20",
+            "--power-up-us",
+            "0,5",
+        ])
+        .arg("--cache-dir")
+        .arg(&cache)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut paths = Vec::new();
+    for _ in 0..2 {
+        let mut line = String::new();
+        out.read_line(&mut line).unwrap();
+        let p = line.strip_prefix("pty ").expect("pty lines first").trim();
+        assert!(std::path::Path::new(p).exists(), "{p}");
+        paths.push(p.to_string());
+    }
+    assert_ne!(paths[0], paths[1]);
+    let mut stdin = child.stdin.take().unwrap();
+    writeln!(stdin, "@2 state\n@1 slip 0 5\nstate").unwrap();
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    let s: serde_json::Value = serde_json::from_str(&line).unwrap();
+    let boards = s.as_array().unwrap();
+    assert_eq!(boards.len(), 2, "{line}");
+    assert_eq!(boards[0]["axes"][0]["position"], 0.0, "{line}");
+    assert_eq!(boards[1]["axes"][0]["position"], 5.0, "{line}");
+    writeln!(stdin, "quit").unwrap();
+    assert!(child.wait().unwrap().success());
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("no board 2"), "{err}");
 }

@@ -35,6 +35,8 @@ pub struct BoardTop {
     /// Each axis's stream buffer is 2^bits bytes (8..=16), or 0: no replay units (the
     /// board computes trapezoids only).
     pub stream_buffer_bits: u32,
+    /// The SYNC line for cross-board group starts (`Arm`, `Fire`, `SyncTick`).
+    pub sync: bool,
 }
 
 impl BoardTop {
@@ -44,6 +46,7 @@ impl BoardTop {
             baud,
             estop_active_high: true,
             stream_buffer_bits: 9,
+            sync: true,
         }
     }
 
@@ -116,6 +119,7 @@ impl BoardTop {
             ("ESTOP_ACTIVE", u32::from(self.estop_active_high)),
             ("VERSION", u32::from(crate::link::crate_version())),
             ("LB", self.stream_buffer_bits),
+            ("SYNC", u32::from(self.sync)),
         ])
     }
 

@@ -218,7 +218,7 @@ module tb;
     wire [3:0] led;
     ms_board {params} dut (.clk(clk), .rst_n_async(rst_n), .uart_rx(rx), .uart_tx(tx),
         .estop_in(estop), .hall_in(hall), .limit_in(limit), .step_out(step), .dir_out(dir),
-        .enable_out(en), .led(led));
+        .enable_out(en), .led(led), .sync_in(1'b1), .sync_oe());
     integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0, gocycle = 0;
     reg [8*8-1:0] cmd;
     reg [{k1}:0] pstep, pdir, pen, phs, pls;
@@ -452,10 +452,12 @@ pub fn lint(b: &BoardTop, dir: &Path) -> Result<(), HdlError> {
          \x20   input wire clk, input wire rst_n_async, input wire uart_rx, output wire uart_tx,\n\
          \x20   input wire estop_in, input wire [{k1}:0] hall_in, input wire [{k1}:0] limit_in,\n\
          \x20   output wire [{k1}:0] step_out, output wire [{k1}:0] dir_out,\n\
-         \x20   output wire [{k1}:0] enable_out, output wire [3:0] led);\n\
+         \x20   output wire [{k1}:0] enable_out, output wire [3:0] led,\n\
+         \x20   input wire sync_in, output wire sync_oe);\n\
          \x20   ms_board {} u (.clk(clk), .rst_n_async(rst_n_async), .uart_rx(uart_rx),\n\
          \x20       .uart_tx(uart_tx), .estop_in(estop_in), .hall_in(hall_in), .limit_in(limit_in),\n\
-         \x20       .step_out(step_out), .dir_out(dir_out), .enable_out(enable_out), .led(led));\n\
+         \x20       .step_out(step_out), .dir_out(dir_out), .enable_out(enable_out), .led(led),\n\
+         \x20       .sync_in(sync_in), .sync_oe(sync_oe));\n\
          endmodule\n",
         b.verilog_params()?
     );

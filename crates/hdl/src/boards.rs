@@ -105,6 +105,8 @@ pub struct Board {
     /// Each axis's stream buffer: 2^bits bytes (0: no replay units, no streamed moves).
     #[serde(skip)]
     pub stream_buffer_bits: u32,
+    /// The SYNC line's logic (`Arm`, `Fire`, `SyncTick`; docs/HDL.md, "Cross-board start").
+    pub sync: bool,
 }
 
 /// Every supported board.
@@ -140,6 +142,7 @@ pub const BOARDS: [Board; 2] = [
         constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
         top: "ms_ulx3s_top",
         stream_buffer_bits: 9,
+        sync: true,
     },
     Board {
         name: "icebreaker",
@@ -175,6 +178,8 @@ pub const BOARDS: [Board; 2] = [
         top: "ms_icebreaker_top",
         // the UP5K is full with two computing axes
         stream_buffer_bits: 0,
+        // 115 more logic cells (5054 of 5280) leave the placer crawling: left out
+        sync: false,
     },
 ];
 
@@ -183,6 +188,7 @@ impl Board {
     pub fn board_top(&self, params: &crate::CoreParams) -> crate::BoardTop {
         crate::BoardTop {
             stream_buffer_bits: self.stream_buffer_bits,
+            sync: self.sync,
             ..crate::BoardTop::new(params.clone(), self.baud)
         }
     }

@@ -147,7 +147,9 @@ pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
          \x20   input  wire [{m1}:0]   limit,\n\
          \x20   output wire [{m1}:0]   step,\n\
          \x20   output wire [{m1}:0]   dir,\n\
-         \x20   output wire [{m1}:0]   enable\n\
+         \x20   output wire [{m1}:0]   enable,\n\
+         \x20   // open drain, pulled up: the cross-board start (docs/HDL.md, \"Cross-board start\")\n\
+         \x20   inout  wire         sync\n\
          );\n\
          \x20   wire clk, locked;\n",
         env!("CARGO_PKG_VERSION"),
@@ -165,13 +167,16 @@ pub fn wrapper(b: &Board, params: &CoreParams) -> Result<String, HdlError> {
         s,
         "    wire [{k1}:0] step_k, dir_k, enable_k;\n\
          \x20   wire [3:0] led_k;\n\
+         \x20   wire sync_oe;\n\
          \x20   /* verilator lint_off UNUSED */\n\
          \x20   wire [{m1}:0] hall_w = hall, limit_w = limit;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   ms_board {board_params} u_board (\n\
          \x20       .clk(clk), .rst_n_async({rst_n}), .uart_rx(uart_rx), .uart_tx(uart_tx),\n\
          \x20       .estop_in(estop), .hall_in(hall_w[{k1}:0]), .limit_in(limit_w[{k1}:0]),\n\
-         \x20       .step_out(step_k), .dir_out(dir_k), .enable_out(enable_k), .led(led_k));\n\
+         \x20       .step_out(step_k), .dir_out(dir_k), .enable_out(enable_k), .led(led_k),\n\
+         \x20       .sync_in(sync), .sync_oe(sync_oe));\n\
+         \x20   assign sync   = sync_oe ? 1'b0 : 1'bz;\n\
          \x20   assign step   = {};\n\
          \x20   assign dir    = {};\n\
          \x20   assign enable = {};\n",

@@ -14,6 +14,7 @@ mod params;
 pub mod pnr;
 pub mod report;
 pub mod stream;
+pub mod sync_sim;
 pub mod testbench;
 pub mod tools;
 pub mod verilator;

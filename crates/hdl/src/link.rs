@@ -122,7 +122,9 @@ pub enum BoardReg {
     Baud = 0x04,
     /// R: the session value: the clock count at the first start bit after a reset.
     Session = 0x05,
-    /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 31:16 bad frames.
+    /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 3 the pending group
+    /// is armed (waits for SYNC), 4 the SYNC edge came before the armed group was ready,
+    /// 5 the SYNC line (synchronized), 6 the armed group is ready, 31:16 bad frames.
     Status = 0x06,
     /// R: busy axes.
     Busy = 0x07,
@@ -148,6 +150,14 @@ pub enum BoardReg {
     LimitStop = 0x11,
     /// W: clear the Hall flag, the stopped and e-stopped flags of these axes.
     Clear = 0x12,
+    /// W: load these axes as one group, as `Start` does, but hold its start for the next
+    /// falling edge of the SYNC line (boards built with SYNC).
+    Arm = 0x13,
+    /// W: pull the SYNC line low for 1 us (at least 4 clocks).
+    Fire = 0x14,
+    /// R: the free-running clock count at the last falling edge of the SYNC line (after
+    /// the synchronizer).
+    SyncTick = 0x15,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).
@@ -720,6 +730,81 @@ pub fn start_write(axes: u32) -> RegWrite {
     }
 }
 
+/// The write that arms `axes` (a mask) as one group, to start at the next SYNC edge.
+pub fn arm_write(axes: u32) -> RegWrite {
+    RegWrite {
+        reg: Reg::Board(BoardReg::Arm),
+        data: axes,
+    }
+}
+
+/// `Status` bits of the cross-board start (docs/HDL.md, "Cross-board start").
+pub mod status_bits {
+    /// A group waits for its start.
+    pub const PENDING: u32 = 1 << 2;
+    /// That group is armed: it waits for the SYNC edge.
+    pub const ARMED: u32 = 1 << 3;
+    /// The last SYNC edge came before the armed group was ready.
+    pub const LATE: u32 = 1 << 4;
+    /// The SYNC line, synchronized (1: idle).
+    pub const SYNC_LINE: u32 = 1 << 5;
+    /// The armed group is ready (prefilled, past its DIR setup).
+    pub const READY: u32 = 1 << 6;
+}
+
+/// Each board's clock relative to the first board's at one instant (the SYNC edge): board
+/// j's `SyncTick` subtracted from board 0's, in ticks (modulo 2^32, as a signed offset).
+pub fn sync_offsets(sync_ticks: &[u32]) -> Vec<i64> {
+    let first = sync_ticks.first().copied().unwrap_or(0);
+    sync_ticks
+        .iter()
+        .map(|&t| i64::from(first.wrapping_sub(t) as i32))
+        .collect()
+}
+
+/// Starts the groups armed on several boards (wired to one SYNC line) at one instant:
+/// polls every board's `Status` (at most `polls` reads each, calling `pause` between
+/// them) until its armed group is ready, writes `Fire` to board `firer`, and returns every
+/// board's `SyncTick`. A board whose group is not armed, or not ready after `polls`
+/// reads, is an error before anything fires.
+pub fn fire_armed<T: std::io::Read + std::io::Write>(
+    links: &mut [HostLink<T>],
+    firer: usize,
+    polls: u32,
+    mut pause: impl FnMut(),
+) -> Result<Vec<u32>, LinkError> {
+    if firer >= links.len() {
+        return Err(LinkError::Move(format!(
+            "board {firer} fires, but there are {} boards",
+            links.len()
+        )));
+    }
+    for (i, l) in links.iter_mut().enumerate() {
+        let mut n = 0;
+        loop {
+            let s = l.read(Reg::Board(BoardReg::Status))?;
+            if s & status_bits::ARMED == 0 {
+                return Err(LinkError::Move(format!("board {i}: no group armed")));
+            }
+            if s & status_bits::READY != 0 {
+                break;
+            }
+            n += 1;
+            if n >= polls {
+                return Err(LinkError::Move(format!(
+                    "board {i}: the armed group is not ready after {polls} reads"
+                )));
+            }
+            pause();
+        }
+    }
+    links[firer].write(Reg::Board(BoardReg::Fire), 1)?;
+    links
+        .iter_mut()
+        .map(|l| l.read(Reg::Board(BoardReg::SyncTick)))
+        .collect()
+}
+
 /// Numbers the writes as request frames from sequence number `seq` on (wrapping).
 pub fn requests(writes: &[RegWrite], seq: u8) -> Vec<Request> {
     writes
@@ -1037,6 +1122,44 @@ mod tests {
             out: Vec::new(),
             corrupt,
         })
+    }
+
+    #[test]
+    fn sync_offsets_are_signed_and_wrap() {
+        assert_eq!(sync_offsets(&[1000, 0, 2000]), vec![0, 1000, -1000]);
+        assert_eq!(sync_offsets(&[5, u32::MAX - 4]), vec![0, 10]);
+        assert!(sync_offsets(&[]).is_empty());
+    }
+
+    #[test]
+    fn fire_armed_waits_for_ready_then_fires_one_board() {
+        let board = |status: u32, tick: u32| {
+            let mut l = fake(false);
+            l.io.regs.insert(0x06, status);
+            l.io.regs.insert(0x14, 0);
+            l.io.regs.insert(0x15, tick);
+            l
+        };
+        let armed = status_bits::PENDING | status_bits::ARMED | status_bits::SYNC_LINE;
+        let ready = armed | status_bits::READY;
+        let mut ls = vec![board(ready, 7000), board(ready, 1000)];
+        assert_eq!(fire_armed(&mut ls, 1, 3, || {}), Ok(vec![7000, 1000]));
+        assert_eq!(ls[1].io.regs[&0x14], 1, "board 1 fired");
+        assert_eq!(ls[0].io.regs[&0x14], 0, "board 0 did not");
+        // never ready: polls reads, then an error, nothing fired
+        let mut ls = vec![board(ready, 0), board(armed, 0)];
+        let mut pauses = 0;
+        assert!(matches!(
+            fire_armed(&mut ls, 0, 3, || pauses += 1),
+            Err(LinkError::Move(m)) if m.contains("board 1") && m.contains("not ready")
+        ));
+        assert_eq!((pauses, ls[0].io.regs[&0x14]), (2, 0));
+        // not armed, and a firer out of range
+        let mut ls = vec![board(status_bits::SYNC_LINE, 0)];
+        assert!(
+            matches!(fire_armed(&mut ls, 0, 3, || {}), Err(LinkError::Move(m)) if m.contains("no group armed"))
+        );
+        assert!(fire_armed(&mut ls, 1, 3, || {}).is_err());
     }
 
     #[test]

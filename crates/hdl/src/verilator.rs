@@ -55,7 +55,8 @@ struct MsHil {
 static uint64_t watch_word(const Vms_board_hil* t) {
     return (uint64_t)t->step_out | ((uint64_t)t->dir_out << 8) |
            ((uint64_t)t->enable_out << 16) | ((uint64_t)t->uart_tx << 24) |
-           ((uint64_t)t->go << 25) | ((uint64_t)t->active << 26);
+           ((uint64_t)t->go << 25) | ((uint64_t)t->active << 26) |
+           ((uint64_t)t->sync_oe << 27);
 }
 
 extern "C" {
@@ -69,6 +70,7 @@ void* ms_hil_create() {
     s->top->estop_in = 0;
     s->top->hall_in = 0;
     s->top->limit_in = 0;
+    s->top->sync_in = 1;
     s->top->eval();
     return s;
 }
@@ -83,13 +85,14 @@ void ms_hil_destroy(void* p) {
 // Inputs change between clock edges (the clock is low); the combinational e-stop gate on
 // STEP follows at once.
 void ms_hil_set_inputs(void* p, uint32_t rst_n, uint32_t rx, uint32_t estop, uint32_t hall,
-                       uint32_t limit) {
+                       uint32_t limit, uint32_t sync) {
     MsHil* s = (MsHil*)p;
     s->top->rst_n_async = rst_n & 1;
     s->top->uart_rx = rx & 1;
     s->top->estop_in = estop & 1;
     s->top->hall_in = hall;
     s->top->limit_in = limit;
+    s->top->sync_in = sync & 1;
     s->top->eval();
 }
 
@@ -130,6 +133,8 @@ pub mod watch {
     pub const UART_TX: u64 = 1 << 24;
     pub const GO: u64 = 1 << 25;
     pub const ACTIVE: u64 = 1 << 26;
+    /// The board pulls the SYNC line low.
+    pub const SYNC_OE: u64 = 1 << 27;
 }
 
 /// The Verilog top the model is built from: `ms_board` with the board's parameters, plus
@@ -153,11 +158,12 @@ pub fn hil_top(b: &BoardTop) -> Result<String, HdlError> {
          \x20   input wire estop_in, input wire [{k1}:0] hall_in, input wire [{k1}:0] limit_in,\n\
          \x20   output wire [{k1}:0] step_out, output wire [{k1}:0] dir_out,\n\
          \x20   output wire [{k1}:0] enable_out, output wire go, output wire active,\n\
-         \x20   output wire [{wd1}:0] debounce);\n\
+         \x20   output wire [{wd1}:0] debounce, input wire sync_in, output wire sync_oe);\n\
          \x20   wire [3:0] led;\n\
          \x20   ms_board {} u (.clk(clk), .rst_n_async(rst_n_async), .uart_rx(uart_rx),\n\
          \x20       .uart_tx(uart_tx), .estop_in(estop_in), .hall_in(hall_in), .limit_in(limit_in),\n\
-         \x20       .step_out(step_out), .dir_out(dir_out), .enable_out(enable_out), .led(led));\n\
+         \x20       .step_out(step_out), .dir_out(dir_out), .enable_out(enable_out), .led(led),\n\
+         \x20       .sync_in(sync_in), .sync_oe(sync_oe));\n\
          \x20   assign go = u.go;\n\
          \x20   assign debounce = u.debounce;\n\
          \x20   assign active = (|u.busy) | u.pending | u.rx_busy | u.tx_busy\n\
@@ -295,7 +301,7 @@ fn verilator_root() -> Result<PathBuf, HdlError> {
 
 type CreateFn = unsafe extern "C" fn() -> *mut std::ffi::c_void;
 type DestroyFn = unsafe extern "C" fn(*mut std::ffi::c_void);
-type SetFn = unsafe extern "C" fn(*mut std::ffi::c_void, u32, u32, u32, u32, u32);
+type SetFn = unsafe extern "C" fn(*mut std::ffi::c_void, u32, u32, u32, u32, u32, u32);
 type RunFn = unsafe extern "C" fn(*mut std::ffi::c_void, u64, u64) -> u64;
 type OutFn = unsafe extern "C" fn(*mut std::ffi::c_void, *mut u64);
 
@@ -309,6 +315,8 @@ pub struct Inputs {
     /// Bit a: axis a's Hall input.
     pub hall: u32,
     pub limit: u32,
+    /// The SYNC line's level (idle high: the pull-up).
+    pub sync: bool,
 }
 
 impl Default for Inputs {
@@ -319,6 +327,7 @@ impl Default for Inputs {
             estop: false,
             hall: 0,
             limit: 0,
+            sync: true,
         }
     }
 }
@@ -352,6 +361,9 @@ impl Outputs {
     }
     pub fn active(&self) -> bool {
         self.word & watch::ACTIVE != 0
+    }
+    pub fn sync_oe(&self) -> bool {
+        self.word & watch::SYNC_OE != 0
     }
 }
 
@@ -430,6 +442,7 @@ impl VerilatedBoard {
                 u32::from(i.estop),
                 i.hall & m,
                 i.limit & m,
+                u32::from(i.sync),
             )
         }
     }

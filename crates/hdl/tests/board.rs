@@ -749,6 +749,11 @@ fn board_lint_is_clean() {
         multistep_hdl::board_sim::lint(&board(params(k), 3_000_000), dir.path())
             .unwrap_or_else(|e| panic!("K = {k}: {e}"));
     }
+    // without the SYNC line (Arm, Fire and SyncTick left out)
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = board(params(2), 3_000_000);
+    b.sync = false;
+    multistep_hdl::board_sim::lint(&b, dir.path()).unwrap_or_else(|e| panic!("no SYNC: {e}"));
 }
 
 /// One group at a time: a start while another group waits for its start (here: for its

@@ -10,6 +10,7 @@
 //! something: the board cannot tell, since nothing in it changes while it waits.
 
 pub mod axis;
+pub mod multi;
 pub mod pty;
 pub mod uart;
 
@@ -171,71 +172,9 @@ const POWER_ON_CYCLES: u64 = 64;
 impl BoardSim {
     /// Builds (or loads from the cache) the board's model and starts it in a thread.
     pub fn start(opts: &Options) -> Result<BoardSim, HilError> {
-        let b = Board::by_name(&opts.board)?;
-        let params = b.params(opts.axes.unwrap_or(b.default_axes))?;
-        // the board's own build: its stream buffers (none on the iCEBreaker) included
-        let top = BoardTop {
-            baud: opts.baud.unwrap_or(b.baud),
-            ..b.board_top(&params)
-        };
-        top.widths()?;
-        let clock_hz = top.core.clock_hz;
-        let motor = Motor::load(&opts.motor)?;
-        let mut cfg = SimConfig::for_motor(&motor);
-        cfg.driver.microsteps = opts.microsteps;
-        let k = top.core.axes as usize;
-        let mut axes = Vec::with_capacity(k);
-        for a in 0..k {
-            let s = opts
-                .sensors
-                .get(a)
-                .or(opts.sensors.last())
-                .cloned()
-                .unwrap_or_default();
-            if !(s.home_dir == 1 || s.home_dir == -1) {
-                return Err(HilError::Setting(format!(
-                    "home_dir must be 1 or -1, got {}",
-                    s.home_dir
-                )));
-            }
-            let m = Incremental::new(&motor, &cfg, clock_hz)?;
-            axes.push(SimAxis::new(m, &s.settings(clock_hz), clock_hz));
-        }
-        let edges = match &opts.edges {
-            Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p).map_err(
-                |e| HilError::Io {
-                    what: p.display().to_string(),
-                    source: e,
-                },
-            )?)),
-            None => None,
-        };
-        let cache = opts.cache_dir.clone().unwrap_or_else(default_cache_dir);
-        let model = VerilatedBoard::new(&top, &cache)?;
-        let pty = pty::Pty::open().map_err(|e| HilError::Io {
-            what: "pseudo-terminal".into(),
-            source: e,
-        })?;
-        let pty_path = pty.path.clone();
+        let (mut world, top) = World::new(opts)?;
+        let pty_path = world.pty.path.clone();
         let (tx, rx) = mpsc::channel();
-        let mut world = World {
-            inputs: Inputs::default(),
-            estop: false,
-            rx_line: uart::RxLine::new(clock_hz, f64::from(top.baud)),
-            tx_dec: uart::TxDecoder::new(top.div()),
-            model,
-            pty,
-            axes,
-            edges,
-            clock_hz,
-            cut: false,
-            reset_until: 0,
-            settle_until: 0,
-            host: Vec::new(),
-            realtime: opts.realtime.then(Instant::now),
-            last: 0,
-            quit: false,
-        };
         world.power_on();
         let thread = std::thread::Builder::new()
             .name("board-sim".into())
@@ -314,38 +253,62 @@ impl BoardSim {
     /// STEPS`, `glitch AXIS`, `state`, `quit`); returns what to print (state: one JSON
     /// line) and whether to stop.
     pub fn command(&self, line: &str) -> Result<(Option<String>, bool), HilError> {
-        let w: Vec<&str> = line.split_whitespace().collect();
-        let num = |i: usize| -> Result<i64, HilError> {
-            w.get(i).and_then(|s| s.parse().ok()).ok_or_else(|| {
-                HilError::Setting(format!("{line:?}: argument {i} must be an integer"))
-            })
-        };
-        let axis = |i: usize| -> Result<usize, HilError> {
-            usize::try_from(num(i)?).map_err(|_| HilError::Setting(format!("{line:?}: bad axis")))
-        };
-        match w.as_slice() {
-            [] => {}
-            ["estop", "on"] => self.estop(true)?,
-            ["estop", "off"] => self.estop(false)?,
-            ["reset"] => self.reset()?,
-            ["cut"] => self.cut()?,
-            ["restore"] => self.restore()?,
-            ["slip", _, _] => self.slip(axis(1)?, num(2)?)?,
-            ["glitch", _] => self.glitch(axis(1)?)?,
-            ["state"] => {
+        match parse_command(line, self.board.core.axes as usize)? {
+            Cmd::None => {}
+            Cmd::Control(c) => self.send(c)?,
+            Cmd::State => {
                 let s = self.state()?;
                 let j = serde_json::to_string(&s).map_err(|e| HilError::Setting(e.to_string()))?;
                 return Ok((Some(j), false));
             }
-            ["quit"] => return Ok((None, true)),
-            _ => {
-                return Err(HilError::Setting(format!(
-                    "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, state, quit)"
-                )))
-            }
+            Cmd::Quit => return Ok((None, true)),
         }
         Ok((None, false))
     }
+}
+
+/// A control line, parsed.
+enum Cmd {
+    None,
+    Control(Control),
+    State,
+    Quit,
+}
+
+fn parse_command(line: &str, axes: usize) -> Result<Cmd, HilError> {
+    let w: Vec<&str> = line.split_whitespace().collect();
+    let num = |i: usize| -> Result<i64, HilError> {
+        w.get(i)
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| HilError::Setting(format!("{line:?}: argument {i} must be an integer")))
+    };
+    let axis = |i: usize| -> Result<usize, HilError> {
+        let a = usize::try_from(num(i)?)
+            .map_err(|_| HilError::Setting(format!("{line:?}: bad axis")))?;
+        if a >= axes {
+            return Err(HilError::Setting(format!(
+                "axis {a} out of range (the board has {axes})"
+            )));
+        }
+        Ok(a)
+    };
+    Ok(match w.as_slice() {
+        [] => Cmd::None,
+        ["estop", "on"] => Cmd::Control(Control::Estop(true)),
+        ["estop", "off"] => Cmd::Control(Control::Estop(false)),
+        ["reset"] => Cmd::Control(Control::Reset),
+        ["cut"] => Cmd::Control(Control::Cut(true)),
+        ["restore"] => Cmd::Control(Control::Cut(false)),
+        ["slip", _, _] => Cmd::Control(Control::Slip(axis(1)?, num(2)?)),
+        ["glitch", _] => Cmd::Control(Control::Glitch(axis(1)?)),
+        ["state"] => Cmd::State,
+        ["quit"] => Cmd::Quit,
+        _ => {
+            return Err(HilError::Setting(format!(
+                "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, state, quit)"
+            )))
+        }
+    })
 }
 
 impl Drop for BoardSim {
@@ -378,6 +341,8 @@ struct World {
     /// The watch word after the last run.
     last: u64,
     quit: bool,
+    /// The SYNC line's level (boards run together: [`multi`]).
+    sync_in: bool,
 }
 
 /// While motors move, the world is stepped at least this often (cycles): the sensor sees
@@ -387,6 +352,75 @@ fn world_step(clock_hz: f64) -> u64 {
 }
 
 impl World {
+    /// The board's model (built or loaded from the cache), its pty and its axes.
+    fn new(opts: &Options) -> Result<(World, BoardTop), HilError> {
+        let b = Board::by_name(&opts.board)?;
+        let params = b.params(opts.axes.unwrap_or(b.default_axes))?;
+        // the board's own build: its stream buffers (none on the iCEBreaker) and SYNC
+        let top = BoardTop {
+            baud: opts.baud.unwrap_or(b.baud),
+            ..b.board_top(&params)
+        };
+        top.widths()?;
+        let clock_hz = top.core.clock_hz;
+        let motor = Motor::load(&opts.motor)?;
+        let mut cfg = SimConfig::for_motor(&motor);
+        cfg.driver.microsteps = opts.microsteps;
+        let k = top.core.axes as usize;
+        let mut axes = Vec::with_capacity(k);
+        for a in 0..k {
+            let s = opts
+                .sensors
+                .get(a)
+                .or(opts.sensors.last())
+                .cloned()
+                .unwrap_or_default();
+            if !(s.home_dir == 1 || s.home_dir == -1) {
+                return Err(HilError::Setting(format!(
+                    "home_dir must be 1 or -1, got {}",
+                    s.home_dir
+                )));
+            }
+            let m = Incremental::new(&motor, &cfg, clock_hz)?;
+            axes.push(SimAxis::new(m, &s.settings(clock_hz), clock_hz));
+        }
+        let edges = match &opts.edges {
+            Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p).map_err(
+                |e| HilError::Io {
+                    what: p.display().to_string(),
+                    source: e,
+                },
+            )?)),
+            None => None,
+        };
+        let cache = opts.cache_dir.clone().unwrap_or_else(default_cache_dir);
+        let model = VerilatedBoard::new(&top, &cache)?;
+        let pty = pty::Pty::open().map_err(|e| HilError::Io {
+            what: "pseudo-terminal".into(),
+            source: e,
+        })?;
+        let world = World {
+            inputs: Inputs::default(),
+            estop: false,
+            rx_line: uart::RxLine::new(clock_hz, f64::from(top.baud)),
+            tx_dec: uart::TxDecoder::new(top.div()),
+            model,
+            pty,
+            axes,
+            edges,
+            clock_hz,
+            cut: false,
+            reset_until: 0,
+            settle_until: 0,
+            host: Vec::new(),
+            realtime: opts.realtime.then(Instant::now),
+            last: 0,
+            quit: false,
+            sync_in: true,
+        };
+        Ok((world, top))
+    }
+
     fn cycle(&self) -> u64 {
         self.model.outputs().cycle
     }
@@ -497,7 +531,7 @@ impl World {
                 self.take_host_bytes();
                 self.pace(cycle);
             }
-            self.step_once(cycle, step);
+            self.step_once(cycle, step, u64::MAX);
         }
         if let Some(f) = self.edges.as_mut() {
             let _ = f.flush();
@@ -515,8 +549,9 @@ impl World {
         }
     }
 
-    /// Sets the inputs for `cycle`, runs the model to the next event, handles its outputs.
-    fn step_once(&mut self, cycle: u64, step: u64) {
+    /// Sets the inputs for `cycle`, runs the model to the next event (or to cycle `cap`),
+    /// handles its outputs.
+    fn step_once(&mut self, cycle: u64, step: u64, cap: u64) {
         // inputs at this cycle
         let mut inp = self.inputs;
         inp.rst_n = cycle >= self.reset_until;
@@ -528,6 +563,7 @@ impl World {
         }
         inp.hall = hall;
         inp.estop = self.estop;
+        inp.sync = self.sync_in;
         if inp.hall != self.inputs.hall {
             self.settle_until = cycle + self.model.outputs().debounce + 16;
         }
@@ -552,8 +588,9 @@ impl World {
         if self.settle_until > cycle {
             until = until.min(self.settle_until);
         }
-        let until = until.max(cycle + 1);
-        let mask = watch::STEP | watch::DIR | watch::ENABLE | watch::UART_TX | watch::GO;
+        let until = until.min(cap).max(cycle + 1);
+        let mask =
+            watch::STEP | watch::DIR | watch::ENABLE | watch::UART_TX | watch::GO | watch::SYNC_OE;
         self.model.run(until - cycle, mask);
         let out = self.model.outputs();
         let now = out.cycle;

@@ -12,6 +12,8 @@ pub struct RxLine {
     queue: VecDeque<u8>,
     /// The byte on the line: its start (cycles) and bits (start, 8 data, stop).
     cur: Option<(f64, [bool; 10])>,
+    /// The end (cycles) of the last byte that left the line.
+    last_end: f64,
 }
 
 impl RxLine {
@@ -20,6 +22,7 @@ impl RxLine {
             bit: clock_hz / baud,
             queue: VecDeque::new(),
             cur: None,
+            last_end: f64::NEG_INFINITY,
         }
     }
 
@@ -56,6 +59,7 @@ impl RxLine {
                     if cycle >= end {
                         // back to back: the next byte starts where this one ends
                         self.cur = None;
+                        self.last_end = end as f64;
                         if let Some(b) = self.queue.pop_front() {
                             let mut nb = [true; 10];
                             nb[0] = false;
@@ -85,6 +89,26 @@ impl RxLine {
                 .find(|&c| c > cycle)
                 .unwrap_or(cycle + 1),
         }
+    }
+
+    /// The earliest cycle at which a byte can complete on the board's side (the start of
+    /// its stop bit; the board samples the bit's middle): infinite with nothing to send.
+    pub fn next_byte_end(&self, cycle: u64) -> f64 {
+        match self.cur {
+            Some((start, _)) => start + 9.0 * self.bit,
+            None if !self.queue.is_empty() => cycle as f64 + 9.0 * self.bit,
+            None => f64::INFINITY,
+        }
+    }
+
+    /// The end (cycles) of the last byte that left the line (−∞ before the first).
+    pub fn last_end(&self) -> f64 {
+        self.last_end
+    }
+
+    /// Clock cycles per bit.
+    pub fn bit(&self) -> f64 {
+        self.bit
     }
 
     /// Drops every byte not yet on the line.

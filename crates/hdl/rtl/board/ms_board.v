@@ -21,8 +21,9 @@ module ms_board #(
     parameter BAUD     = 3000000,
     parameter ESTOP_ACTIVE = 1,        // the level of estop_in that stops (1: high)
     parameter VERSION  = 16'h0001,
-    parameter LB       = 9             // each axis's stream buffer: 2^LB bytes (8..16;
+    parameter LB       = 9,            // each axis's stream buffer: 2^LB bytes (8..16;
                                        // 0: no replay units, streamed moves refused)
+    parameter SYNC     = 1             // 1: the SYNC line (Arm, Fire, SyncTick); 0: none
 ) (
     input  wire         clk,
     input  wire         rst_n_async,
@@ -34,7 +35,9 @@ module ms_board #(
     output wire [K-1:0] step_out,
     output wire [K-1:0] dir_out,
     output wire [K-1:0] enable_out,
-    output wire [3:0]   led
+    output wire [3:0]   led,
+    input  wire         sync_in,       // the shared SYNC line (open drain, pulled up)
+    output wire         sync_oe        // 1: pull SYNC low (the wrapper's tristate)
 );
     localparam DIV = (CLK_HZ + BAUD / 2) / BAUD;
     localparam LBR = (LB == 0) ? 8 : LB;   // the registers' free-count width
@@ -43,10 +46,12 @@ module ms_board #(
     ms_reset u_reset (.clk(clk), .rst_n_async(rst_n_async), .rst(rst));
 
     // ---- synchronizers ----
-    wire         rx_s, estop_s;
+    wire         rx_s, estop_s, sync_s;
     wire [K-1:0] hall_s, limit_s;
     ms_sync #(.W(1), .INIT(1)) u_sync_rx (.clk(clk), .d(uart_rx), .q(rx_s));
     ms_sync #(.W(1), .INIT(ESTOP_ACTIVE)) u_sync_estop (.clk(clk), .d(estop_in), .q(estop_s));
+    // every board, the firing one too, sees SYNC through this synchronizer
+    ms_sync #(.W(1), .INIT(1)) u_sync_line (.clk(clk), .d(sync_in || (SYNC == 0)), .q(sync_s));
     ms_sync #(.W(K), .INIT(0)) u_sync_hall (.clk(clk), .d(hall_in), .q(hall_s));
     ms_sync #(.W(K), .INIT(0)) u_sync_limit (.clk(clk), .d(limit_in), .q(limit_s));
     wire estop_raw = (estop_in == ESTOP_ACTIVE[0]);   // unsynchronized: only gates STEP
@@ -92,7 +97,7 @@ module ms_board #(
     wire [K*(LBR+1)-1:0] s_free;
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
-              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR)) u_regs (
+              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR), .SYNC(SYNC)) u_regs (
         .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
         .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_retarget(s_retarget),
         .s_commit(s_commit),
@@ -105,7 +110,7 @@ module ms_board #(
         .pos(pos), .hall_pos(hall_pos), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
         .hall_edge(hall_edge), .limit_lvl(limit_lvl), .limit_edge(limit_edge),
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
-        .bad_frame(bad_frame));
+        .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
               .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),

@@ -3,6 +3,10 @@
 // are valid in the next. A request that fails a check changes nothing.
 //   0x0000-0x0012  board registers     0x1000 | a  the core's bus word a (write only)
 //   0x2000 | axis << 4 | r              axis registers
+// Cross-board start (SYNC = 1): Arm loads a group as Start does but holds its go until the
+// shared SYNC line falls (sync_line, synchronized); Fire pulls the line low for SP clocks.
+// Every board, the firing one too, sees the edge through its own synchronizer, so all
+// start at the same edge; SyncTick latches the free-running count there.
 // A bulk write (req_bulk, req_data = its length) goes only to an axis's StreamData (r = 7):
 // its bytes went to the axis's replay unit (ms_stream) as they arrived; here it is
 // committed if it fit, and the reply's data is the free bytes left.
@@ -23,7 +27,8 @@ module ms_regs #(
     parameter VERSION = 16'h0001,
     parameter CLK_HZ  = 50000000,
     parameter BAUD    = 3000000,
-    parameter LB      = 9
+    parameter LB      = 9,
+    parameter SYNC    = 1
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -69,6 +74,8 @@ module ms_regs #(
     output reg           estop,      // latched
     input  wire          rx_line,    // the UART input, synchronized (session capture)
     input  wire          bad_frame,
+    input  wire          sync_line,  // the SYNC line, synchronized (idle high)
+    output wire          sync_oe,    // pull the SYNC line low
     // the replay units (ms_stream)
     output reg  [K-1:0]  s_arm,      // one clock: StreamSteps of these axes = req_data
     output reg  [K-1:0]  s_retarget, // one clock: the running streams' step count = req_data
@@ -81,6 +88,9 @@ module ms_regs #(
 );
     localparam [7:0] OK = 8'd0, E_ADDR = 8'd3, E_BUSY = 8'd4, E_ESTOP = 8'd5, E_VALUE = 8'd6,
                      E_FULL = 8'd7;
+    // the Fire pulse: 1 us, at least 4 clocks (long enough for a slower board to sample)
+    localparam SP_US = CLK_HZ / 1000000;
+    localparam [7:0] SP = (SP_US < 4) ? 8'd4 : (SP_US > 255) ? 8'd255 : SP_US[7:0];
     localparam [31:0] AXES_MASK = (K == 32) ? 32'hFFFF_FFFF : ((32'd1 << K) - 1);
 
     reg [31:0]   dir_setup;
@@ -92,7 +102,19 @@ module ms_regs #(
     reg [15:0]   bad_frames;
     reg [31:0]   setup_cnt;    // clocks since the last start write
     reg [31:0]   setup_need;   // the go may come this many clocks after it
+    reg          armed;        // the pending group waits for the SYNC edge
+    reg          sync_hit;     // the SYNC edge came; the armed group goes when ready
+    reg          sync_late;    // the SYNC edge came before the armed group was ready
+    reg          sync_prev;
+    reg [7:0]    fire_cnt;
+    reg [31:0]   sync_tick;    // free at the last SYNC edge
     initial begin
+        armed = 1'b0;
+        sync_hit = 1'b0;
+        sync_late = 1'b0;
+        sync_prev = 1'b1;
+        fire_cnt = 8'd0;
+        sync_tick = 32'd0;
         free = 32'd0;
         have_session = 1'b0;
         session = 32'd0;
@@ -112,6 +134,12 @@ module ms_regs #(
             assign div_slot[g*LS +: LS] = slot[g];
         end
     endgenerate
+
+    // ---- SYNC: the line's falling edge (after the synchronizer) ----
+    wire       sync_en    = (SYNC != 0);
+    wire       sync_edge  = sync_en && sync_prev && !sync_line;
+    wire       ready_now  = core_ready && (setup_cnt >= setup_need);
+    wire       sync_ready = armed && ready_now;
 
     // ---- decode ----
     wire        is_board = (req_addr[15:12] == 4'h0);
@@ -155,7 +183,8 @@ module ms_regs #(
                 8'h03: rd = CLK_HZ;
                 8'h04: rd = BAUD;
                 8'h05: rd = session;
-                8'h06: rd = {bad_frames, 13'd0, core_pending, estop_in, estop};
+                8'h06: rd = {bad_frames, 9'd0, sync_ready, sync_line, sync_late, armed,
+                             core_pending, estop_in, estop};
                 8'h07: rd = {{(32-K){1'b0}}, core_busy};
                 8'h08: rd = {31'd0, estop};
                 8'h0B: rd = {{(32-WD){1'b0}}, pulse_width};
@@ -165,6 +194,7 @@ module ms_regs #(
                 8'h0F: rd = {26'd0, levels};
                 8'h10: rd = {{(32-K){1'b0}}, hall_stop};
                 8'h11: rd = {{(32-K){1'b0}}, limit_stop};
+                8'h15: begin rd = sync_tick; rd_ok = sync_en; end
                 default: rd_ok = 1'b0;
             endcase
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
@@ -187,16 +217,19 @@ module ms_regs #(
     end
 
     // ---- write checks: the status of a write ----
+    wire [7:0] start_st = (mask == {K{1'b0}} || (req_data & ~AXES_MASK) != 32'd0) ? E_VALUE
+                        : estop ? E_ESTOP
+                        // one group at a time: a pending group keeps its members
+                        : (core_pending || (mask & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
     reg [7:0] wst;
     always @(*) begin
         wst = E_ADDR;
         if (is_board && req_addr[11:8] == 4'h0) begin
             case (breg)
                 8'h08: wst = (req_data[0] == 1'b0 && estop_in) ? E_ESTOP : OK;
-                8'h09: wst = (mask == {K{1'b0}} || (req_data & ~AXES_MASK) != 32'd0) ? E_VALUE
-                           : estop ? E_ESTOP
-                           // one group at a time: a pending group keeps its members
-                           : (core_pending || (mask & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
+                8'h09: wst = start_st;
+                8'h13: wst = sync_en ? start_st : E_ADDR;
+                8'h14: wst = sync_en ? OK : E_ADDR;
                 8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12:
                     wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE : OK;
                 8'h0B, 8'h0C, 8'h0F: wst = any_busy ? E_BUSY : OK;
@@ -231,6 +264,17 @@ module ms_regs #(
         s_arm    <= {K{1'b0}};
         s_retarget <= {K{1'b0}};
         s_commit <= {K{1'b0}};
+        sync_prev <= sync_line;
+        if (fire_cnt != 8'd0) fire_cnt <= fire_cnt - 1'b1;
+        if (sync_edge) sync_tick <= free;
+        if (sync_edge && armed) begin
+            sync_hit <= 1'b1;
+            if (!ready_now) sync_late <= 1'b1;
+        end
+        if (go || estop || estop_in) begin
+            armed    <= 1'b0;
+            sync_hit <= 1'b0;
+        end
         if (req) begin
             rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
             rsp_data   <= (req_bulk && wst == OK) ? {{(31-LB){1'b0}}, ax_free - {{(LB-7){1'b0}}, req_data[7:0]}}
@@ -251,6 +295,10 @@ module ms_regs #(
             estopped     <= {K{1'b0}};
             dir_q        <= {K{1'b0}};
             setup_need   <= 32'd0;
+            armed        <= 1'b0;
+            sync_hit     <= 1'b0;
+            sync_late    <= 1'b0;
+            fire_cnt     <= 8'd0;
             for (i = 0; i < K; i = i + 1) slot[i] <= {LS{1'b0}};
         end else begin
             // the session: the clock count at the first start bit after a reset
@@ -266,7 +314,10 @@ module ms_regs #(
                                | (hall_edge & hall_stop & core_busy);
             if (w_board) begin
                 case (breg)
-                    8'h09: begin
+                    8'h09, 8'h13: begin
+                        armed      <= (breg == 8'h13);
+                        sync_hit   <= 1'b0;
+                        sync_late  <= 1'b0;
                         core_wr    <= 1'b1;
                         core_addr  <= {1'b1, {(AW-6){1'b0}}, 5'd2};
                         core_data  <= req_data;
@@ -277,6 +328,7 @@ module ms_regs #(
                         setup_need <= dir_setup + n + 2;
                     end
                     8'h0A: begin
+                        armed    <= 1'b0;   // a stop cancels a group waiting for SYNC
                         stop_req <= mask;
                         stopped  <= stopped | (mask & core_busy);
                     end
@@ -292,6 +344,7 @@ module ms_regs #(
                         stopped  <= stopped & ~mask;
                         estopped <= estopped & ~mask;
                     end
+                    8'h14: fire_cnt <= SP;
                     default: ;
                 endcase
             end
@@ -314,12 +367,14 @@ module ms_regs #(
     end
     // the DIR setup: the group goes no earlier than dir_setup + n + 2 clocks after the
     // start write (n axes), as the core TDM model's start = max(dir_setup, prefill) from
-    // its tick 0, which is n + 2 clocks after the start write (docs/HDL.md, "Tick 0")
+    // its tick 0, which is n + 2 clocks after the start write (docs/HDL.md, "Tick 0");
+    // an Arm is a start write too (its group then also waits for SYNC)
     always @(posedge clk) begin
-        if (w_board && breg == 8'h09) setup_cnt <= 32'd0;
+        if (w_board && (breg == 8'h09 || breg == 8'h13)) setup_cnt <= 32'd0;
         else if (setup_cnt != 32'hFFFF_FFFF) setup_cnt <= setup_cnt + 1'b1;
     end
-    assign go = core_ready && (setup_cnt >= setup_need) && !estop && !estop_in;
+    assign sync_oe = sync_en && (fire_cnt != 8'd0);
+    assign go = ready_now && !estop && !estop_in && (!armed || sync_hit || sync_edge);
     assign halt = (rst || estop || estop_in) ? {K{1'b1}}
                  : (stop_req | (limit_edge & limit_stop) | (hall_edge & hall_stop & s_more));
 endmodule
