@@ -3,6 +3,7 @@
 use crate::config::AlpacaSection;
 use crate::{start, AlpacaError, AlpacaOptions, AlpacaServer};
 use multistep_controller::{BoardConfig, Controller};
+use multistep_web::access::with_host;
 use std::sync::Arc;
 
 #[derive(clap::Args, Clone, Debug, Default)]
@@ -61,27 +62,5 @@ impl AlpacaArgs {
             None => eprintln!("alpaca devices on http://{}/", server.addr()),
         }
         Ok(Some(server))
-    }
-}
-
-/// `11111` and `:11111` mean `127.0.0.1:11111`: loopback unless a host is named.
-fn with_host(addr: &str) -> String {
-    let port = addr.strip_prefix(':').unwrap_or(addr);
-    if port.parse::<u16>().is_ok() {
-        format!("127.0.0.1:{port}")
-    } else {
-        addr.to_string()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::with_host;
-
-    #[test]
-    fn a_bare_port_is_loopback() {
-        assert_eq!(with_host("11111"), "127.0.0.1:11111");
-        assert_eq!(with_host(":0"), "127.0.0.1:0");
-        assert_eq!(with_host("0.0.0.0:1"), "0.0.0.0:1");
     }
 }

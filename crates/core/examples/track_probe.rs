@@ -1,8 +1,10 @@
 //! One run of one tracker, for timing and instruction counting under valgrind:
-//! `track_probe ramp|cruise float|int|tdm-float|tdm-int|none [STEPS]` (`tdm-*`: the
-//! tracker as the one axis of a TDM board, run to just past its last edge; `cruise` only). `ramp`: from rest towards 2·10⁵
-//! steps/s at amax 2·10⁴ steps/s² (10⁶ ramp steps, all taken from the ramp); `cruise`:
-//! 31999.9 steps/s from that speed (no ramp), at 50 MHz. `none` sets up and stops: its
+//! `track_probe ramp|scurve|cruise float|int|tdm-float|tdm-int|none [STEPS]` (`tdm-*`: the
+//! tracker as the one axis of a TDM board, run to just past its last edge; `cruise` only).
+//! `ramp`: from rest towards 2·10⁵ steps/s at amax 2·10⁴ steps/s² (10⁶ ramp steps, all
+//! taken from the ramp); `scurve`: the same with jmax 2·10³ steps/s³ (two constant-jerk
+//! pieces of 10 s: 333 333 steps in the first, from rest, 1 666 667 in the second, which
+//! starts at 10 s); `cruise`: 31999.9 steps/s from that speed (no ramp), at 50 MHz. `none` sets up and stops: its
 //! count is the fixed cost to subtract. Prints the edges' checksum and edges/s.
 use multistep_core::int::IntTracker;
 use multistep_core::tdm::{Axis, Board, TdmConfig};
@@ -16,10 +18,10 @@ fn main() {
     let steps: u64 = a.get(3).map_or(1_000_000, |s| s.parse().unwrap());
     let limits = TrackLimits {
         amax: 2e4,
-        jmax: None,
+        jmax: (case == "scurve").then_some(2e3),
     };
     let (start, rate) = match case {
-        "ramp" => (0.0, Rate::new(200_000, 1).unwrap()),
+        "ramp" | "scurve" => (0.0, Rate::new(200_000, 1).unwrap()),
         _ => (31999.9, Rate::parse("31999.9").unwrap()),
     };
     let t = Instant::now();

@@ -75,7 +75,7 @@ impl Profile {
             return 0.0;
         }
         let p = &self.pieces[self.piece_at(t)];
-        p.velocity((t - p.t0).min(p.dur))
+        p.velocity(self.local_time(p, t))
     }
 
     /// Acceleration (steps/s²) at t.
@@ -84,7 +84,18 @@ impl Profile {
             return 0.0;
         }
         let p = &self.pieces[self.piece_at(t)];
-        p.acceleration((t - p.t0).min(p.dur))
+        p.acceleration(self.local_time(p, t))
+    }
+
+    /// Time into piece `p` at t; the move's end is the last piece's end exactly (`t0 + dur`
+    /// may round apart from the duration, and a √-shaped end would turn that ulp of t into
+    /// √(ε·t/dur) of speed).
+    fn local_time(&self, p: &Piece, t: f64) -> f64 {
+        if t >= self.duration {
+            p.dur
+        } else {
+            (t - p.t0).min(p.dur)
+        }
     }
 
     /// p(t) in double-double, for settling edges near a half tick.

@@ -45,8 +45,9 @@ pub enum TrackError {
     #[error("the tick count left the 64-bit range")]
     /// The motion ran past the 64-bit tick range.
     TooLong,
-    #[error("the integer datapath runs trapezoid ramps (no jmax) within 512-bit values")]
-    /// An integer tracker was given an S-curve ramp, or one too wide for its datapath.
+    #[error("the ramp needs values wider than the integer datapath's 512 bits")]
+    /// An integer tracker was given a ramp too wide for its datapath (or with pieces other
+    /// than constant acceleration or constant jerk, which the tracker does not plan).
     NotInteger,
     #[error("the duration must be a number of seconds greater than zero (got {0})")]
     /// A stretch of tracking to print is not a positive number of seconds.

@@ -10,7 +10,7 @@ mod common;
 
 use common::limits_ref::assert_feasible;
 use common::move_ref::{bf, div, lt, mul, sub, to_f64, Ctx, MoveRef};
-use multistep_core::int::{IntClock, IntEdgeGenerator, IntProfile, IntSegment};
+use multistep_core::int::{IntClock, IntEdgeGenerator, IntProfile, IntRamp, IntSegment};
 use multistep_core::{
     EdgeGenerator, Family, LimitsMove, Move, Order, PhaseMove, PlanError, Profile, Segment,
 };
@@ -107,6 +107,15 @@ fn check_speeds(ctx: &mut Ctx, prof: &Profile, r: &MoveRef, peak: f64) -> Result
     let last = r.phases.last().unwrap();
     let (vs, ve) = (to_f64(&first.v0), to_f64(&last.v1));
     let scale = vs.max(ve).max(peak).max(1.0);
+    // an ulp of absolute time is ε·t/T of a phase of length T, which a √-shaped end turns
+    // into √(ε·t/T) of speed: short phases late in a move need more than V_TOL
+    let shortest = r
+        .phases
+        .iter()
+        .map(|ph| to_f64(&ph.dur))
+        .filter(|&d| d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let tol = V_TOL.max(2.0 * (f64::EPSILON * t_end / shortest).sqrt()) * scale;
     let mut times: Vec<f64> = (0..=128).map(|k| t_end * k as f64 / 128.0).collect();
     for ph in &r.phases {
         let t0 = to_f64(&ph.t0);
@@ -118,7 +127,7 @@ fn check_speeds(ctx: &mut Ctx, prof: &Profile, r: &MoveRef, peak: f64) -> Result
         let v = prof.velocity(t);
         top = top.max(v);
         let want = to_f64(&r.velocity(ctx, &bf(t)));
-        if !((v - want).abs() <= V_TOL * scale) {
+        if !((v - want).abs() <= tol) {
             return Err(format!("v({t}) = {v}, the move has {want}"));
         }
     }
@@ -290,6 +299,34 @@ proptest! {
         let (r, vp) = MoveRef::limits(&mut ctx, &m).ok_or_else(|| TestCaseError::fail("the reference finds no move"))?;
         check_all(&mut ctx, &p, &r, f, vp.max(m.start_speed).max(m.end_speed))?;
         assert_feasible(&p, &m)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// Limits-mode trapezoids and S-curves on a whole-Hz clock: the integer datapath's
+    /// edges ([`IntRamp`], cubic pieces searched by the exactness test in integers) are the
+    /// float generator's, which are checked against the move's own definition.
+    #[test]
+    fn limits_mode_integer_edges_equal_float_and_are_exact(
+        scurve in any::<bool>(), steps in 1u64..3000, vmax in 100.0f64..1e5,
+        amax in 1e3f64..1e7, jmax in 1e5f64..1e10, fs in 0.0f64..1.0, fe in 0.0f64..1.0,
+        f in prop_oneof![Just(50_000_000u64), 100_000u64..1_000_000_000],
+    ) {
+        let order = if scurve { Order::SCurve } else { Order::Trapezoid };
+        let m = LimitsMove { steps, order, vmax, amax, jmax: Some(jmax), smax: None,
+                             start_speed: fs * fs * vmax, end_speed: fe * fe * vmax };
+        let Ok(p) = Profile::plan(&Move::Limits(m)) else { return Ok(()) };
+        let want = edges_at(&p, f as f64);
+        let got: Vec<u64> = IntRamp::new(p.clone(), f).unwrap().collect();
+        prop_assert_eq!(&got, &want);
+        let mut ctx = Ctx::new();
+        let (r, _) = MoveRef::limits(&mut ctx, &m)
+            .ok_or_else(|| TestCaseError::fail("the reference finds no move"))?;
+        let c = check_edges(&mut ctx, &p, &r, f as f64, 1, p.steps()).map_err(TestCaseError::fail)?;
+        prop_assert_eq!(c.edges, p.steps());
+        prop_assert!(c.near <= 2, "{} edges near a half tick went the other way", c.near);
     }
 }
 
@@ -686,4 +723,54 @@ fn exact_ties_on_newton_solved_pieces_go_to_the_earlier_tick() {
     let r = MoveRef::phase(&mut ctx, &m);
     let c = check_edges(&mut ctx, &p, &r, 1024.0, 1, 768).unwrap();
     assert_eq!((c.edges, c.near), (768, 0));
+}
+
+/// The same ties on the integer datapath's cubic pieces ([`IntRamp`]: the exactness test
+/// evaluated in integers): a limits-mode S-curve from rest whose numbers are all dyadic
+/// (jmax 3·2^34, amax 3·2^25, vmax 3·2^16 at 1024 Hz: the φ = ½ move above), every edge
+/// the float generator's, the ties included.
+#[test]
+fn exact_ties_on_integer_cubic_pieces_go_to_the_earlier_tick() {
+    let m = LimitsMove {
+        steps: 768,
+        order: Order::SCurve,
+        vmax: 3.0 * 65536.0,
+        amax: 3.0 * (1u64 << 25) as f64,
+        jmax: Some(3.0 * (1u64 << 34) as f64),
+        smax: None,
+        start_speed: 0.0,
+        end_speed: 0.0,
+    };
+    let p = Profile::plan(&Move::Limits(m)).unwrap();
+    let want = edges_at(&p, 1024.0);
+    let got: Vec<u64> = IntRamp::new(p.clone(), 1024).unwrap().collect();
+    assert_eq!(got, want);
+    for (i, tick) in [(1, 0), (27, 1), (741, 6), (767, 7), (768, 8)] {
+        assert_eq!(got[i - 1], tick, "step {i}");
+    }
+    let mut ctx = Ctx::new();
+    let (r, _) = MoveRef::limits(&mut ctx, &m).unwrap();
+    let c = check_edges(&mut ctx, &p, &r, 1024.0, 1, 768).unwrap();
+    assert_eq!((c.edges, c.near), (768, 0));
+}
+
+/// A short √-shaped deceleration late in a move: its end speed is the move's exactly
+/// (the last piece's end, not `t0 + dur` rounded apart from the duration), and its speeds
+/// agree within what an ulp of absolute time allows.
+#[test]
+fn short_parabolic_deceleration_ends_at_the_end_speed() {
+    let m = PhaseMove {
+        steps: 1,
+        accel_time: 0.0,
+        cruise_time: 0.04593893745305046,
+        decel_time: 0.0003419668556530847,
+        start_speed: 0.0,
+        end_speed: 0.0,
+        family: Family::Parabolic,
+    };
+    let p = Profile::phase(&m).unwrap();
+    assert_eq!(p.velocity(p.duration()), 0.0);
+    let mut ctx = Ctx::new();
+    let r = MoveRef::phase(&mut ctx, &m);
+    check_all(&mut ctx, &p, &r, 50e6, phase_peak(&r)).unwrap();
 }

@@ -1,8 +1,8 @@
 //! The TDM engine against the plan's edges and against a tick-by-tick reference model.
 
 use multistep_core::tdm::{
-    k_max, min_period_ticks, rate_move, Axis, Board, Latencies, Policy, PulseShape, Report,
-    StepPulse, TdmConfig, TdmError,
+    k_max, min_period_ticks, rate_move, Axis, AxisStats, Board, Latencies, Policy, PulseShape,
+    Report, StepPulse, TdmConfig, TdmError,
 };
 use multistep_core::{
     EdgeGenerator, Family, MoveParams, MoveSpec, PhaseMove, Profile, Segment, StepDirTiming,
@@ -300,6 +300,41 @@ fn arb_policy() -> impl Strategy<Value = Policy> {
     prop_oneof![Just(Policy::RoundRobin), Just(Policy::EarliestDeadline)]
 }
 
+/// A board small enough for the tick-by-tick model: up to 6 short moves at a 1 MHz clock,
+/// any depth to 4, policy and calculator timing (overloaded or not), DIR setup to 500.
+fn arb_small_board() -> impl Strategy<Value = (Vec<Profile>, TdmConfig)> {
+    (
+        prop::collection::vec(arb_profile(120, 0.02), 1..=6),
+        1usize..=4,
+        arb_policy(),
+        1u32..60,
+        prop::array::uniform3(0u32..30),
+        any::<bool>(),
+        0u64..500,
+    )
+        .prop_map(
+            |(profiles, depth, policy, cycles, units, pipelined, dir_setup)| {
+                let cfg = TdmConfig {
+                    clock_hz: 1e6,
+                    fifo_depth: depth,
+                    policy,
+                    latencies: Latencies {
+                        mul: units[0],
+                        div: cycles,
+                        sqrt: units[1],
+                        overhead: units[2],
+                        pipelined,
+                    },
+                    step_dir: StepDirTiming {
+                        dir_setup_ticks: dir_setup,
+                        ..StepDirTiming::default()
+                    },
+                };
+                (profiles, cfg)
+            },
+        )
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
@@ -358,24 +393,8 @@ proptest! {
 
     /// The event-driven engine against a tick-by-tick model on small boards, overloaded or not.
     #[test]
-    fn engine_matches_tick_by_tick_reference(
-        profiles in prop::collection::vec(arb_profile(120, 0.02), 1..=6),
-        depth in 1usize..=4,
-        policy in arb_policy(),
-        cycles in 1u32..60,
-        units in prop::array::uniform3(0u32..30),
-        pipelined in any::<bool>(),
-        dir_setup in 0u64..500,
-    ) {
-        let clock = 1e6;
-        let cfg = TdmConfig {
-            clock_hz: clock,
-            fifo_depth: depth,
-            policy,
-            latencies: Latencies { mul: units[0], div: cycles, sqrt: units[1], overhead: units[2], pipelined },
-            step_dir: StepDirTiming { dir_setup_ticks: dir_setup, ..StepDirTiming::default() },
-        };
-        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), clock).unwrap()).collect();
+    fn engine_matches_tick_by_tick_reference((profiles, cfg) in arb_small_board()) {
+        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), cfg.clock_hz).unwrap()).collect();
         let (r, pulses) = run(cfg, &mut axes);
         let (start, rises, under) = reference(&cfg, &profiles);
         prop_assert_eq!(r.start_tick, start);
@@ -384,6 +403,37 @@ proptest! {
             prop_assert_eq!(&got, &rises[m], "axis {}", m);
             prop_assert_eq!(axes[m].stats().underruns, under[m], "axis {}", m);
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// The whole output against the tick-by-tick model on small boards, overloaded or
+    /// not: every pulse, rise and fall, in the order the sink gets it, each axis's stats
+    /// and the report, with either pulse shape.
+    #[test]
+    fn engine_output_matches_tick_by_tick_reference(
+        (profiles, mut cfg) in arb_small_board(),
+        width in prop::option::of(1u64..40),
+    ) {
+        cfg.step_dir.pulse = width.map_or(PulseShape::HalfInterval, |ticks| PulseShape::Fixed { ticks });
+        let mut axes: Vec<Axis> = profiles.iter().map(|p| Axis::new(p.clone(), cfg.clock_hz).unwrap()).collect();
+        let mut got = Vec::new();
+        let r = Board::new(cfg, &mut axes).unwrap().run(|p| got.push(p));
+        let run = reference_run(&cfg, &profiles);
+        let (want, stats) = reference_pulses(&cfg, &run);
+        prop_assert_eq!(&got, &want);
+        for (m, a) in axes.iter().enumerate() {
+            prop_assert_eq!(a.stats(), &stats[m], "axis {}", m);
+        }
+        prop_assert_eq!(r.start_tick, run.start);
+        prop_assert_eq!(r.edges, want.len() as u64);
+        prop_assert_eq!(r.end_tick, stats.iter().map(|s| s.last_rise).max().unwrap());
+        prop_assert_eq!(r.underruns, stats.iter().map(|s| s.underruns).sum::<u64>());
+        prop_assert_eq!(r.max_late_ticks, stats.iter().map(|s| s.late_ticks).max().unwrap());
+        prop_assert_eq!(r.min_slack_ticks, stats.iter().map(|s| s.min_slack_ticks).min().unwrap());
+        prop_assert_eq!(r.merged_pulses, stats.iter().map(|s| s.merged_pulses).sum::<u64>());
     }
 }
 
@@ -409,6 +459,9 @@ struct RefAxis {
     total: usize,
     rises: Vec<u64>,
     underruns: u64,
+    /// Tick each period was loaded, and the tick it was ready, in step order.
+    loads: Vec<u64>,
+    readies: Vec<u64>,
 }
 
 impl RefAxis {
@@ -423,6 +476,8 @@ impl RefAxis {
                 Some(&(p, ready)) if ready <= t => {
                     self.fifo.pop_front();
                     self.loaded += 1;
+                    self.loads.push(t);
+                    self.readies.push(ready);
                     self.unit = Unit::Counting { rise: t + p };
                     if p > 0 {
                         return;
@@ -457,6 +512,24 @@ impl RefAxis {
 
 /// Start tick, every axis's rises and underrun count.
 fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<u64>) {
+    let run = reference_run(cfg, profiles);
+    let under = run.axes.iter().map(|a| a.underruns).collect();
+    (
+        run.start,
+        run.axes.into_iter().map(|a| a.rises).collect(),
+        under,
+    )
+}
+
+/// A finished reference run: the start tick, the axes, and the axis of every period
+/// computed in the calculator's order.
+struct RefRun {
+    start: u64,
+    axes: Vec<RefAxis>,
+    order: Vec<usize>,
+}
+
+fn reference_run(cfg: &TdmConfig, profiles: &[Profile]) -> RefRun {
     let (ii, lat) = (cfg.latencies.interval(), cfg.latencies.latency());
     let d = cfg.fifo_depth;
     let mut axes: Vec<RefAxis> = profiles
@@ -479,6 +552,8 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
                 loaded: 0,
                 rises: Vec::new(),
                 underruns: 0,
+                loads: Vec::new(),
+                readies: Vec::new(),
             }
         })
         .collect();
@@ -488,6 +563,7 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
     let mut next_issue = 0u64;
     let mut ptr = 0;
     let mut t = 0u64;
+    let mut order = Vec::new();
     while !axes.iter().all(|a| a.unit == Unit::Done) {
         for a in axes.iter_mut() {
             match a.unit {
@@ -510,6 +586,7 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
             };
             if let Some(m) = pick {
                 ptr = (m + 1) % k;
+                order.push(m);
                 let p = axes[m].periods.pop_front().unwrap();
                 axes[m].fifo.push_back((p, t + lat));
                 next_issue = t + ii;
@@ -518,8 +595,69 @@ fn reference(cfg: &TdmConfig, profiles: &[Profile]) -> (u64, Vec<Vec<u64>>, Vec<
         t += 1;
         assert!(t < 1 << 32, "reference model did not finish");
     }
-    let under = axes.iter().map(|a| a.underruns).collect();
-    (start, axes.into_iter().map(|a| a.rises).collect(), under)
+    RefRun { start, axes, order }
+}
+
+/// What the engine must hand its sink for a reference run, in order, and each axis's
+/// stats: pulse j closes when period j + 1 is computed, the last one with it (module
+/// text of `tdm::board` and `tdm::pulse`).
+fn reference_pulses(cfg: &TdmConfig, run: &RefRun) -> (Vec<StepPulse>, Vec<AxisStats>) {
+    let fall = |a: &RefAxis, j: usize| -> u64 {
+        let rise = a.rises[j];
+        match cfg.step_dir.pulse {
+            PulseShape::Fixed { ticks } => rise + ticks,
+            PulseShape::HalfInterval => match a.rises.get(j + 1) {
+                Some(&next) => a.loads[j + 1].max(rise + ((next - rise) / 2).max(1)),
+                None => {
+                    let prev = if j == 0 { a.loads[0] } else { a.rises[j - 1] };
+                    rise + ((rise - prev) / 2).max(1)
+                }
+            },
+        }
+    };
+    let pulse = |m: usize, j: usize| StepPulse {
+        axis: m,
+        step: j as u64 + 1,
+        rise: run.axes[m].rises[j],
+        fall: fall(&run.axes[m], j),
+    };
+    let mut computed = vec![0usize; run.axes.len()];
+    let mut out = Vec::new();
+    for &m in &run.order {
+        computed[m] += 1;
+        let j = computed[m];
+        if j >= 2 {
+            out.push(pulse(m, j - 2));
+        }
+        if j == run.axes[m].total {
+            out.push(pulse(m, j - 1));
+        }
+    }
+    let stats = run
+        .axes
+        .iter()
+        .map(|a| {
+            // period j is needed at the previous rise (period 1 at the start)
+            let due = |j: usize| if j == 0 { run.start } else { a.rises[j - 1] };
+            let late = |j: usize| a.readies[j].saturating_sub(due(j));
+            let n = a.total;
+            AxisStats {
+                steps: n as u64,
+                underruns: (0..n).filter(|&j| late(j) > 0).count() as u64,
+                late_ticks: (0..n).map(late).sum(),
+                min_slack_ticks: (1..n)
+                    .map(|j| due(j) as i64 - a.readies[j] as i64)
+                    .min()
+                    .unwrap_or(i64::MAX),
+                start_tick: a.loads[0],
+                last_rise: a.rises[n - 1],
+                merged_pulses: (0..n.saturating_sub(1))
+                    .filter(|&j| fall(a, j) >= a.rises[j + 1])
+                    .count() as u64,
+            }
+        })
+        .collect();
+    (out, stats)
 }
 
 #[test]

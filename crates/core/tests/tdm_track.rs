@@ -19,11 +19,13 @@ enum Kind {
         amax: f64,
         start: f64,
         int: bool,
+        /// S-curve ramps with this jmax.
+        jmax: Option<f64>,
     },
 }
 
-fn limits(amax: f64) -> TrackLimits {
-    TrackLimits { amax, jmax: None }
+fn limits(amax: f64, jmax: Option<f64>) -> TrackLimits {
+    TrackLimits { amax, jmax }
 }
 
 fn axis(k: &Kind) -> Axis {
@@ -34,14 +36,19 @@ fn axis(k: &Kind) -> Axis {
             amax,
             start,
             int: false,
-        } => Axis::tracking(Tracker::new(F as f64, limits(*amax), *start, *rate).unwrap()).unwrap(),
+            jmax,
+        } => Axis::tracking(Tracker::new(F as f64, limits(*amax, *jmax), *start, *rate).unwrap())
+            .unwrap(),
         Kind::Track {
             rate,
             amax,
             start,
             int: true,
-        } => Axis::tracking_int(IntTracker::new(F as f64, limits(*amax), *start, *rate).unwrap())
-            .unwrap(),
+            jmax,
+        } => Axis::tracking_int(
+            IntTracker::new(F as f64, limits(*amax, *jmax), *start, *rate).unwrap(),
+        )
+        .unwrap(),
     }
 }
 
@@ -54,9 +61,13 @@ fn reference(k: &Kind, m: usize, commands: &[TrackCommand], n: usize) -> Vec<u64
             .take(n)
             .collect(),
         Kind::Track {
-            rate, amax, start, ..
+            rate,
+            amax,
+            start,
+            jmax,
+            ..
         } => {
-            let mut t = Tracker::new(F as f64, limits(*amax), *start, *rate).unwrap();
+            let mut t = Tracker::new(F as f64, limits(*amax, *jmax), *start, *rate).unwrap();
             let mut out = Vec::new();
             let mut cs = commands
                 .iter()
@@ -137,14 +148,23 @@ fn any_rate() -> impl Strategy<Value = Rate> {
 fn any_kind() -> impl Strategy<Value = Kind> {
     prop_oneof![
         (1u64..3000, 100.0f64..2e4).prop_map(|(n, v)| Kind::Move(a_move(n, v))),
-        (any_rate(), 1.0f64..50.0, 0.0f64..1.5, any::<bool>()).prop_map(|(rate, ax, s, int)| {
-            Kind::Track {
-                amax: rate.to_f64() * ax,
-                start: s * rate.to_f64(),
-                rate,
-                int,
-            }
-        }),
+        (
+            any_rate(),
+            1.0f64..50.0,
+            0.0f64..1.5,
+            any::<bool>(),
+            prop::option::of(2.0f64..100.0)
+        )
+            .prop_map(|(rate, ax, s, int, jx)| {
+                let amax = rate.to_f64() * ax;
+                Kind::Track {
+                    amax,
+                    start: s * rate.to_f64(),
+                    rate,
+                    int,
+                    jmax: jx.map(|j| j * amax),
+                }
+            }),
     ]
 }
 
@@ -189,6 +209,7 @@ fn sidereal_from_rest() -> Kind {
         amax: 200.0,
         start: 0.0,
         int: true,
+        jmax: None,
     }
 }
 
@@ -203,6 +224,7 @@ fn a_stop_ends_a_tracking_axis_and_commands_are_checked() {
             amax: 5000.0,
             start: 0.0,
             int: false,
+            jmax: None,
         },
     ];
     let commands = vec![
@@ -233,6 +255,42 @@ fn a_stop_ends_a_tracking_axis_and_commands_are_checked() {
         board.run_tracking(F, &mut unordered, |_| {}).err(),
         Some(TdmError::CommandOrder)
     );
+}
+
+/// Integer trackers with S-curve ramps in the engine: the sidereal rate from rest, a
+/// change to a faster rate, one during that ramp (applied at its end) and a stop, beside
+/// a float S-curve tracker and a move; every rise is the float tracker's edge.
+#[test]
+fn scurve_int_trackers_in_the_engine() {
+    let scurve = |rate, amax, int| Kind::Track {
+        rate,
+        amax,
+        start: 0.0,
+        int,
+        jmax: Some(amax * 10.0),
+    };
+    let kinds = [
+        scurve(Rate::new(15041, 324).unwrap(), 200.0, true),
+        scurve(Rate::new(319_999, 10).unwrap(), 64_000.0, true),
+        scurve(Rate::new(1000, 1).unwrap(), 5000.0, false),
+        Kind::Move(a_move(2000, 5000.0)),
+    ];
+    let commands = vec![
+        TrackCommand::new(F, 0, Rate::new(30082, 324).unwrap()),
+        TrackCommand::new(F + F / 10, 0, Rate::new(10_000, 7).unwrap()),
+        TrackCommand::new(2 * F, 1, Rate::new(12_345, 1).unwrap()),
+        TrackCommand::new(5 * F, 0, Rate::ZERO),
+        TrackCommand::new(5 * F, 1, Rate::ZERO),
+    ];
+    let (pulses, commands) = run_case(&kinds, commands, 24 * F, 2).unwrap();
+    assert!(commands
+        .iter()
+        .all(|c| c.applied_after.is_some() && c.refused.is_none()));
+    assert!(pulses[0].len() > 1000 && pulses[1].len() > 50_000);
+    // both integer axes stopped before the horizon (the stop waits for the ramp to 10⁴/7
+    // steps/s, which ends near 8.5 s; from there at 200 steps/s² about 7.5 s)
+    assert!(pulses[0].last().unwrap().rise < 20 * F);
+    assert!(pulses[1].last().unwrap().rise < 7 * F);
 }
 
 /// An axis tracking the sidereal rate for 24 simulated hours beside a move: the

@@ -4,8 +4,10 @@
 //! against the ramp profile shifted to its start, and positions at sampled ticks are
 //! closed forms (cruise) or ⌊p(t + ½ tick)⌋ (ramp).
 
+use multistep_core::int::IntTracker;
+use multistep_core::track::RampEdges;
 use multistep_core::track::TrackSegment;
-use multistep_core::{EdgeGenerator, Profile, Rate, TrackError, TrackLimits, Tracker};
+use multistep_core::{EdgeGenerator, Profile, Rate, TrackError, TrackLimits, Tracker, TrackerOf};
 use proptest::prelude::*;
 
 const F: u64 = 50_000_000;
@@ -168,7 +170,12 @@ impl Checker {
 
     /// Runs until the edge after `until` (or the stream's end), checking samples on the way:
     /// a sample between two edges of one segment must equal that segment's closed form.
-    fn run(&mut self, tr: &mut Tracker, until: u64, samples: &mut impl Iterator<Item = u64>) {
+    fn run<R: RampEdges>(
+        &mut self,
+        tr: &mut TrackerOf<R>,
+        until: u64,
+        samples: &mut impl Iterator<Item = u64>,
+    ) {
         let mut next_sample = samples.next();
         let mut between = Vec::new();
         while let Some(e) = tr.next() {
@@ -197,7 +204,7 @@ impl Checker {
         }
     }
 
-    fn check(&mut self, tr: &Tracker, e: u64) {
+    fn check<R: RampEdges>(&mut self, tr: &TrackerOf<R>, e: u64) {
         self.steps += 1;
         self.edges += 1;
         assert_eq!(tr.steps(), self.steps);
@@ -474,8 +481,9 @@ fn any_rate() -> impl Strategy<Value = Rate> {
 }
 
 /// One random tracking case: a ramp to `r1`, a cruise, a change to `r2` and a stop, every
-/// edge checked.
+/// edge checked; by the float or the integer tracker.
 fn tracking_case(
+    int: bool,
     r1: Rate,
     r2: Rate,
     start: f64,
@@ -490,7 +498,24 @@ fn tracking_case(
         amax,
         jmax: scurve.then_some(amax * 20.0),
     };
-    let mut tr = Tracker::new(F as f64, limits, start * v1, r1).unwrap();
+    if int {
+        let tr = IntTracker::new(F as f64, limits, start * v1, r1).unwrap();
+        tracking_case_on(tr, r1, r2, start, amax, samples_step)
+    } else {
+        let tr = Tracker::new(F as f64, limits, start * v1, r1).unwrap();
+        tracking_case_on(tr, r1, r2, start, amax, samples_step)
+    }
+}
+
+fn tracking_case_on<R: RampEdges>(
+    mut tr: TrackerOf<R>,
+    r1: Rate,
+    r2: Rate,
+    start: f64,
+    amax: f64,
+    samples_step: u64,
+) -> Result<(), TestCaseError> {
+    let (v1, v2) = (r1.to_f64(), r2.to_f64());
     let mut ck = Checker::new(amax);
     let mut samples = (1..).map(|k| k * samples_step);
     // the longest ramp, then n steps at the slower rate but at most 3 s, so a tiny rate
@@ -519,9 +544,9 @@ proptest! {
     #[test]
     fn random_tracking_is_exact(r1 in any_rate(), r2 in any_rate(), start in 0.0f64..3.0,
                                 amax_exp in -0.3f64..4.0, scurve in any::<bool>(),
-                                samples_step in 10_000u64..10_000_000) {
+                                int in any::<bool>(), samples_step in 10_000u64..10_000_000) {
         // amax from 0.5 to 10⁴ times the faster rate, log-uniform: ramps of 2 s to 100 µs
-        tracking_case(r1, r2, start, 10f64.powf(amax_exp), scurve, samples_step)?;
+        tracking_case(int, r1, r2, start, 10f64.powf(amax_exp), scurve, samples_step)?;
     }
 }
 

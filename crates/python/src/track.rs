@@ -59,7 +59,7 @@ fn edges<R: RampEdges>(run: &TrackRun, clock: f64) -> Result<Vec<u64>, TrackErro
 ///
 /// `rate` is steps/s: a str (`"46.4228"`, `"15041/324"`), an int, a `fractions.Fraction`,
 /// or a float (its exact binary value). `amax` is needed unless `start_speed` is the rate.
-/// `integer=True` runs the integer tracker (trapezoid ramps only): the same edges.
+/// `integer=True` runs the integer tracker (trapezoid and S-curve ramps): the same edges.
 ///
 /// Raises `PlanError` (a `ValueError`) with the command line's message for a rate or limit
 /// it refuses, `TypeError` for a value of the wrong type.

@@ -42,12 +42,11 @@ def test_edges_equal_plan_track(cli, rate, duration, kw):
     got = multistep.track(rate, duration, **kw)
     assert got.dtype == np.uint64
     np.testing.assert_array_equal(got, want)
-    # the same rate as an exact fraction, and (trapezoid ramps) through the integer tracker
+    # the same rate as an exact fraction, and through the integer tracker (S-curves too)
     num, _, den = rate.partition("/")
     frac = Fraction(num) / Fraction(den or 1)
     np.testing.assert_array_equal(multistep.track(frac, duration, **kw), want)
-    if "jmax" not in kw:
-        np.testing.assert_array_equal(multistep.track(rate, duration, integer=True, **kw), want)
+    np.testing.assert_array_equal(multistep.track(rate, duration, integer=True, **kw), want)
 
 
 def test_float_and_int_rates_are_their_exact_values(cli):
@@ -76,8 +75,6 @@ def test_refusals_are_the_cli_messages(cli):
         multistep.track("600000", 1, amax=1e6, clock=1e6)
     with pytest.raises(multistep.PlanError, match="duration"):
         multistep.track("10", 0, amax=10.0)
-    with pytest.raises(multistep.PlanError, match="trapezoid"):
-        multistep.track("10", 1, amax=10.0, jmax=100.0, integer=True)
     with pytest.raises(multistep.PlanError):
         multistep.track(Fraction(-1, 3), 1, amax=10.0)
     with pytest.raises(TypeError):

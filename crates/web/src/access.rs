@@ -97,9 +97,29 @@ fn is_loopback_host(host: &str) -> bool {
             .is_ok_and(|ip| ip.is_loopback())
 }
 
+/// `8080` and `:8080` mean `127.0.0.1:8080`: loopback unless a host is named (every
+/// listening flag of the service reads its address this way).
+pub fn with_host(addr: &str) -> String {
+    let port = addr.strip_prefix(':').unwrap_or(addr);
+    if port.parse::<u16>().is_ok() {
+        format!("127.0.0.1:{port}")
+    } else {
+        addr.to_string()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_bare_port_is_loopback() {
+        assert_eq!(with_host("8080"), "127.0.0.1:8080");
+        assert_eq!(with_host(":0"), "127.0.0.1:0");
+        assert_eq!(with_host("0.0.0.0:8080"), "0.0.0.0:8080");
+        assert_eq!(with_host("[::1]:80"), "[::1]:80");
+        assert_eq!(with_host("localhost:80"), "localhost:80");
+    }
 
     fn opts(addr: &str, allow_remote: bool, token: Option<&str>) -> HttpOptions {
         HttpOptions {

@@ -1,6 +1,7 @@
 //! The `--http…` flags, shared by every command that serves a board
 //! (`#[command(flatten)] http: HttpArgs`).
 
+use crate::access::with_host;
 use crate::boards::{BoardLink, Remote};
 use crate::{start_links, HttpOptions, WebError, WebServer};
 use multistep_controller::Controller;
@@ -53,29 +54,5 @@ impl HttpArgs {
         let server = start_links(links, &opts)?;
         eprintln!("web page on http://{}/", server.addr());
         Ok(Some(server))
-    }
-}
-
-/// `8080` and `:8080` mean `127.0.0.1:8080`: loopback unless a host is named.
-fn with_host(addr: &str) -> String {
-    let port = addr.strip_prefix(':').unwrap_or(addr);
-    if port.parse::<u16>().is_ok() {
-        format!("127.0.0.1:{port}")
-    } else {
-        addr.to_string()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::with_host;
-
-    #[test]
-    fn a_bare_port_is_loopback() {
-        assert_eq!(with_host("8080"), "127.0.0.1:8080");
-        assert_eq!(with_host(":0"), "127.0.0.1:0");
-        assert_eq!(with_host("0.0.0.0:8080"), "0.0.0.0:8080");
-        assert_eq!(with_host("[::1]:80"), "[::1]:80");
-        assert_eq!(with_host("localhost:80"), "localhost:80");
     }
 }

@@ -40,8 +40,15 @@
 //! steps/s needs `Y` of about 2^113. Pieces whose `Y` needs more than 128 bits run the same
 //! sequence on 256 bits in software ([`IntPiece::kernel`] is `None` for them; the RTL
 //! rejects such moves).
+//!
+//! # Tracking ramps
+//! [`IntTracker`] runs the float planner's ramps in integers ([`track`]): their
+//! constant-acceleration pieces with the closed form above, and the constant-jerk pieces of
+//! S-curve ramps by the exactness test evaluated exactly at half ticks (`cubic.rs`: the
+//! position cubic by Horner on up to 512 bits, two evaluations a step).
 
 // the kernel's items are described in the module docs above; item docs to follow
+mod cubic;
 #[allow(missing_docs)]
 mod gen;
 pub mod isqrt;

@@ -5,7 +5,7 @@ use super::isqrt::isqrt_u128;
 use super::piece::IntPiece;
 use super::IntError;
 use crate::profile::MAX_PIECES;
-use crypto_bigint::U256;
+use crypto_bigint::U512;
 
 /// Phase mode, trapezoid family: N steps in whole-tick accel, cruise and decel times.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -345,7 +345,9 @@ pub fn limits_to_phase(m: &IntLimitsMove, clock: IntClock) -> Result<IntPhaseMov
     if vp2x2 < checked(sq(vs.max(ve))?.checked_mul(2))? || vp2x2 == 0 {
         return Err(IntError::TooShortForLimits);
     }
-    let wide = |x: u128| U256::from_u128(x);
+    // products of values under 2^128, at most four factors (x²·2 < 2^257, w²·2vp² <
+    // 2^384, hz²·2vp² < 2^234): 512 bits cannot wrap, whatever the inputs
+    let wide = |x: u128| U512::from_u128(x);
     let hz2vp2x2 = wide(checked(hz.checked_mul(hz))?).wrapping_mul(&wide(vp2x2));
     let vp_est = isqrt_u128(vp2x2 / 2);
     // the least t with t·amax + hz·v ≥ hz·vp, i.e. 2(t·amax + hz·v)² ≥ hz²·2vp²

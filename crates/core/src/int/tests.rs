@@ -721,3 +721,87 @@ fn sizes() {
     assert!(size_of::<IntEdgeGenerator<&IntProfile<3>, 3>>() < 256);
     assert!(size_of::<IntProfile<3>>() * 16 < size_of::<IntProfile>());
 }
+
+/// `limits_to_phase`'s defining inequalities, re-checked in 1024-bit arithmetic: the ramp
+/// ticks are the least `t` with `2(t·amax + hz·v)² ≥ hz²·2vp²` and the cruise the least
+/// `tb` with `(2tb + ta + tc)²·2vp² ≥ 2K²`.
+fn limits_rounding_is_least(m: &IntLimitsMove, clock: IntClock) -> Result<(), TestCaseError> {
+    use crypto_bigint::U1024;
+    let Ok(ph) = limits_to_phase(m, clock) else {
+        return Ok(());
+    };
+    let w = |x: u128| U1024::from_u128(x);
+    let (q, hz, n) = (
+        clock.speed_scale as u128,
+        clock.clock_hz as u128,
+        m.steps as u128,
+    );
+    let (amax, vmax) = (w(m.amax as u128), m.vmax as u128);
+    let (vs, ve) = (m.start_speed as u128, m.end_speed as u128);
+    let two_aqn = w(2 * m.amax as u128)
+        .wrapping_mul(&w(q))
+        .wrapping_mul(&w(n));
+    let ends = w(vs * vs).wrapping_add(&w(ve * ve));
+    let top = w(vmax * vmax).wrapping_mul(&w(2));
+    let vp2x2 = if top.wrapping_sub(&ends) <= two_aqn {
+        top
+    } else {
+        two_aqn.wrapping_add(&ends)
+    };
+    let target = w(hz * hz).wrapping_mul(&vp2x2);
+    let reaches = |t: u128, v: u128| {
+        let x = w(t)
+            .wrapping_mul(&amax)
+            .wrapping_add(&w(hz).wrapping_mul(&w(v)));
+        x.wrapping_mul(&x).wrapping_mul(&w(2)) >= target
+    };
+    let (ta, tc) = (ph.accel_ticks as u128, ph.decel_ticks as u128);
+    for (t, v) in [(ta, vs), (tc, ve)] {
+        prop_assert!(reaches(t, v), "{m:?} {clock:?}: {t} ticks do not reach vp");
+        prop_assert!(
+            t == 0 || !reaches(t - 1, v),
+            "{m:?} {clock:?}: {t} is not the least"
+        );
+    }
+    let f = hz * q;
+    let k = w(2 * n).wrapping_mul(&w(f));
+    let shed = w(vs)
+        .wrapping_mul(&w(ta))
+        .wrapping_add(&w(ve).wrapping_mul(&w(tc)));
+    if k > shed {
+        let k = k.wrapping_sub(&shed);
+        let k2x2 = k.wrapping_mul(&k).wrapping_mul(&w(2));
+        let covers = |tb: u128| {
+            let x = w(2 * tb + ta + tc);
+            x.wrapping_mul(&x).wrapping_mul(&vp2x2) >= k2x2
+        };
+        let tb = ph.cruise_ticks as u128;
+        prop_assert!(
+            covers(tb) && (tb == 0 || !covers(tb - 1)),
+            "{m:?} {clock:?}: cruise {tb}"
+        );
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// Limits moves of any size (values up to 2^64, clocks up to 2^53) round to the least
+    /// whole-tick phases, as a 1024-bit check of the same inequalities says.
+    #[test]
+    fn huge_limits_moves_round_to_the_least_ticks(
+        x in proptest::collection::vec(any::<u64>(), 5),
+        shift in proptest::collection::vec(0u32..64, 5),
+        hz in 1u64..(1 << 53),
+        q in 1u64..1_000_000,
+    ) {
+        let v: Vec<u64> = x.iter().zip(&shift).map(|(a, s)| a >> s).collect();
+        let (vmax, vs, ve) = (v[1].max(1), v[3], v[4]);
+        let m = IntLimitsMove {
+            steps: v[0].max(1), vmax, amax: v[2].max(1),
+            start_speed: vs.min(vmax), end_speed: ve.min(vmax),
+        };
+        limits_rounding_is_least(&m, IntClock { clock_hz: hz, speed_scale: q })?;
+    }
+}

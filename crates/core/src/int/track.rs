@@ -3,11 +3,14 @@
 //! float tracker's edge for the same inputs.
 //!
 //! A tracker's cruise is already integer (quotient + remainder in u128). Its ramps are
-//! limits-mode trapezoids planned by the float planner (the same plan as the float tracker:
-//! planning is not the per-step path); [`IntRamp`] takes that plan's f64 coefficients as the
-//! exact binary rationals they are (decomposed bit by bit, no float arithmetic) and finds
-//! each step's nearest tick exactly, with no correction step, by the same identity as the
-//! integer kernel (module docs of [`crate::int`]): `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉`.
+//! limits-mode trapezoids or S-curves planned by the float planner (the same plan as the
+//! float tracker: planning is not the per-step path); [`IntRamp`] takes that plan's f64
+//! coefficients as the exact binary rationals they are (decomposed bit by bit, no float
+//! arithmetic). On a constant-acceleration piece it finds each step's nearest tick
+//! exactly, with no correction step, by the same identity as the integer kernel (module
+//! docs of [`crate::int`]): `⌈(x − y)/n⌉ = ⌈(⌈x⌉ − y)/n⌉`. A constant-jerk piece of an
+//! S-curve (cubic in time) has no such closed form; its edges come from the exactness test
+//! itself, evaluated in integers at half ticks (`int/cubic.rs`).
 //!
 //! # One piece `p(τ) = p0 + c1·τ + c2·τ²` starting at `t0` (all f64, so binary rationals)
 //! With the common scale 2^S that makes `p0, c1, c2` integers, u the local time in ticks and
@@ -23,12 +26,14 @@
 //! of the piece fits (a ramp from rest), else in 512 bits. The widths are checked when a
 //! piece is entered (an error, never a wrong edge).
 
+use super::cubic::Cubic;
 use super::isqrt::isqrt_u128;
+use crate::piece::Law;
 use crate::profile::Profile;
 use crate::track::{RampEdges, TrackError, TrackerOf};
 use crypto_bigint::{NonZero, U512};
 
-type W = U512;
+pub(super) type W = U512;
 
 /// The float [`Tracker`](crate::Tracker)'s motion with every edge in integers: ramps by
 /// [`IntRamp`], cruises by the shared quotient + remainder accumulator.
@@ -39,37 +44,37 @@ const MAX_BITS: u32 = 510;
 
 /// A signed 512-bit value, for planning a piece (the per-step path is unsigned).
 #[derive(Clone, Copy, Debug)]
-struct Si {
-    neg: bool,
-    mag: W,
+pub(super) struct Si {
+    pub(super) neg: bool,
+    pub(super) mag: W,
 }
 
 impl Si {
-    const ZERO: Si = Si {
+    pub(super) const ZERO: Si = Si {
         neg: false,
         mag: W::ZERO,
     };
 
-    fn pos(mag: W) -> Si {
+    pub(super) fn pos(mag: W) -> Si {
         Si { neg: false, mag }
     }
 
-    fn from_u128(x: u128) -> Si {
+    pub(super) fn from_u128(x: u128) -> Si {
         Si::pos(W::from_u128(x))
     }
 
-    fn is_zero(&self) -> bool {
+    pub(super) fn is_zero(&self) -> bool {
         self.mag == W::ZERO
     }
 
-    fn neg(self) -> Si {
+    pub(super) fn neg(self) -> Si {
         Si {
             neg: !self.neg && !self.is_zero(),
             mag: self.mag,
         }
     }
 
-    fn mul(self, o: Si) -> Option<Si> {
+    pub(super) fn mul(self, o: Si) -> Option<Si> {
         if self.mag.bits_vartime() + o.mag.bits_vartime() > MAX_BITS {
             return None;
         }
@@ -80,7 +85,7 @@ impl Si {
         })
     }
 
-    fn shl(self, k: u32) -> Option<Si> {
+    pub(super) fn shl(self, k: u32) -> Option<Si> {
         if self.mag.bits_vartime() + k > MAX_BITS {
             return None;
         }
@@ -90,7 +95,7 @@ impl Si {
         })
     }
 
-    fn add(self, o: Si) -> Option<Si> {
+    pub(super) fn add(self, o: Si) -> Option<Si> {
         if self.mag.bits_vartime().max(o.mag.bits_vartime()) >= MAX_BITS {
             return None;
         }
@@ -112,13 +117,13 @@ impl Si {
         })
     }
 
-    fn sub(self, o: Si) -> Option<Si> {
+    pub(super) fn sub(self, o: Si) -> Option<Si> {
         self.add(o.neg())
     }
 }
 
 /// `x = ±m·2^e` exactly (m < 2^53 odd, or 0), from the bits; `None` for infinities and NaN.
-fn split(x: f64) -> Option<(bool, u64, i32)> {
+pub(super) fn split(x: f64) -> Option<(bool, u64, i32)> {
     let bits = x.to_bits();
     let neg = bits >> 63 == 1;
     let exp = ((bits >> 52) & 0x7ff) as i32;
@@ -134,13 +139,13 @@ fn split(x: f64) -> Option<(bool, u64, i32)> {
 }
 
 /// Binary places an f64 needs to be an integer (0 for zero and integers).
-fn places(x: f64) -> Option<u32> {
+pub(super) fn places(x: f64) -> Option<u32> {
     let (_, m, e) = split(x)?;
     Some(if m == 0 || e >= 0 { 0 } else { (-e) as u32 })
 }
 
 /// `x·2^s` as an exact integer (`s` at least [`places`] of x).
-fn scaled(x: f64, s: u32) -> Option<Si> {
+pub(super) fn scaled(x: f64, s: u32) -> Option<Si> {
     let (neg, m, e) = split(x)?;
     if m == 0 {
         return Some(Si::ZERO);
@@ -151,7 +156,7 @@ fn scaled(x: f64, s: u32) -> Option<Si> {
 }
 
 /// ⌊x⌋ of a non-negative f64 in integers (saturating; 0 below 1 and for negatives).
-fn floor_u64(x: f64) -> u64 {
+pub(super) fn floor_u64(x: f64) -> u64 {
     match split(x) {
         Some((false, m, e)) if m != 0 => {
             if e >= 0 {
@@ -192,7 +197,7 @@ fn round_ticks(clock: u64, t: f64) -> Option<u64> {
     u64::try_from(r).ok()
 }
 
-fn to_u64(x: &W) -> Option<u64> {
+pub(super) fn to_u64(x: &W) -> Option<u64> {
     low_bits(x, 64).map(|v| v as u64)
 }
 
@@ -394,8 +399,26 @@ impl Kernel {
     }
 }
 
-/// A tracker's ramp (a trapezoid [`Profile`] from the float planner) with every edge in
-/// integers: the same edges as [`EdgeGenerator`](crate::EdgeGenerator) on that profile.
+/// A piece's per-step state: the closed form (constant acceleration) or the search by
+/// the exactness test (constant jerk, [`Cubic`]).
+#[derive(Clone, Copy, Debug)]
+enum PieceKernel {
+    Quadratic(Kernel),
+    Cubic(Cubic),
+}
+
+impl PieceKernel {
+    fn enter(r: &IntRamp, k: usize, i: u64) -> Option<PieceKernel> {
+        match r.profile.piece(k).quadratic() {
+            Some(_) => Kernel::enter(&r.profile, r.clock, k, i).map(PieceKernel::Quadratic),
+            None => Cubic::enter(&r.profile, r.clock, k, i, r.end_tick).map(PieceKernel::Cubic),
+        }
+    }
+}
+
+/// A tracker's ramp (a trapezoid or S-curve [`Profile`] from the float planner) with every
+/// edge in integers: the same edges as [`EdgeGenerator`](crate::EdgeGenerator) on that
+/// profile.
 #[derive(Clone, Debug)]
 pub struct IntRamp {
     profile: Profile,
@@ -404,17 +427,24 @@ pub struct IntRamp {
     next: u64,
     end_tick: u64,
     last_edge: u64,
+    /// The exact times of the last three steps (newest first), ticks in 2^-32 (to the
+    /// precision the search learns them; a tick's middle otherwise), and how many are
+    /// known: the cubic search starts from their quadratic extrapolation.
+    times: [i128; 3],
+    known: u8,
     piece: usize,
     /// ⌊end of the current piece⌋: steps up to it belong to it (as the float generator
     /// assigns them).
     piece_end: u64,
-    kernel: Option<Kernel>,
+    kernel: Option<PieceKernel>,
 }
 
 impl IntRamp {
-    /// The ramp `profile` on a clock of `clock_hz` (trapezoid pieces only).
+    /// The ramp `profile` on a clock of `clock_hz` (pieces of constant acceleration or
+    /// constant jerk).
     pub fn new(profile: Profile, clock_hz: u64) -> Result<IntRamp, TrackError> {
-        if profile.pieces().iter().any(|p| p.quadratic().is_none()) {
+        let cubic = |p: &crate::piece::Piece| matches!(p.law, Law::Poly { c4, .. } if c4 == 0.0);
+        if !profile.pieces().iter().all(cubic) {
             return Err(TrackError::NotInteger);
         }
         let end_tick = round_ticks(clock_hz, profile.duration()).ok_or(TrackError::TooLong)?;
@@ -428,6 +458,9 @@ impl IntRamp {
             next: 1,
             end_tick,
             last_edge: 0,
+            // tick 0 is the edge of the step before the ramp
+            times: [0; 3],
+            known: 1,
             piece: 0,
             kernel: None,
         })
@@ -436,6 +469,19 @@ impl IntRamp {
     /// The profile played.
     pub fn profile(&self) -> &Profile {
         &self.profile
+    }
+
+    /// Where the next edge probably is: ⌈x⌉ of the step times' quadratic extrapolation x
+    /// (step times are smooth), or the tick after the last edge (the search gallops).
+    fn guess(&self) -> u64 {
+        let [x1, x2, x3] = self.times;
+        let x = match self.known {
+            3 => 3 * (x1 - x2) + x3,
+            2 => 2 * x1 - x2,
+            _ => return self.last_edge + 1,
+        };
+        let up = (x + (1 << 32) - 1) >> 32;
+        up.clamp(self.last_edge as i128, u64::MAX as i128) as u64
     }
 }
 
@@ -461,9 +507,31 @@ impl Iterator for IntRamp {
             }
             self.piece = k;
             self.piece_end = floor_u64(self.profile.end_of(k));
-            self.kernel = Some(Kernel::enter(&self.profile, self.clock, k, i)?);
+            self.kernel = Some(PieceKernel::enter(self, k, i)?);
         }
-        let e = self.kernel.as_mut()?.edge()?.max(self.last_edge);
+        let guess = match self.kernel {
+            Some(PieceKernel::Cubic(_)) => self.guess(),
+            _ => 0,
+        };
+        let e = match &mut self.kernel {
+            Some(PieceKernel::Quadratic(q)) => {
+                // the closed form needs no history: the cubic search's first step after
+                // this piece gallops from the last edge
+                self.known = 0;
+                q.edge()?
+            }
+            Some(PieceKernel::Cubic(c)) => {
+                let (e, frac) = c.edge(self.last_edge, guess);
+                let e = e.max(self.last_edge);
+                // the step's time: e − 1 + φ, or half a tick before its edge
+                let x = ((e as i128) << 32) - frac.map_or(1 << 31, |f| (1i128 << 32) - f as i128);
+                self.times = [x, self.times[0], self.times[1]];
+                self.known = (self.known + 1).min(3);
+                e
+            }
+            None => return None,
+        };
+        let e = e.max(self.last_edge);
         self.last_edge = e;
         Some(e)
     }
@@ -478,7 +546,7 @@ impl RampEdges for IntRamp {
         for k in 0..r.profile.len() {
             let end = floor_u64(r.profile.end_of(k));
             if first < r.profile.steps() && first <= end {
-                Kernel::enter(&r.profile, r.clock, k, first).ok_or(TrackError::NotInteger)?;
+                PieceKernel::enter(&r, k, first).ok_or(TrackError::NotInteger)?;
                 first = end.saturating_add(1);
             }
         }

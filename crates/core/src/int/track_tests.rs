@@ -7,8 +7,9 @@
 extern crate std;
 
 use super::IntTracker;
+use crate::piece::Law;
 use crate::profile::Profile;
-use crate::track::{Rate, TrackError, TrackLimits, TrackSegment, Tracker};
+use crate::track::{Rate, TrackLimits, TrackSegment, Tracker};
 use astro_float::{BigFloat, RoundingMode};
 use proptest::prelude::*;
 
@@ -26,7 +27,8 @@ fn bu(x: u128) -> BigFloat {
 }
 
 /// Whether `p(x2/2 ticks) ≥ i` on `profile` (the piece holding that time, as DESIGN.md §1
-/// evaluates p), exactly: `f²·p0 + f·c1·u + c2·u² ≥ f²·i` with u the local time in ticks.
+/// evaluates p), exactly: `f³·p0 + f²·c1·u + f·c2·u² + c3·u³ ≥ f³·i` with u the local time
+/// in ticks.
 fn reached(profile: &Profile, x2: u128, i: u64) -> bool {
     let f = bu(F as u128);
     let x = bu(x2).div(&bu(2), P, RM);
@@ -43,18 +45,24 @@ fn reached(profile: &Profile, x2: u128, i: u64) -> bool {
         .rposition(|p| x.cmp(&f.mul(&bf(p.t0), P, RM)).unwrap() >= 0)
         .unwrap_or(0);
     let p = profile.piece(k);
-    let (c1, c2) = p.quadratic().unwrap();
+    let Law::Poly { c1, c2, c3, c4 } = p.law else {
+        panic!("a shaped piece")
+    };
+    assert_eq!(c4, 0.0);
     let mut u = x.sub(&f.mul(&bf(p.t0), P, RM), P, RM);
     let ud = f.mul(&bf(p.dur), P, RM);
     if u.cmp(&ud).unwrap() > 0 {
         u = ud;
     }
+    // times f³: f³·p0 + f²·c1·u + f·c2·u² + c3·u³ ≥ f³·i
     let f2 = f.mul(&f, P, RM);
-    let lhs = f2
+    let f3 = f2.mul(&f, P, RM);
+    let lhs = f3
         .mul(&bf(p.p0), P, RM)
-        .add(&f.mul(&bf(c1), P, RM).mul(&u, P, RM), P, RM)
-        .add(&bf(c2).mul(&u, P, RM).mul(&u, P, RM), P, RM);
-    lhs.cmp(&f2.mul(&bu(i as u128), P, RM)).unwrap() >= 0
+        .add(&f2.mul(&bf(c1), P, RM).mul(&u, P, RM), P, RM)
+        .add(&f.mul(&bf(c2), P, RM).mul(&u, P, RM).mul(&u, P, RM), P, RM)
+        .add(&bf(c3).mul(&u, P, RM).mul(&u, P, RM).mul(&u, P, RM), P, RM);
+    lhs.cmp(&f3.mul(&bu(i as u128), P, RM)).unwrap() >= 0
 }
 
 /// DESIGN.md §1's test for ramp step `i` at local tick `e`; the last step is at
@@ -124,6 +132,29 @@ impl Pair {
         let b = self.float.set_rate(r);
         prop_assert_eq!(&a, &b);
         prop_assert!(a.is_ok());
+        Ok(())
+    }
+
+    /// `first` steps, then each (rate, steps) change in turn, a stop run to the stream's
+    /// end, and a restart if given; some ramp edges must have been checked.
+    fn script(
+        &mut self,
+        first: u64,
+        changes: &[(Rate, u64)],
+        restart: Option<(Rate, u64)>,
+    ) -> Result<(), TestCaseError> {
+        self.run(first)?;
+        for &(r, n) in changes {
+            self.set_rate(r)?;
+            self.run(n)?;
+        }
+        self.set_rate(Rate::ZERO)?;
+        prop_assert!(!self.run(u64::MAX)?, "a stop ends the stream");
+        if let Some((r, n)) = restart {
+            self.set_rate(r)?;
+            self.run(n)?;
+        }
+        prop_assert!(self.ramp_edges > 0);
         Ok(())
     }
 
@@ -203,27 +234,30 @@ fn sidereal_24_hours_int_equals_float_and_exact() {
     assert!(pair.exact_ramp_checks == pair.ramp_edges);
 }
 
+/// The sidereal rate from rest with S-curve ramps (jmax): every ramp and cruise edge of the
+/// integer tracker equals the float tracker's and the exact references; then a change to
+/// twice the rate while cruising, one while that ramp runs (applied at its end), and a stop.
 #[test]
-fn scurve_ramps_are_refused_by_the_integer_tracker() {
+fn scurve_sidereal_int_equals_float_and_exact() {
     let limits = TrackLimits {
-        amax: 100.0,
+        amax: 200.0,
         jmax: Some(1000.0),
     };
-    let r = Rate::new(100, 1).unwrap();
-    assert_eq!(
-        IntTracker::new(F as f64, limits, 0.0, r).err(),
-        Some(TrackError::NotInteger)
+    let rate = Rate::new(15041, 324).unwrap();
+    let mut pair = Pair::new(limits, 0.0, rate);
+    assert!(pair.run(20_000).unwrap());
+    pair.set_rate(Rate::new(30082, 324).unwrap()).unwrap();
+    assert!(pair.run(3).unwrap());
+    pair.set_rate(Rate::new(123_457, 1000).unwrap()).unwrap();
+    assert!(pair.run(30_000).unwrap());
+    pair.set_rate(Rate::ZERO).unwrap();
+    assert!(!pair.run(u64::MAX).unwrap());
+    assert!(pair.ramp_edges > 100 && pair.cruise_edges > 10_000);
+    assert!(
+        pair.exact_ramp_checks == pair.ramp_edges,
+        "{}",
+        pair.ramp_edges
     );
-    // no ramp, no refusal: a cruise from the start speed
-    let mut t = IntTracker::new(F as f64, limits, 100.0, r).unwrap();
-    assert_eq!(t.next(), Some(500_000));
-    // a change that needs an S-curve ramp is refused, and the cruise goes on untouched
-    assert_eq!(
-        t.set_rate(Rate::new(200, 1).unwrap()),
-        Err(TrackError::NotInteger)
-    );
-    assert_eq!(t.rate(), r);
-    assert_eq!(t.next(), Some(1_000_000));
 }
 
 /// A random exact rate between 0.5 and 2·10⁵ steps/s with a denominator up to 2^24.
@@ -248,15 +282,147 @@ proptest! {
         let amax = r1.to_f64().max(r2.to_f64()).max(start * r1.to_f64()) * 10f64.powf(amax_exp);
         let limits = TrackLimits { amax, jmax: None };
         let mut pair = Pair::new(limits, start * r1.to_f64(), r1);
-        pair.run(n1)?;
-        pair.set_rate(r2)?;
-        pair.run(n2)?;
-        pair.set_rate(Rate::ZERO)?;
-        prop_assert!(!pair.run(u64::MAX)?, "a stop ends the stream");
-        if restart {
-            pair.set_rate(r1)?;
-            pair.run(n1)?;
+        pair.script(n1, &[(r2, n2)], restart.then_some((r1, n1)))?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
+
+    /// S-curve ramps (jmax): random rates, start speeds, amax and jmax; a change after a
+    /// random number of steps (often inside the first ramp, where it waits for the ramp's
+    /// end), another one, a stop and a restart: every edge of the integer tracker equals
+    /// the float tracker's and the exact references.
+    #[test]
+    fn scurve_int_tracker_equals_float_and_exact(
+        r1 in any_rate(), r2 in any_rate(), r3 in any_rate(), start in 0.0f64..2.0,
+        amax_exp in 0.7f64..4.0, jmax_exp in 0.3f64..3.0,
+        n1 in 1u64..4000, n2 in 1u64..4000, n3 in 1u64..4000, restart in any::<bool>(),
+    ) {
+        // amax from 5 to 10⁴ times the fastest speed, jmax from 2 to 10³ times amax
+        let top = r1.to_f64().max(r2.to_f64()).max(r3.to_f64()).max(start * r1.to_f64());
+        let amax = top * 10f64.powf(amax_exp);
+        let limits = TrackLimits { amax, jmax: Some(amax * 10f64.powf(jmax_exp)) };
+        let mut pair = Pair::new(limits, start * r1.to_f64(), r1);
+        pair.script(n1, &[(r2, n2), (r3, n3)], restart.then_some((r1, n1)))?;
+    }
+}
+
+/// A ramp from 166 388 down to 1323 steps/s that dips to 131 steps/s and comes back (the
+/// S-curve planner's shortest change): the cubic of the piece after the dip, extended
+/// backwards, rises again before the piece starts, and the one before it turns back after
+/// its end. The search stays inside each piece, so every edge is still the float
+/// tracker's and exact.
+#[test]
+fn scurve_cubics_are_searched_inside_their_pieces() {
+    let amax = 166_388.0 * 10f64.powf(3.5142302352473354);
+    let limits = TrackLimits {
+        amax,
+        jmax: Some(amax * 10f64.powf(0.3)),
+    };
+    let mut pair = Pair::new(limits, 0.0, Rate::new(1, 1).unwrap());
+    pair.script(
+        1,
+        &[
+            (Rate::new(166_388, 1).unwrap(), 552),
+            (Rate::new(1323, 1).unwrap(), 2100),
+        ],
+        None,
+    )
+    .unwrap();
+    assert!(pair.ramp_edges > 4000, "{}", pair.ramp_edges);
+}
+
+/// Clocks from 1 MHz to 2^53 Hz with S-curve ramps: the integer tracker gives the float
+/// tracker's edges, or refuses the ramp with a typed error when its values need more than
+/// 512 bits (never a wrong edge, never a panic).
+#[test]
+fn scurve_clocks_up_to_2_pow_53_equal_or_refuse() {
+    let limits = TrackLimits {
+        amax: 3000.0,
+        jmax: Some(40_000.0),
+    };
+    let (mut ran, mut refused) = (0, 0);
+    for clock in [1e6, 5e7, 1e9, (1u64 << 40) as f64, (1u64 << 53) as f64] {
+        for rate in [
+            Rate::new(15041, 324).unwrap(),
+            Rate::new(319_999, 10).unwrap(),
+        ] {
+            let Ok(float) = Tracker::new(clock, limits, 0.0, rate) else {
+                // a ramp of more than 2^50 ticks: refused by both
+                assert!(IntTracker::new(clock, limits, 0.0, rate).is_err());
+                continue;
+            };
+            match IntTracker::new(clock, limits, 0.0, rate) {
+                Ok(int) => {
+                    let n = 3000;
+                    let a: std::vec::Vec<u64> = int.take(n).collect();
+                    let b: std::vec::Vec<u64> = float.take(n).collect();
+                    assert_eq!(a, b, "clock {clock}, rate {rate:?}");
+                    ran += 1;
+                }
+                Err(e) => {
+                    assert_eq!(e, crate::track::TrackError::NotInteger);
+                    refused += 1;
+                }
+            }
         }
-        prop_assert!(pair.ramp_edges > 0);
+    }
+    std::println!("{ran} ran, {refused} refused");
+    assert!(ran >= 6, "{ran} ran, {refused} refused");
+}
+
+/// A constant-jerk piece whose values need more than 512 bits (a coefficient of a
+/// thousand binary places), or a piece of higher order, is a typed error when the ramp
+/// starts, not a panic or a wrong edge.
+#[test]
+fn too_wide_or_quartic_pieces_are_refused() {
+    use super::IntRamp;
+    use crate::track::{RampEdges, TrackError};
+    let limits = TrackLimits {
+        amax: 200.0,
+        jmax: Some(1000.0),
+    };
+    let t = Tracker::new(F as f64, limits, 0.0, Rate::new(100, 1).unwrap()).unwrap();
+    let p = t.ramp_profile().unwrap().clone();
+    assert!(IntRamp::start(p.clone(), F).is_ok());
+    let k = (0..p.len())
+        .find(|&k| matches!(p.piece(k).law, Law::Poly { c3, .. } if c3 != 0.0))
+        .unwrap();
+    for (c3, c4) in [(1e-300, 0.0), (0.5, 1.0)] {
+        let mut q = p.clone();
+        if let Law::Poly { c3: a, c4: b, .. } = &mut q.pieces[k].law {
+            (*a, *b) = (c3, c4);
+        }
+        assert_eq!(IntRamp::start(q, F).err(), Some(TrackError::NotInteger));
+    }
+}
+
+/// `plan --track`'s runs ([`TrackRun`](crate::TrackRun), what the command line and the
+/// Python `track(..., integer=True)` play) with S-curve ramps: the integer tracker's edges
+/// up to the duration are the float tracker's.
+#[test]
+fn track_runs_with_jmax_int_equals_float() {
+    use super::IntRamp;
+    use crate::edges::EdgeGenerator;
+    use crate::TrackRun;
+    let run = |rate: &str, duration, amax, jmax, start_speed| TrackRun {
+        rate: Rate::parse(rate).unwrap(),
+        duration,
+        start_speed,
+        amax: Some(amax),
+        jmax: Some(jmax),
+    };
+    for r in [
+        run("46.4228", 3.0, 500.0, 5000.0, 300.0),
+        run("15041/324", 30.0, 200.0, 2000.0, 0.0),
+        run("31999.9", 0.5, 64000.0, 1e6, 1000.0),
+    ] {
+        let (a, end) = r.start::<IntRamp>(F as f64).unwrap();
+        let (b, _) = r.start::<EdgeGenerator>(F as f64).unwrap();
+        let a: std::vec::Vec<u64> = a.take_while(|&e| e <= end).collect();
+        let b: std::vec::Vec<u64> = b.take_while(|&e| e <= end).collect();
+        assert!(a.len() > 100);
+        assert_eq!(a, b, "{r:?}");
     }
 }

@@ -8,20 +8,16 @@ use super::TdmError;
 
 /// Deepest FIFO a board supports.
 pub const MAX_FIFO_DEPTH: usize = 64;
-// slots are indexed by push number mod a power of two up to the depth limit
+// `% MAX_FIFO_DEPTH` below is a mask (it only spares bounds checks)
 const _: () = assert!(MAX_FIFO_DEPTH.is_power_of_two());
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fifo {
-    /// Periods ever pushed.
-    pushed: usize,
+    /// Slot of the next push: `depth` slots are written in turn, so the slot about to be
+    /// written holds the push `depth` pushes back, the oldest the FIFO may still hold.
+    next: usize,
     depth: usize,
-    /// `slots − 1`, the slots used being `depth` rounded up to a power of two (few, so
-    /// that they share a cache line or two).
-    mask: usize,
-    /// Leave tick of push number n at `n & mask`: the last `depth` pushes are all there,
-    /// and the slot `depth` pushes back still reads 0 (never written) during the first
-    /// `depth` pushes, so neither call below needs a branch.
+    /// Leave tick of each of the last `depth` pushes; a slot never written reads 0.
     leave: [u64; MAX_FIFO_DEPTH],
 }
 
@@ -34,9 +30,8 @@ impl Fifo {
             });
         }
         Ok(Fifo {
-            pushed: 0,
+            next: 0,
             depth,
-            mask: depth.next_power_of_two() - 1,
             leave: [0; MAX_FIFO_DEPTH],
         })
     }
@@ -49,31 +44,25 @@ impl Fifo {
     /// periods were ever pushed, else the leave tick of the oldest of the last `depth`.
     #[inline]
     pub fn room_tick(&self) -> u64 {
-        // push number `pushed − depth`; before it exists, a slot not written yet (0)
-        self.leave[self.slot(self.pushed.wrapping_sub(self.depth))]
+        self.leave[self.next % MAX_FIFO_DEPTH]
     }
 
     /// Pushes a period that leaves at tick `leave`. The caller has checked
     /// [`room_tick`](Self::room_tick), so the oldest entry it forgets has already left.
     #[inline]
     pub fn push(&mut self, leave: u64) {
-        self.leave[self.slot(self.pushed)] = leave;
-        self.pushed += 1;
-    }
-
-    /// Slot of push number n (mod 2^64, which the slot count divides).
-    #[inline]
-    fn slot(&self, n: usize) -> usize {
-        // `mask < MAX_FIFO_DEPTH`; the second mask only spares a bounds check
-        n & self.mask & (MAX_FIFO_DEPTH - 1)
+        self.leave[self.next % MAX_FIFO_DEPTH] = leave;
+        self.next = if self.next + 1 == self.depth {
+            0
+        } else {
+            self.next + 1
+        };
     }
 
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
     pub fn occupancy_at(&self, t: u64) -> usize {
-        let held = self.pushed.min(self.depth);
-        (self.pushed - held..self.pushed)
-            .filter(|&n| self.leave[self.slot(n)] > t)
-            .count()
+        // slots never written read 0, never after t
+        self.leave[..self.depth].iter().filter(|&&l| l > t).count()
     }
 }
 

@@ -50,6 +50,12 @@ impl PulseUnit {
         self.start
     }
 
+    /// Periods loaded so far.
+    #[inline]
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
     /// Pulses with no low time before the next rise.
     pub fn merged(&self) -> u64 {
         self.merged
