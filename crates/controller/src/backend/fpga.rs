@@ -4,7 +4,7 @@
 //! Hall latch, the e-stop and the session value are read back from the board's registers.
 //! A link that stops answering faults the board's axes until it answers again.
 
-use super::{BoardBackend, Launch, PinEvent};
+use super::{BoardBackend, Launch, PinEvent, SyncState};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
@@ -15,6 +15,8 @@ use multistep_hdl::{AxisMove, CoreParams};
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
+
+mod sync;
 
 /// Baud of `serial:DEVICE` without `@BAUD`: the boards' default build.
 pub const DEFAULT_BAUD: u32 = 3_000_000;
@@ -115,6 +117,8 @@ pub struct FpgaBackend {
     enabled: u32,
     last_poll: Option<Instant>,
     polled: bool,
+    /// The next start writes `Arm` instead of `Start` (the cross-board start, sync.rs).
+    arming: bool,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -175,6 +179,7 @@ impl FpgaBackend {
             enabled: ((1u64 << axes) - 1) as u32,
             last_poll: None,
             polled: false,
+            arming: false,
         };
         b.setup().map_err(link_err)?;
         b.read_board().map_err(link_err)?;
@@ -507,7 +512,7 @@ impl BoardBackend for FpgaBackend {
             reg: Reg::Board(BoardReg::HallStop),
             data: self.hall_stop,
         });
-        writes.push(link::start_write(mask));
+        writes.push(self.go_write(mask));
         let r = self.link()?.write_all(&writes);
         if let Err(e) = r {
             return Err(match e {
@@ -518,6 +523,10 @@ impl BoardBackend for FpgaBackend {
                     axis: format!("on {}", self.name),
                     state: "busy",
                 },
+                LinkError::Refused {
+                    status: Status::BadAddress,
+                    ..
+                } if self.arming => super::no_sync(&self.name),
                 e => self.failed(e),
             });
         }
@@ -686,6 +695,19 @@ impl BoardBackend for FpgaBackend {
 
     fn polls_when_idle(&self) -> bool {
         true
+    }
+
+    fn has_sync(&self) -> bool {
+        true
+    }
+    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
+        self.arm_moves(moves, now)
+    }
+    fn fire(&mut self) -> Result<(), CtlError> {
+        self.fire_sync()
+    }
+    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+        self.read_sync()
     }
 }
 
