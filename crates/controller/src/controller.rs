@@ -173,6 +173,9 @@ impl Controller {
         // The TDM timing runs with the board free: estop and other clients do not wait on it.
         // If another client's move ran on these axes meanwhile, plan again from where they
         // are now (planning refuses at once while they still move).
+        if arm {
+            self.with_board(|b, _| b.check_sync())?;
+        }
         let mut tries = 0;
         loop {
             let pending =

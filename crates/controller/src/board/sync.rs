@@ -13,13 +13,21 @@ impl Board {
         pending: PendingGroup,
         now: u64,
     ) -> Result<Vec<i64>, CtlError> {
-        if !self.pins.has_sync() {
-            return Err(no_sync(&self.pins.describe()));
-        }
+        self.check_sync()?;
         self.arming = true;
         let r = self.start_group_move(pending, None, now);
         self.arming = false;
         r
+    }
+
+    /// Refuses at once on a board without a SYNC line (before planning: an arm there is
+    /// refused for that, not for what its axes do).
+    pub fn check_sync(&self) -> Result<(), CtlError> {
+        if self.pins.has_sync() {
+            Ok(())
+        } else {
+            Err(no_sync(&self.pins.describe()))
+        }
     }
 
     /// Pulls the SYNC line low: every board on it starts its armed group.
