@@ -49,9 +49,10 @@ pub enum CtlCmd {
         #[arg(long)]
         preset: Option<String>,
     },
-    /// Move axes of one board together: same start tick (--sync: same finish tick too)
+    /// Move axes together: same start tick (--sync: same finish tick too); axes of several
+    /// boards are armed on each and started by one fall of the boards' SYNC line
     Group {
-        /// AXIS=N targets (BOARD:AXIS=N with several boards; all on one board)
+        /// AXIS=N targets (BOARD:AXIS=N with several boards)
         #[arg(required = true, allow_hyphen_values = true)]
         targets: Vec<String>,
         /// Targets are absolute positions (default: relative distances)
@@ -256,26 +257,33 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             m,
             preset,
         } => {
-            let mut board = None;
-            let mut words = Vec::new();
+            // Each board's share of the group, boards in the order of their first axis.
+            let mut shares: Vec<(usize, Vec<String>)> = Vec::new();
             for t in targets {
                 let (a, n) = t
                     .rsplit_once('=')
                     .ok_or_else(|| anyhow!("'{t}' is not AXIS=N"))?;
                 let (i, ax) = boards.axis(a)?;
-                if *board.get_or_insert(i) != i {
-                    bail!("a group moves axes of one board (boards start on their own clocks)");
+                let w = format!("{ax}={n}");
+                match shares.iter_mut().find(|s| s.0 == i) {
+                    Some(s) => s.1.push(w),
+                    None => shares.push((i, vec![w])),
                 }
-                words.push(format!("{ax}={n}"));
             }
             let verb = if *absolute { "moveto" } else { "move" };
             let sync = if *sync { " sync" } else { "" };
-            let line = format!(
-                "group {verb} {}{sync} {}",
-                words.join(" "),
-                move_words(m, preset)?
-            );
-            print_lines(&boards.send(board.unwrap_or(0), line.trim_end())?);
+            let opts = move_words(m, preset)?;
+            let line = |head: &str, words: &[String]| {
+                let l = format!("{head} {verb} {}{sync} {opts}", words.join(" "));
+                l.trim_end().to_string()
+            };
+            if let [(i, words)] = shares.as_slice() {
+                print_lines(&boards.send(*i, &line("group", words))?);
+            } else {
+                let lines: Vec<(usize, String)> =
+                    shares.iter().map(|(i, w)| (*i, line("arm", w))).collect();
+                sync_group(&mut boards, &lines)?;
+            }
         }
         CtlCmd::Home { axis } => {
             let (i, ax) = boards.axis(axis)?;
@@ -397,6 +405,98 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             let i = boards.board(to.as_deref())?;
             print_lines(&boards.send(i, &line.join(" "))?);
         }
+    }
+    Ok(())
+}
+
+/// How long `ctl group` waits for every board's armed share to be ready.
+const ARM_PATIENCE: Duration = Duration::from_secs(10);
+
+/// One board's `synctick` answer: (latched count, armed, ready, late).
+fn sync_state(boards: &mut Boards, i: usize) -> anyhow::Result<(u32, bool, bool, bool)> {
+    let lines = boards.send(i, "synctick")?;
+    let line = lines.first().map_or("", |s| s.as_str());
+    let mut st = (None, false, false, false);
+    for w in line.split_whitespace() {
+        match w.split_once('=') {
+            Some(("synctick", v)) => st.0 = v.parse().ok(),
+            Some(("armed", v)) => st.1 = v == "1",
+            Some(("ready", v)) => st.2 = v == "1",
+            Some(("late", v)) => st.3 = v == "1",
+            _ => {}
+        }
+    }
+    let tick =
+        st.0.ok_or_else(|| anyhow!("board {}: synctick answered '{line}'", boards.list[i].0))?;
+    Ok((tick, st.1, st.2, st.3))
+}
+
+/// A group across boards (docs/HDL.md "Cross-board start"): arms each board's share
+/// (`lines`), waits until every board is ready, fires the SYNC line from the first board
+/// and prints each board's count at the fall and its offset to the first board's clock.
+/// If a board refuses, the shares armed before it are stopped (disarmed).
+fn sync_group(boards: &mut Boards, lines: &[(usize, String)]) -> anyhow::Result<()> {
+    let mut armed: Vec<(usize, Vec<String>)> = Vec::new();
+    let r = (|| -> anyhow::Result<Vec<u32>> {
+        for (i, line) in lines {
+            let answer = boards.send(*i, line)?;
+            let name = boards.list[*i].0.clone();
+            let axes = answer
+                .iter()
+                .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+                .collect();
+            armed.push((*i, axes));
+            for l in answer {
+                println!("{name}:{l}");
+            }
+        }
+        let deadline = Instant::now() + ARM_PATIENCE;
+        for (i, _) in lines {
+            loop {
+                let (_, is_armed, ready, _) = sync_state(boards, *i)?;
+                if !is_armed {
+                    bail!(
+                        "board {}: its share of the group is no longer armed",
+                        boards.list[*i].0
+                    );
+                }
+                if ready {
+                    break;
+                }
+                if Instant::now() > deadline {
+                    bail!("board {}: the armed group is not ready", boards.list[*i].0);
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        }
+        boards.send(lines[0].0, "fire")?;
+        let mut ticks = Vec::new();
+        for (i, _) in lines {
+            let (tick, is_armed, _, late) = sync_state(boards, *i)?;
+            if is_armed || late {
+                bail!(
+                    "board {}: its group did not start on the SYNC fall",
+                    boards.list[*i].0
+                );
+            }
+            ticks.push(tick);
+        }
+        Ok(ticks)
+    })();
+    let ticks = match r {
+        Ok(t) => t,
+        Err(e) => {
+            for (i, axes) in &armed {
+                for ax in axes {
+                    let _ = boards.send(*i, &format!("stop {ax}"));
+                }
+            }
+            return Err(e);
+        }
+    };
+    let offsets = multistep_hdl::link::sync_offsets(&ticks);
+    for ((i, _), (tick, off)) in lines.iter().zip(ticks.iter().zip(offsets)) {
+        println!("{} synctick={tick} offset={off}", boards.list[*i].0);
     }
     Ok(())
 }

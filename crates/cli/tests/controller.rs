@@ -360,7 +360,8 @@ fn ctl_drives_two_boards_of_the_telescope_example() {
     assert_eq!(out, "wp1 target=1000\nwp2 target=3500\nslit target=3200\n");
     let (code, _, err) = ctl(&["group", "a:wp1=1", "b:wp11=1"]);
     assert_eq!(code, Some(2));
-    assert!(err.contains("one board"), "{err}");
+    // simulated boards share no SYNC line: refused before anything moves
+    assert!(err.contains("has no SYNC line"), "{err}");
     assert_eq!(
         ctl(&["wait", "a:wp3", "a:wp1", "a:wp2", "a:slit"]).0,
         Some(0)

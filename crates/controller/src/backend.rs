@@ -61,6 +61,29 @@ pub enum PinEvent {
     Step,
 }
 
+/// The board's SYNC line (docs/HDL.md "Cross-board start") as its `Status` and `SyncTick`
+/// registers report it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncState {
+    /// A group is armed: it waits for the SYNC edge.
+    pub armed: bool,
+    /// The armed group is prefilled and past its DIR setup.
+    pub ready: bool,
+    /// The last SYNC edge came before the armed group was ready.
+    pub late: bool,
+    /// The line's level (true: idle, high).
+    pub line: bool,
+    /// The board's free-running count latched at the last SYNC fall.
+    pub tick: u32,
+}
+
+/// The refusal of a board with no SYNC line.
+pub fn no_sync(board: &str) -> CtlError {
+    CtlError::Unsupported(format!(
+        "board {board} has no SYNC line: arm, fire and synctick need an FPGA board built with the cross-board start"
+    ))
+}
+
 /// The pins of one board. Time is the board tick `now` the controller passes in.
 pub trait BoardBackend: Send {
     /// "simulated" or the link, e.g. "serial:/dev/ttyUSB0@3000000".
@@ -89,6 +112,23 @@ pub trait BoardBackend: Send {
         tdm: &multistep_core::tdm::TdmConfig,
         now: u64,
     ) -> Result<(u64, Vec<u64>), CtlError>;
+    /// The board has a SYNC line ([`BoardBackend::arm`] may work).
+    fn has_sync(&self) -> bool {
+        false
+    }
+    /// Loads `moves` as [`BoardBackend::start`] does, but they start at the next SYNC fall
+    /// (the board reports them pending until then).
+    fn arm(&mut self, _moves: Vec<Launch>, _now: u64) -> Result<(u64, Vec<u64>), CtlError> {
+        Err(no_sync(&self.describe()))
+    }
+    /// Pulls the SYNC line low: every board on it starts its armed group.
+    fn fire(&mut self) -> Result<(), CtlError> {
+        Err(no_sync(&self.describe()))
+    }
+    /// The SYNC line's state.
+    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+        Err(no_sync(&self.describe()))
+    }
     /// Starts a move given as its step source (a simulated board only).
     fn start_source(
         &mut self,

@@ -19,6 +19,7 @@ use std::collections::BTreeMap;
 mod driver;
 mod homing;
 mod preview;
+mod sync;
 mod tracking;
 use homing::HomePhase;
 pub use preview::PlannedAxis;
@@ -130,6 +131,8 @@ pub struct Board {
     warnings: Vec<String>,
     /// The pins: simulated mechanics and sensors, or the FPGA board.
     pins: Box<dyn BoardBackend>,
+    /// The next group start arms it for the SYNC line instead (board/sync.rs).
+    arming: bool,
 }
 
 /// The stored settings of an axis, brought into range; `None` (use the board config) if
@@ -247,6 +250,7 @@ impl Board {
             now: 0,
             warnings,
             pins,
+            arming: false,
         })
     }
 
@@ -540,7 +544,12 @@ impl Board {
             marked.push(l.axis);
             launches.push(l);
         }
-        match self.pins.start(launches, report, &self.tdm, now) {
+        let started = if self.arming {
+            self.pins.arm(launches, now)
+        } else {
+            self.pins.start(launches, report, &self.tdm, now)
+        };
+        match started {
             Ok((start, _)) => {
                 for &i in &marked {
                     self.axes[i].move_start = Some(start);

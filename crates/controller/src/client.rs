@@ -159,8 +159,18 @@ impl std::fmt::Display for Command {
                 targets,
                 sync,
                 opts,
+            }
+            | Command::Arm {
+                absolute,
+                targets,
+                sync,
+                opts,
             } => {
-                push("group");
+                push(if matches!(self, Command::Arm { .. }) {
+                    "arm"
+                } else {
+                    "group"
+                });
                 push(if *absolute { "moveto" } else { "move" });
                 for (a, n) in targets {
                     push(&format!("{a}={}", amount(n)));
@@ -175,6 +185,8 @@ impl std::fmt::Display for Command {
                 push(axis.as_deref().unwrap_or("all"));
             }
             Command::EStop => push("estop"),
+            Command::Fire => push("fire"),
+            Command::SyncTick => push("synctick"),
             Command::Reset => push("reset"),
             Command::Home { axis } => {
                 push("home");
@@ -265,6 +277,9 @@ fn free_words(cmd: &Command) -> Vec<&str> {
             w.extend(opt_words(o));
         }
         Command::Group {
+            targets, opts: o, ..
+        }
+        | Command::Arm {
             targets, opts: o, ..
         } => {
             w.extend(targets.iter().map(|t| t.0.as_str()));

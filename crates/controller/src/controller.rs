@@ -158,15 +158,37 @@ impl Controller {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<Vec<i64>, CtlError> {
+        self.group_move_or_arm(targets, absolute, sync, opts, false)
+    }
+
+    /// A group started now, or (`arm`) armed for the SYNC line's fall.
+    fn group_move_or_arm(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+        arm: bool,
+    ) -> Result<Vec<i64>, CtlError> {
         // The TDM timing runs with the board free: estop and other clients do not wait on it.
         // If another client's move ran on these axes meanwhile, plan again from where they
         // are now (planning refuses at once while they still move).
+        if arm {
+            self.with_board(|b, _| b.check_sync())?;
+        }
         let mut tries = 0;
         loop {
             let pending =
                 self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
             let report = pending.time()?;
-            match self.with_board(|b, now| b.start_group_move(pending, report.as_ref(), now)) {
+            let started = self.with_board(|b, now| {
+                if arm {
+                    b.arm_group_move(pending, now)
+                } else {
+                    b.start_group_move(pending, report.as_ref(), now)
+                }
+            });
+            match started {
                 Err(CtlError::Busy { .. }) if tries < 3 => tries += 1,
                 other => return other,
             }
@@ -252,6 +274,27 @@ impl Controller {
                 let t = self.group_move(targets, *absolute, *sync, opts)?;
                 let names: Vec<String> = targets.iter().map(|x| x.0.clone()).collect();
                 target_line(&names, &t)
+            }
+            Command::Arm {
+                absolute,
+                targets,
+                sync,
+                opts,
+            } => {
+                let t = self.group_move_or_arm(targets, *absolute, *sync, opts, true)?;
+                let names: Vec<String> = targets.iter().map(|x| x.0.clone()).collect();
+                target_line(&names, &t)
+            }
+            Command::Fire => {
+                self.with_board(|b, now| b.fire(now))?;
+                vec![]
+            }
+            Command::SyncTick => {
+                let s = self.with_board(|b, now| b.sync_state(now))?;
+                vec![format!(
+                    "synctick={} armed={} ready={} late={} line={}",
+                    s.tick, s.armed as u8, s.ready as u8, s.late as u8, s.line as u8
+                )]
             }
             Command::Stop { axis } => {
                 self.stop(axis.as_deref())?;

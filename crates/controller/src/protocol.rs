@@ -135,6 +135,18 @@ pub enum Command {
         sync: bool,
         opts: MoveOpts,
     },
+    /// A group loaded like [`Command::Group`] but armed: it starts at the next fall of
+    /// the boards' shared SYNC line (`fire` on any board on that line).
+    Arm {
+        absolute: bool,
+        targets: Vec<(String, Amount)>,
+        sync: bool,
+        opts: MoveOpts,
+    },
+    /// Pulls the SYNC line low: every board on it starts its armed group.
+    Fire,
+    /// The SYNC line's state and the board's count latched at its last fall.
+    SyncTick,
     /// Controlled stop of one axis, or all.
     Stop {
         axis: Option<String>,
@@ -525,8 +537,12 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
                 }
             }
         }
-        "group" => {
-            let usage = "group move|moveto AXIS=N… [sync] [key=value…]";
+        "group" | "arm" => {
+            let usage = if head == "group" {
+                "group move|moveto AXIS=N… [sync] [key=value…]"
+            } else {
+                "arm move|moveto AXIS=N… [sync] [key=value…]"
+            };
             want(2, usage)?;
             let absolute = match rest[0].to_ascii_lowercase().as_str() {
                 "move" => false,
@@ -549,12 +565,29 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             if targets.is_empty() {
                 return Err(CtlError::syntax(format!("no axes given; {usage}")));
             }
-            Command::Group {
-                absolute,
-                targets,
-                sync,
-                opts,
+            if head == "group" {
+                Command::Group {
+                    absolute,
+                    targets,
+                    sync,
+                    opts,
+                }
+            } else {
+                Command::Arm {
+                    absolute,
+                    targets,
+                    sync,
+                    opts,
+                }
             }
+        }
+        "fire" => {
+            none_after(0, "fire")?;
+            Command::Fire
+        }
+        "synctick" => {
+            none_after(0, "synctick")?;
+            Command::SyncTick
         }
         "stop" => {
             none_after(1, "stop [AXIS|all]")?;
@@ -805,6 +838,8 @@ pub const HELP: &[&str] = &[
     "  move AXIS N [opts]           relative move",
     "  moveto AXIS N [opts]         absolute move (periodic axes: shortest way)",
     "  group move|moveto A=N B=N… [sync] [opts]   same start tick; sync: same finish",
+    "  arm move|moveto A=N B=N… [sync] [opts]     a group that starts at the SYNC line's fall",
+    "  fire  synctick               pull SYNC low; the line's state and the count at its fall",
     "  stop [AXIS|all]  estop  reset  home AXIS",
     "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
     "  save NAME [AXIS…]  goto NAME  positions  forget NAME",

@@ -103,3 +103,69 @@ fn a_connection_answers_every_random_line_exactly_once() {
         })
         .unwrap();
 }
+
+#[test]
+fn arm_takes_the_group_syntax_and_fire_and_synctick_take_nothing() {
+    let opts = MoveOpts {
+        params: MoveParams {
+            vmax: Some(500.0),
+            ..MoveParams::default()
+        },
+        ..MoveOpts::default()
+    };
+    let want = Command::Arm {
+        absolute: true,
+        targets: vec![
+            ("X".into(), Amount::Steps(-40)),
+            ("Y".into(), Amount::Units(2.5)),
+        ],
+        sync: true,
+        opts,
+    };
+    let cmd = parse("ARM moveto X=-40 Y=2.5u sync vmax=500").unwrap();
+    assert_eq!(cmd, want);
+    // the host client writes it back as the same line
+    assert_eq!(parse(&cmd.to_string()).unwrap(), want);
+    assert_eq!(parse("fire").unwrap(), Command::Fire);
+    assert_eq!(parse("synctick").unwrap(), Command::SyncTick);
+    assert_eq!(parse(&Command::Fire.to_string()).unwrap(), Command::Fire);
+    assert_eq!(
+        parse(&Command::SyncTick.to_string()).unwrap(),
+        Command::SyncTick
+    );
+    for (bad, says) in [
+        ("arm", "usage: arm move|moveto"),
+        ("arm move", "usage: arm move|moveto"),
+        ("arm go X=1", "'go': arm move|moveto"),
+        ("arm move sync", "no axes given; arm move|moveto"),
+        ("arm move X", "'X' is not AXIS=N; arm move|moveto"),
+        ("arm move X=1.5", "'1.5' is not a whole number"),
+        ("fire now", "unexpected 'now'; usage: fire"),
+        ("synctick X", "unexpected 'X'; usage: synctick"),
+    ] {
+        let e = parse(bad).unwrap_err();
+        assert_eq!(e.code(), 3, "{bad}: {e}");
+        assert!(e.to_string().starts_with(says), "{bad}: {e}");
+    }
+}
+
+#[test]
+fn a_simulated_board_refuses_arm_fire_and_synctick_with_one_error_each() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
+    for line in ["arm move 0=100", "fire", "synctick"] {
+        let text = ctl.execute_bytes(line.as_bytes()).to_text();
+        assert_eq!(count_status_lines(&text), 1, "{line}: {text}");
+        assert_eq!(text.lines().count(), 1, "{line}: {text}");
+        assert!(
+            text.starts_with("error:19 board") && text.contains("has no SYNC line"),
+            "{line}: {text}"
+        );
+    }
+    // the refused arm left the axis idle where it was
+    let text = ctl.execute_bytes(b"status 0").to_text();
+    assert!(
+        text.contains(" pos=0 ") && text.contains(" state=idle ") && text.contains(" target=none "),
+        "{text}"
+    );
+}

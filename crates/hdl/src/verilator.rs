@@ -166,7 +166,10 @@ pub fn hil_top(b: &BoardTop) -> Result<String, HdlError> {
          \x20       .sync_in(sync_in), .sync_oe(sync_oe));\n\
          \x20   assign go = u.go;\n\
          \x20   assign debounce = u.debounce;\n\
-         \x20   assign active = (|u.busy) | u.pending | u.rx_busy | u.tx_busy\n\
+         \x20   // an armed group that is ready waits for the SYNC line only: time may stop\n\
+         \x20   wire waits = u.u_regs.sync_ready & !u.u_regs.sync_hit;\n\
+         \x20   wire [{k1}:0] held = waits ? u.u_core.group : {{({k1}+1){{1'b0}}}};\n\
+         \x20   assign active = (|(u.busy & ~held)) | (u.pending & !waits) | u.rx_busy | u.tx_busy\n\
          \x20       | (u.u_link.idx != 4'd0) | (u.u_link.tidx != 4'd9) | u.u_link.exec | u.u_link.reply;\n\
          endmodule\n",
         b.verilog_params()?

@@ -11,7 +11,7 @@
 
 mod stream;
 
-use super::{BoardBackend, Launch, PinEvent};
+use super::{BoardBackend, Launch, PinEvent, SyncState};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
@@ -28,6 +28,8 @@ use stream::Feed;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
+
+mod sync;
 
 /// Baud of `serial:DEVICE` without `@BAUD`: the boards' default build.
 pub const DEFAULT_BAUD: u32 = 3_000_000;
@@ -160,6 +162,8 @@ pub struct FpgaBackend {
     polled: bool,
     /// The board has replay units for streamed moves.
     streams: bool,
+    /// The next start writes `Arm` instead of `Start` (the cross-board start, sync.rs).
+    arming: bool,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -225,6 +229,7 @@ impl FpgaBackend {
             last_poll: None,
             polled: false,
             streams: false,
+            arming: false,
         };
         b.streams = b.probe_streams().map_err(link_err)?;
         b.setup().map_err(link_err)?;
@@ -610,6 +615,8 @@ impl FpgaBackend {
             reg: Reg::Board(BoardReg::HallStop),
             data: self.hall_stop,
         });
+        // `Start`, or `Arm` for a cross-board start (sync.rs)
+        let go = self.go_write(mask);
         let no_link = || LinkError::Io("no link".into());
         let r = self
             .link
@@ -619,7 +626,7 @@ impl FpgaBackend {
             .and_then(|_| self.preload(feeds))
             .and_then(|_| {
                 let l = self.link.as_mut().ok_or_else(no_link)?;
-                l.write(Reg::Board(BoardReg::Start), mask)
+                l.write(go.reg, go.data)
             });
         r.map_err(|e| match e {
             LinkError::Refused {
@@ -629,6 +636,10 @@ impl FpgaBackend {
                 axis: format!("on {}", self.name),
                 state: "busy",
             },
+            LinkError::Refused {
+                status: Status::BadAddress,
+                ..
+            } if self.arming => super::no_sync(&self.name),
             e => self.failed(e),
         })
     }
@@ -1114,6 +1125,19 @@ impl BoardBackend for FpgaBackend {
 
     fn polls_when_idle(&self) -> bool {
         true
+    }
+
+    fn has_sync(&self) -> bool {
+        true
+    }
+    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
+        self.arm_moves(moves, now)
+    }
+    fn fire(&mut self) -> Result<(), CtlError> {
+        self.fire_sync()
+    }
+    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+        self.read_sync()
     }
 }
 
