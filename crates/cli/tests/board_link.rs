@@ -825,6 +825,7 @@ fn a_periodic_axis_wraps_while_it_tracks_on_both_backends() {
             );
         }
     });
+}
 
 /// Two axes that move 200 steps in 0.02 s (a triangle at 1e6 steps/s²).
 const SYNC_CONFIG: &str = r#"[board]
