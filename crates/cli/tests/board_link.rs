@@ -852,7 +852,7 @@ impl Drop for Killed {
 fn sync_serve(dir: &Path, name: &str, pty: Option<&str>) -> Server {
     let config = dir.join(format!("{name}.toml"));
     std::fs::write(&config, SYNC_CONFIG).unwrap();
-    let link = pty.map(|p| format!("serial:{p}"));
+    let link = pty.map(|p| format!("serial:{p},timeout=3"));
     Server::start(&dir.join(format!("{name}-data")), &config, link.as_deref())
 }
 
