@@ -47,28 +47,29 @@ fn model_cache() -> Option<std::path::PathBuf> {
     Some(std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator"))
 }
 
+/// Starts `multistep board-sim ARGS --cache-dir CACHE` with every stream piped.
+fn board_sim(args: &[&str], cache: &std::path::Path) -> std::process::Child {
+    exe()
+        .arg("board-sim")
+        .args(args)
+        .arg("--cache-dir")
+        .arg(cache)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
 #[test]
 fn prints_the_pty_first_and_takes_commands() {
     let Some(cache) = model_cache() else {
         return;
     };
-    let mut child = exe()
-        .args([
-            "board-sim",
-            "--board",
-            "ulx3s-25f",
-            "--axes",
-            "2",
-            "--sensor-at",
-            "3",
-        ])
-        .arg("--cache-dir")
-        .arg(&cache)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = board_sim(
+        &["--board", "ulx3s-25f", "--axes", "2", "--sensor-at", "3"],
+        &cache,
+    );
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut line = String::new();
     out.read_line(&mut line).unwrap();
@@ -102,9 +103,8 @@ fn two_boards_print_two_ptys_and_take_board_prefixes() {
     let Some(cache) = model_cache() else {
         return;
     };
-    let mut child = exe()
-        .args([
-            "board-sim",
+    let mut child = board_sim(
+        &[
             "--board",
             "ulx3s-25f",
             "--axes",
@@ -115,14 +115,9 @@ fn two_boards_print_two_ptys_and_take_board_prefixes() {
             "0,-20",
             "--power-up-us",
             "0,5",
-        ])
-        .arg("--cache-dir")
-        .arg(&cache)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        ],
+        &cache,
+    );
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut paths = Vec::new();
     for _ in 0..2 {

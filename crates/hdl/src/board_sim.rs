@@ -5,7 +5,7 @@
 //! every group start (`go`) and start write, and every accepted Hall edge ([`BoardLog`]).
 
 use crate::link::{LinkError, Reply, ReplyDecoder, Request};
-use crate::tools::{file_names_of, run};
+use crate::tools::{icarus, run};
 use crate::{BoardTop, HdlError};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -342,32 +342,10 @@ pub fn simulate(
     timeout: u64,
 ) -> Result<BoardLog, HdlError> {
     let host_baud = script.host_baud.unwrap_or(f64::from(b.baud));
-    let tb = testbench(b, timeout, host_baud)?;
-    std::fs::create_dir_all(dir).map_err(|e| HdlError::io(dir, e))?;
-    let mut paths = Vec::new();
-    for (name, text) in b.files()? {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| HdlError::io(&p, e))?;
-        paths.push(p);
-    }
-    let tb_path = dir.join("tb.v");
-    std::fs::write(&tb_path, tb).map_err(|e| HdlError::io(&tb_path, e))?;
-    paths.push(tb_path);
-    let sc = dir.join(SCRIPT_FILE);
-    std::fs::write(&sc, script.text()).map_err(|e| HdlError::io(&sc, e))?;
-    let mut args = vec![
-        "-g2005".to_string(),
-        "-o".into(),
-        "sim.vvp".into(),
-        "-s".into(),
-        "tb".into(),
-    ];
-    args.extend(file_names_of(&paths));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run("iverilog", "iverilog", &args, dir)?;
-    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
-    let path = dir.join(LOG_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    let mut files = b.files()?;
+    files.push(("tb.v".into(), testbench(b, timeout, host_baud)?));
+    files.push((SCRIPT_FILE.into(), script.text()));
+    let text = icarus(dir, &files, LOG_FILE)?;
     parse(&text, b.core.axes as usize)
 }
 

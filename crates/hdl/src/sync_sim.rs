@@ -6,7 +6,7 @@
 //! of the SYNC line (with every board's count at that instant).
 
 use crate::link::{LinkError, Reply, ReplyDecoder, Request};
-use crate::tools::{file_names_of, run};
+use crate::tools::icarus;
 use crate::{BoardTop, HdlError};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -277,32 +277,10 @@ pub fn simulate_boards(
     if boards.is_empty() {
         return Err(HdlError::Param("no boards".into()));
     }
-    let tb = testbench(boards, timeout_ps)?;
-    std::fs::create_dir_all(dir).map_err(|e| HdlError::io(dir, e))?;
-    let mut paths = Vec::new();
-    for (name, text) in boards[0].0.files()? {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| HdlError::io(&p, e))?;
-        paths.push(p);
-    }
-    let tb_path = dir.join("tb.v");
-    std::fs::write(&tb_path, tb).map_err(|e| HdlError::io(&tb_path, e))?;
-    paths.push(tb_path);
-    let sc = dir.join(SCRIPT_FILE);
-    std::fs::write(&sc, script.text()).map_err(|e| HdlError::io(&sc, e))?;
-    let mut args = vec![
-        "-g2005".to_string(),
-        "-o".into(),
-        "sim.vvp".into(),
-        "-s".into(),
-        "tb".into(),
-    ];
-    args.extend(file_names_of(&paths));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run("iverilog", "iverilog", &args, dir)?;
-    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
-    let path = dir.join(LOG_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    let mut files = boards[0].0.files()?;
+    files.push(("tb.v".into(), testbench(boards, timeout_ps)?));
+    files.push((SCRIPT_FILE.into(), script.text()));
+    let text = icarus(dir, &files, LOG_FILE)?;
     let axes: Vec<usize> = boards.iter().map(|(b, _)| b.core.axes as usize).collect();
     parse(&text, &axes)
 }

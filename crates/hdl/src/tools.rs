@@ -73,6 +73,32 @@ pub struct SimOutput {
 }
 
 /// Simulates `moves` on the design in Icarus Verilog inside `dir`.
+/// Writes `files` (name, text) into `dir`, compiles them with Icarus Verilog (top
+/// module `tb`), runs the simulation there and returns the text of the file `log` it wrote.
+pub(crate) fn icarus(
+    dir: &Path,
+    files: &[(String, String)],
+    log: &str,
+) -> Result<String, HdlError> {
+    std::fs::create_dir_all(dir).map_err(|e| HdlError::io(dir, e))?;
+    let mut paths = Vec::new();
+    for (name, text) in files {
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| HdlError::io(&p, e))?;
+        if name.ends_with(".v") {
+            paths.push(p);
+        }
+    }
+    let mut args = vec!["-g2005".to_string(), "-o".into(), "sim.vvp".into()];
+    args.extend(["-s".into(), "tb".into()]);
+    args.extend(file_names_of(&paths));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run("iverilog", "iverilog", &args, dir)?;
+    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
+    let path = dir.join(log);
+    std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))
+}
+
 pub fn simulate(
     design: &Design,
     moves: &[AxisMove],

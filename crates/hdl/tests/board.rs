@@ -4,14 +4,14 @@
 
 mod common;
 
+use common::host::{half_interval_falls, Host};
 use common::{params, random_move, random_move_of, IntMove, Rng, CLOCK, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntProfile, IntSegment};
 use multistep_core::tdm::{Axis, Board, TdmConfig};
 use multistep_core::{PulseShape, StepDirTiming};
-use multistep_hdl::board_sim::{simulate, BoardLog, Script};
 use multistep_hdl::link::{
     move_writes, start_write, stop_ramp_writes, AxisReg, AxisRun, AxisState, BoardReg, BuildId,
-    Command, Levels, Reg, Reply, Request, Status,
+    Levels, Reg, Request, Status,
 };
 use multistep_hdl::{AxisMove, BoardTop, CoreParams};
 
@@ -21,69 +21,6 @@ const TICK0: u64 = 1;
 
 fn board(p: CoreParams, baud: u32) -> BoardTop {
     BoardTop::new(p, baud)
-}
-
-fn run(b: &BoardTop, s: &Script, name: &str, timeout: u64) -> BoardLog {
-    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
-    // MS_BOARD_KEEP=1 keeps the simulation directory (its path is printed)
-    let path = if std::env::var_os("MS_BOARD_KEEP").is_some() {
-        let p = dir.keep();
-        eprintln!("{name}: {}", p.display());
-        p
-    } else {
-        dir.path().to_path_buf()
-    };
-    simulate(b, s, &path, timeout).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-/// The replies, which must all decode and answer `reqs` in order.
-fn answers(log: &BoardLog, reqs: &[Request], name: &str) -> Vec<Reply> {
-    let got: Vec<Reply> = log
-        .replies()
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|e| panic!("{name}: {e}")))
-        .collect();
-    assert_eq!(got.len(), reqs.len(), "{name}: reply count");
-    for (r, q) in got.iter().zip(reqs) {
-        assert_eq!(r.seq, q.seq, "{name}: reply order");
-    }
-    got
-}
-
-/// A script that sends `reqs` back to back and waits for the replies.
-struct Host {
-    s: Script,
-    reqs: Vec<Request>,
-    seq: u8,
-}
-
-impl Host {
-    fn new() -> Host {
-        Host {
-            s: Script::new(),
-            reqs: Vec::new(),
-            seq: 0,
-        }
-    }
-    fn write(&mut self, reg: Reg, data: u32) -> usize {
-        let r = Request::write(self.seq, reg, data);
-        self.push(r)
-    }
-    fn read(&mut self, reg: Reg) -> usize {
-        let r = Request::read(self.seq, reg);
-        self.push(r)
-    }
-    fn push(&mut self, r: Request) -> usize {
-        self.seq = self.seq.wrapping_add(1);
-        self.s.send(&r);
-        self.reqs.push(r);
-        self.reqs.len() - 1
-    }
-    fn writes(&mut self, ws: &[multistep_hdl::link::RegWrite]) {
-        for w in ws {
-            self.write(w.reg, w.data);
-        }
-    }
 }
 
 /// Moves of every kind (segment chains, phase and limits trapezoids, with random start
@@ -133,10 +70,9 @@ fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, t
         h.s.sync();
         all.push((moves, reads));
     }
-    let log = run(&b, &h.s, &name, 30_000_000);
-    let rep = answers(&log, &h.reqs, &name);
+    let (log, rep) = h.run(&b, &name, 30_000_000);
     for (i, r) in rep.iter().enumerate() {
-        assert_eq!(r.status, Status::Ok, "{name}: request {i} {:?}", h.reqs[i]);
+        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
     }
     let bid = BuildId::decode(
         rep[id[0]].data,
@@ -199,21 +135,6 @@ fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, t
             assert_eq!(dir_level, m.dir, "{name}: round {r} axis {a} DIR pin");
         }
     }
-}
-
-/// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
-/// tick), the last pulse for half of the last interval.
-fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
-    let mut prev = 0;
-    (0..rises.len())
-        .map(|k| {
-            let interval = rises
-                .get(k + 1)
-                .map_or(rises[k] - prev, |next| next - rises[k]);
-            prev = rises[k];
-            rises[k] + (interval / 2).max(1)
-        })
-        .collect()
 }
 
 #[test]
@@ -301,8 +222,8 @@ fn fixed_pulse_width_dir_setup_and_active_low_pins() {
     }
     h.write(Reg::Board(BoardReg::Start), 0b11);
     h.s.sync().idle();
-    let log = run(&b, &h.s, name, 5_000_000);
-    for (i, r) in answers(&log, &h.reqs, name).iter().enumerate() {
+    let (log, rep) = h.run(&b, name, 5_000_000);
+    for (i, r) in rep.iter().enumerate() {
         assert_eq!(r.status, Status::Ok, "{name}: request {i}");
     }
     let ints: Vec<IntMove> = moves.iter().map(|m| m.0.clone()).collect();
@@ -443,10 +364,9 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
     let st2 = h.read(Reg::Axis(0, AxisReg::State));
     let pos2 = h.read(Reg::Axis(0, AxisReg::Position));
     h.s.sync();
-    let log = run(&b, &h.s, name, 3_000_000);
-    let rep = answers(&log, &h.reqs, name);
+    let (log, rep) = h.run(&b, name, 3_000_000);
     for (i, r) in rep.iter().enumerate() {
-        assert_eq!(r.status, Status::Ok, "{name}: request {i} {:?}", h.reqs[i]);
+        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
     }
     // the synchronized input: high for deb/2 and deb - 1 clocks (glitches), then for good;
     // exactly one accepted Hall edge, the debounce after it rose
@@ -554,8 +474,7 @@ fn estop_pin_and_register() {
     h.s.sync().wait(2000);
     let st3 = h.read(Reg::Axis(0, AxisReg::State));
     h.s.sync();
-    let log = run(&b, &h.s, name, 3_000_000);
-    let rep = answers(&log, &h.reqs, name);
+    let (log, rep) = h.run(&b, name, 3_000_000);
     let want_status = |i: usize, s: Status| assert_eq!(rep[i].status, s, "{name}: request {i}");
     want_status(clr, Status::Estop);
     want_status(start, Status::Estop);
@@ -632,22 +551,14 @@ fn bad_frames_are_rejected_and_change_nothing() {
     h.s.sync().steps(0, 10);
     let before = h.read(Reg::Board(BoardReg::PulseWidth));
     // a bad CRC and an unknown command (raw frames, each answered)
-    let mut f = Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5).encode();
+    let mut f = Request::write(h.seq(), Reg::Board(BoardReg::PulseWidth), 5).encode();
     f[10] ^= 0x40;
-    h.s.bytes(&f).expect_reply();
-    h.reqs
-        .push(Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5));
-    h.seq += 1;
-    let mut c = Request::write(h.seq, Reg::Board(BoardReg::PulseWidth), 5);
-    let mut cf = c.encode();
+    let first_bad = h.frame(&f);
+    let mut cf = Request::write(h.seq(), Reg::Board(BoardReg::PulseWidth), 5).encode();
     cf[2] = 0x07;
     let crc = multistep_hdl::link::crc16(&cf[..9]).to_be_bytes();
     cf[9..].copy_from_slice(&crc);
-    h.s.bytes(&cf).expect_reply();
-    c.command = Command::Write;
-    h.reqs.push(c);
-    h.seq += 1;
-    let first_bad = h.reqs.len() - 2;
+    h.frame(&cf);
     let unknown = h.read(Reg::Board(BoardReg::Start)); // write only
     let ro = h.write(Reg::Board(BoardReg::Id), 1);
     let nowhere = h.read(Reg::Axis(5, AxisReg::State));
@@ -671,8 +582,7 @@ fn bad_frames_are_rejected_and_change_nothing() {
     let pos = h.read(Reg::Axis(0, AxisReg::Position));
     let slot = h.read(Reg::Axis(0, AxisReg::StopSlot));
     h.s.sync();
-    let log = run(&b, &h.s, name, 3_000_000);
-    let rep = answers(&log, &h.reqs, name);
+    let (log, rep) = h.run(&b, name, 3_000_000);
     assert_eq!(rep[first_bad].status, Status::BadCrc);
     assert_eq!(rep[first_bad + 1].status, Status::BadCommand);
     for i in [unknown, ro, nowhere] {
@@ -680,12 +590,7 @@ fn bad_frames_are_rejected_and_change_nothing() {
     }
     busy.push(usize::MAX);
     for &i in &busy[..busy.len() - 1] {
-        assert_eq!(
-            rep[i].status,
-            Status::Busy,
-            "{name}: request {i} {:?}",
-            h.reqs[i]
-        );
+        assert_eq!(rep[i].status, Status::Busy, "{name}: request {i}");
     }
     assert_eq!(rep[bad_mask].status, Status::BadValue);
     assert_eq!(
@@ -723,8 +628,7 @@ fn session_changes_on_reset() {
     h.s.sync().reset_n(false).wait(3).reset_n(true).wait(1000);
     let s3 = h.read(Reg::Board(BoardReg::Session));
     h.s.sync();
-    let log = run(&b, &h.s, name, 1_000_000);
-    let rep = answers(&log, &h.reqs, name);
+    let (_, rep) = h.run(&b, name, 1_000_000);
     let v = |i: usize| rep[i].data;
     assert_eq!(
         (v(pw1), v(pw2)),
@@ -774,8 +678,7 @@ fn start_while_a_group_waits_is_refused() {
     h.s.sync().idle();
     let third = h.write(Reg::Board(BoardReg::Start), 0b10);
     h.s.sync().idle();
-    let log = run(&b, &h.s, name, 2_000_000);
-    let rep = answers(&log, &h.reqs, name);
+    let (log, rep) = h.run(&b, name, 2_000_000);
     assert_eq!(rep[first].status, Status::Ok);
     assert_eq!(
         rep[second].status,

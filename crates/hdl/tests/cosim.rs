@@ -5,27 +5,13 @@
 
 mod common;
 
+use common::host::half_interval_falls;
 use common::{narrow_params, params, random_move, IntMove, Rng, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
 use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
 use multistep_core::Profile;
 use multistep_hdl::tools::{simulate, SimOutput};
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design};
-
-/// 50 % duty: STEP stays high for half of the interval to the next edge (at least one
-/// tick), the last pulse for half of the last interval.
-fn half_interval_falls(rises: &[u64]) -> Vec<u64> {
-    let mut prev = 0;
-    (0..rises.len())
-        .map(|k| {
-            let interval = rises
-                .get(k + 1)
-                .map_or(rises[k] - prev, |next| next - rises[k]);
-            prev = rises[k];
-            rises[k] + (interval / 2).max(1)
-        })
-        .collect()
-}
 
 /// The core's TDM board on the same moves (float twins) with the RTL's latencies: its
 /// edges from the group's start, and its underrun count.

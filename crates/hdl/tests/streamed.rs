@@ -6,9 +6,10 @@
 
 mod common;
 
+use common::host::Host;
 use common::{params, Rng, HZ};
 use multistep_core::{Family, LimitsMove, Move, PhaseMove};
-use multistep_hdl::board_sim::{simulate, BoardLog, Script};
+use multistep_hdl::board_sim::BoardLog;
 use multistep_hdl::link::{
     core_addr, AxisReg, AxisRun, AxisState, BoardReg, Reg, RegWrite, Reply, Status,
 };
@@ -68,32 +69,10 @@ fn random_move(
     panic!("no move of kind {kind} planned in 50 tries");
 }
 
-/// The host: requests and bulk writes in order, their replies counted.
-struct Host {
-    s: Script,
-    seq: u8,
-    n: usize,
-}
-
-impl Host {
-    fn write(&mut self, reg: Reg, data: u32) {
-        let r = multistep_hdl::link::Request::write(self.seq, reg, data);
-        self.s.send(&r);
-        self.seq = self.seq.wrapping_add(1);
-        self.n += 1;
-    }
-    fn read(&mut self, reg: Reg) -> usize {
-        let r = multistep_hdl::link::Request::read(self.seq, reg);
-        self.s.send(&r);
-        self.seq = self.seq.wrapping_add(1);
-        self.n += 1;
-        self.n - 1
-    }
-    fn bulk(&mut self, m: &StreamedMove, axis: u32, range: std::ops::Range<usize>) {
-        self.s.send_bulk(&m.bulk(axis, range, self.seq)).unwrap();
-        self.seq = self.seq.wrapping_add(1);
-        self.n += 1;
-    }
+/// Sends `m`'s code bytes `range` to `axis` in one bulk write.
+fn send_chunk(h: &mut Host, m: &StreamedMove, axis: u32, range: std::ops::Range<usize>) {
+    let w = m.bulk(axis, range, h.seq());
+    h.bulk(&w);
 }
 
 /// Streams one move per axis as one group. `late` ticks are added to every chunk's
@@ -108,11 +87,7 @@ fn stream_group(
     name: &str,
 ) -> (BoardLog, Vec<Reply>, Vec<[usize; 3]>) {
     let w = b.widths().unwrap();
-    let mut h = Host {
-        s: Script::new(),
-        seq: 0,
-        n: 0,
-    };
+    let mut h = Host::new();
     let mut later = Vec::new();
     for (a, m) in moves.iter().enumerate() {
         let a = a as u32;
@@ -125,7 +100,7 @@ fn stream_group(
         h.write(reg, data);
         for c in m.chunks(BUFFER, frame) {
             match c.not_before {
-                None => h.bulk(m, a, c.range),
+                None => send_chunk(&mut h, m, a, c.range),
                 Some(t) => later.push((t + late, a, c.range)),
             }
         }
@@ -135,7 +110,7 @@ fn stream_group(
     later.sort_by_key(|(t, a, _)| (*t, *a));
     for (t, a, r) in later {
         h.s.at_move_tick(t);
-        h.bulk(&moves[a as usize], a, r);
+        send_chunk(&mut h, &moves[a as usize], a, r);
     }
     h.s.sync().idle();
     let reads: Vec<[usize; 3]> = (0..moves.len() as u32)
@@ -148,28 +123,12 @@ fn stream_group(
         })
         .collect();
     h.s.sync();
-    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
-    // MS_BOARD_KEEP=1 keeps the simulation directory (its path is printed)
-    let path = if std::env::var_os("MS_BOARD_KEEP").is_some() {
-        let p = dir.keep();
-        eprintln!("{name}: {}", p.display());
-        p
-    } else {
-        dir.path().to_path_buf()
-    };
     let end = moves
         .iter()
         .map(|m| *m.edges.last().unwrap())
         .max()
         .unwrap();
-    let log =
-        simulate(b, &h.s, &path, end + late + 2_000_000).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let rep: Vec<Reply> = log
-        .replies()
-        .into_iter()
-        .map(|r| r.unwrap_or_else(|e| panic!("{name}: {e}")))
-        .collect();
-    assert_eq!(rep.len(), h.n, "{name}: one reply per request");
+    let (log, rep) = h.run(b, name, end + late + 2_000_000);
     (log, rep, reads)
 }
 
@@ -392,14 +351,10 @@ fn ten_second_moves_over_three_megabaud() {
 fn bad_bulk_writes_change_nothing() {
     use multistep_hdl::link::BulkWrite;
     let b = BoardTop::new(params(1), 3_000_000);
-    let mut h = Host {
-        s: Script::new(),
-        seq: 0,
-        n: 0,
-    };
+    let mut h = Host::new();
     let bulk = |h: &mut Host, addr: u16, len: usize, corrupt: bool| {
         let w = BulkWrite {
-            seq: h.seq,
+            seq: h.seq(),
             addr,
             data: (0..len).map(|i| i as u8).collect(),
         };
@@ -407,10 +362,7 @@ fn bad_bulk_writes_change_nothing() {
         if corrupt {
             f[6] ^= 1;
         }
-        h.s.bytes(&f).expect_reply();
-        h.seq = h.seq.wrapping_add(1);
-        h.n += 1;
-        h.n - 1
+        h.frame(&f)
     };
     let data = Reg::Axis(0, AxisReg::StreamData).addr();
     h.write(Reg::Axis(0, AxisReg::StreamSteps), 50);
@@ -423,19 +375,13 @@ fn bad_bulk_writes_change_nothing() {
     let wrong = bulk(&mut h, Reg::Axis(0, AxisReg::Position).addr(), 2, false);
     let beyond = bulk(&mut h, Reg::Axis(3, AxisReg::StreamData).addr(), 2, false);
     let f1 = h.read(Reg::Axis(0, AxisReg::StreamFree));
-    let plain = h.n;
+    let plain = h.sent();
     h.write(Reg::Axis(0, AxisReg::StreamData), 7); // not by a plain write
     h.write(Reg::Axis(0, AxisReg::StreamSteps), 0);
     let disarmed = h.read(Reg::Axis(0, AxisReg::StreamSteps));
     let f2 = h.read(Reg::Axis(0, AxisReg::StreamFree));
     h.s.sync();
-    let dir = tempfile::Builder::new()
-        .prefix("bulk-bad")
-        .tempdir()
-        .unwrap();
-    let log = simulate(&b, &h.s, dir.path(), 2_000_000).unwrap();
-    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
-    assert_eq!(rep.len(), h.n);
+    let (_, rep) = h.run(&b, "bulk-bad", 2_000_000);
     let st = |i: usize| rep[i].status;
     assert_eq!((st(armed), rep[armed].data), (Status::Ok, 1));
     assert_eq!(rep[f0].data, 512);
@@ -461,31 +407,18 @@ fn a_board_without_replay_units_answers_bulk_writes_no_room() {
     use multistep_hdl::link::BulkWrite;
     let mut b = BoardTop::new(params(1), 3_000_000);
     b.stream_buffer_bits = 0;
-    let mut h = Host {
-        s: Script::new(),
-        seq: 0,
-        n: 0,
-    };
+    let mut h = Host::new();
     h.write(Reg::Axis(0, AxisReg::Position), 77);
     // data bytes that look like frame starts must not resynchronize the link
     let w = BulkWrite {
-        seq: h.seq,
+        seq: h.seq(),
         addr: Reg::Axis(0, AxisReg::StreamData).addr(),
         data: vec![0xA5; 40],
     };
-    h.s.bytes(&w.encode().unwrap()).expect_reply();
-    h.seq = h.seq.wrapping_add(1);
-    h.n += 1;
-    let bulk = h.n - 1;
+    let bulk = h.frame(&w.encode().unwrap());
     let pos = h.read(Reg::Axis(0, AxisReg::Position));
     h.s.sync();
-    let dir = tempfile::Builder::new()
-        .prefix("bulk-none")
-        .tempdir()
-        .unwrap();
-    let log = simulate(&b, &h.s, dir.path(), 1_000_000).unwrap();
-    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
-    assert_eq!(rep.len(), h.n);
+    let (_, rep) = h.run(&b, "bulk-none", 1_000_000);
     assert_eq!(rep[0].status, Status::Ok);
     assert_eq!((rep[bulk].status, rep[bulk].seq), (Status::StreamFull, 1));
     assert_eq!((rep[pos].status, rep[pos].data), (Status::Ok, 77));
@@ -501,38 +434,31 @@ fn an_open_ended_stream_ends_after_the_count_written_while_it_runs() {
     let w = b.widths().unwrap();
     let mv = Move::Phase(PhaseMove::new(600, family(3), 0.001, 0.002, 0.001));
     let m = StreamedMove::plan(&mv, HZ, p.tick_bits).unwrap();
-    let mut h = Host {
-        s: Script::new(),
-        seq: 0,
-        n: 0,
-    };
+    let mut h = Host::new();
     h.write(Reg::Core(core_addr(&w, true, 0, 1)), 1 << 31);
     h.write(Reg::Axis(0, AxisReg::StreamSteps), u32::MAX);
     let mut later = Vec::new();
     for c in m.chunks(BUFFER, 128) {
         match c.not_before {
-            None => h.bulk(&m, 0, c.range),
+            None => send_chunk(&mut h, &m, 0, c.range),
             Some(t) => later.push((t, c.range)),
         }
     }
     h.write(Reg::Board(BoardReg::Start), 1);
     // the count arrives while the first steps run
     h.s.at_move_tick(m.edges[20]);
-    let close = h.n;
+    let close = h.sent();
     h.write(Reg::Axis(0, AxisReg::StreamSteps), m.steps() as u32);
     for (t, r) in later {
         h.s.at_move_tick(t);
-        h.bulk(&m, 0, r);
+        send_chunk(&mut h, &m, 0, r);
     }
     h.s.sync().idle();
     let state = h.read(Reg::Axis(0, AxisReg::State));
     let pos = h.read(Reg::Axis(0, AxisReg::Position));
     h.s.sync();
-    let dir = tempfile::Builder::new().prefix("open").tempdir().unwrap();
     let end = *m.edges.last().unwrap();
-    let log = simulate(&b, &h.s, dir.path(), end + 2_000_000).unwrap();
-    let rep: Vec<Reply> = log.replies().into_iter().map(|r| r.unwrap()).collect();
-    assert_eq!(rep.len(), h.n, "one reply per request");
+    let (log, rep) = h.run(&b, "open", end + 2_000_000);
     assert!(rep.iter().all(|r| r.status == Status::Ok), "{rep:?}");
     assert_eq!(
         rep[close].status,

@@ -48,14 +48,7 @@ impl Host {
 }
 
 fn run(boards: &[(BoardTop, SimClock)], s: &MultiScript, name: &str) -> MultiLog {
-    let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
-    let path = if std::env::var_os("MS_BOARD_KEEP").is_some() {
-        let p = dir.keep();
-        eprintln!("{name}: {}", p.display());
-        p
-    } else {
-        dir.path().to_path_buf()
-    };
+    let (_dir, path) = common::host::sim_dir(name);
     simulate_boards(boards, s, &path, 20_000_000_000).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 

@@ -8,6 +8,8 @@ use multistep_core::int::{
 use multistep_core::{Family, PhaseMove, Profile, Segment};
 use multistep_hdl::{AxisMove, CoreParams};
 
+pub mod host;
+
 pub const HZ: u64 = 50_000_000;
 pub const CLOCK: IntClock = IntClock::hz(HZ);
 
