@@ -105,19 +105,9 @@ pub fn simulate(
     dir: &Path,
     timeout: u64,
 ) -> Result<SimOutput, HdlError> {
-    let tb = testbench(design, moves, timeout)?;
-    let mut paths = design.write(dir)?;
-    let tb_path = dir.join("tb.v");
-    std::fs::write(&tb_path, tb).map_err(|e| HdlError::io(&tb_path, e))?;
-    paths.push(tb_path);
-    let mut args = vec!["-g2005".to_string(), "-o".into(), "sim.vvp".into()];
-    args.extend(["-s".into(), "tb".into()]);
-    args.extend(file_names_of(&paths));
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    run("iverilog", "iverilog", &args, dir)?;
-    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
-    let path = dir.join(EDGE_FILE);
-    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    let mut files = design.files.clone();
+    files.push(("tb.v".into(), testbench(design, moves, timeout)?));
+    let text = icarus(dir, &files, EDGE_FILE)?;
     let calcs = match design.arch {
         Arch::Tdm => 1,
         Arch::Independent => design.params.axes as usize,
