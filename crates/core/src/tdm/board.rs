@@ -254,7 +254,8 @@ impl Axis {
 
     /// Computes the next period, which is ready at tick `ready` and needed at `due`, and
     /// loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
-    /// if it is late. Returns the step's rise tick, `None` if no step was left.
+    /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
+    /// `None` if no step was left.
     #[inline]
     fn compute<F: FnMut(StepPulse)>(
         &mut self,
@@ -262,10 +263,35 @@ impl Axis {
         ready: u64,
         due: u64,
         sink: &mut F,
-    ) -> Option<u64> {
+    ) -> Option<(u64, u64)> {
         let edge = self.next_edge()?;
         let period = edge - self.prev_edge;
         self.prev_edge = edge;
+        if ready <= due && self.computed() > 0 {
+            // the usual case: in time, after period 1; `due` is the previous rise
+            debug_assert_eq!(due, self.pulse.last_rise());
+            let slack = (due - ready) as i64;
+            if slack < self.stats.min_slack_ticks {
+                self.stats.min_slack_ticks = slack;
+            }
+            let rise = self.pulse.load_on_time(m, period, sink);
+            return Some((rise, self.fifo.push_then_room(due)));
+        }
+        let rise = self.load_late_or_first(m, ready, due, period, sink)?;
+        Some((rise, self.fifo.room_tick()))
+    }
+
+    /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
+    /// slack is not counted) and an underrun (the period is loaded when it arrives).
+    #[inline(never)]
+    fn load_late_or_first<F: FnMut(StepPulse)>(
+        &mut self,
+        m: usize,
+        ready: u64,
+        due: u64,
+        period: u64,
+        sink: &mut F,
+    ) -> Option<u64> {
         let load = if ready > due {
             self.stats.underruns += 1;
             self.stats.late_ticks += ready - due;
@@ -528,7 +554,7 @@ impl<'a> Board<'a> {
             }
             t = now;
             let a = &mut self.axes[m];
-            let Some(rise) = a.compute(m, t + lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute(m, t + lat, need[m], &mut sink) else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {
@@ -544,7 +570,7 @@ impl<'a> Board<'a> {
                 a.finish(m, rise, &mut sink);
             } else {
                 // a room tick by the next decision is as good as now
-                queue.insert(m, a.fifo.room_tick(), t);
+                queue.insert(m, room, t);
             }
         }
         for (m, a) in self.axes.iter_mut().enumerate() {

@@ -98,6 +98,46 @@ impl PulseUnit {
         rise
     }
 
+    /// [`load`](Self::load) of a period that arrived in time, after period 1: it is loaded
+    /// at the previous rise, so the previous pulse falls half the period later (at least
+    /// one tick) and merges only when the period is at most one tick. The same result as
+    /// `load(axis, last rise, period, sink)` without its first-period and late-load cases.
+    #[inline]
+    pub fn load_on_time<F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        period: u64,
+        sink: &mut F,
+    ) -> u64 {
+        debug_assert!(self.steps > 0);
+        let last = self.last_rise;
+        let rise = last + period;
+        let (fall, merged) = match self.shape {
+            PulseShape::HalfInterval => (last + (period / 2).max(1), period <= 1),
+            PulseShape::Fixed { ticks } => (last + ticks, ticks >= period),
+        };
+        // rare (a period of one tick or a wide fixed pulse): a branch, not an add
+        if merged {
+            self.merged += 1;
+        }
+        sink(StepPulse {
+            axis,
+            step: self.steps,
+            rise: last,
+            fall,
+        });
+        self.steps += 1;
+        self.prev_rise = last;
+        self.last_rise = rise;
+        rise
+    }
+
+    /// Tick of the last rise.
+    #[inline]
+    pub fn last_rise(&self) -> u64 {
+        self.last_rise
+    }
+
     /// Closes the last pulse of the move.
     pub fn finish<F: FnMut(StepPulse)>(&mut self, axis: usize, sink: &mut F) {
         if self.steps == 0 {
