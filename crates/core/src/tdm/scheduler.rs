@@ -184,7 +184,7 @@ impl Queue {
             }
             t = t.max(first >> AXIS_BITS);
             let after = self.ring[(self.head + 1) % RING];
-            if after > (t << AXIS_BITS) | AXIS_FIELD {
+            if after >> AXIS_BITS > t {
                 // it alone has room at t (the usual case below full load): every policy
                 // takes it, and the mask stays empty
                 self.head = (self.head + 1) % RING;
