@@ -195,6 +195,30 @@ mod tests {
         assert_eq!(p[1].rise, 670);
     }
 
+    /// The in-time path against the general one, for both shapes, periods of 0, 1, 2 ticks
+    /// (merged or not) and longer.
+    #[test]
+    fn load_on_time_equals_load_at_the_previous_rise() {
+        for shape in [
+            PulseShape::HalfInterval,
+            PulseShape::Fixed { ticks: 1 },
+            PulseShape::Fixed { ticks: 3 },
+        ] {
+            let (mut general, mut fast) = (PulseUnit::new(shape), PulseUnit::new(shape));
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            general.load(2, 40, 7, &mut |p| a.push(p));
+            fast.load(2, 40, 7, &mut |p| b.push(p));
+            for period in [0u64, 1, 2, 3, 4, 5, 1000, 1, 0, 2] {
+                let load = general.last_rise;
+                let want = general.load(2, load, period, &mut |p| a.push(p));
+                assert_eq!(fast.load_on_time(2, period, &mut |p| b.push(p)), want);
+                assert_eq!(fast, general, "{shape:?}, period {period}");
+            }
+            assert_eq!(a, b, "{shape:?}");
+            assert!(general.merged() > 0, "{shape:?}: merged pulses are covered");
+        }
+    }
+
     #[test]
     fn fixed_width_and_merged_pulses() {
         let (p, merged) = play(

@@ -165,8 +165,9 @@ impl Queue {
     /// The next computation at or after tick `t`: `(start tick, axis)`, or `None` when no
     /// axis has periods left. When none has room at `t` the calculator idles until the
     /// earliest room tick. `need[m]`: tick axis m's next period is needed; `next`: the
-    /// round-robin pointer, moved past the chosen axis (k after the last axis: the same as 0). The chosen axis leaves the queue;
-    /// [`insert`](Self::insert) it again with its new room tick.
+    /// round-robin pointer, moved past the chosen axis (k after the last axis, which
+    /// counts as 0). The chosen axis leaves the queue; [`insert`](Self::insert) it again
+    /// with its new room tick.
     #[inline]
     pub fn pick(
         &mut self,
