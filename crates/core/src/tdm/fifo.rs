@@ -59,6 +59,17 @@ impl Fifo {
         };
     }
 
+    /// [`push`](Self::push), then [`room_tick`](Self::room_tick): the engine asks for the
+    /// room right after each push, and one call keeps the slot index in a register.
+    #[inline]
+    pub fn push_then_room(&mut self, leave: u64) -> u64 {
+        let slot = self.next;
+        self.leave[slot % MAX_FIFO_DEPTH] = leave;
+        let next = if slot + 1 == self.depth { 0 } else { slot + 1 };
+        self.next = next;
+        self.leave[next % MAX_FIFO_DEPTH]
+    }
+
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
     pub fn occupancy_at(&self, t: u64) -> usize {
         // slots never written read 0, never after t
@@ -110,7 +121,12 @@ mod tests {
                     q.pop_front();
                 }
                 q.push_back(leave);
-                f.push(leave);
+                if n % 2 == 0 {
+                    f.push(leave);
+                } else {
+                    let room = f.push_then_room(leave);
+                    assert_eq!(room, f.room_tick());
+                }
                 let t = leave.saturating_sub(15);
                 let held = q.iter().filter(|&&l| l > t).count();
                 assert_eq!(f.occupancy_at(t), held, "depth {depth}, push {n}");

@@ -98,6 +98,46 @@ impl PulseUnit {
         rise
     }
 
+    /// [`load`](Self::load) of a period that arrived in time, after period 1: it is loaded
+    /// at the previous rise, so the previous pulse falls half the period later (at least
+    /// one tick) and merges only when the period is at most one tick. The same result as
+    /// `load(axis, last rise, period, sink)` without its first-period and late-load cases.
+    #[inline]
+    pub fn load_on_time<F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        period: u64,
+        sink: &mut F,
+    ) -> u64 {
+        debug_assert!(self.steps > 0);
+        let last = self.last_rise;
+        let rise = last + period;
+        let (fall, merged) = match self.shape {
+            PulseShape::HalfInterval => (last + (period / 2).max(1), period <= 1),
+            PulseShape::Fixed { ticks } => (last + ticks, ticks >= period),
+        };
+        // rare (a period of one tick or a wide fixed pulse): a branch, not an add
+        if merged {
+            self.merged += 1;
+        }
+        sink(StepPulse {
+            axis,
+            step: self.steps,
+            rise: last,
+            fall,
+        });
+        self.steps += 1;
+        self.prev_rise = last;
+        self.last_rise = rise;
+        rise
+    }
+
+    /// Tick of the last rise.
+    #[inline]
+    pub fn last_rise(&self) -> u64 {
+        self.last_rise
+    }
+
     /// Closes the last pulse of the move.
     pub fn finish<F: FnMut(StepPulse)>(&mut self, axis: usize, sink: &mut F) {
         if self.steps == 0 {
@@ -153,6 +193,30 @@ mod tests {
         let (p, _) = play(PulseShape::HalfInterval, &[(10, 100), (610, 60)]);
         assert_eq!((p[0].rise, p[0].fall), (110, 610));
         assert_eq!(p[1].rise, 670);
+    }
+
+    /// The in-time path against the general one, for both shapes, periods of 0, 1, 2 ticks
+    /// (merged or not) and longer.
+    #[test]
+    fn load_on_time_equals_load_at_the_previous_rise() {
+        for shape in [
+            PulseShape::HalfInterval,
+            PulseShape::Fixed { ticks: 1 },
+            PulseShape::Fixed { ticks: 3 },
+        ] {
+            let (mut general, mut fast) = (PulseUnit::new(shape), PulseUnit::new(shape));
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            general.load(2, 40, 7, &mut |p| a.push(p));
+            fast.load(2, 40, 7, &mut |p| b.push(p));
+            for period in [0u64, 1, 2, 3, 4, 5, 1000, 1, 0, 2] {
+                let load = general.last_rise;
+                let want = general.load(2, load, period, &mut |p| a.push(p));
+                assert_eq!(fast.load_on_time(2, period, &mut |p| b.push(p)), want);
+                assert_eq!(fast, general, "{shape:?}, period {period}");
+            }
+            assert_eq!(a, b, "{shape:?}");
+            assert!(general.merged() > 0, "{shape:?}: merged pulses are covered");
+        }
     }
 
     #[test]

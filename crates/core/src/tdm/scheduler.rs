@@ -165,8 +165,9 @@ impl Queue {
     /// The next computation at or after tick `t`: `(start tick, axis)`, or `None` when no
     /// axis has periods left. When none has room at `t` the calculator idles until the
     /// earliest room tick. `need[m]`: tick axis m's next period is needed; `next`: the
-    /// round-robin pointer, moved past the chosen axis. The chosen axis leaves the queue;
-    /// [`insert`](Self::insert) it again with its new room tick.
+    /// round-robin pointer, moved past the chosen axis (k after the last axis, which
+    /// counts as 0). The chosen axis leaves the queue; [`insert`](Self::insert) it again
+    /// with its new room tick.
     #[inline]
     pub fn pick(
         &mut self,
@@ -184,11 +185,11 @@ impl Queue {
             }
             t = t.max(first >> AXIS_BITS);
             let after = self.ring[(self.head + 1) % RING];
-            if after > (t << AXIS_BITS) | AXIS_FIELD {
+            if after >> AXIS_BITS > t {
                 // it alone has room at t (the usual case below full load): every policy
                 // takes it, and the mask stays empty
                 self.head = (self.head + 1) % RING;
-                return Some((t, Self::served(first & AXIS_FIELD, need, next)));
+                return Some((t, Self::served(first & AXIS_FIELD, next)));
             }
         }
         self.release(t);
@@ -199,14 +200,16 @@ impl Queue {
             Self::choose(policy, mask, need, *next)
         };
         self.eligible = mask & !(1 << m);
-        Some((t, Self::served(m, need, next)))
+        Some((t, Self::served(m, next)))
     }
 
-    /// Axis m as the choice: the round-robin pointer moves past it.
+    /// Axis m as the choice: the round-robin pointer moves past it. Past the last axis it
+    /// reads k, which [`choose`](Self::choose) takes as 0 (bits k…63 of the mask are
+    /// clear), so no wrap is needed here.
     #[inline]
-    fn served(m: u64, need: &[u64], next: &mut usize) -> usize {
+    fn served(m: u64, next: &mut usize) -> usize {
         let m = m as usize;
-        *next = if m + 1 == need.len() { 0 } else { m + 1 };
+        *next = m + 1;
         m
     }
 
@@ -217,7 +220,8 @@ impl Queue {
             Policy::RoundRobin => {
                 // the first eligible axis at or after the pointer, wrapping around: rotated
                 // right by the pointer, axes before it sit above every axis after it
-                // (bits k…63 are clear), so no branch is needed
+                // (bits k…63 are clear), so no branch is needed; a pointer of 64 rotates
+                // by 0 and the sum wraps to the axis itself
                 (next as u64 + mask.rotate_right(next as u32).trailing_zeros() as u64)
                     % AxisMask::BITS as u64
             }
@@ -265,7 +269,7 @@ mod tests {
         let mut next = 1;
         // axis 1 has no room until 50, axis 2 is done: axis 3
         assert_eq!(q.pick(rr, 10, &need, &mut next), Some((10, 3)));
-        assert_eq!(next, 0);
+        assert_eq!(next % 4, 0);
         assert_eq!(q.pick(rr, 10, &need, &mut next), Some((10, 0)));
         // nobody left with room at 10: idle until 50
         assert_eq!(q.pick(rr, 10, &need, &mut next), Some((50, 1)));
@@ -358,7 +362,7 @@ mod tests {
                 .unwrap();
                 want_next = (want + 1) % K;
                 assert_eq!(q.pick(policy, t, &need, &mut next), Some((now, want)));
-                assert_eq!(next, want_next);
+                assert_eq!(next % K, want_next);
                 t = now + 1 + rand(40);
                 need[want] += rand(5000);
                 left[want] -= 1;
