@@ -36,8 +36,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..Options::default()
     })?;
     println!(
-        "model built or loaded in {:.1} s",
-        t0.elapsed().as_secs_f64()
+        "model built or loaded in {:.1} s; a cycle: {}",
+        t0.elapsed().as_secs_f64(),
+        if sim.direct {
+            "the NBA region directly"
+        } else {
+            "eval on both edges"
+        }
     );
     let p = sim.board.core.clone();
     let port = serialport::new(&sim.pty_path, sim.board.baud)
