@@ -498,7 +498,16 @@ fn stop_ends_a_move_short_of_its_target_with_the_count_trusted() {
         let mut r = Rig::new(pins);
         r.home("X");
         r.req("move X 1200");
-        std::thread::sleep(Duration::from_millis(150));
+        // stop once the axis is under way: a fixed wall-clock wait is no time at all for
+        // a simulated board on a busy machine
+        let t0 = Instant::now();
+        while r.status("X").position <= 600 {
+            assert!(
+                t0.elapsed() < Duration::from_secs(60),
+                "{pins:?}: X never moved"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
         r.req("stop X");
         let x = r.wait_idle("X");
         // The simulated board ramps down at amax; the board halts at once (its count

@@ -18,6 +18,13 @@ fn cpu_s() -> f64 {
     tv(r.ru_utime) + tv(r.ru_stime)
 }
 
+/// The 1, 5 and 15 minute load averages (`/proc/loadavg`), or "?" off Linux.
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "?".into())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let board = args.get(1).cloned().unwrap_or_else(|| "ulx3s-25f".into());
@@ -29,8 +36,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..Options::default()
     })?;
     println!(
-        "model built or loaded in {:.1} s",
-        t0.elapsed().as_secs_f64()
+        "model built or loaded in {:.1} s; a cycle: {}",
+        t0.elapsed().as_secs_f64(),
+        if sim.direct {
+            "the NBA region directly"
+        } else {
+            "eval on both edges"
+        }
     );
     let p = sim.board.core.clone();
     let port = serialport::new(&sim.pty_path, sim.board.baud)
@@ -61,6 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     w.push(start_write((1 << axes) - 1));
     l.write_all(&w)?;
+    let load0 = load();
     let (s0, c0, t0) = (sim.state()?.seconds, cpu_s(), Instant::now());
     while l.read(Reg::Board(BoardReg::Busy))? != 0 {
         std::thread::sleep(Duration::from_millis(100));
@@ -72,9 +85,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!(
         "{axes} axes, {steps} steps: {sim_s:.3} simulated s in {wall:.1} wall s ({cpu:.1} CPU s): \
-         {:.1} wall s and {:.1} CPU s per simulated second",
+         {:.1} wall s and {:.1} CPU s per simulated second (load average {load0} before, {} after)",
         wall / sim_s,
-        cpu / sim_s
+        cpu / sim_s,
+        load()
     );
     sim.quit()?;
     Ok(())

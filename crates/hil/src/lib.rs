@@ -160,6 +160,9 @@ enum Control {
 pub struct BoardSim {
     pub pty_path: String,
     pub board: BoardTop,
+    /// A clock cycle is the model's NBA region called directly, not `eval` on both edges
+    /// ([`multistep_hdl::verilator::posedge`]).
+    pub direct: bool,
     tx: mpsc::Sender<Control>,
     thread: Option<std::thread::JoinHandle<Result<(), HilError>>>,
 }
@@ -174,6 +177,7 @@ impl BoardSim {
     pub fn start(opts: &Options) -> Result<BoardSim, HilError> {
         let (mut world, top) = World::new(opts)?;
         let pty_path = world.pty.path.clone();
+        let direct = world.model.direct();
         let (tx, rx) = mpsc::channel();
         world.power_on();
         let thread = std::thread::Builder::new()
@@ -186,6 +190,7 @@ impl BoardSim {
         Ok(BoardSim {
             pty_path,
             board: top,
+            direct,
             tx,
             thread: Some(thread),
         })
