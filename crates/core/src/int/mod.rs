@@ -48,6 +48,7 @@
 //! position cubic by Horner on up to 512 bits, two evaluations a step).
 
 // the kernel's items are described in the module docs above; item docs to follow
+mod chain;
 mod cubic;
 #[allow(missing_docs)]
 mod gen;
@@ -57,6 +58,10 @@ mod piece;
 mod plan;
 pub mod track;
 
+pub use chain::{
+    pieces as chain_pieces, ChainEdges, ChainError, ChainPiece, ChainValue, ChainWidths,
+    CHAIN_LIMBS,
+};
 pub use gen::IntEdgeGenerator;
 pub use piece::{IntPiece, KernelMode, StepKernel};
 pub use plan::{limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
@@ -102,6 +107,8 @@ pub enum IntError {
     TooWide,
 }
 
+#[cfg(test)]
+mod chain_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
