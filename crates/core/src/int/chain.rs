@@ -15,7 +15,9 @@
 //! Step i's edge is the least tick e (from the last edge) with `p((e + ½)/f) ≥ i`, i.e.
 //! `R = Q(e) − i·K ≥ 0` with `K = 2^S·Dⁿ`: exactly `p((e − ½)/f) < i ≤ p((e + ½)/f)`, an
 //! exact half tick going to the earlier tick. The chain keeps `R` (not Q): an edge takes K
-//! from it. Every value is divided by the largest power of two g dividing Δ¹…Δⁿ and K,
+//! from it, in the same tick's advance (`R += Δ¹ − K`): a piece must make less than one step
+//! a tick (`max|Δ¹| < K`, checked), so the next step is never due at the same tick. A piece
+//! whose chain reaches its last tick without the step puts its remaining steps there. Every value is divided by the largest power of two g dividing Δ¹…Δⁿ and K,
 //! with `R` rounded down (the sign of `R + multiple of g` is kept). Steps belong to pieces
 //! as the float generator assigns them (up to ⌊end of the piece⌋); a piece's steps stay
 //! within its ticks (its last tick when the chain reaches it first), and step N is at
@@ -97,6 +99,13 @@ pub enum ChainError {
         needed: ChainWidths,
         /// The widths allowed.
         limit: ChainWidths,
+    },
+    #[error("piece {piece} may make more than one step in a tick")]
+    /// A piece whose speed bound reaches a step per tick: the chain makes at most one
+    /// edge per tick as it advances.
+    TooFast {
+        /// The piece (0-based).
+        piece: usize,
     },
     #[error("the move is longer than 2^50 ticks")]
     /// The move's end tick does not fit.
@@ -282,6 +291,11 @@ impl ChainPiece {
                 .and_then(|x| x.add(Si::pos(r.mag)))
                 .and_then(|x| x.add(big_k)),
         )?;
+        // |Δ¹| < K: less than one step per tick, so an edge and the next tick's advance
+        // may share a clock (R + Δ¹ − K)
+        if bound[0].mag >= big_k.mag {
+            return Err(ChainError::TooFast { piece: k });
+        }
         let widths = ChainWidths {
             r: signed_bits(&r_bound),
             diff: core::array::from_fn(|m| if m < n { signed_bits(&bound[m]) } else { 0 }),
@@ -339,15 +353,17 @@ struct Running {
 }
 
 impl Running {
-    /// The next step's edge (before the last-edge floor) and the ticks it took.
+    /// The next step's edge (before the last-edge floor), a clock of the board's chain per
+    /// loop: at the piece's last tick the chain holds; else an edge takes K and the chain
+    /// advances in the same clock.
     fn edge(&mut self) -> u64 {
         loop {
             if self.e >= self.piece.hi {
                 return self.e;
             }
-            if self.r[CHAIN_LIMBS - 1] >> 63 == 0 {
+            let emit = self.r[CHAIN_LIMBS - 1] >> 63 == 0;
+            if emit {
                 sub_from(&mut self.r, &self.piece.k);
-                return self.e;
             }
             // Q += Δ¹, Δ¹ += Δ², … from the old values
             add_to(&mut self.r, &self.diff[0]);
@@ -356,6 +372,9 @@ impl Running {
                 add_to(&mut self.diff[m], &next);
             }
             self.e += 1;
+            if emit {
+                return self.e - 1;
+            }
         }
     }
 }
