@@ -1,6 +1,7 @@
 //! Piece records for the per-axis forward-difference chain (`rtl/board/ms_chain.v`):
 //! `multistep_core::int::chain`'s pieces at the unit's register widths, as the bytes the
-//! unit shifts in (little-endian, lo first: lo, hi, count, R, Δ¹ … Δ⁴, K).
+//! unit shifts in (little-endian, lo first: lo, hi, count, R, Δ¹ … Δ⁴, M = Δ¹ − K: the unit
+//! keeps M, advanced as Δ¹ is, so an edge's `R += Δ¹ − K` is one carry chain).
 
 use crate::HdlError;
 use multistep_core::int::{chain_pieces, ChainEdges, ChainValue, ChainWidths};
@@ -9,7 +10,7 @@ use multistep_core::Profile;
 /// The chain unit's register widths (its Verilog parameters).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ChainLayout {
-    /// R, Δ¹ … Δ⁴ and K (multiples of 8).
+    /// R, Δ¹ … Δ⁴ and K (the sum a multiple of 8); M = Δ¹ − K is R's width.
     pub widths: ChainWidths,
     /// Tick and step-count fields.
     pub tick_bits: u32,
@@ -33,7 +34,7 @@ impl ChainLayout {
     /// Bytes of one record.
     pub fn record_bytes(&self) -> usize {
         let w = &self.widths;
-        let bits = 2 * self.tick_bits + self.count_bits + w.r + w.diff.iter().sum::<u32>() + w.k;
+        let bits = 2 * self.tick_bits + self.count_bits + 2 * w.r + w.diff.iter().sum::<u32>();
         bits.div_ceil(8) as usize
     }
 
@@ -41,8 +42,8 @@ impl ChainLayout {
     pub fn verilog_params(&self) -> String {
         let w = &self.widths;
         format!(
-            "#(.WR({}), .W1({}), .W2({}), .W3({}), .W4({}), .WK({}), .WT({}), .WN({}))",
-            w.r, w.diff[0], w.diff[1], w.diff[2], w.diff[3], w.k, self.tick_bits, self.count_bits
+            "#(.WR({}), .W1({}), .W2({}), .W3({}), .W4({}), .WM({}), .WT({}), .WN({}))",
+            w.r, w.diff[0], w.diff[1], w.diff[2], w.diff[3], w.r, self.tick_bits, self.count_bits
         )
     }
 
@@ -56,6 +57,13 @@ impl ChainLayout {
         for c in chain_pieces(profile, clock) {
             let c = c.map_err(|e| bad(&e))?;
             let w = &self.widths;
+            // M = Δ¹ − K lies in (−2K, 0): one bit more than K, in R's width
+            if c.widths.k + 1 > w.r {
+                return Err(HdlError::Move(format!(
+                    "piece {}: K needs {} bits, M = Δ¹ − K more than R's {}",
+                    c.piece, c.widths.k, w.r
+                )));
+            }
             let mut fields: Vec<(ChainValue, u32)> = vec![
                 (value_of(c.lo), self.tick_bits),
                 (value_of(c.hi), self.tick_bits),
@@ -63,7 +71,7 @@ impl ChainLayout {
                 (c.r, w.r),
             ];
             fields.extend(c.diff.iter().zip(w.diff).map(|(d, b)| (*d, b)));
-            fields.push((c.k, w.k));
+            fields.push((minus(&c.diff[0], &c.k), w.r));
             out.push(self.pack(&fields));
         }
         let end = value_of(edges.end_tick());
@@ -76,7 +84,7 @@ impl ChainLayout {
             (zero, w.r),
         ];
         last.extend(w.diff.iter().map(|&b| (zero, b)));
-        last.push((zero, w.k));
+        last.push((zero, w.r));
         out.push(self.pack(&last));
         Ok(out)
     }
@@ -91,6 +99,19 @@ impl ChainLayout {
             .map(|c| c.iter().rev().fold(0u8, |a, &b| a << 1 | b as u8))
             .collect()
     }
+}
+
+/// `a − b` in two's complement.
+fn minus(a: &ChainValue, b: &ChainValue) -> ChainValue {
+    let mut out = *a;
+    let mut borrow = false;
+    for (x, y) in out.iter_mut().zip(b) {
+        let (d1, b1) = x.overflowing_sub(*y);
+        let (d2, b2) = d1.overflowing_sub(borrow as u64);
+        *x = d2;
+        borrow = b1 | b2;
+    }
+    out
 }
 
 fn value_of(x: u64) -> ChainValue {

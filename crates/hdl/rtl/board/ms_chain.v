@@ -1,9 +1,10 @@
 // ms_chain: one axis's forward-difference chain for polynomial pieces (scurve: cubic;
 // scurve4, seed 003's jerk-continuous curve: quartic), multistep_core::int::chain.
-// A piece record (bytes, little-endian, lo first: lo, hi, count, R, D1..D4, K) is shifted in
-// a byte a clock; `go` runs it. Each clock is one tick e: at e >= hi the piece's remaining
-// steps are all at e; else when R >= 0 step i's edge is e and R takes K; the chain advances
-// (R += D1, D1 += D2, D2 += D3, D3 += D4, e += 1), so an edge costs no extra clock. It
+// A piece record (bytes, little-endian, lo first: lo, hi, count, R, D1..D4, M = D1 - K) is
+// shifted in a byte a clock; `go` runs it. Each clock is one tick e: at e >= hi the piece's
+// remaining steps are all at e; else when R >= 0 step i's edge is e and R takes K; the chain
+// advances (R += D1, or R += M = D1 - K with an edge, D1 += D2, M += D2, D2 += D3,
+// D3 += D4, e += 1), so an edge costs no extra clock and R's update is one carry chain. It
 // stalls while an edge waits for room in the FIFO. R = Q(e) - i*K, Q = 2^S*D^n*p at e's
 // upper half tick: R >= 0 is DESIGN.md §1's test p((e + 1/2)/f) >= i.
 // The period pushed is the edge less the last edge (the move's first edge against tick 0);
@@ -14,7 +15,7 @@ module ms_chain #(
     parameter W2 = 264,
     parameter W3 = 248,
     parameter W4 = 240,
-    parameter WK = 288,
+    parameter WM = 304,    // M = D1 - K (WM >= W1)
     parameter WT = 40,     // ticks
     parameter WN = 32,     // steps of a piece
     parameter WD = 24      // a period
@@ -32,11 +33,11 @@ module ms_chain #(
     output wire [WD-1:0] period,
     output reg           fault
 );
-    localparam RB = 2 * WT + WN + WR + W1 + W2 + W3 + W4 + WK;
+    localparam RB = 2 * WT + WN + WR + W1 + W2 + W3 + W4 + WM;
     reg [RB-1:0] rec;
     // fields of the record (they are the running registers too)
     localparam O_HI = WT, O_N = 2 * WT, O_R = 2 * WT + WN;
-    localparam O_1 = O_R + WR, O_2 = O_1 + W1, O_3 = O_2 + W2, O_4 = O_3 + W3, O_K = O_4 + W4;
+    localparam O_1 = O_R + WR, O_2 = O_1 + W1, O_3 = O_2 + W2, O_4 = O_3 + W3, O_M = O_4 + W4;
     wire [WT-1:0] e  = rec[WT-1:0];
     wire [WT-1:0] hi = rec[O_HI +: WT];
     wire [WN-1:0] n  = rec[O_N +: WN];
@@ -45,7 +46,7 @@ module ms_chain #(
     wire [W2-1:0] d2 = rec[O_2 +: W2];
     wire [W3-1:0] d3 = rec[O_3 +: W3];
     wire [W4-1:0] d4 = rec[O_4 +: W4];
-    wire [WK-1:0] k  = rec[O_K +: WK];
+    wire [WM-1:0] m  = rec[O_M +: WM];
     reg           run;
     reg  [WT-1:0] last;
     initial begin
@@ -63,8 +64,9 @@ module ms_chain #(
     wire [W1-1:0] d2x = {{(W1-W2){d2[W2-1]}}, d2};
     wire [W2-1:0] d3x = {{(W2-W3){d3[W3-1]}}, d3};
     wire [W3-1:0] d4x = {{(W3-W4){d4[W4-1]}}, d4};
-    wire [WR-1:0] kx  = (emit && !at_end) ? {{(WR-WK){1'b0}}, k} : {WR{1'b0}};
-    wire [WR-1:0] r_n = r + d1x - kx;
+    wire [WM-1:0] d2m = {{(WM-W2){d2[W2-1]}}, d2};
+    wire [WR-1:0] mx  = {{(WR-WM){m[WM-1]}}, m};
+    wire [WR-1:0] r_n = r + ((emit && !at_end) ? mx : d1x);
     wire [WT-1:0] gap = e - last;
     wire          bad = (e <= last) || (gap[WT-1:WD] != {(WT-WD){1'b0}});
     assign push   = emit && !bad;
@@ -94,6 +96,7 @@ module ms_chain #(
                 rec[WT-1:0]  <= e + 1'b1;
                 rec[O_R +: WR] <= r_n;
                 rec[O_1 +: W1] <= d1 + d2x;
+                rec[O_M +: WM] <= m + d2m;
                 rec[O_2 +: W2] <= d2 + d3x;
                 rec[O_3 +: W3] <= d3 + d4x;
             end
