@@ -195,3 +195,39 @@ fn chain_periods_equal_plan() {
         }
     }
 }
+
+/// Link bytes a step for the docs' moves (printed with `--nocapture`): a record per piece
+/// holding steps and one for step N, however long the move.
+#[test]
+fn record_bytes_per_step() {
+    let s4 = Family::SCurve4 { phi: 0.5, psi: 0.5 };
+    let s3 = Family::SCurve { phi: 0.5 };
+    let moves = [
+        (
+            "scurve4 0.1/0.3/0.1 s",
+            Move::Phase(PhaseMove::new(40_000, s4, 0.1, 0.3, 0.1)),
+        ),
+        (
+            "scurve 0.1/0.3/0.1 s",
+            Move::Phase(PhaseMove::new(40_000, s3, 0.1, 0.3, 0.1)),
+        ),
+        (
+            "scurve4 5000/2000 end speeds",
+            Move::Phase(PhaseMove::new(40_000, s4, 0.1, 0.3, 0.1).with_speeds(5000.0, 2000.0)),
+        ),
+        (
+            "limits scurve4 smax 1e9",
+            Move::Limits(LimitsMove::scurve4(40_000, 100_000.0, 1e6, 2e7, 1e9)),
+        ),
+    ];
+    let bytes = CHAIN_LAYOUT.record_bytes();
+    assert_eq!(bytes * 8, 112 + 2 * 304 + 280 + 264 + 248 + 240);
+    for (name, m) in moves {
+        let p = Profile::plan_on_clock(&m, HZ as f64).unwrap();
+        let recs = CHAIN_LAYOUT.records(&p, HZ).unwrap();
+        assert!(recs.iter().all(|r| r.len() == bytes));
+        let per_step = (recs.len() * bytes) as f64 / p.steps() as f64;
+        eprintln!("{name}: {} records, {:.4} bytes/step", recs.len(), per_step);
+        assert!(recs.len() <= 16 && per_step < 0.1, "{name}");
+    }
+}

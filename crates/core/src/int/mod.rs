@@ -46,6 +46,13 @@
 //! constant-acceleration pieces with the closed form above, and the constant-jerk pieces of
 //! S-curve ramps by the exactness test evaluated exactly at half ticks (`cubic.rs`: the
 //! position cubic by Horner on up to 512 bits, two evaluations a step).
+//!
+//! # Polynomial pieces a tick at a time
+//! [`ChainEdges`] runs any profile of polynomial pieces (S-curves: cubic; scurve4:
+//! quartic) as the board's per-axis chain does (`chain.rs`): the scaled position at each
+//! tick's upper half tick by integer forward differences, a few wide additions a tick, and
+//! the exactness test as the sign of one register. [`ChainPiece`] holds one piece's initial
+//! values and the register widths it needs.
 
 // the kernel's items are described in the module docs above; item docs to follow
 mod chain;
