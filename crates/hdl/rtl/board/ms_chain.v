@@ -52,10 +52,12 @@ module ms_chain #(
     initial begin
         run = 1'b0;
         fault = 1'b0;
+        at_end = 1'b0;
     end
     assign busy = run;
 
-    wire at_end = (e >= hi);
+    reg  at_end;           // e >= hi, kept as a register (off R's carry-chain path)
+    wire [WT-1:0] e_n = e + 1'b1;
     wire due    = run && (at_end || !r[WR-1]);
     wire emit   = due && !full && !fault;
     wire adv    = run && !at_end && (!due || emit);
@@ -84,7 +86,10 @@ module ms_chain #(
             fault <= 1'b0;
         end else if (!run) begin
             if (ld) rec <= {ld_byte, rec[RB-1:8]};
-            if (go) run <= (n != {WN{1'b0}});
+            if (go) begin
+                run    <= (n != {WN{1'b0}});
+                at_end <= (e >= hi);
+            end
         end else begin
             if (emit) begin
                 if (bad) fault <= 1'b1;
@@ -93,7 +98,8 @@ module ms_chain #(
                 if (n == {{(WN-1){1'b0}}, 1'b1}) run <= 1'b0;
             end
             if (adv) begin
-                rec[WT-1:0]  <= e + 1'b1;
+                rec[WT-1:0]  <= e_n;
+                at_end       <= (e_n >= hi);
                 rec[O_R +: WR] <= r_n;
                 rec[O_1 +: W1] <= d1 + d2x;
                 rec[O_M +: WM] <= m + d2m;
