@@ -6,6 +6,7 @@ mod board;
 pub mod board_sim;
 pub mod boards;
 pub mod build;
+pub mod chain;
 mod emit;
 mod error;
 pub mod link;

@@ -93,7 +93,7 @@ fn sub_assign<const L: usize>(a: &mut Tc, b: &Tc) {
 }
 
 /// ⌊x/2^z⌋ of a signed value (a negative x rounds towards −∞).
-fn shr_floor(x: Si, z: u32) -> Si {
+pub(super) fn shr_floor(x: Si, z: u32) -> Si {
     let mut mag = x.mag.shr_vartime(z);
     if x.neg && mag.shl_vartime(z) != x.mag {
         mag = mag.wrapping_add(&W::ONE);
@@ -327,7 +327,7 @@ impl Cubic {
 }
 
 /// `⌈f·(a + b) − ½⌉` (0 if negative), the tick nearest to the time a + b, exactly.
-fn nearest_tick(clock: u64, a: f64, b: f64) -> Option<u64> {
+pub(super) fn nearest_tick(clock: u64, a: f64, b: f64) -> Option<u64> {
     let s = places(a)?.max(places(b)?);
     // 2^s·f·(a + b) = X; ⌈(2X − 2^s)/2^(s+1)⌉
     let one = Si::pos(W::ONE);

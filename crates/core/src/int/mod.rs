@@ -46,8 +46,16 @@
 //! constant-acceleration pieces with the closed form above, and the constant-jerk pieces of
 //! S-curve ramps by the exactness test evaluated exactly at half ticks (`cubic.rs`: the
 //! position cubic by Horner on up to 512 bits, two evaluations a step).
+//!
+//! # Polynomial pieces a tick at a time
+//! [`ChainEdges`] runs any profile of polynomial pieces (S-curves: cubic; scurve4:
+//! quartic) as the board's per-axis chain does (`chain.rs`): the scaled position at each
+//! tick's upper half tick by integer forward differences, a few wide additions a tick, and
+//! the exactness test as the sign of one register. [`ChainPiece`] holds one piece's initial
+//! values and the register widths it needs.
 
 // the kernel's items are described in the module docs above; item docs to follow
+mod chain;
 mod cubic;
 #[allow(missing_docs)]
 mod gen;
@@ -57,6 +65,10 @@ mod piece;
 mod plan;
 pub mod track;
 
+pub use chain::{
+    pieces as chain_pieces, ChainEdges, ChainError, ChainPiece, ChainValue, ChainWidths,
+    CHAIN_LIMBS,
+};
 pub use gen::IntEdgeGenerator;
 pub use piece::{IntPiece, KernelMode, StepKernel};
 pub use plan::{limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
@@ -102,6 +114,8 @@ pub enum IntError {
     TooWide,
 }
 
+#[cfg(test)]
+mod chain_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

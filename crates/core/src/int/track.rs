@@ -178,7 +178,7 @@ pub(super) fn floor_u64(x: f64) -> u64 {
 }
 
 /// `round(f·T)` with a half tick going up (the tick of a profile's last step), in integers.
-fn round_ticks(clock: u64, t: f64) -> Option<u64> {
+pub(super) fn round_ticks(clock: u64, t: f64) -> Option<u64> {
     let (neg, m, e) = split(t)?;
     if neg || m == 0 {
         return Some(0);

@@ -1,0 +1,121 @@
+//! Piece records for the per-axis forward-difference chain (`rtl/board/ms_chain.v`):
+//! `multistep_core::int::chain`'s pieces at the unit's register widths, as the bytes the
+//! unit shifts in (little-endian, lo first: lo, hi, count, R, Δ¹ … Δ⁴, M = Δ¹ − K: the unit
+//! keeps M, advanced as Δ¹ is, so an edge's `R += Δ¹ − K` is one carry chain).
+
+use crate::HdlError;
+use multistep_core::int::{chain_pieces, ChainEdges, ChainValue, ChainWidths};
+use multistep_core::Profile;
+
+/// The chain unit's register widths (its Verilog parameters).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChainLayout {
+    /// R, Δ¹ … Δ⁴ and K (the sum a multiple of 8); M = Δ¹ − K is R's width.
+    pub widths: ChainWidths,
+    /// Tick and step-count fields.
+    pub tick_bits: u32,
+    pub count_bits: u32,
+}
+
+/// The widths `ms_chain.v` defaults to: phase-mode scurve4 moves of 0.1/0.3/0.1 s at
+/// 50 MHz need R 290, Δ¹ 269 … Δ⁴ 207 and K 278 bits (`widths_of_typical_moves`); pieces
+/// of a few hundred microseconds need wider high differences (Δ⁴ 228 bits).
+pub const CHAIN_LAYOUT: ChainLayout = ChainLayout {
+    widths: ChainWidths {
+        r: 304,
+        diff: [280, 264, 248, 240],
+        k: 288,
+    },
+    tick_bits: 40,
+    count_bits: 32,
+};
+
+impl ChainLayout {
+    /// Bytes of one record.
+    pub fn record_bytes(&self) -> usize {
+        let w = &self.widths;
+        let bits = 2 * self.tick_bits + self.count_bits + 2 * w.r + w.diff.iter().sum::<u32>();
+        bits.div_ceil(8) as usize
+    }
+
+    /// The Verilog parameters of `ms_chain` for this layout.
+    pub fn verilog_params(&self) -> String {
+        let w = &self.widths;
+        format!(
+            "#(.WR({}), .W1({}), .W2({}), .W3({}), .W4({}), .WM({}), .WT({}), .WN({}))",
+            w.r, w.diff[0], w.diff[1], w.diff[2], w.diff[3], w.r, self.tick_bits, self.count_bits
+        )
+    }
+
+    /// Every record of `profile`'s move at `clock` Hz: one per piece holding steps, then
+    /// step N's (lo = hi = its tick, one step). A piece too wide for the layout (or a
+    /// shaped piece) is [`HdlError::Move`].
+    pub fn records(&self, profile: &Profile, clock: u64) -> Result<Vec<Vec<u8>>, HdlError> {
+        let bad = |e: &dyn std::fmt::Display| HdlError::Move(e.to_string());
+        let edges = ChainEdges::new(profile.clone(), clock, self.widths).map_err(|e| bad(&e))?;
+        let mut out = Vec::new();
+        for c in chain_pieces(profile, clock) {
+            let c = c.map_err(|e| bad(&e))?;
+            let w = &self.widths;
+            // M = Δ¹ − K lies in (−2K, 0): one bit more than K, in R's width
+            if c.widths.k + 1 > w.r {
+                return Err(HdlError::Move(format!(
+                    "piece {}: K needs {} bits, M = Δ¹ − K more than R's {}",
+                    c.piece, c.widths.k, w.r
+                )));
+            }
+            let mut fields: Vec<(ChainValue, u32)> = vec![
+                (value_of(c.lo), self.tick_bits),
+                (value_of(c.hi), self.tick_bits),
+                (value_of(c.last - c.first + 1), self.count_bits),
+                (c.r, w.r),
+            ];
+            fields.extend(c.diff.iter().zip(w.diff).map(|(d, b)| (*d, b)));
+            fields.push((minus(&c.diff[0], &c.k), w.r));
+            out.push(self.pack(&fields));
+        }
+        let end = value_of(edges.end_tick());
+        let zero = [0u64; multistep_core::int::CHAIN_LIMBS];
+        let w = &self.widths;
+        let mut last = vec![
+            (end, self.tick_bits),
+            (end, self.tick_bits),
+            (value_of(1), self.count_bits),
+            (zero, w.r),
+        ];
+        last.extend(w.diff.iter().map(|&b| (zero, b)));
+        last.push((zero, w.r));
+        out.push(self.pack(&last));
+        Ok(out)
+    }
+
+    /// Fields (two's complement values, low bits taken) packed low field first.
+    fn pack(&self, fields: &[(ChainValue, u32)]) -> Vec<u8> {
+        let mut bits = Vec::with_capacity(self.record_bytes() * 8);
+        for (v, n) in fields {
+            bits.extend((0..*n).map(|b| (v[(b / 64) as usize] >> (b % 64)) & 1 == 1));
+        }
+        bits.chunks(8)
+            .map(|c| c.iter().rev().fold(0u8, |a, &b| a << 1 | b as u8))
+            .collect()
+    }
+}
+
+/// `a − b` in two's complement.
+fn minus(a: &ChainValue, b: &ChainValue) -> ChainValue {
+    let mut out = *a;
+    let mut borrow = false;
+    for (x, y) in out.iter_mut().zip(b) {
+        let (d1, b1) = x.overflowing_sub(*y);
+        let (d2, b2) = d1.overflowing_sub(borrow as u64);
+        *x = d2;
+        borrow = b1 | b2;
+    }
+    out
+}
+
+fn value_of(x: u64) -> ChainValue {
+    let mut v = [0u64; multistep_core::int::CHAIN_LIMBS];
+    v[0] = x;
+    v
+}
