@@ -859,8 +859,12 @@ impl Drop for Killed {
 
 /// A service named `name` on the board at `pty` (None: the simulated board).
 fn sync_serve(dir: &Path, name: &str, pty: Option<&str>) -> Server {
+    sync_serve_with(dir, name, pty, SYNC_CONFIG)
+}
+
+fn sync_serve_with(dir: &Path, name: &str, pty: Option<&str>, config_text: &str) -> Server {
     let config = dir.join(format!("{name}.toml"));
-    std::fs::write(&config, SYNC_CONFIG).unwrap();
+    std::fs::write(&config, config_text).unwrap();
     let link = pty.map(|p| format!("serial:{p},timeout=3"));
     Server::start(&dir.join(format!("{name}-data")), &config, link.as_deref())
 }
@@ -872,6 +876,35 @@ fn ctl(addrs: &[String], args: &[&str]) -> std::process::Output {
         cmd.arg("--board").arg(format!("{n}=tcp://{a}"));
     }
     cmd.args(args).output().unwrap()
+}
+
+/// `ctl group a:X=200 b:X=200 b:Y=-120` across the two boards: its output, every target
+/// line checked.
+fn cross_board_group(addrs: &[String]) -> String {
+    let o = ctl(addrs, &["group", "a:X=200", "b:X=200", "b:Y=-120"]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        o.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for want in ["a:X target=200", "b:X target=200", "b:Y target=-120"] {
+        assert!(text.lines().any(|l| l == want), "{want}: {text}");
+    }
+    text
+}
+
+/// Waits for [`cross_board_group`]'s axes and checks every axis's position.
+fn cross_board_group_ends_at_its_targets(addrs: &[String]) {
+    let o = ctl(addrs, &["wait", "a:X", "b:X", "b:Y", "--timeout", "120"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = ctl(addrs, &["status", "--json"]);
+    let st: Vec<AxisStatus> = serde_json::from_slice(&o.stdout).unwrap();
+    let pos = |a: &str| st.iter().find(|s| s.axis == a).unwrap().position;
+    assert_eq!(
+        [pos("a:X"), pos("a:Y"), pos("b:X"), pos("b:Y")],
+        [200, 0, 200, -120]
+    );
 }
 
 /// The edge log of one board: its clock (period, start, ps), the group starts and axis
@@ -928,16 +961,7 @@ fn a_group_across_two_boards_starts_on_one_sync_fall() {
     let sb = sync_serve(dir.path(), "b", Some(&ptys[1]));
     let addrs = [sa.addr.clone(), sb.addr.clone()];
 
-    let o = ctl(&addrs, &["group", "a:X=200", "b:X=200", "b:Y=-120"]);
-    let text = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    for want in ["a:X target=200", "b:X target=200", "b:Y target=-120"] {
-        assert!(text.lines().any(|l| l == want), "{want}: {text}");
-    }
+    let text = cross_board_group(&addrs);
     let offset = |board: &str| -> i64 {
         let l = text
             .lines()
@@ -948,15 +972,7 @@ fn a_group_across_two_boards_starts_on_one_sync_fall() {
     assert_eq!(offset("a"), 0, "{text}");
     let offset_b = offset("b");
 
-    let o = ctl(&addrs, &["wait", "a:X", "b:X", "b:Y", "--timeout", "120"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = ctl(&addrs, &["status", "--json"]);
-    let st: Vec<AxisStatus> = serde_json::from_slice(&o.stdout).unwrap();
-    let pos = |a: &str| st.iter().find(|s| s.axis == a).unwrap().position;
-    assert_eq!(
-        [pos("a:X"), pos("a:Y"), pos("b:X"), pos("b:Y")],
-        [200, 0, 200, -120]
-    );
+    cross_board_group_ends_at_its_targets(&addrs);
 
     writeln!(stdin, "quit").unwrap();
     drop(stdin);
@@ -978,6 +994,31 @@ fn a_group_across_two_boards_starts_on_one_sync_fall() {
     eprintln!("through serve/ctl: start skew {start_skew:.0} ps, first STEP rises {rise_skew:.0} ps apart, offset {offset_b}");
     assert!(start_skew.abs() < 20_000.0, "start skew {start_skew} ps");
     assert!(rise_skew.abs() < 1e6, "first rises {rise_skew} ps apart");
+}
+
+/// Simulated boards on one simulated SYNC line (`board.sync_line`, a shared file) run a
+/// group across boards as FPGA boards do: armed on each, started by one fall, each
+/// board's latched tick and offset printed, every axis at its target.
+#[test]
+fn simulated_boards_on_one_sync_line_run_a_group_across_boards() {
+    let dir = tempfile::tempdir().unwrap();
+    let line = dir.path().join("sync-line");
+    let config = SYNC_CONFIG.replace(
+        "name = \"t\"\n",
+        &format!("name = \"t\"\nsync_line = {:?}\n", line.to_str().unwrap()),
+    );
+    let sa = sync_serve_with(dir.path(), "a", None, &config);
+    let sb = sync_serve_with(dir.path(), "b", None, &config);
+    let addrs = [sa.addr.clone(), sb.addr.clone()];
+    let text = cross_board_group(&addrs);
+    for b in ["a", "b"] {
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with(&format!("{b} synctick="))),
+            "{b}: {text}"
+        );
+    }
+    cross_board_group_ends_at_its_targets(&addrs);
 }
 
 #[test]

@@ -173,6 +173,7 @@ fn the_boards_tracking_edges_are_plan_tracks_edges() {
                 clock_hz: 1e6,
                 fifo_depth: 4,
                 link: None,
+                sync_line: None,
             },
             axes: vec![AxisConfig {
                 name: "X".into(),

@@ -14,6 +14,7 @@ use multistep_core::{MoveSpec, Profile};
 
 pub mod fpga;
 pub mod sim;
+mod sim_sync;
 
 pub use fpga::{FpgaBackend, LinkSpec};
 pub use sim::SimBackend;

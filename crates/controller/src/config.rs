@@ -36,6 +36,10 @@ pub struct BoardSection {
     /// The FPGA board behind the axes, `serial:DEVICE[@BAUD]`; none: simulated.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub link: Option<String>,
+    /// A simulated board's SYNC line: a file shared by the simulated boards of a
+    /// cross-board group on this machine (an FPGA board's SYNC line is its pin).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sync_line: Option<std::path::PathBuf>,
 }
 
 impl Default for BoardSection {
@@ -45,6 +49,7 @@ impl Default for BoardSection {
             clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
             fifo_depth: 4,
             link: None,
+            sync_line: None,
         }
     }
 }
@@ -119,6 +124,12 @@ impl BoardConfig {
         }
         if let Some(l) = &self.board.link {
             crate::backend::LinkSpec::parse(l)?;
+            if self.board.sync_line.is_some() {
+                return Err(CtlError::Setting(
+                    "board.sync_line is the simulated boards' SYNC line; an FPGA board (board.link) uses its SYNC pin"
+                        .into(),
+                ));
+            }
         }
         if !(1..=1024).contains(&self.board.fifo_depth) {
             return Err(CtlError::Setting(format!(

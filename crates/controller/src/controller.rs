@@ -64,7 +64,10 @@ impl Controller {
         store: Store,
         time_scale: f64,
     ) -> Result<Controller, CtlError> {
-        let sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        let mut sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        if let Some(line) = &config.board.sync_line {
+            sim = sim.with_sync_line(line, config.board.clock_hz * time_scale);
+        }
         Controller::open_backend(config, store, time_scale, Box::new(sim))
     }
 

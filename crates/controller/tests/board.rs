@@ -15,6 +15,7 @@ fn config(axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
             clock_hz: CLOCK,
             fifo_depth: 4,
             link: None,
+            sync_line: None,
         },
         axes: axes
             .into_iter()

@@ -16,6 +16,7 @@ fn config(clock_hz: f64, axes: Vec<(&str, AxisSettings)>) -> BoardConfig {
             clock_hz,
             fifo_depth: 4,
             link: None,
+            sync_line: None,
         },
         axes: axes
             .into_iter()

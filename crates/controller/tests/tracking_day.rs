@@ -23,6 +23,7 @@ fn board(dir: &std::path::Path, amax: f64) -> Board {
             clock_hz: F as f64,
             fifo_depth: 4,
             link: None,
+            sync_line: None,
         },
         axes: vec![AxisConfig {
             name: "ra".into(),

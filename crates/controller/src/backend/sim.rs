@@ -1,7 +1,8 @@
 //! The simulated board: each axis's edges come from a [`StepSource`], the count and the
 //! mechanics move one step per edge, and a [`HallSim`] watches the mechanics.
 
-use super::{BoardBackend, Launch, PinEvent};
+use super::sim_sync::SimSyncLine;
+use super::{no_sync, BoardBackend, Launch, PinEvent, SyncState};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
@@ -36,6 +37,8 @@ pub struct SimBackend {
     /// Work done when the current advance began.
     w0: u64,
     simulated: bool,
+    /// The simulated SYNC line, when the board has one.
+    sync: Option<SimSyncLine<Launch>>,
 }
 
 impl SimBackend {
@@ -58,7 +61,15 @@ impl SimBackend {
             max_advance_work: 0,
             w0: 0,
             simulated: true,
+            sync: None,
         }
+    }
+
+    /// The board on the simulated SYNC line `path` (shared by the simulated boards of a
+    /// cross-board group), its ticks `ticks_per_second` of the wall clock.
+    pub fn with_sync_line(mut self, path: &std::path::Path, ticks_per_second: f64) -> SimBackend {
+        self.sync = Some(SimSyncLine::new(path, ticks_per_second));
+        self
     }
 
     /// The same pins with the simulation's own commands refused (as on hardware).
@@ -166,6 +177,23 @@ impl SimBackend {
             None => {
                 m.src = Box::new(Stopped(tick));
                 ax.count
+            }
+        }
+    }
+
+    /// Starts the armed group when the SYNC line has fallen: each member's move from the
+    /// fall's tick, in place of its wait.
+    fn start_fired(&mut self, now: u64) {
+        let Some((tick, moves)) = self.sync.as_mut().and_then(|s| s.take_fired(now)) else {
+            return;
+        };
+        for (i, l) in moves {
+            // planned when armed, so it plans again
+            if let (Ok(src), Some(m)) = (
+                start_move(l.profile, self.clock_hz, tick),
+                self.axes[i].motion.as_mut(),
+            ) {
+                m.src = src;
             }
         }
     }
@@ -300,6 +328,7 @@ impl BoardBackend for SimBackend {
 
     fn poll(&mut self, now: u64) -> Option<(usize, PinEvent)> {
         let now = now.max(self.now);
+        self.start_fired(now);
         let Some(budget) = self.work_budget else {
             for i in 0..self.axes.len() {
                 if let Some(ev) = self.advance_axis(i, now) {
@@ -336,10 +365,16 @@ impl BoardBackend for SimBackend {
     }
 
     fn stop(&mut self, axis: usize, now: u64) -> Result<i64, CtlError> {
+        if let Some(s) = self.sync.as_mut() {
+            s.disarm(Some(axis));
+        }
         Ok(self.stop_at(axis, now))
     }
 
     fn estop(&mut self, _now: u64) {
+        if let Some(s) = self.sync.as_mut() {
+            s.disarm(None);
+        }
         for ax in &mut self.axes {
             ax.motion = None;
         }
@@ -401,12 +436,78 @@ impl BoardBackend for SimBackend {
         Ok(())
     }
 
+    fn has_sync(&self) -> bool {
+        self.sync.is_some()
+    }
+
+    /// Each member waits (moving, no step) until the line falls.
+    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
+        match &self.sync {
+            None => return Err(no_sync(&self.describe())),
+            Some(s) if s.is_armed() => {
+                return Err(CtlError::Setting(
+                    "a group is armed already: fire it, or stop its axes".into(),
+                ))
+            }
+            Some(_) => {}
+        }
+        let mut steps = Vec::new();
+        for l in &moves {
+            steps.push(start_move(l.profile.clone(), self.clock_hz, now)?.steps_left());
+        }
+        for l in &moves {
+            self.install(Installed::of(l), Box::new(Waiting), now);
+        }
+        let members = moves.into_iter().map(|l| (l.axis, l)).collect();
+        if let Some(s) = self.sync.as_mut() {
+            s.arm(members, now);
+        }
+        Ok((now, steps))
+    }
+
+    fn fire(&mut self) -> Result<(), CtlError> {
+        match &self.sync {
+            Some(s) => s.fire(),
+            None => Err(no_sync(&self.describe())),
+        }
+    }
+
+    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+        let s = self.sync.as_ref().ok_or_else(|| no_sync("simulated"))?;
+        Ok(SyncState {
+            armed: s.is_armed(),
+            ready: s.is_armed(),
+            late: false,
+            line: true,
+            tick: s.last_fall(),
+        })
+    }
+
     fn set_work_budget(&mut self, budget: Option<u64>) {
         self.work_budget = budget;
     }
 
     fn work(&self) -> (u64, u64) {
         (self.work, self.max_advance_work)
+    }
+}
+
+/// An armed member before the SYNC fall: moving, no step due.
+struct Waiting;
+
+impl StepSource for Waiting {
+    fn peek(&mut self) -> Option<u64> {
+        Some(u64::MAX)
+    }
+    fn take(&mut self) {}
+    fn speed_at(&self, _: u64) -> f64 {
+        0.0
+    }
+    fn end_tick(&self) -> u64 {
+        u64::MAX
+    }
+    fn steps_left(&self) -> u64 {
+        0
     }
 }
 
