@@ -580,11 +580,7 @@ fn per_axis_dir_and_enable_levels_hold_through_estop_and_reset() {
     assert_eq!([rep[masks[0]].data, rep[masks[1]].data], [0b01, 0b10]);
     let at = |pins: &[Vec<multistep_hdl::board_sim::PinEvent>], a: usize, mark: u32| {
         let c = log.mark(mark).unwrap();
-        pins[a]
-            .iter()
-            .filter(|e| e.cycle <= c)
-            .last()
-            .map(|e| e.level)
+        pins[a].iter().rev().find(|e| e.cycle <= c).map(|e| e.level)
     };
     // moving +: axis 0's DIR pin low (inverted), axis 1's high
     assert_eq!(
