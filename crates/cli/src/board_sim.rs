@@ -5,8 +5,9 @@
 
 use anyhow::Context;
 use clap::Args;
+use multistep_controller::axis::AxisSettings;
 use multistep_hil::multi::{MultiBoardSim, MultiOptions};
-use multistep_hil::{BoardSim, Options, SensorOptions};
+use multistep_hil::{BoardSim, Options, PinLevels, SensorOptions};
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 
@@ -55,7 +56,8 @@ pub struct BoardSimArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// A board config file (as `serve --config`): each axis's sensor from its `sim.*`,
-    /// `home_dir` and `period` (axis a of the board is the file's a-th `[[axis]]`)
+    /// `home_dir` and `period`, its DIR and ENABLE levels from `invert_dir` and
+    /// `enable_active_high` (axis a of the board is the file's a-th `[[axis]]`)
     #[arg(long, conflicts_with_all = ["sensor_at", "sensor_width", "home_dir", "bounce_count",
         "bounce_time", "glitch_rate", "glitch_max", "glitch_gap", "seed"])]
     config: Option<PathBuf>,
@@ -94,9 +96,10 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
     check("glitch-gap", a.glitch_gap, 0.0, 10.0)?;
     check("bounce-count", f64::from(a.bounce_count), 0.0, 100.0)?;
     check("microsteps", f64::from(a.microsteps), 1.0, 256.0)?;
-    let sensors = match &a.config {
-        Some(path) => sensors_of(path)?,
-        None => flag_sensors(a),
+    let (sensors, levels) = match &a.config {
+        Some(path) => axes_of(path)?,
+        // the controller's default wiring, as `serve` drives an unconfigured axis
+        None => (flag_sensors(a), vec![pin_levels(&AxisSettings::default())]),
     };
     let opts = Options {
         board: a.board.clone(),
@@ -105,6 +108,7 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
         motor: a.motor.clone(),
         microsteps: a.microsteps,
         sensors,
+        levels,
         edges: a.edges.clone(),
         realtime: a.realtime,
         cache_dir: a.cache_dir.clone(),
@@ -189,10 +193,21 @@ fn flag_sensors(a: &BoardSimArgs) -> Vec<SensorOptions> {
         .collect()
 }
 
-/// Each axis's sensor from a board config file (checked as `serve` checks it).
-fn sensors_of(path: &std::path::Path) -> anyhow::Result<Vec<SensorOptions>> {
+/// How an axis's driver reads its DIR and ENABLE pins.
+fn pin_levels(s: &AxisSettings) -> PinLevels {
+    PinLevels {
+        invert_dir: s.invert_dir,
+        enable_active_high: s.enable_active_high,
+    }
+}
+
+/// Each axis's sensor and pin levels from a board config file (checked as `serve` checks
+/// it).
+fn axes_of(path: &std::path::Path) -> anyhow::Result<(Vec<SensorOptions>, Vec<PinLevels>)> {
     let c = multistep_controller::config::BoardConfig::load(path)?;
-    Ok(c.axes
+    let levels = c.axes.iter().map(|ax| pin_levels(&ax.settings)).collect();
+    let sensors = c
+        .axes
         .iter()
         .map(|ax| {
             let (s, sim) = (&ax.settings, &ax.settings.sim);
@@ -209,5 +224,6 @@ fn sensors_of(path: &std::path::Path) -> anyhow::Result<Vec<SensorOptions>> {
                 seed: sim.seed,
             }
         })
-        .collect())
+        .collect();
+    Ok((sensors, levels))
 }

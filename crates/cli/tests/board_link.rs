@@ -561,6 +561,46 @@ fn a_sync_group_starts_together_and_reaches_its_targets_on_both_backends() {
     assert_eq!(got, (800, -300));
 }
 
+/// X's DIR wired inverted and its ENABLE active low, Y's ENABLE active high: the board
+/// drives each axis's pins at its own levels (board-sim's drivers read them as wired), so
+/// the counts and the motors agree on both backends, and the e-stop releases both drivers.
+#[test]
+fn per_axis_dir_and_enable_levels_move_the_motors_the_right_way_on_both_backends() {
+    let axis = |n: &str, levels: &str| format!("[[axis]]\nname = \"{n}\"\n{levels}{AXIS}");
+    let text = format!(
+        "{CONFIG}{}{}",
+        axis("X", "invert_dir = true\nenable_active_high = false\n"),
+        axis("Y", "enable_active_high = true\n")
+    );
+    let got = on_both(|pins| {
+        let mut r = Rig::with_config(pins, &text);
+        r.req("group move X=600 Y=-400");
+        let (x, y) = (r.wait_idle("X"), r.wait_idle("Y"));
+        // the motors: the simulated mechanics, or the steps board-sim's motors took
+        let motors = match pins {
+            Pins::Sim => [x.sim_position, y.sim_position],
+            Pins::Hil => {
+                let st = r.board.as_mut().unwrap().state();
+                let ax = &st["axes"];
+                for (a, s) in [&x, &y].iter().enumerate() {
+                    assert_eq!(ax[a]["enable"], s.enabled, "{pins:?}: axis {a} ENABLE read");
+                }
+                r.req("estop");
+                let st = r.board.as_mut().unwrap().state();
+                for a in 0..2 {
+                    assert_eq!(
+                        st["axes"][a]["enable"], false,
+                        "axis {a} released by e-stop"
+                    );
+                }
+                [0, 1].map(|a| ax[a]["commanded"].as_i64().unwrap())
+            }
+        };
+        (x.position, y.position, x.dir_level, motors)
+    });
+    assert_eq!(got, (600, -400, false, [600, -400]));
+}
+
 /// [`config`] with fast axes (streamed moves at up to 10^6 steps/s).
 fn fast_config() -> String {
     config().replace(

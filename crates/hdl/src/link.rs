@@ -158,6 +158,12 @@ pub enum BoardReg {
     /// R: the free-running clock count at the last falling edge of the SYNC line (after
     /// the synchronizer).
     SyncTick = 0x15,
+    /// R/W: axes whose DIR pin is inverted against `Levels` (the DIR bit stays logical,
+    /// the position counts as before; a running axis's bit cannot change: busy).
+    DirInvert = 0x16,
+    /// R/W: axes whose ENABLE pin is active low against `Levels`; the e-stop and a reset
+    /// force ENABLE to this level's inactive side. Both masks are kept over a reset.
+    EnableLow = 0x17,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).

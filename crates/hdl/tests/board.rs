@@ -535,6 +535,65 @@ fn estop_pin_and_register() {
     );
 }
 
+/// Per-axis levels: axis 0's DIR inverted, axis 1's ENABLE active low. The DIR bit and the
+/// position stay logical; a running axis's DIR level cannot change; the e-stop and a
+/// reset force each ENABLE to its own axis's inactive level.
+#[test]
+fn per_axis_dir_and_enable_levels_hold_through_estop_and_reset() {
+    let name = "board-axis-levels";
+    let p = params(2);
+    let b = board(p.clone(), 3_000_000);
+    let (_, cm, _, _) = search_move(&p, 40);
+    let mut h = Host::new();
+    h.write(Reg::Board(BoardReg::DirInvert), 0b01);
+    h.write(Reg::Board(BoardReg::EnableLow), 0b10);
+    h.write(Reg::Board(BoardReg::Enable), 0b11);
+    for a in 0..2 {
+        h.writes(&move_writes(&p, a, &cm, 0).unwrap());
+    }
+    h.write(Reg::Board(BoardReg::Start), 0b11);
+    h.s.sync().steps(0, 5);
+    let busy = h.write(Reg::Board(BoardReg::DirInvert), 0b00);
+    let other = h.write(Reg::Board(BoardReg::DirInvert), 0b101);
+    h.s.sync().idle();
+    let pos: Vec<usize> = (0..2)
+        .map(|a| h.read(Reg::Axis(a, AxisReg::Position)))
+        .collect();
+    let masks = [
+        h.read(Reg::Board(BoardReg::DirInvert)),
+        h.read(Reg::Board(BoardReg::EnableLow)),
+    ];
+    h.s.sync().mark(1);
+    h.write(Reg::Board(BoardReg::Estop), 1);
+    h.s.sync().wait(100).mark(2);
+    h.s.reset_n(false).wait(10).reset_n(true).wait(100).mark(3);
+    let (log, rep) = h.run(&b, name, 3_000_000);
+    assert_eq!(
+        rep[busy].status,
+        Status::Busy,
+        "{name}: DIR level of a running axis"
+    );
+    assert_eq!(rep[other].status, Status::BadValue, "{name}: no axis 2");
+    for (a, &i) in pos.iter().enumerate() {
+        assert_eq!(rep[i].data as i32, 40, "{name}: axis {a} counts up");
+    }
+    assert_eq!([rep[masks[0]].data, rep[masks[1]].data], [0b01, 0b10]);
+    let at = |pins: &[Vec<multistep_hdl::board_sim::PinEvent>], a: usize, mark: u32| {
+        let c = log.mark(mark).unwrap();
+        pins[a].iter().rev().find(|e| e.cycle <= c).map(|e| e.level)
+    };
+    // moving +: axis 0's DIR pin low (inverted), axis 1's high
+    assert_eq!(
+        [at(&log.dir, 0, 1), at(&log.dir, 1, 1)],
+        [Some(false), Some(true)]
+    );
+    // enabled: axis 0 high, axis 1 low; forced off (e-stop, reset): the other way round
+    for (mark, want) in [(1, [true, false]), (2, [false, true]), (3, [false, true])] {
+        let got = [at(&log.enable, 0, mark), at(&log.enable, 1, mark)];
+        assert_eq!(got, want.map(Some), "{name}: ENABLE pins at mark {mark}");
+    }
+}
+
 /// Bad frames get an error reply and change nothing: a bad CRC, an unknown command, an
 /// unknown register, writes that would corrupt the running move; garbage without a sync
 /// byte and a truncated frame get no reply. The move's edges are exact throughout.

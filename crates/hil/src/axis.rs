@@ -9,6 +9,23 @@ use serde::Serialize;
 /// A motor counts as moving this long after its last STEP (s): the rotor settles.
 pub const SETTLE_S: f64 = 0.02;
 
+/// How an axis's driver reads its DIR and ENABLE pins (the controller's `invert_dir` and
+/// `enable_active_high`); the default is the board's reset levels (all active high).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PinLevels {
+    pub invert_dir: bool,
+    pub enable_active_high: bool,
+}
+
+impl Default for PinLevels {
+    fn default() -> Self {
+        PinLevels {
+            invert_dir: false,
+            enable_active_high: true,
+        }
+    }
+}
+
 /// What `state` reports of one axis.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AxisReport {
@@ -18,6 +35,7 @@ pub struct AxisReport {
     pub position: f64,
     /// The motor's commanded position: the STEPs it took while energized, ± by DIR.
     pub commanded: i64,
+    /// ENABLE and DIR as the driver reads them (the pins through [`PinLevels`]).
     pub enable: bool,
     pub dir: bool,
     /// The Hall input's level (the sensor's raw output).
@@ -33,6 +51,7 @@ pub struct SimAxis {
     slip: i64,
     pub enable: bool,
     pub dir: bool,
+    levels: PinLevels,
     /// The motor moves (or settles) until this cycle.
     live_until: u64,
     /// An injected glitch runs until this cycle.
@@ -40,7 +59,12 @@ pub struct SimAxis {
 }
 
 impl SimAxis {
-    pub fn new(motor: Incremental, sensor: &SensorSettings, clock_hz: f64) -> SimAxis {
+    pub fn new(
+        motor: Incremental,
+        sensor: &SensorSettings,
+        levels: PinLevels,
+        clock_hz: f64,
+    ) -> SimAxis {
         let mut sensor = HallSensor::new(sensor);
         sensor.resync(0, 0);
         SimAxis {
@@ -51,6 +75,7 @@ impl SimAxis {
             slip: 0,
             enable: false,
             dir: false,
+            levels,
             live_until: 0,
             glitch_until: 0,
         }
@@ -64,6 +89,12 @@ impl SimAxis {
     /// The whole microstep the sensor sees.
     fn sensor_pos(&self) -> i64 {
         self.position().round() as i64
+    }
+
+    /// The DIR and ENABLE pins' levels, read as the driver is wired.
+    pub fn pins(&mut self, dir: bool, enable: bool) {
+        self.dir = dir != self.levels.invert_dir;
+        self.enable = enable == self.levels.enable_active_high;
     }
 
     pub fn hall(&self) -> bool {

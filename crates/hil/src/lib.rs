@@ -14,6 +14,7 @@ pub mod multi;
 pub mod pty;
 pub mod uart;
 
+pub use axis::PinLevels;
 use axis::{AxisReport, SimAxis};
 use multistep_hdl::boards::Board;
 use multistep_hdl::verilator::{default_cache_dir, watch, Inputs, VerilatedBoard};
@@ -110,6 +111,9 @@ pub struct Options {
     pub microsteps: u32,
     /// Per axis; the last one repeats for the axes after it (empty: the defaults).
     pub sensors: Vec<SensorOptions>,
+    /// Per axis, how its driver reads DIR and ENABLE; the last one repeats (empty: the
+    /// board's reset levels).
+    pub levels: Vec<PinLevels>,
     /// Log every STEP rise (`AXIS CYCLE`) and every group start (`# go CYCLE`) here.
     pub edges: Option<PathBuf>,
     /// Never run faster than the wall clock.
@@ -127,6 +131,7 @@ impl Default for Options {
             motor: "42mm".into(),
             microsteps: 16,
             sensors: Vec::new(),
+            levels: Vec::new(),
             edges: None,
             realtime: false,
             cache_dir: None,
@@ -387,7 +392,13 @@ impl World {
                 )));
             }
             let m = Incremental::new(&motor, &cfg, clock_hz)?;
-            axes.push(SimAxis::new(m, &s.settings(clock_hz), clock_hz));
+            let levels = opts
+                .levels
+                .get(a)
+                .or(opts.levels.last())
+                .copied()
+                .unwrap_or_default();
+            axes.push(SimAxis::new(m, &s.settings(clock_hz), levels, clock_hz));
         }
         let edges = match &opts.edges {
             Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p).map_err(
@@ -617,8 +628,7 @@ impl World {
         }
         let (step_pins, dir_pins, en_pins) = (out.step(), out.dir(), out.enable());
         for (a, ax) in self.axes.iter_mut().enumerate() {
-            ax.dir = dir_pins >> a & 1 == 1;
-            ax.enable = en_pins >> a & 1 == 1;
+            ax.pins(dir_pins >> a & 1 == 1, en_pins >> a & 1 == 1);
             let rose = (changed & watch::STEP) >> a & 1 == 1 && step_pins >> a & 1 == 1;
             if rose {
                 ax.step(now);

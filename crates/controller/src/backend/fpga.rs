@@ -275,7 +275,7 @@ impl FpgaBackend {
     }
 
     /// The board's registers as the host wants them (after start-up and every reset):
-    /// debounce, no Hall stops, ENABLE on.
+    /// debounce, no Hall stops, each axis's DIR and ENABLE levels, ENABLE on.
     fn setup(&mut self) -> Result<(), LinkError> {
         let clock = self.params.clock_hz;
         let debounce = self
@@ -286,9 +286,22 @@ impl FpgaBackend {
             .min(u32::MAX as f64) as u32;
         let mask = self.mask();
         let enabled = self.enabled;
+        let axes_where = |f: fn(&AxisSettings) -> bool| -> u32 {
+            self.axes
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| f(&a.settings))
+                .map(|(i, _)| 1u32 << i)
+                .sum()
+        };
+        let dir_invert = axes_where(|s| s.invert_dir);
+        let enable_low = axes_where(|s| !s.enable_active_high);
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         l.write(Reg::Board(BoardReg::Debounce), debounce)?;
         l.write(Reg::Board(BoardReg::HallStop), 0)?;
+        // the levels before ENABLE: an active-low driver is never energized by the switch
+        l.write(Reg::Board(BoardReg::DirInvert), dir_invert)?;
+        l.write(Reg::Board(BoardReg::EnableLow), enable_low)?;
         l.write(Reg::Board(BoardReg::Enable), mask & enabled)?;
         self.hall_stop = 0;
         Ok(())

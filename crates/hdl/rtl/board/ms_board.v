@@ -86,6 +86,7 @@ module ms_board #(
     wire [AW-1:0] core_addr;
     wire [31:0]   core_data;
     wire [K-1:0]  step, dir, busy, underrun, halt, divert, start_ax, dir_q, enable;
+    wire [K-1:0]  dir_inv, en_low;
     wire [K-1:0]  pos_wr, hall_clr, hall_flag, hall_lvl, hall_edge, limit_lvl, limit_edge;
     wire [K*LS-1:0] div_slot;
     wire [WD-1:0] pulse_width, debounce;
@@ -106,7 +107,7 @@ module ms_board #(
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
         .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
         .start_ax(start_ax), .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
-        .enable(enable), .levels(levels), .pos_wr(pos_wr), .hall_clr(hall_clr),
+        .enable(enable), .levels(levels), .dir_inv(dir_inv), .en_low(en_low), .pos_wr(pos_wr), .hall_clr(hall_clr),
         .pos(pos), .hall_pos(hall_pos), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
         .hall_edge(hall_edge), .limit_lvl(limit_lvl), .limit_edge(limit_edge),
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
@@ -155,7 +156,8 @@ module ms_board #(
                 .debounce(debounce), .hall(hall_s[a] == levels[3]),
                 .limit(limit_s[a] == levels[4]), .pos_wr(pos_wr[a]), .pos_in(req_data),
                 .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),
-                .lvl_dir(levels[1]), .lvl_en(levels[2]), .step_pin(step_out[a]),
+                .lvl_dir(levels[1] ^ dir_inv[a]), .lvl_en(levels[2] ^ en_low[a]),
+                .step_pin(step_out[a]),
                 .dir_pin(dir_out[a]), .en_pin(enable_out[a]), .pos(pos[a*32 +: 32]),
                 .hall_pos(hall_pos[a*32 +: 32]), .hall_flag(hall_flag[a]),
                 .hall_lvl(hall_lvl[a]), .hall_edge(hall_edge[a]), .limit_lvl(limit_lvl[a]),

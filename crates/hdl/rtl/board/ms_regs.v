@@ -1,7 +1,7 @@
 // ms_regs: the board's registers behind the host link (docs/HDL.md, "Host link"). A
 // request {req_wr, req_addr, req_data} is executed in its clock; its status and read data
 // are valid in the next. A request that fails a check changes nothing.
-//   0x0000-0x0012  board registers     0x1000 | a  the core's bus word a (write only)
+//   0x0000-0x0017  board registers     0x1000 | a  the core's bus word a (write only)
 //   0x2000 | axis << 4 | r              axis registers
 // Cross-board start (SYNC = 1): Arm loads a group as Start does but holds its go until the
 // shared SYNC line falls (sync_line, synchronized); Fire pulls the line low for SP clocks.
@@ -59,6 +59,10 @@ module ms_regs #(
     output reg  [WD-1:0] debounce,
     output reg  [K-1:0]  enable,
     output reg  [5:0]    levels,     // active levels: STEP, DIR, ENABLE, Hall, limit; e-stop drops ENABLE
+    // per axis: DIR inverted, ENABLE active low (flip `levels`); kept over a reset, so the
+    // ENABLE a reset or e-stop forces off stays at the axis's inactive level
+    output reg  [K-1:0]  dir_inv,
+    output reg  [K-1:0]  en_low,
     output reg  [K-1:0]  pos_wr,
     output reg  [K-1:0]  hall_clr,
     input  wire [K*32-1:0] pos,
@@ -109,6 +113,8 @@ module ms_regs #(
     reg [7:0]    fire_cnt;
     reg [31:0]   sync_tick;    // free at the last SYNC edge
     initial begin
+        dir_inv = {K{1'b0}};
+        en_low = {K{1'b0}};
         armed = 1'b0;
         sync_hit = 1'b0;
         sync_late = 1'b0;
@@ -195,6 +201,8 @@ module ms_regs #(
                 8'h10: rd = {{(32-K){1'b0}}, hall_stop};
                 8'h11: rd = {{(32-K){1'b0}}, limit_stop};
                 8'h15: begin rd = sync_tick; rd_ok = sync_en; end
+                8'h16: rd = {{(32-K){1'b0}}, dir_inv};
+                8'h17: rd = {{(32-K){1'b0}}, en_low};
                 default: rd_ok = 1'b0;
             endcase
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
@@ -230,8 +238,11 @@ module ms_regs #(
                 8'h09: wst = start_st;
                 8'h13: wst = sync_en ? start_st : E_ADDR;
                 8'h14: wst = sync_en ? OK : E_ADDR;
-                8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12:
+                8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12, 8'h17:
                     wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE : OK;
+                // a running axis's DIR pin must not flip
+                8'h16: wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE
+                           : (((req_data[K-1:0] ^ dir_inv) & core_busy) != {K{1'b0}}) ? E_BUSY : OK;
                 8'h0B, 8'h0C, 8'h0F: wst = any_busy ? E_BUSY : OK;
                 8'h0D: wst = OK;
                 default: wst = E_ADDR;
@@ -339,6 +350,8 @@ module ms_regs #(
                     8'h0F: levels      <= req_data[5:0];
                     8'h10: hall_stop   <= mask;
                     8'h11: limit_stop  <= mask;
+                    8'h16: dir_inv     <= mask;
+                    8'h17: en_low      <= mask;
                     8'h12: begin
                         hall_clr <= mask;
                         stopped  <= stopped & ~mask;
