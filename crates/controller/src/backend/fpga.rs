@@ -568,13 +568,12 @@ impl FpgaBackend {
         if !self.streams {
             return Err(CtlError::Setting(NO_REPLAY.into()));
         }
+        // A Hall stop on a streamed axis halts it (no ramp piece to divert to).
         if l.stop_on_sensor == Some(true) {
-            return Err(CtlError::Setting(
-                "a homing search on the board is computed (it stops on the Hall edge with a \
-                 ramp piece): its move must be a trapezoid of whole-number speeds whose \
-                 pieces fit the board's tick width; keep home_search within one piece"
-                    .into(),
-            ));
+            check_hall_halt(l.profile.peaks().0, self.axes[l.axis].settings.amax)?;
+            self.hall_stop |= 1 << l.axis;
+        } else {
+            self.hall_stop &= !(1 << l.axis);
         }
         let clock = self.params.clock_hz;
         let steps = l.profile.steps();
@@ -588,7 +587,6 @@ impl FpgaBackend {
         let mut feed = Feed::new(Box::new(src), 0, self.params.tick_bits, false);
         feed.dir = l.dir;
         feed.count0 = self.axes[l.axis].count;
-        self.hall_stop &= !(1 << l.axis);
         let run = Running {
             dir: l.dir,
             stop_on_sensor: l.stop_on_sensor,
@@ -777,6 +775,23 @@ fn pump<T: Read + Write>(
         f.sent += n as u64;
         f.frames += 1;
     }
+}
+
+/// A streamed search halts at the Hall edge: allowed when halting from `speed` stays within
+/// `amax`, i.e. a stop at amax would cover at most one step (`speed² ≤ 2·amax`), which is
+/// what the simulated backend's stop ramp then does too (`motion::stop_profile`).
+fn check_hall_halt(speed: f64, amax: f64) -> Result<(), CtlError> {
+    let highest = (2.0 * amax).sqrt();
+    if speed <= highest * (1.0 + 1e-9) {
+        return Ok(());
+    }
+    Err(CtlError::Setting(format!(
+        "a homing move longer than the board's pieces is streamed, and the board halts a \
+         streamed axis at the Hall edge (no stop ramp): at {speed:.1} steps/s that exceeds amax; \
+         set home_speed (home_slow_speed for the re-approach) at most sqrt(2*amax) = \
+         {highest:.1} steps/s (or raise amax), or shorten home_search so the search is \
+         computed"
+    )))
 }
 
 /// Why a board refuses what only streaming runs.
@@ -1157,6 +1172,17 @@ impl BoardBackend for FpgaBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_streamed_search_halts_only_within_amax() {
+        // sqrt(2 * 40000) = 282.84…
+        assert!(check_hall_halt(250.0, 40_000.0).is_ok());
+        assert!(check_hall_halt(282.0, 40_000.0).is_ok());
+        let e = check_hall_halt(283.0, 40_000.0).unwrap_err().to_string();
+        for name in ["home_speed", "amax", "home_search", "282.8"] {
+            assert!(e.contains(name), "{e}");
+        }
+    }
 
     #[test]
     fn link_specs_parse_or_say_what_is_expected() {
