@@ -5,7 +5,7 @@ use crate::piece::{Law, Piece};
 use crate::profile::{Profile, MAX_PIECES};
 
 /// How far the pieces may end from step N, in units of ε·(N + the terms summed).
-const END_TOLERANCE: f64 = 8.0;
+const END_TOLERANCE: f64 = 64.0;
 
 /// Appends pieces, carrying time and position forward.
 pub(crate) struct Builder {
