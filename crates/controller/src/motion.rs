@@ -69,6 +69,25 @@ impl StepSource for EdgeSource {
     }
 }
 
+/// The source of a stop that needs no steps: ends on its tick.
+pub struct Stopped(pub u64);
+
+impl StepSource for Stopped {
+    fn peek(&mut self) -> Option<u64> {
+        None
+    }
+    fn take(&mut self) {}
+    fn speed_at(&self, _: u64) -> f64 {
+        0.0
+    }
+    fn end_tick(&self) -> u64 {
+        self.0
+    }
+    fn steps_left(&self) -> u64 {
+        0
+    }
+}
+
 /// Makes the step source of a planned move; the one place to swap in another engine.
 pub fn start_move(
     profile: Profile,

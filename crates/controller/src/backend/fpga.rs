@@ -373,7 +373,20 @@ impl FpgaBackend {
                     count_at_start: hp,
                     true_at_start: hp,
                 };
-                let target = hp + r.dir * r.ramp_steps as i64;
+                let target = match ax.feed.as_mut().filter(|f| trigger && f.lead_limited) {
+                    // a fast streamed search: the host codes the stop ramp after the lead
+                    // it had coded and cuts the stream's count to match
+                    Some(f) => {
+                        let amax = ax.settings.amax;
+                        let total = f
+                            .ramp_down(amax, self.params.clock_hz)
+                            .map_err(LinkError::Move)?;
+                        let n = u32::try_from(total).unwrap_or(u32::MAX);
+                        l.write(Reg::Axis(a, AxisReg::StreamSteps), n)?;
+                        f.count0 + r.dir * total as i64
+                    }
+                    None => hp + r.dir * r.ramp_steps as i64,
+                };
                 self.events.push_back((
                     i,
                     PinEvent::Sensor {
@@ -568,9 +581,12 @@ impl FpgaBackend {
         if !self.streams {
             return Err(CtlError::Setting(NO_REPLAY.into()));
         }
-        // A Hall stop on a streamed axis halts it (no ramp piece to divert to).
-        if l.stop_on_sensor == Some(true) {
-            check_hall_halt(l.profile.peaks().0, self.axes[l.axis].settings.amax)?;
+        // A Hall stop on a streamed axis: the board halts it at the edge when that stays
+        // within amax (there is no ramp piece to divert to); faster, the stream is coded
+        // only a lead ahead and the host codes the stop ramp when it sees the edge.
+        let host_ramp = l.stop_on_sensor == Some(true)
+            && !halts_within_amax(l.profile.peaks().0, self.axes[l.axis].settings.amax);
+        if l.stop_on_sensor == Some(true) && !host_ramp {
             self.hall_stop |= 1 << l.axis;
         } else {
             self.hall_stop &= !(1 << l.axis);
@@ -587,6 +603,7 @@ impl FpgaBackend {
         let mut feed = Feed::new(Box::new(src), 0, self.params.tick_bits, false);
         feed.dir = l.dir;
         feed.count0 = self.axes[l.axis].count;
+        feed.lead_limited = host_ramp;
         let run = Running {
             dir: l.dir,
             stop_on_sensor: l.stop_on_sensor,
@@ -777,21 +794,11 @@ fn pump<T: Read + Write>(
     }
 }
 
-/// A streamed search halts at the Hall edge: allowed when halting from `speed` stays within
-/// `amax`, i.e. a stop at amax would cover at most one step (`speed² ≤ 2·amax`), which is
-/// what the simulated backend's stop ramp then does too (`motion::stop_profile`).
-fn check_hall_halt(speed: f64, amax: f64) -> Result<(), CtlError> {
-    let highest = (2.0 * amax).sqrt();
-    if speed <= highest * (1.0 + 1e-9) {
-        return Ok(());
-    }
-    Err(CtlError::Setting(format!(
-        "a homing move longer than the board's pieces is streamed, and the board halts a \
-         streamed axis at the Hall edge (no stop ramp): at {speed:.1} steps/s that exceeds amax; \
-         set home_speed (home_slow_speed for the re-approach) at most sqrt(2*amax) = \
-         {highest:.1} steps/s (or raise amax), or shorten home_search so the search is \
-         computed"
-    )))
+/// The board may halt a streamed search at the Hall edge when halting from `speed` stays
+/// within `amax`, i.e. a stop at amax would cover at most one step (`speed² ≤ 2·amax`),
+/// which is what the simulated backend's stop ramp then does too (`motion::stop_profile`).
+fn halts_within_amax(speed: f64, amax: f64) -> bool {
+    speed <= (2.0 * amax).sqrt() * (1.0 + 1e-9)
 }
 
 /// Why a board refuses what only streaming runs.
@@ -1174,14 +1181,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_streamed_search_halts_only_within_amax() {
+    fn a_streamed_search_halts_on_the_board_only_within_amax() {
         // sqrt(2 * 40000) = 282.84…
-        assert!(check_hall_halt(250.0, 40_000.0).is_ok());
-        assert!(check_hall_halt(282.0, 40_000.0).is_ok());
-        let e = check_hall_halt(283.0, 40_000.0).unwrap_err().to_string();
-        for name in ["home_speed", "amax", "home_search", "282.8"] {
-            assert!(e.contains(name), "{e}");
-        }
+        assert!(halts_within_amax(250.0, 40_000.0));
+        assert!(halts_within_amax(282.0, 40_000.0));
+        assert!(!halts_within_amax(283.0, 40_000.0));
     }
 
     #[test]

@@ -6,7 +6,7 @@ use super::{no_sync, BoardBackend, Launch, PinEvent, SyncState};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
-use crate::motion::{start_move, start_timed, stop_profile, StepSource};
+use crate::motion::{start_move, start_timed, stop_profile, StepSource, Stopped};
 use crate::tracking::TrackSource;
 
 struct Motion {
@@ -505,25 +505,6 @@ impl StepSource for Waiting {
     }
     fn end_tick(&self) -> u64 {
         u64::MAX
-    }
-    fn steps_left(&self) -> u64 {
-        0
-    }
-}
-
-/// The source of a stop that needs no steps: ends on its tick.
-struct Stopped(u64);
-
-impl StepSource for Stopped {
-    fn peek(&mut self) -> Option<u64> {
-        None
-    }
-    fn take(&mut self) {}
-    fn speed_at(&self, _: u64) -> f64 {
-        0.0
-    }
-    fn end_tick(&self) -> u64 {
-        self.0
     }
     fn steps_left(&self) -> u64 {
         0

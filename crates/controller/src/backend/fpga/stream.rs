@@ -2,7 +2,7 @@
 //! the exact edges of a planned move or a tracker, coded (`multistep_core::stream`) as the
 //! board's buffer makes room for them.
 
-use crate::motion::StepSource;
+use crate::motion::{stop_profile, EdgeSource, StepSource, Stopped};
 use crate::tracking::TrackSource;
 use multistep_core::stream::StreamEncoder;
 use std::collections::VecDeque;
@@ -35,6 +35,9 @@ pub struct Feed {
     /// real count once the tracker comes to rest (`closed`).
     pub open: bool,
     pub closed: bool,
+    /// A finite move coded only a lead ahead, as a tracker is, so the host can still
+    /// replace its rest by a stop ramp ([`Feed::ramp_down`]): a fast homing search.
+    pub lead_limited: bool,
     /// The last fill stopped at its step limit (a tracker's lead): what is coded goes now.
     held: bool,
     /// Free bytes in the board's buffer, as the board last said.
@@ -64,6 +67,7 @@ impl Feed {
             ended: false,
             open,
             closed: false,
+            lead_limited: false,
             held: false,
             free: 0,
             buffer: 0,
@@ -152,6 +156,28 @@ impl Feed {
         self.pending.drain(..n).collect()
     }
 
+    /// Ends the stream with a stop at `amax` from the speed at the last edge coded: the
+    /// rest of the source is dropped and `motion::stop_profile`'s edges follow that edge,
+    /// as a Hall stop's ramp follows the edge on the simulated backend. Returns the
+    /// stream's new step count (coded + ramp), for the board's `StreamSteps`.
+    pub fn ramp_down(&mut self, amax: f64, clock_hz: f64) -> Result<u64, String> {
+        self.lead_limited = false;
+        if self.ended {
+            return Ok(self.coded());
+        }
+        let from = self.start.saturating_add(self.last);
+        let ramp = stop_profile(self.speed(), amax)
+            .map(|p| EdgeSource::new(p, clock_hz, from))
+            .transpose()
+            .map_err(|e| format!("the stop ramp: {e}"))?;
+        let steps = ramp.as_ref().map_or(0, |r| r.steps_left());
+        self.src = match ramp {
+            Some(r) => Box::new(r),
+            None => Box::new(Stopped(from)),
+        };
+        Ok(self.coded() + steps)
+    }
+
     /// Steps a stop asked for now still makes before its ramp when the board has made
     /// `done`: those coded already and those the next fill may code before the host looks
     /// again.
@@ -162,9 +188,10 @@ impl Feed {
             .saturating_add(lead.min(u64::MAX / 2))
     }
 
-    /// Steps a tracking stream may have coded when the board has made `done`.
+    /// Steps a tracking (or lead-limited) stream may have coded when the board has made
+    /// `done`.
     pub fn lead_limit(&self, done: u64) -> u64 {
-        if !self.open {
+        if !self.open && !self.lead_limited {
             return u64::MAX;
         }
         let lead = (self.speed() * TRACK_LEAD_S).ceil().min(1e9) as u64;
@@ -221,6 +248,84 @@ mod tests {
         }
         assert_eq!(got, want);
         assert_eq!(f.coded(), 1500);
+    }
+
+    /// The feed's frames so far, after coding up to `max_steps`.
+    fn drain(f: &mut Feed, max_steps: u64, bytes: &mut Vec<u8>) {
+        f.fill(100_000, max_steps).unwrap();
+        while let Some(n) = f.next_frame(usize::MAX) {
+            bytes.extend(f.take(n));
+        }
+    }
+
+    /// The edge ticks the replay unit decodes from `bytes`.
+    fn decode(bytes: &[u8]) -> Vec<u64> {
+        let mut d = StreamDecoder::new();
+        let (mut got, mut t) = (Vec::new(), 0u64);
+        for &b in bytes {
+            d.byte(b, &mut |p| {
+                t += u64::from(p);
+                got.push(t)
+            })
+            .unwrap();
+        }
+        got
+    }
+
+    /// A fast search cut short: the search's edges up to the lead, then the stop ramp
+    /// at amax from the speed there, continuing from the last edge coded.
+    #[test]
+    fn a_lead_limited_search_ramps_down_after_its_last_coded_edge() {
+        let (clock, amax) = (50e6, 20_000.0);
+        let search = multistep_core::MoveSpec {
+            steps: Some(100_000),
+            params: multistep_core::MoveParams {
+                vmax: Some(2000.0),
+                amax: Some(amax),
+                ..Default::default()
+            },
+            ..Default::default()
+        }
+        .plan_on_clock(clock)
+        .unwrap();
+        let want: Vec<u64> = multistep_core::EdgeGenerator::new(search.clone(), clock)
+            .unwrap()
+            .collect();
+        let mut f = Feed::new(
+            Box::new(EdgeSource::new(search, clock, 0).unwrap()),
+            0,
+            24,
+            false,
+        );
+        f.lead_limited = true;
+        // the board has made 400 steps (in cruise): 50 ms at 2000 steps/s are coded beyond
+        let mut bytes = Vec::new();
+        drain(&mut f, 400, &mut bytes);
+        let lead = f.lead_limit(400);
+        assert_eq!(lead, 500);
+        drain(&mut f, lead, &mut bytes);
+        assert_eq!(decode(&bytes), want[..500]);
+        let total = f.ramp_down(amax, clock).unwrap();
+        // 2000² / (2 · 20 000) = 100 steps to stop
+        assert_eq!(total, 600);
+        let limit = f.lead_limit(500);
+        drain(&mut f, limit, &mut bytes);
+        assert!(f.ended);
+        let got = decode(&bytes);
+        assert_eq!(got.len(), 600);
+        let ramp: Vec<u64> =
+            multistep_core::EdgeGenerator::new(stop_profile(2000.0, amax).unwrap(), clock)
+                .unwrap()
+                .map(|e| want[499] + e)
+                .collect();
+        assert_eq!(got[500..], ramp);
+        // the speed carries on through the splice (the first ramp step already slows by
+        // amax · period: 10 steps/s), then only falls
+        let periods: Vec<u64> = got.windows(2).map(|w| w[1] - w[0]).collect();
+        assert_eq!(periods[498], 25_000);
+        assert!((25_001..25_250).contains(&periods[499]), "{}", periods[499]);
+        assert!(periods[499..].windows(2).all(|w| w[1] + 1 >= w[0]));
+        assert!(periods[598] > 5 * periods[498]);
     }
 
     #[test]
