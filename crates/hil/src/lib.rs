@@ -379,12 +379,7 @@ impl World {
         let k = top.core.axes as usize;
         let mut axes = Vec::with_capacity(k);
         for a in 0..k {
-            let s = opts
-                .sensors
-                .get(a)
-                .or(opts.sensors.last())
-                .cloned()
-                .unwrap_or_default();
+            let s = per_axis(&opts.sensors, a);
             if !(s.home_dir == 1 || s.home_dir == -1) {
                 return Err(HilError::Setting(format!(
                     "home_dir must be 1 or -1, got {}",
@@ -392,12 +387,7 @@ impl World {
                 )));
             }
             let m = Incremental::new(&motor, &cfg, clock_hz)?;
-            let levels = opts
-                .levels
-                .get(a)
-                .or(opts.levels.last())
-                .copied()
-                .unwrap_or_default();
+            let levels = per_axis(&opts.levels, a);
             axes.push(SimAxis::new(m, &s.settings(clock_hz), levels, clock_hz));
         }
         let edges = match &opts.edges {
@@ -644,4 +634,9 @@ impl World {
             self.pty.write(&[b]);
         }
     }
+}
+/// Axis `a`'s entry of a per-axis option list: the last entry serves the axes past the
+/// list's end, the default an empty list.
+fn per_axis<T: Clone + Default>(list: &[T], a: usize) -> T {
+    list.get(a).or(list.last()).cloned().unwrap_or_default()
 }
