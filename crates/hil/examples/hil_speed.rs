@@ -36,8 +36,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..Options::default()
     })?;
     println!(
-        "model built or loaded in {:.1} s; a cycle: {}",
+        "model built or loaded in {:.1} s ({}); a cycle: {}",
         t0.elapsed().as_secs_f64(),
+        if sim.trained {
+            "profile-guided"
+        } else {
+            "without a profile"
+        },
         if sim.direct {
             "the NBA region directly"
         } else {

@@ -168,6 +168,9 @@ pub struct BoardSim {
     /// A clock cycle is the model's NBA region called directly, not `eval` on both edges
     /// ([`multistep_hdl::verilator::posedge`]).
     pub direct: bool,
+    /// The model was built with the profile of its training run (GCC's profile-guided
+    /// optimization: about a fifth less CPU time per simulated second).
+    pub trained: bool,
     tx: mpsc::Sender<Control>,
     thread: Option<std::thread::JoinHandle<Result<(), HilError>>>,
 }
@@ -183,6 +186,7 @@ impl BoardSim {
         let (mut world, top) = World::new(opts)?;
         let pty_path = world.pty.path.clone();
         let direct = world.model.direct();
+        let trained = world.model.trained();
         let (tx, rx) = mpsc::channel();
         world.power_on();
         let thread = std::thread::Builder::new()
@@ -196,6 +200,7 @@ impl BoardSim {
             pty_path,
             board: top,
             direct,
+            trained,
             tx,
             thread: Some(thread),
         })

@@ -132,6 +132,13 @@ fn two_axis_move_over_the_pty_is_exact() {
             "Verilator 5.006's model is run by eval, not directly"
         );
     }
+    // the model was built with its training run's profile (unless turned off)
+    if std::env::var_os("MULTISTEP_HIL_PGO").is_none() {
+        assert!(
+            sim.trained,
+            "the model's profile-guided build fell back to a plain one"
+        );
+    }
     let p = sim.board.core.clone();
     let mut l = link(&sim, 2000);
     assert_eq!(
