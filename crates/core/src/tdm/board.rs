@@ -154,6 +154,10 @@ pub struct Axis {
     ahead_pos: usize,
     ahead_len: usize,
     prev_edge: u64,
+    /// A period whose slack is at least this is in time and changes no figure (the
+    /// least slack so far, at least 0; `i64::MAX` until two periods are computed, so
+    /// period 1 and 2 take the general path).
+    on_time_from: i64,
     fifo: Fifo,
     pulse: PulseUnit,
     stats: AxisStats,
@@ -198,6 +202,7 @@ impl Axis {
             ahead_pos: 0,
             ahead_len: 0,
             prev_edge: 0,
+            on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
             pulse: PulseUnit::default(),
             stats: AxisStats::NEW,
@@ -215,6 +220,7 @@ impl Axis {
         self.ahead_pos = 0;
         self.ahead_len = 0;
         self.prev_edge = 0;
+        self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
         self.pulse = PulseUnit::new(shape);
         self.stats = AxisStats::NEW;
@@ -268,13 +274,12 @@ impl Axis {
         let edge = self.next_edge()?;
         let period = edge - self.prev_edge;
         self.prev_edge = edge;
-        if ready <= due && self.computed() > 0 {
-            // the usual case: in time, after period 1; `due` is the previous rise
+        // ticks are below 2^57 (checked by the board): the difference fits
+        let slack = due as i64 - ready as i64;
+        if slack >= self.on_time_from {
+            // the usual case: in time, no new least slack, after period 1 (so `due` is
+            // the previous rise): one compare
             debug_assert_eq!(due, self.pulse.last_rise());
-            let slack = (due - ready) as i64;
-            if slack < self.stats.min_slack_ticks {
-                self.stats.min_slack_ticks = slack;
-            }
             let rise = self.pulse.load_on_time(m, period, sink);
             return Some((rise, self.fifo.push_then_room(due)));
         }
@@ -283,7 +288,8 @@ impl Axis {
     }
 
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
-    /// slack is not counted) and an underrun (the period is loaded when it arrives).
+    /// slack is not counted), a new least slack and an underrun (the period is loaded
+    /// when it arrives).
     #[inline(never)]
     fn load_late_or_first<F: FnMut(StepPulse)>(
         &mut self,
@@ -304,6 +310,9 @@ impl Axis {
         let slack = due as i64 - ready as i64;
         if slack < self.stats.min_slack_ticks && self.computed() > 0 {
             self.stats.min_slack_ticks = slack;
+        }
+        if self.computed() > 0 {
+            self.on_time_from = self.stats.min_slack_ticks.max(0);
         }
         let rise = self.pulse.load(m, load, period, sink);
         self.fifo.push(load);
