@@ -280,11 +280,13 @@ impl Axis {
             // the usual case: in time, no new least slack, after period 1 (so `due` is
             // the previous rise): one compare
             debug_assert_eq!(due, self.pulse.last_rise());
+            // the pulse unit's count is the FIFO's push count
+            let n = self.computed();
             let rise = self.pulse.load_on_time(m, period, sink);
-            return Some((rise, self.fifo.push_then_room(due)));
+            return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
         let rise = self.load_late_or_first(m, ready, due, period, sink)?;
-        Some((rise, self.fifo.room_tick()))
+        Some((rise, self.fifo.room_after(self.computed())))
     }
 
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
@@ -314,8 +316,8 @@ impl Axis {
         if self.computed() > 0 {
             self.on_time_from = self.stats.min_slack_ticks.max(0);
         }
+        self.fifo.push_nth(self.computed(), load);
         let rise = self.pulse.load(m, load, period, sink);
-        self.fifo.push(load);
         Some(rise)
     }
 

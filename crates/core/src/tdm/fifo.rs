@@ -68,6 +68,28 @@ impl Fifo {
         self.leave[n.wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
     }
 
+    /// [`push_then_room`](Self::push_then_room) as push number `n` (0-based), for a
+    /// caller that counts its pushes already (the board's pulse unit counts its periods):
+    /// this FIFO's own count is left alone, so use either these `_nth` forms or the
+    /// counting ones on one FIFO, not both.
+    #[inline]
+    pub fn push_nth_then_room(&mut self, n: u64, leave: u64) -> u64 {
+        self.push_nth(n, leave);
+        self.room_after(n + 1)
+    }
+
+    /// [`push`](Self::push) as push number `n` (0-based), counted by the caller.
+    #[inline]
+    pub fn push_nth(&mut self, n: u64, leave: u64) {
+        self.leave[n as usize % MAX_FIFO_DEPTH] = leave;
+    }
+
+    /// [`room_tick`](Self::room_tick) after `pushes` pushes counted by the caller.
+    #[inline]
+    pub fn room_after(&self, pushes: u64) -> u64 {
+        self.leave[(pushes as usize).wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
+    }
+
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
     pub fn occupancy_at(&self, t: u64) -> usize {
         // the last `depth` pushes; slots never written read 0, never after t
@@ -112,6 +134,7 @@ mod tests {
     fn matches_a_queue_of_leave_ticks() {
         for depth in [1, 2, 3, 31, 32, 33, 63, MAX_FIFO_DEPTH] {
             let mut f = Fifo::new(depth).unwrap();
+            let mut counted = Fifo::new(depth).unwrap();
             let mut q = std::collections::VecDeque::new();
             for n in 0..5 * MAX_FIFO_DEPTH as u64 {
                 let room = if q.len() < depth { 0 } else { q[0] };
@@ -127,6 +150,9 @@ mod tests {
                     let room = f.push_then_room(leave);
                     assert_eq!(room, f.room_tick());
                 }
+                // the same pushes counted by the caller
+                let room = counted.push_nth_then_room(n, leave);
+                assert_eq!((room, counted.room_after(n + 1)), (f.room_tick(), room));
                 let t = leave.saturating_sub(15);
                 let held = q.iter().filter(|&&l| l > t).count();
                 assert_eq!(f.occupancy_at(t), held, "depth {depth}, push {n}");
