@@ -154,9 +154,10 @@ pub struct Axis {
     ahead_pos: usize,
     ahead_len: usize,
     prev_edge: u64,
-    /// A period whose slack is at least this is in time and changes no figure (the
-    /// least slack so far, at least 0; `i64::MAX` until two periods are computed, so
-    /// period 1 and 2 take the general path).
+    /// A period needed at least this many ticks after its computation starts is in time
+    /// and changes no figure: the least slack so far (at least 0) plus the latency
+    /// (`i64::MAX` until two periods are computed, so period 1 and 2 take the general
+    /// path).
     on_time_from: i64,
     fifo: Fifo,
     pulse: PulseUnit,
@@ -259,15 +260,16 @@ impl Axis {
         }
     }
 
-    /// Computes the next period, which is ready at tick `ready` and needed at `due`, and
-    /// loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
+    /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later and
+    /// is needed at `due`, and loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
     /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
     /// `None` if no step was left.
     #[inline]
     fn compute<F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
-        ready: u64,
+        t: u64,
+        lat: u64,
         due: u64,
         sink: &mut F,
     ) -> Option<(u64, u64)> {
@@ -275,8 +277,7 @@ impl Axis {
         let period = edge - self.prev_edge;
         self.prev_edge = edge;
         // ticks are below 2^57 (checked by the board): the difference fits
-        let slack = due as i64 - ready as i64;
-        if slack >= self.on_time_from {
+        if due as i64 - t as i64 >= self.on_time_from {
             // the usual case: in time, no new least slack, after period 1 (so `due` is
             // the previous rise): one compare
             debug_assert_eq!(due, self.pulse.last_rise());
@@ -285,7 +286,7 @@ impl Axis {
             let rise = self.pulse.load_on_time(m, period, sink);
             return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
-        let rise = self.load_late_or_first(m, ready, due, period, sink)?;
+        let rise = self.load_late_or_first(m, t, lat, due, period, sink)?;
         Some((rise, self.fifo.room_after(self.computed())))
     }
 
@@ -296,11 +297,13 @@ impl Axis {
     fn load_late_or_first<F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
-        ready: u64,
+        t: u64,
+        lat: u64,
         due: u64,
         period: u64,
         sink: &mut F,
     ) -> Option<u64> {
+        let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
             self.stats.late_ticks += ready - due;
@@ -314,7 +317,7 @@ impl Axis {
             self.stats.min_slack_ticks = slack;
         }
         if self.computed() > 0 {
-            self.on_time_from = self.stats.min_slack_ticks.max(0);
+            self.on_time_from = self.stats.min_slack_ticks.max(0) + lat as i64;
         }
         self.fifo.push_nth(self.computed(), load);
         let rise = self.pulse.load(m, load, period, sink);
@@ -571,7 +574,7 @@ impl<'a> Board<'a> {
             }
             t = now;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute(m, t + lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute(m, t, lat, need[m], &mut sink) else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {
