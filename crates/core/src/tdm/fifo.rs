@@ -90,7 +90,8 @@ impl Fifo {
         self.leave[(pushes as usize).wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
     }
 
-    /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
+    /// Periods in the FIFO at tick `t`, of those pushed at or before `t` (by the counting
+    /// forms: the `_nth` ones leave the count alone).
     pub fn occupancy_at(&self, t: u64) -> usize {
         // the last `depth` pushes; slots never written read 0, never after t
         (1..=self.depth)
