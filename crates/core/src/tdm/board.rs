@@ -154,6 +154,11 @@ pub struct Axis {
     ahead_pos: usize,
     ahead_len: usize,
     prev_edge: u64,
+    /// A period needed at least this many ticks after its computation starts is in time
+    /// and changes no figure: the least slack so far (at least 0) plus the latency
+    /// (`i64::MAX` until two periods are computed, so period 1 and 2 take the general
+    /// path).
+    on_time_from: i64,
     fifo: Fifo,
     pulse: PulseUnit,
     stats: AxisStats,
@@ -198,6 +203,7 @@ impl Axis {
             ahead_pos: 0,
             ahead_len: 0,
             prev_edge: 0,
+            on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
             pulse: PulseUnit::default(),
             stats: AxisStats::NEW,
@@ -215,6 +221,7 @@ impl Axis {
         self.ahead_pos = 0;
         self.ahead_len = 0;
         self.prev_edge = 0;
+        self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
         self.pulse = PulseUnit::new(shape);
         self.stats = AxisStats::NEW;
@@ -253,46 +260,50 @@ impl Axis {
         }
     }
 
-    /// Computes the next period, which is ready at tick `ready` and needed at `due`, and
-    /// loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
+    /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later and
+    /// is needed at `due`, and loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
     /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
     /// `None` if no step was left.
     #[inline]
     fn compute<F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
-        ready: u64,
+        t: u64,
+        lat: u64,
         due: u64,
         sink: &mut F,
     ) -> Option<(u64, u64)> {
         let edge = self.next_edge()?;
         let period = edge - self.prev_edge;
         self.prev_edge = edge;
-        if ready <= due && self.computed() > 0 {
-            // the usual case: in time, after period 1; `due` is the previous rise
+        // ticks are below 2^57 (checked by the board): the difference fits
+        if due as i64 - t as i64 >= self.on_time_from {
+            // the usual case: in time, no new least slack, after period 1 (so `due` is
+            // the previous rise): one compare
             debug_assert_eq!(due, self.pulse.last_rise());
-            let slack = (due - ready) as i64;
-            if slack < self.stats.min_slack_ticks {
-                self.stats.min_slack_ticks = slack;
-            }
+            // the pulse unit's count is the FIFO's push count
+            let n = self.computed();
             let rise = self.pulse.load_on_time(m, period, sink);
-            return Some((rise, self.fifo.push_then_room(due)));
+            return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
-        let rise = self.load_late_or_first(m, ready, due, period, sink)?;
-        Some((rise, self.fifo.room_tick()))
+        let rise = self.load_late_or_first(m, t, lat, due, period, sink)?;
+        Some((rise, self.fifo.room_after(self.computed())))
     }
 
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
-    /// slack is not counted) and an underrun (the period is loaded when it arrives).
+    /// slack is not counted), a new least slack and an underrun (the period is loaded
+    /// when it arrives).
     #[inline(never)]
     fn load_late_or_first<F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
-        ready: u64,
+        t: u64,
+        lat: u64,
         due: u64,
         period: u64,
         sink: &mut F,
     ) -> Option<u64> {
+        let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
             self.stats.late_ticks += ready - due;
@@ -305,8 +316,11 @@ impl Axis {
         if slack < self.stats.min_slack_ticks && self.computed() > 0 {
             self.stats.min_slack_ticks = slack;
         }
+        if self.computed() > 0 {
+            self.on_time_from = self.stats.min_slack_ticks.max(0) + lat as i64;
+        }
+        self.fifo.push_nth(self.computed(), load);
         let rise = self.pulse.load(m, load, period, sink);
-        self.fifo.push(load);
         Some(rise)
     }
 
@@ -560,7 +574,7 @@ impl<'a> Board<'a> {
             }
             t = now;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute(m, t + lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute(m, t, lat, need[m], &mut sink) else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {

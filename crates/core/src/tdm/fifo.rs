@@ -13,11 +13,13 @@ const _: () = assert!(MAX_FIFO_DEPTH.is_power_of_two());
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fifo {
-    /// Slot of the next push: `depth` slots are written in turn, so the slot about to be
-    /// written holds the push `depth` pushes back, the oldest the FIFO may still hold.
-    next: usize,
+    /// Pushes so far (mod 2^64): push n goes to slot n % MAX_FIFO_DEPTH, so the oldest
+    /// the FIFO may still hold, `depth` pushes back, is in slot `(pushes − depth) % 64`
+    /// (with fewer than `depth` pushes that slot was never written: a slot after every
+    /// push so far, as `depth ≤ MAX_FIFO_DEPTH`). No wrap test per push.
+    pushes: usize,
     depth: usize,
-    /// Leave tick of each of the last `depth` pushes; a slot never written reads 0.
+    /// Leave tick of each of the last MAX_FIFO_DEPTH pushes; a slot never written reads 0.
     leave: [u64; MAX_FIFO_DEPTH],
 }
 
@@ -30,7 +32,7 @@ impl Fifo {
             });
         }
         Ok(Fifo {
-            next: 0,
+            pushes: 0,
             depth,
             leave: [0; MAX_FIFO_DEPTH],
         })
@@ -44,36 +46,57 @@ impl Fifo {
     /// periods were ever pushed, else the leave tick of the oldest of the last `depth`.
     #[inline]
     pub fn room_tick(&self) -> u64 {
-        self.leave[self.next % MAX_FIFO_DEPTH]
+        self.leave[self.pushes.wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
     }
 
     /// Pushes a period that leaves at tick `leave`. The caller has checked
     /// [`room_tick`](Self::room_tick), so the oldest entry it forgets has already left.
     #[inline]
     pub fn push(&mut self, leave: u64) {
-        self.leave[self.next % MAX_FIFO_DEPTH] = leave;
-        self.next = if self.next + 1 == self.depth {
-            0
-        } else {
-            self.next + 1
-        };
+        self.leave[self.pushes % MAX_FIFO_DEPTH] = leave;
+        self.pushes = self.pushes.wrapping_add(1);
     }
 
     /// [`push`](Self::push), then [`room_tick`](Self::room_tick): the engine asks for the
-    /// room right after each push, and one call keeps the slot index in a register.
+    /// room right after each push, and one call keeps the count in a register.
     #[inline]
     pub fn push_then_room(&mut self, leave: u64) -> u64 {
-        let slot = self.next;
-        self.leave[slot % MAX_FIFO_DEPTH] = leave;
-        let next = if slot + 1 == self.depth { 0 } else { slot + 1 };
-        self.next = next;
-        self.leave[next % MAX_FIFO_DEPTH]
+        let n = self.pushes;
+        self.leave[n % MAX_FIFO_DEPTH] = leave;
+        let n = n.wrapping_add(1);
+        self.pushes = n;
+        self.leave[n.wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
     }
 
-    /// Periods in the FIFO at tick `t`, of those pushed at or before `t`.
+    /// [`push_then_room`](Self::push_then_room) as push number `n` (0-based), for a
+    /// caller that counts its pushes already (the board's pulse unit counts its periods):
+    /// this FIFO's own count is left alone, so use either these `_nth` forms or the
+    /// counting ones on one FIFO, not both.
+    #[inline]
+    pub fn push_nth_then_room(&mut self, n: u64, leave: u64) -> u64 {
+        self.push_nth(n, leave);
+        self.room_after(n + 1)
+    }
+
+    /// [`push`](Self::push) as push number `n` (0-based), counted by the caller.
+    #[inline]
+    pub fn push_nth(&mut self, n: u64, leave: u64) {
+        self.leave[n as usize % MAX_FIFO_DEPTH] = leave;
+    }
+
+    /// [`room_tick`](Self::room_tick) after `pushes` pushes counted by the caller.
+    #[inline]
+    pub fn room_after(&self, pushes: u64) -> u64 {
+        self.leave[(pushes as usize).wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
+    }
+
+    /// Periods in the FIFO at tick `t`, of those pushed at or before `t` (by the counting
+    /// forms: the `_nth` ones leave the count alone).
     pub fn occupancy_at(&self, t: u64) -> usize {
-        // slots never written read 0, never after t
-        self.leave[..self.depth].iter().filter(|&&l| l > t).count()
+        // the last `depth` pushes; slots never written read 0, never after t
+        (1..=self.depth)
+            .filter(|&i| self.leave[self.pushes.wrapping_sub(i) % MAX_FIFO_DEPTH] > t)
+            .count()
     }
 }
 
@@ -112,6 +135,7 @@ mod tests {
     fn matches_a_queue_of_leave_ticks() {
         for depth in [1, 2, 3, 31, 32, 33, 63, MAX_FIFO_DEPTH] {
             let mut f = Fifo::new(depth).unwrap();
+            let mut counted = Fifo::new(depth).unwrap();
             let mut q = std::collections::VecDeque::new();
             for n in 0..5 * MAX_FIFO_DEPTH as u64 {
                 let room = if q.len() < depth { 0 } else { q[0] };
@@ -127,6 +151,9 @@ mod tests {
                     let room = f.push_then_room(leave);
                     assert_eq!(room, f.room_tick());
                 }
+                // the same pushes counted by the caller
+                let room = counted.push_nth_then_room(n, leave);
+                assert_eq!((room, counted.room_after(n + 1)), (f.room_tick(), room));
                 let t = leave.saturating_sub(15);
                 let held = q.iter().filter(|&&l| l > t).count();
                 assert_eq!(f.occupancy_at(t), held, "depth {depth}, push {n}");
