@@ -312,19 +312,15 @@ pub fn build(b: &BoardTop, cache: &Path) -> Result<PathBuf, HdlError> {
     let cpp = work.join("ms_hil.cpp");
     std::fs::write(&cpp, WRAPPER_CPP).map_err(|e| HdlError::io(&cpp, e))?;
     let pgo = work.join("pgo");
-    let trained = if pgo_on {
-        train_profile(b, &work, &names, &pgo)
+    let mode = if !pgo_on {
+        Pgo::Off
+    } else if let Err(e) = train_profile(b, &work, &names, &pgo) {
+        eprintln!("warning: the model's profile-guided build failed ({e}); built without it");
+        Pgo::Off
     } else {
-        Err(HdlError::Sim("MULTISTEP_HIL_PGO=0".into()))
+        Pgo::Use(&pgo)
     };
-    let built = match trained {
-        Ok(()) => compile(&work, &names, Pgo::Use(&pgo))?,
-        Err(_) if !pgo_on => compile(&work, &names, Pgo::Off)?,
-        Err(e) => {
-            eprintln!("warning: the model's profile-guided build failed ({e}); built without it");
-            compile(&work, &names, Pgo::Off)?
-        }
-    };
+    let built = compile(&work, &names, mode)?;
     std::fs::create_dir_all(&dir).map_err(|e| HdlError::io(&dir, e))?;
     let tmp_lib = dir.join(format!("{LIB_NAME}.{}", std::process::id()));
     std::fs::copy(&built, &tmp_lib).map_err(|e| HdlError::io(&tmp_lib, e))?;
