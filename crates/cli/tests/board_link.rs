@@ -100,6 +100,11 @@ struct Server {
 
 impl Server {
     fn start(data: &Path, config: &Path, link: Option<&str>) -> Server {
+        Server::start_logged(data, config, link, None)
+    }
+
+    /// With `MULTISTEP_LINK_STATS` set and stderr into `log`, when given.
+    fn start_logged(data: &Path, config: &Path, link: Option<&str>, log: Option<&Path>) -> Server {
         let mut cmd = Command::new(BIN);
         cmd.args(["serve", "--listen", "127.0.0.1:0", "--data"])
             .arg(data)
@@ -107,6 +112,10 @@ impl Server {
             .arg(config)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit());
+        if let Some(log) = log {
+            cmd.env("MULTISTEP_LINK_STATS", "1")
+                .stderr(std::fs::File::create(log).unwrap());
+        }
         if let Some(l) = link {
             cmd.args(["--board-link", l]);
         }
@@ -186,6 +195,12 @@ impl Rig {
 
     /// With the board config `text`, on `board`'s build for [`Pins::Hil`].
     fn on_board(pins: Pins, text: &str, board: &str, baud: u32) -> Rig {
+        Rig::on_board_logged(pins, text, board, baud, false)
+    }
+
+    /// As [`Rig::on_board`]; `stats`: the service writes its link statistics and other
+    /// diagnostics to `serve.log` in the rig's directory.
+    fn on_board_logged(pins: Pins, text: &str, board: &str, baud: u32, stats: bool) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
@@ -193,7 +208,13 @@ impl Rig {
         let board =
             (pins == Pins::Hil).then(|| BoardSim::start_board(board, baud, 2, &config, &edges));
         let link = board.as_ref().map(|b| b.link.clone());
-        let server = Server::start(&dir.path().join("data"), &config, link.as_deref());
+        let log = stats.then(|| dir.path().join("serve.log"));
+        let server = Server::start_logged(
+            &dir.path().join("data"),
+            &config,
+            link.as_deref(),
+            log.as_deref(),
+        );
         let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
         Rig {
             pins,
@@ -710,6 +731,86 @@ fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
         (x.position, y.position, x.state, y.state, y.fault)
     });
     assert_eq!(got, (1500, -1200, AxisState::Idle, AxisState::Idle, None));
+}
+
+/// The link statistics lines of the rig's service (`serve.log`): each motion's kind
+/// ("code" or "chain record"), steps and bytes.
+fn link_stats(r: &Rig) -> Vec<(String, u64, u64)> {
+    let text = std::fs::read_to_string(r.dir.path().join("serve.log")).unwrap();
+    text.lines()
+        .filter_map(|l| l.strip_prefix("link stats: axis "))
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            let kind = if l.contains("chain record bytes in") {
+                "chain record"
+            } else {
+                "code"
+            };
+            let bytes_at = w.iter().position(|x| *x == "bytes").unwrap();
+            let bytes_at = if kind == "code" {
+                bytes_at - 2
+            } else {
+                bytes_at - 3
+            };
+            (
+                kind.to_string(),
+                w[1].parse().unwrap(),
+                w[bytes_at].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn scurve_moves_are_computed_on_a_board_with_chain_units() {
+    // the ULX3S-85F computes scurve and scurve4 pieces per axis: the host writes a few
+    // records before the start, where the 25F streams about half a byte a step
+    let mut r = Rig::on_board_logged(Pins::Hil, &fast_config(), "ulx3s-85f", 3_000_000, true);
+    r.req("move X 6000 profile=scurve4 accel=0.01 cruise=0.02 decel=0.01");
+    r.req("move Y -4000 profile=scurve accel=0.01 cruise=0.01 decel=0.015");
+    let x = r.wait_idle("X");
+    let y = r.wait_idle("Y");
+    assert_eq!(
+        (x.position, x.state, x.fault),
+        (6000, AxisState::Idle, None)
+    );
+    assert_eq!(
+        (y.position, y.state, y.fault),
+        (-4000, AxisState::Idle, None)
+    );
+    let [ex, ey] = r.move_edges([0, 1], 10_000);
+    same_edges("X", &ex, &plan_edges("scurve4", 6000, (0.01, 0.02, 0.01)));
+    same_edges("Y", &ey, &plan_edges("scurve", 4000, (0.01, 0.01, 0.015)));
+    // a sine move is not polynomial: it streams on the same board
+    r.req("move X -500 profile=sine accel=0.01 decel=0.01");
+    let x = r.wait_idle("X");
+    assert_eq!(
+        (x.position, x.state, x.fault),
+        (5500, AxisState::Idle, None)
+    );
+    assert_eq!(
+        r.check_counters(),
+        [5500, -4000],
+        "the board's Position registers"
+    );
+    let stats = link_stats(&r);
+    let kinds: Vec<(&str, u64)> = stats.iter().map(|(k, n, _)| (k.as_str(), *n)).collect();
+    assert_eq!(
+        kinds,
+        [
+            ("chain record", 6000),
+            ("chain record", 4000),
+            ("code", 500)
+        ],
+        "{stats:?}"
+    );
+    for (kind, steps, bytes) in &stats[..2] {
+        let per_step = *bytes as f64 / *steps as f64;
+        assert!(
+            bytes % 219 == 0 && per_step < 0.4,
+            "{kind}: {bytes} bytes for {steps} steps"
+        );
+    }
 }
 
 #[test]

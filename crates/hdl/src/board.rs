@@ -19,6 +19,16 @@ pub const BOARD_LIBRARY: [(&str, &str); 11] = [
     ("ms_board.v", include_str!("../rtl/board/ms_board.v")),
 ];
 
+/// The chain units' modules, in a build only when [`BoardTop::chains`] is set (so a board
+/// without them is synthesized from exactly the files above).
+pub const CHAIN_LIBRARY: [(&str, &str); 2] = [
+    ("ms_chain.v", include_str!("../rtl/board/ms_chain.v")),
+    (
+        "ms_chain_axis.v",
+        include_str!("../rtl/board/ms_chain_axis.v"),
+    ),
+];
+
 /// Most a UART bit time may be off the nominal baud (the receiver samples once per bit,
 /// at its middle, so 10 bits tolerate about 5 % between both ends; half of it is ours).
 pub const MAX_BAUD_ERROR: f64 = 0.025;
@@ -37,6 +47,10 @@ pub struct BoardTop {
     pub stream_buffer_bits: u32,
     /// The SYNC line for cross-board group starts (`Arm`, `Fire`, `SyncTick`).
     pub sync: bool,
+    /// A forward-difference chain unit per axis (`ms_chain_axis`): scurve and scurve4
+    /// pieces computed on the board from [`crate::chain::CHAIN_LAYOUT`] records, fed
+    /// through the stream buffer (needs `stream_buffer_bits` ≥ 8).
+    pub chains: bool,
 }
 
 impl BoardTop {
@@ -47,6 +61,7 @@ impl BoardTop {
             estop_active_high: true,
             stream_buffer_bits: 9,
             sync: true,
+            chains: false,
         }
     }
 
@@ -70,6 +85,11 @@ impl BoardTop {
             return Err(HdlError::Param(format!(
                 "stream buffer bits must be 0 or 8..=16, got {lb}"
             )));
+        }
+        if self.chains && lb == 0 {
+            return Err(HdlError::Param(
+                "chain units read their records from the stream buffer: give it 8..=16 bits".into(),
+            ));
         }
         let err = self.baud_error();
         if err > MAX_BAUD_ERROR {
@@ -100,7 +120,7 @@ impl BoardTop {
     /// `ms_board`'s parameters and their values.
     pub fn param_list(&self) -> Result<Vec<(&'static str, u32)>, HdlError> {
         let w = self.widths()?;
-        Ok(vec![
+        Ok([
             ("K", self.core.axes),
             ("LK", w.lk),
             ("LS", w.ls),
@@ -120,7 +140,11 @@ impl BoardTop {
             ("VERSION", u32::from(crate::link::crate_version())),
             ("LB", self.stream_buffer_bits),
             ("SYNC", u32::from(self.sync)),
-        ])
+        ]
+        .into_iter()
+        // CHAINS only when set: a board without chain units builds from the same text
+        .chain(self.chains.then_some(("CHAINS", 1)))
+        .collect())
     }
 
     /// `#(.K(..), …)` for an `ms_board` instance.
@@ -141,6 +165,7 @@ impl BoardTop {
         Ok(LIBRARY
             .iter()
             .chain(BOARD_LIBRARY.iter())
+            .chain(CHAIN_LIBRARY.iter().filter(|_| self.chains))
             .map(|(n, t)| (n.to_string(), t.to_string()))
             .collect())
     }

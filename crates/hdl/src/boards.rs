@@ -107,10 +107,13 @@ pub struct Board {
     pub stream_buffer_bits: u32,
     /// The SYNC line's logic (`Arm`, `Fire`, `SyncTick`; docs/HDL.md, "Cross-board start").
     pub sync: bool,
+    /// A forward-difference chain unit per axis: scurve and scurve4 computed on the board
+    /// (docs/HDL.md, "Computed polynomial pieces").
+    pub chains: bool,
 }
 
 /// Every supported board.
-pub const BOARDS: [Board; 2] = [
+pub const BOARDS: [Board; 3] = [
     Board {
         name: "ulx3s-25f",
         description: "Radiona ULX3S with an LFE5U-25F, 25 MHz oscillator, FT231X USB-UART",
@@ -143,6 +146,44 @@ pub const BOARDS: [Board; 2] = [
         top: "ms_ulx3s_top",
         stream_buffer_bits: 9,
         sync: true,
+        chains: false,
+    },
+    Board {
+        name: "ulx3s-85f",
+        description: "Radiona ULX3S with an LFE5U-85F, 25 MHz oscillator, FT231X USB-UART: \
+                      scurve and scurve4 computed per axis",
+        family: Family::Ecp5,
+        device: "LFE5U-85F-6BG381C",
+        nextpnr_args: &["--85k", "--package", "CABGA381", "--speed", "6"],
+        osc_hz: 25e6,
+        // ecppll -i 25 -o 50: VCO 600 MHz
+        pll: Pll::Ehxplll {
+            clki_div: 1,
+            clkfb_div: 2,
+            clkop_div: 12,
+            clkop_cphase: 5,
+        },
+        max_axes: 8,
+        default_axes: 8,
+        baud: 3_000_000,
+        core: BoardCore {
+            fifo_depth: 16,
+            pieces: 4,
+            step_bits: 20,
+            tick_bits: 24,
+            radicand_bits: 128,
+            kernel_bits: 68,
+            radix_bits: 2,
+            max_rate: 200_000.0,
+            max_piece_s: 0.3,
+        },
+        // the same board and pins as the 25F
+        constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
+        top: "ms_ulx3s_top",
+        // 4 kB: a whole move's chain records (219 bytes each) before it starts
+        stream_buffer_bits: 12,
+        sync: true,
+        chains: true,
     },
     Board {
         name: "icebreaker",
@@ -180,6 +221,7 @@ pub const BOARDS: [Board; 2] = [
         stream_buffer_bits: 0,
         // 115 more logic cells (5054 of 5280) leave the placer crawling: left out
         sync: false,
+        chains: false,
     },
 ];
 
@@ -189,6 +231,7 @@ impl Board {
         crate::BoardTop {
             stream_buffer_bits: self.stream_buffer_bits,
             sync: self.sync,
+            chains: self.chains,
             ..crate::BoardTop::new(params.clone(), self.baud)
         }
     }

@@ -3,9 +3,11 @@
 //! unit shifts in (little-endian, lo first: lo, hi, count, R, Δ¹ … Δ⁴, M = Δ¹ − K: the unit
 //! keeps M, advanced as Δ¹ is, so an edge's `R += Δ¹ − K` is one carry chain).
 
+use crate::link::{AxisReg, BulkWrite, Reg, RegWrite, BULK_MAX};
 use crate::HdlError;
 use multistep_core::int::{chain_pieces, ChainEdges, ChainValue, ChainWidths};
-use multistep_core::Profile;
+use multistep_core::{Move, Profile};
+use std::ops::Range;
 
 /// The chain unit's register widths (its Verilog parameters).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +100,98 @@ impl ChainLayout {
         bits.chunks(8)
             .map(|c| c.iter().rev().fold(0u8, |a, &b| a << 1 | b as u8))
             .collect()
+    }
+}
+
+/// A move the board computes with an axis's chain unit: `plan`'s edges (what the board must
+/// make) and the records the host writes into the axis's stream buffer before the start.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChainedMove {
+    /// Edge ticks from the move's start, as `plan` gives them.
+    pub edges: Vec<u64>,
+    /// The records, one after the other.
+    pub bytes: Vec<u8>,
+    pub records: usize,
+}
+
+impl ChainedMove {
+    /// `mv`'s records at `clock_hz` for `layout`; every period must fit `period_bits` (the
+    /// board's tick bits). A move with a piece the chain cannot compute (a non-polynomial
+    /// family, or wider than the layout) is [`HdlError::Move`]: stream it instead.
+    pub fn plan(
+        mv: &Move<'_>,
+        clock_hz: u64,
+        period_bits: u32,
+        layout: &ChainLayout,
+    ) -> Result<ChainedMove, HdlError> {
+        let profile = Profile::plan_on_clock(mv, clock_hz as f64)
+            .map_err(|e| HdlError::Move(format!("plan: {e}")))?;
+        Self::from_profile(&profile, clock_hz, period_bits, layout)
+    }
+
+    /// As [`ChainedMove::plan`], for a planned profile (`Profile::plan_on_clock`'s).
+    pub fn from_profile(
+        profile: &Profile,
+        clock_hz: u64,
+        period_bits: u32,
+        layout: &ChainLayout,
+    ) -> Result<ChainedMove, HdlError> {
+        let records = layout.records(profile, clock_hz)?;
+        let edges: Vec<u64> = multistep_core::EdgeGenerator::new(profile.clone(), clock_hz as f64)
+            .map_err(|e| HdlError::Move(format!("plan: {e}")))?
+            .collect();
+        let mut last = 0;
+        for (i, &t) in edges.iter().enumerate() {
+            let p = t.wrapping_sub(last);
+            if p == 0 || p >> period_bits.min(63) != 0 {
+                return Err(HdlError::Move(format!(
+                    "step {i}: period of {p} ticks does not fit the board's {period_bits} \
+                     tick bits"
+                )));
+            }
+            last = t;
+        }
+        Ok(ChainedMove {
+            edges,
+            records: records.len(),
+            bytes: records.concat(),
+        })
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.edges.len() as u64
+    }
+
+    /// Link bytes per step of the records alone.
+    pub fn bytes_per_step(&self) -> f64 {
+        self.bytes.len() as f64 / self.edges.len().max(1) as f64
+    }
+
+    /// The write that arms `axis` for this move (before its bulk writes and the start).
+    pub fn arm_write(&self, axis: u32) -> RegWrite {
+        RegWrite {
+            reg: Reg::Axis(axis, AxisReg::ChainSteps),
+            data: self.steps() as u32,
+        }
+    }
+
+    /// The records cut into bulk writes of at most `frame` bytes, all sent before the
+    /// start (the stream buffer must hold them: `bytes.len()` at most its size).
+    pub fn frames(&self, frame: usize) -> Vec<Range<usize>> {
+        let frame = frame.clamp(1, BULK_MAX);
+        (0..self.bytes.len())
+            .step_by(frame)
+            .map(|s| s..(s + frame).min(self.bytes.len()))
+            .collect()
+    }
+
+    /// The bulk write of `range` of the records to `axis`.
+    pub fn bulk(&self, axis: u32, range: Range<usize>, seq: u8) -> BulkWrite {
+        BulkWrite {
+            seq,
+            addr: Reg::Axis(axis, AxisReg::StreamData).addr(),
+            data: self.bytes[range].to_vec(),
+        }
     }
 }
 

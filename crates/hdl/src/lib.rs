@@ -20,7 +20,7 @@ pub mod testbench;
 pub mod tools;
 pub mod verilator;
 
-pub use board::{BoardTop, BOARD_LIBRARY, MAX_BAUD_ERROR};
+pub use board::{BoardTop, BOARD_LIBRARY, CHAIN_LIBRARY, MAX_BAUD_ERROR};
 pub use emit::{Arch, Design, LIBRARY};
 pub use error::HdlError;
 pub use moves::{mode_code, AxisMove, PieceRegs};

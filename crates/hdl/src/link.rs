@@ -164,6 +164,9 @@ pub enum BoardReg {
     /// R/W: axes whose ENABLE pin is active low against `Levels`; the e-stop and a reset
     /// force ENABLE to this level's inactive side. Both masks are kept over a reset.
     EnableLow = 0x17,
+    /// R: the bytes of a chain record ([`crate::chain::ChainLayout::record_bytes`]) on a
+    /// board with a chain unit per axis (`AxisReg::ChainSteps`); status 3 without them.
+    Chains = 0x18,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).
@@ -185,8 +188,13 @@ pub enum AxisReg {
     StreamSteps = 5,
     /// R: free bytes in the axis's stream buffer.
     StreamFree = 6,
-    /// Bulk writes only ([`BulkWrite`]): bytes of the streamed schedule.
+    /// Bulk writes only ([`BulkWrite`]): bytes of the streamed schedule (or of the chain
+    /// records).
     StreamData = 7,
+    /// W (boards with chain units, `BoardReg::Chains`): write N >= 1: the axis's next start
+    /// runs the chain records in its stream buffer (emptied here), N steps in all
+    /// (writable while idle).
+    ChainSteps = 8,
 }
 
 /// A register address.

@@ -164,8 +164,12 @@ impl Placed {
 /// Synthesizes, places and routes (and packs) `flow` in `dir`. A design that does not fit
 /// is [`HdlError::DoesNotFit`] naming the resource; timing is not checked here.
 pub fn place_and_route(flow: &Flow, dir: &Path) -> Result<Placed, HdlError> {
+    // -defer: modules are elaborated only as the design uses them, with its parameters, so
+    // a module a board does not instantiate (the chain units, the replay units on the
+    // iCEBreaker) cannot change its netlist; the UP5K build is 94 % full, and a changed
+    // netlist (the same logic named otherwise) once left nextpnr unable to legalise it
     let script = format!(
-        "read_verilog {}; {}; tee -q -o synth_stat.json stat -json; write_json netlist.json",
+        "read_verilog -defer {}; {}; tee -q -o synth_stat.json stat -json; write_json netlist.json",
         flow.sources.join(" "),
         flow.family.synth(flow.top)
     );

@@ -717,6 +717,11 @@ fn board_lint_is_clean() {
     let mut b = board(params(2), 3_000_000);
     b.sync = false;
     multistep_hdl::board_sim::lint(&b, dir.path()).unwrap_or_else(|e| panic!("no SYNC: {e}"));
+    // with a chain unit per axis (the ULX3S-85F build)
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = board(params(2), 3_000_000);
+    (b.chains, b.stream_buffer_bits) = (true, 12);
+    multistep_hdl::board_sim::lint(&b, dir.path()).unwrap_or_else(|e| panic!("chains: {e}"));
 }
 
 /// One group at a time: a start while another group waits for its start (here: for its

@@ -148,6 +148,8 @@ pub struct SimState {
     pub clock_hz: f64,
     pub estop: bool,
     pub cut: bool,
+    /// Bytes the host has sent the board over the link since the start.
+    pub host_bytes: u64,
     pub axes: Vec<AxisReport>,
 }
 
@@ -341,6 +343,8 @@ struct World {
     estop: bool,
     rx_line: uart::RxLine,
     tx_dec: uart::TxDecoder,
+    /// Bytes taken from the host (the link's load).
+    host_bytes: u64,
     pty: pty::Pty,
     axes: Vec<SimAxis>,
     edges: Option<std::io::BufWriter<std::fs::File>>,
@@ -415,6 +419,7 @@ impl World {
             estop: false,
             rx_line: uart::RxLine::new(clock_hz, f64::from(top.baud)),
             tx_dec: uart::TxDecoder::new(top.div()),
+            host_bytes: 0,
             model,
             pty,
             axes,
@@ -496,6 +501,7 @@ impl World {
             clock_hz: self.clock_hz,
             estop: self.estop,
             cut: self.cut,
+            host_bytes: self.host_bytes,
             axes: self.axes.iter().map(SimAxis::report).collect(),
         }
     }
@@ -505,6 +511,7 @@ impl World {
         if self.cut {
             self.host.clear();
         } else if !self.host.is_empty() {
+            self.host_bytes += self.host.len() as u64;
             self.rx_line.push(&self.host);
             self.host.clear();
         }

@@ -34,7 +34,9 @@ pub struct RegsArgs {
     #[arg(long, default_value_t = 0)]
     seq: u8,
     /// Stream the move: plan's edges, coded and sent in bulk writes to the axis's replay
-    /// unit (any family and mode; the default computes trapezoids on the board)
+    /// unit (any family and mode; the default computes trapezoids on the board). On a
+    /// board with chain units, scurve and scurve4 moves send their chain records instead
+    /// (computed on the board), as `serve` does
     #[arg(long)]
     stream: bool,
     /// Data bytes per bulk write when streaming (1-255)
@@ -75,7 +77,7 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
     let board = Board::by_name(&a.board)?;
     let axes = a.axes.unwrap_or(board.default_axes);
     let p = board.params(axes)?;
-    let top = BoardTop::new(p.clone(), board.baud);
+    let top = board.board_top(&p);
     top.widths()?;
     let clock = p.clock_hz as u64;
     if a.stream {
@@ -134,30 +136,73 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
 /// `--stream`: the control word (DIR), the arm write, the bulk writes that fit the empty
 /// buffer, the start, then each later bulk write after the move tick it may go at.
 fn streamed(a: &RegsArgs, board: &Board, top: &BoardTop, axes: u32) -> anyhow::Result<()> {
-    use multistep_hdl::link::{core_addr, Request, STREAM_BUFFER};
-    use multistep_hdl::stream::StreamedMove;
+    use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
+    use multistep_hdl::link::{core_addr, Request};
+    use multistep_hdl::stream::{Chunk, StreamedMove};
     if a.axis >= axes {
         anyhow::bail!("axis {} out of range (the board has {axes})", a.axis);
     }
+    if top.stream_buffer_bits == 0 {
+        anyhow::bail!(
+            "board {} has no stream buffers: it runs trapezoids only (drop --stream)",
+            board.name
+        );
+    }
+    let buffer = 1u64 << top.stream_buffer_bits;
     let p = &top.core;
     let w = top.widths()?;
     let clock = p.clock_hz as u64;
-    let m = StreamedMove::plan(&a.mv.spec().resolve()?, clock, w.wd)?;
+    let mv = a.mv.spec().resolve()?;
+    // as serve does: chain records when the board computes the move, all before the start
+    let chained = top
+        .chains
+        .then(|| ChainedMove::plan(&mv, clock, w.wd, &CHAIN_LAYOUT).ok())
+        .flatten()
+        .filter(|c| c.bytes.len() as u64 <= buffer);
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
         "# multistep hdl regs --stream: board {}, K = {axes}, axis {}, {} Hz, {} baud 8N1",
         board.name, a.axis, clock, board.baud
     )?;
-    writeln!(
-        out,
-        "# move: {}, {} steps, last edge at tick {}, {} code bytes ({:.3} per step)",
-        a.mv.describe(),
-        m.steps(),
-        m.edges.last().copied().unwrap_or(0),
-        m.bytes.len(),
-        m.bytes_per_step()
-    )?;
+    let (arm, bytes, chunks): (RegWrite, Vec<u8>, Vec<Chunk>) = match chained {
+        Some(c) => {
+            writeln!(
+                out,
+                "# move: {}, {} steps, last edge at tick {}, computed on the board: {} chain \
+                 records, {} bytes ({:.3} per step)",
+                a.mv.describe(),
+                c.steps(),
+                c.edges.last().copied().unwrap_or(0),
+                c.records,
+                c.bytes.len(),
+                c.bytes_per_step()
+            )?;
+            let chunks = c
+                .frames(usize::from(a.frame))
+                .into_iter()
+                .map(|range| Chunk {
+                    not_before: None,
+                    range,
+                })
+                .collect();
+            (c.arm_write(a.axis), c.bytes, chunks)
+        }
+        None => {
+            let m = StreamedMove::plan(&mv, clock, w.wd)?;
+            writeln!(
+                out,
+                "# move: {}, {} steps, last edge at tick {}, {} code bytes ({:.3} per step)",
+                a.mv.describe(),
+                m.steps(),
+                m.edges.last().copied().unwrap_or(0),
+                m.bytes.len(),
+                m.bytes_per_step()
+            )?;
+            let chunks = m.chunks(buffer, usize::from(a.frame));
+            (m.arm_write(a.axis), m.bytes, chunks)
+        }
+    };
     writeln!(
         out,
         "# seq addr data     frame (hex; bulk writes: data = length)  register"
@@ -188,15 +233,18 @@ fn streamed(a: &RegsArgs, board: &Board, top: &BoardTop, axes: u32) -> anyhow::R
         reg: Reg::Core(core_addr(&w, true, a.axis, 1)),
         data: u32::from(!a.reverse) << 31,
     });
-    writes.push(m.arm_write(a.axis));
+    writes.push(arm);
     for wr in &writes {
         let r = Request::write(seq, wr.reg, wr.data);
         row(&mut out, r, reg_name(top, wr.reg))?;
         seq = seq.wrapping_add(1);
     }
-    let chunks = m.chunks(STREAM_BUFFER, usize::from(a.frame));
-    let bulk = |out: &mut std::io::StdoutLock, c: &multistep_hdl::stream::Chunk, seq: u8| {
-        let b = m.bulk(a.axis, c.range.clone(), seq);
+    let bulk = |out: &mut std::io::StdoutLock, c: &Chunk, seq: u8| {
+        let b = multistep_hdl::link::BulkWrite {
+            seq,
+            addr: Reg::Axis(a.axis, multistep_hdl::link::AxisReg::StreamData).addr(),
+            data: bytes[c.range.clone()].to_vec(),
+        };
         let frame: String = b.encode()?.iter().map(|x| format!("{x:02x}")).collect();
         writeln!(
             out,

@@ -19,6 +19,7 @@ use crate::motion::{EdgeSource, StepSource};
 use crate::tracking::TrackSource;
 use multistep_core::int::{IntClock, IntProfile, IntSegment};
 use multistep_core::MoveSpec;
+use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
 use multistep_hdl::link::{
     self, core_addr, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg, Status, BULK_MAX,
 };
@@ -162,6 +163,11 @@ pub struct FpgaBackend {
     polled: bool,
     /// The board has replay units for streamed moves.
     streams: bool,
+    /// Each axis's stream buffer (bytes; 0: none).
+    buffer: u32,
+    /// The board computes scurve and scurve4 pieces with a chain unit per axis, from
+    /// records of this many bytes (`BoardReg::Chains`; 0: no chain units).
+    chains: u32,
     /// The next start writes `Arm` instead of `Start` (the cross-board start, sync.rs).
     arming: bool,
 }
@@ -229,9 +235,13 @@ impl FpgaBackend {
             last_poll: None,
             polled: false,
             streams: false,
+            buffer: 0,
+            chains: 0,
             arming: false,
         };
-        b.streams = b.probe_streams().map_err(link_err)?;
+        b.buffer = b.probe_streams().map_err(link_err)?;
+        b.streams = b.buffer > 0;
+        b.chains = b.probe_chains().map_err(link_err)?;
         b.setup().map_err(link_err)?;
         b.read_board().map_err(link_err)?;
         Ok(b)
@@ -241,24 +251,36 @@ impl FpgaBackend {
         ((1u64 << self.axes.len()) - 1) as u32
     }
 
-    /// Whether the board has replay units: an axis's free stream count is its buffer's
-    /// size once arming (a `StreamSteps` write; 0 leaves the axis computed) emptied it;
-    /// without replay units it reads 0.
-    fn probe_streams(&mut self) -> Result<bool, LinkError> {
+    /// The size of the board's stream buffers (0: no replay units): an idle axis's free
+    /// stream count once arming (a `StreamSteps` write; 0 leaves the axis computed)
+    /// emptied it; with every axis busy, the most any has free.
+    fn probe_streams(&mut self) -> Result<u32, LinkError> {
         let axes = self.axes.len() as u32;
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         for a in 0..axes {
-            if l.read(Reg::Axis(a, AxisReg::StreamFree))? > 0 {
-                return Ok(true);
-            }
-        }
-        for a in 0..axes {
             if !l.axis_state(a)?.busy {
                 l.write(Reg::Axis(a, AxisReg::StreamSteps), 0)?;
-                return Ok(l.read(Reg::Axis(a, AxisReg::StreamFree))? > 0);
+                return l.read(Reg::Axis(a, AxisReg::StreamFree));
             }
         }
-        Ok(false)
+        let mut most = 0;
+        for a in 0..axes {
+            most = most.max(l.read(Reg::Axis(a, AxisReg::StreamFree))?);
+        }
+        Ok(most)
+    }
+
+    /// The board's chain record size (`BoardReg::Chains`), or 0: a board without chain
+    /// units refuses the read.
+    fn probe_chains(&mut self) -> Result<u32, LinkError> {
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        match l.read(Reg::Board(BoardReg::Chains)) {
+            Err(LinkError::Refused {
+                status: Status::BadAddress,
+                ..
+            }) => Ok(0),
+            r => r,
+        }
     }
 
     /// Sends every streaming axis the code its buffer has room for.
@@ -541,12 +563,14 @@ impl FpgaBackend {
         Ok((p, steps))
     }
 
-    /// The writes that set an axis's DIR and arm its replay unit for `steps` steps (its
-    /// buffer emptied), the Hall and stopped flags cleared.
+    /// The writes that set an axis's DIR and arm its replay unit (`arm`: `StreamSteps`, or
+    /// `ChainSteps` for chain records) for `steps` steps (its buffer emptied), the Hall and
+    /// stopped flags cleared.
     fn arm_writes(
         &self,
         axis: usize,
         dir: i64,
+        arm: AxisReg,
         steps: u32,
     ) -> Result<Vec<link::RegWrite>, CtlError> {
         let a = axis as u32;
@@ -565,7 +589,7 @@ impl FpgaBackend {
                 data: u32::from(dir > 0) << 31,
             },
             link::RegWrite {
-                reg: Reg::Axis(a, AxisReg::StreamSteps),
+                reg: Reg::Axis(a, arm),
                 data: steps,
             },
         ])
@@ -600,10 +624,6 @@ impl FpgaBackend {
             ))
         })?;
         let src = EdgeSource::new(l.profile.clone(), clock, 0)?;
-        let mut feed = Feed::new(Box::new(src), 0, self.params.tick_bits, false);
-        feed.dir = l.dir;
-        feed.count0 = self.axes[l.axis].count;
-        feed.lead_limited = host_ramp;
         let run = Running {
             dir: l.dir,
             stop_on_sensor: l.stop_on_sensor,
@@ -611,7 +631,36 @@ impl FpgaBackend {
             end_tick: now + (l.profile.duration() * clock).round() as u64,
             ramp_steps: 0,
         };
-        Ok((self.arm_writes(l.axis, l.dir, n)?, run, Some(feed)))
+        if let Some(c) = self.chained(l) {
+            // computed on the board: every record goes before the start
+            let steps = c.steps();
+            let mut feed = Feed::fixed(Box::new(src), c.bytes, steps, self.params.tick_bits);
+            feed.dir = l.dir;
+            feed.count0 = self.axes[l.axis].count;
+            let w = self.arm_writes(l.axis, l.dir, AxisReg::ChainSteps, n)?;
+            return Ok((w, run, Some(feed)));
+        }
+        let mut feed = Feed::new(Box::new(src), 0, self.params.tick_bits, false);
+        feed.dir = l.dir;
+        feed.count0 = self.axes[l.axis].count;
+        feed.lead_limited = host_ramp;
+        let w = self.arm_writes(l.axis, l.dir, AxisReg::StreamSteps, n)?;
+        Ok((w, run, Some(feed)))
+    }
+
+    /// `l`'s chain records, when the board computes its pieces: chain units whose records
+    /// are [`CHAIN_LAYOUT`]'s, a move of polynomial pieces (scurve, scurve4 and trapezoid
+    /// pieces) within the units' widths, all its records in the stream buffer at once, and
+    /// no Hall stop (a homing search streams, so the host can code its stop ramp).
+    fn chained(&self, l: &Launch) -> Option<ChainedMove> {
+        if self.chains as usize != CHAIN_LAYOUT.record_bytes() || l.stop_on_sensor.is_some() {
+            return None;
+        }
+        let clock = self.params.clock_hz as u64;
+        let bits = self.params.tick_bits;
+        ChainedMove::from_profile(&l.profile, clock, bits, &CHAIN_LAYOUT)
+            .ok()
+            .filter(|c| c.bytes.len() <= self.buffer as usize)
     }
 
     /// Arms the streaming axes' buffers (their free count is the buffer's size) and sends
@@ -742,9 +791,10 @@ fn stream_stats(axis: usize, f: &Feed, count: i64) {
     }
     let steps = f.coded().max(1);
     let framed = f.sent + 8 * f.frames;
+    let what = if f.is_fixed() { "chain record" } else { "code" };
     eprintln!(
-        "link stats: axis {axis}: {} steps ({} counted), {} code bytes in {} frames: \
-         {:.3} code bytes/step, {:.3} with frames; buffer {} bytes, least left {} bytes",
+        "link stats: axis {axis}: {} steps ({} counted), {} {what} bytes in {} frames: \
+         {:.3} {what} bytes/step, {:.3} with frames; buffer {} bytes, least left {} bytes",
         f.coded(),
         (count - f.count0).abs(),
         f.sent,
@@ -948,7 +998,7 @@ impl BoardBackend for FpgaBackend {
         feed.count0 = self.axes[axis].count;
         self.hall_stop &= !(1 << axis);
         // open-ended: armed for the most steps, closed with the real count at rest
-        let writes = self.arm_writes(axis, dir, u32::MAX)?;
+        let writes = self.arm_writes(axis, dir, AxisReg::StreamSteps, u32::MAX)?;
         let mut feeds = [(axis, feed)];
         self.send_start(writes, &mut feeds, 1 << axis)?;
         let [(_, feed)] = feeds;

@@ -23,7 +23,8 @@ module ms_board #(
     parameter VERSION  = 16'h0001,
     parameter LB       = 9,            // each axis's stream buffer: 2^LB bytes (8..16;
                                        // 0: no replay units, streamed moves refused)
-    parameter SYNC     = 1             // 1: the SYNC line (Arm, Fire, SyncTick); 0: none
+    parameter SYNC     = 1,            // 1: the SYNC line (Arm, Fire, SyncTick); 0: none
+    parameter CHAINS   = 0             // 1: a chain unit per axis (ms_chain_axis; LB > 0)
 ) (
     input  wire         clk,
     input  wire         rst_n_async,
@@ -41,6 +42,7 @@ module ms_board #(
 );
     localparam DIV = (CLK_HZ + BAUD / 2) / BAUD;
     localparam LBR = (LB == 0) ? 8 : LB;   // the registers' free-count width
+    localparam CHAIN_BYTES = 219;          // ms_chain_axis's record at its default widths
 
     wire rst;
     ms_reset u_reset (.clk(clk), .rst_n_async(rst_n_async), .rst(rst));
@@ -94,14 +96,15 @@ module ms_board #(
     wire [K*32-1:0] pos, hall_pos;
     wire [K*WD-1:0] period;
     // the replay units
-    wire [K-1:0]  s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
+    wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
     wire [K*(LBR+1)-1:0] s_free;
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
-              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR), .SYNC(SYNC)) u_regs (
+              .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR), .SYNC(SYNC),
+              .CHAINS((CHAINS != 0 && LB > 0) ? CHAIN_BYTES : 0)) u_regs (
         .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
         .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_retarget(s_retarget),
-        .s_commit(s_commit),
+        .s_commit(s_commit), .s_chain(s_chain),
         .s_armed(s_armed), .s_bok(s_bok), .s_free(s_free), .s_more(s_more), .s_fault(s_fault), .rsp_status(rsp_status), .rsp_data(rsp_data),
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
@@ -129,8 +132,24 @@ module ms_board #(
     genvar a;
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
-            if (LB > 0) begin : replay
+            if (LB > 0 && CHAINS != 0) begin : chain
                 wire mine = b_data && (b_ax == a);
+                ms_chain_axis #(.WD(WD), .LB(LBR)) u_chain (
+                    .clk(clk), .rst(rst), .arm(s_arm[a]), .arm_ch(s_chain[a]),
+                    .arm_steps(req_data), .retarget_in(s_retarget[a]),
+                    .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
+                    .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
+                    .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
+                    .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
+                    .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
+                    .fault(s_fault[a]));
+            end else if (LB > 0) begin : replay
+                wire mine = b_data && (b_ax == a);
+                /* verilator lint_off UNUSED */  // the chain port (no chain unit here)
+                wire n_avail, n_feed;
+                wire [7:0] n_rbyte;
+                wire n_unused = n_avail ^ n_feed ^ (^n_rbyte);
+                /* verilator lint_on UNUSED */
                 ms_stream #(.WD(WD), .LB(LBR)) u_stream (
                     .clk(clk), .rst(rst), .arm(s_arm[a]), .arm_steps(req_data),
                     .retarget_in(s_retarget[a]),
@@ -139,7 +158,8 @@ module ms_board #(
                     .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
                     .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
                     .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
-                    .fault(s_fault[a]));
+                    .fault(s_fault[a]), .arm_ch(1'b0), .pop(1'b0), .xpush(1'b0),
+                    .avail(n_avail), .rbyte(n_rbyte), .feed(n_feed));
             end else begin : no_replay
                 assign s_armed[a] = 1'b0;
                 assign s_bok[a] = 1'b0;
@@ -180,6 +200,6 @@ module ms_board #(
     assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_chain) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

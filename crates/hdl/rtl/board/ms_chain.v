@@ -82,6 +82,7 @@ module ms_chain #(
         end else if (halt) begin
             run <= 1'b0;
         end else if (init) begin
+            run   <= 1'b0;     // a piece left over from a move ended early
             last  <= {WT{1'b0}};
             fault <= 1'b0;
         end else if (!run) begin

@@ -28,7 +28,8 @@ module ms_regs #(
     parameter CLK_HZ  = 50000000,
     parameter BAUD    = 3000000,
     parameter LB      = 9,
-    parameter SYNC    = 1
+    parameter SYNC    = 1,
+    parameter CHAINS  = 0      // a chain record's bytes (ChainSteps), 0: no chain units
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -84,6 +85,7 @@ module ms_regs #(
     output reg  [K-1:0]  s_arm,      // one clock: StreamSteps of these axes = req_data
     output reg  [K-1:0]  s_retarget, // one clock: the running streams' step count = req_data
     output reg  [K-1:0]  s_commit,   // one clock: commit the bulk write
+    output reg  [K-1:0]  s_chain,    // one clock: ChainSteps of these axes = req_data
     input  wire [K-1:0]  s_armed,
     input  wire [K-1:0]  s_bok,
     input  wire [K*(LB+1)-1:0] s_free,
@@ -130,6 +132,7 @@ module ms_regs #(
         s_arm = {K{1'b0}};
         s_retarget = {K{1'b0}};
         s_commit = {K{1'b0}};
+        s_chain = {K{1'b0}};
         setup_cnt = 32'd0;
         setup_need = 32'd0;
     end
@@ -203,6 +206,7 @@ module ms_regs #(
                 8'h15: begin rd = sync_tick; rd_ok = sync_en; end
                 8'h16: rd = {{(32-K){1'b0}}, dir_inv};
                 8'h17: rd = {{(32-K){1'b0}}, en_low};
+                8'h18: begin rd = CHAINS; rd_ok = (CHAINS != 0); end
                 default: rd_ok = 1'b0;
             endcase
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
@@ -252,6 +256,7 @@ module ms_regs #(
                 4'h1, 4'h4: wst = ax_busy ? E_BUSY : OK;
                 // StreamSteps of an axis replaying a stream: its new step count
                 4'h5: wst = (ax_busy && !s_more[ax[LK-1:0]]) ? E_BUSY : OK;
+                4'h8: wst = (CHAINS == 0) ? E_ADDR : ax_busy ? E_BUSY : OK;
                 default: wst = E_ADDR;
             endcase
         end else if (c_ok) begin
@@ -275,6 +280,7 @@ module ms_regs #(
         s_arm    <= {K{1'b0}};
         s_retarget <= {K{1'b0}};
         s_commit <= {K{1'b0}};
+        s_chain  <= {K{1'b0}};
         sync_prev <= sync_line;
         if (fire_cnt != 8'd0) fire_cnt <= fire_cnt - 1'b1;
         if (sync_edge) sync_tick <= free;
@@ -369,6 +375,7 @@ module ms_regs #(
                     if (ax_busy) s_retarget[ax[LK-1:0]] <= 1'b1;
                     else s_arm[ax[LK-1:0]] <= 1'b1;
                 end
+                if (areg == 4'h8 && !req_bulk) s_chain[ax[LK-1:0]] <= 1'b1;
                 if (req_bulk) s_commit[ax[LK-1:0]] <= 1'b1;
             end
             if (wr_ok && is_core) begin

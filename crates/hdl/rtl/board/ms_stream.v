@@ -12,9 +12,13 @@
 // A StreamSteps write while the axis runs (retarget) sets the running stream's step count
 // to arm_steps, so an open-ended stream (armed for the most steps) ends cleanly after the
 // steps the host coded; a count at or below the steps decoded ends it after them.
+// With CH = 1 a ChainSteps write (arm_ch) arms a chain run instead: the decoder rests, a
+// chain unit (ms_chain_axis) takes the buffer's bytes (pop, avail, rbyte) as piece records
+// and each period it pushes (xpush) counts as a step.
 module ms_stream #(
     parameter WD = 24,
-    parameter LB = 9       // buffer of 2^LB bytes
+    parameter LB = 9,      // buffer of 2^LB bytes
+    parameter CH = 0       // 1: chain runs (arm_ch, pop, xpush)
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -30,6 +34,12 @@ module ms_stream #(
     input  wire          init,      // the core initializes the axis (the group's start)
     input  wire          halt,
     input  wire          full,      // the axis's FIFO
+    input  wire          arm_ch,    // ChainSteps write: the next start runs a chain
+    input  wire          pop,       // a chain run takes the byte at rbyte
+    input  wire          xpush,     // a chain run pushed a period
+    output wire          avail,     // bytes in the buffer
+    output wire [7:0]    rbyte,     // the next byte (valid a clock after it became next)
+    output wire          feed,      // a chain run with steps left
     output wire          armed,
     output reg           bok,       // the open bulk frame fits
     output wire [LB:0]   free,      // free bytes in the buffer
@@ -43,6 +53,7 @@ module ms_stream #(
     reg [LB:0] wp, rp;
     reg [7:0]  rdata, cur;
     reg        arm_q, run, half;
+    reg        ch_q, ch;   // armed for / running a chain
     reg [31:0] steps, done;
     reg        left_nz;    // done < steps, registered (off the register-check paths)
     reg [1:0]  st;
@@ -55,6 +66,8 @@ module ms_stream #(
         rp = {(LB+1){1'b0}};
         arm_q = 1'b0;
         run = 1'b0;
+        ch_q = 1'b0;
+        ch = 1'b0;
         pv_ok = 1'b0;
         left_nz = 1'b0;
         fault = 1'b0;
@@ -66,6 +79,10 @@ module ms_stream #(
     wire retarget = retarget_in && more;
     wire [31:0] steps_n = retarget ? arm_steps : steps;   // the count from this clock on
     wire [31:0] done_1  = done + 1'b1;
+    wire        chain   = (CH != 0) && ch;
+    assign avail = (rp != wp);
+    assign rbyte = rdata;
+    assign feed  = run && chain && left_nz;
 
     // ---- the buffer ----
     /* verilator lint_off WIDTH */
@@ -115,16 +132,18 @@ module ms_stream #(
             run   <= 1'b0;
             fault <= 1'b0;
             pv_ok <= 1'b0;
-        end else if (arm) begin
+        end else if (arm || (arm_ch && CH != 0)) begin
             wp    <= {(LB+1){1'b0}};
             rp    <= {(LB+1){1'b0}};
             steps <= arm_steps;
             arm_q <= (arm_steps != 32'd0);
+            ch_q  <= arm_ch && !arm;
         end else if (halt) begin
             run   <= 1'b0;
             pv_ok <= 1'b0;
         end else if (init) begin
             run   <= arm_q;
+            ch    <= ch_q;
             arm_q <= 1'b0;
             done  <= 32'd0;
             left_nz <= (steps != 32'd0);
@@ -140,7 +159,13 @@ module ms_stream #(
                 steps   <= arm_steps;
                 left_nz <= (done < arm_steps);
             end
-            if (run) begin
+            if (run && chain) begin
+                if (pop && avail) rp <= rp + 1'b1;
+                if (xpush) begin
+                    done    <= done_1;
+                    left_nz <= (done_1 < steps_n);
+                end
+            end else if (run) begin
                 case (st)
                     S_FETCH: if (rp != wp && left_nz) begin
                         rp <= rp + 1'b1;

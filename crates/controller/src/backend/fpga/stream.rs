@@ -53,6 +53,8 @@ pub struct Feed {
     /// The board's count when the stream started, and the direction.
     pub count0: i64,
     pub dir: i64,
+    /// The steps of a fixed feed's bytes (chain records), which are not coded here.
+    fixed_steps: u64,
 }
 
 impl Feed {
@@ -76,7 +78,18 @@ impl Feed {
             min_left: None,
             count0: 0,
             dir: 1,
+            fixed_steps: 0,
         }
+    }
+
+    /// A feed of fixed bytes for `steps` steps (an axis's chain records): nothing is
+    /// coded, the bytes go as the buffer has room; `src` gives the move's speeds.
+    pub fn fixed(src: Box<dyn StepSource>, bytes: Vec<u8>, steps: u64, tick_bits: u32) -> Feed {
+        let mut f = Feed::new(src, 0, tick_bits, false);
+        f.pending = bytes.into();
+        f.ended = true;
+        f.fixed_steps = steps;
+        f
     }
 
     /// Notes the free count just read (the buffer's margin before topping up).
@@ -92,9 +105,14 @@ impl Feed {
         self.min_left.unwrap_or(self.buffer)
     }
 
+    /// Fixed bytes (chain records), not a code.
+    pub fn is_fixed(&self) -> bool {
+        self.fixed_steps > 0
+    }
+
     /// Steps coded so far.
     pub fn coded(&self) -> u64 {
-        self.enc.steps()
+        self.enc.steps() + self.fixed_steps
     }
 
     /// The tracker behind an open-ended stream.

@@ -1,0 +1,272 @@
+//! Computed scurve and scurve4 moves on the whole board (`ms_board` with a chain unit per
+//! axis, the ULX3S-85F build, in Icarus Verilog, UART included): random phase and limits
+//! moves with start and end speeds, their chain records (`multistep_hdl::chain`) written
+//! into the axes' stream buffers in bulk writes, then one group start: every STEP rise at
+//! `go + t + 1` for plan's t. A move whose last records never come underruns, flagged,
+//! with every edge it makes still plan's.
+
+mod common;
+
+use common::host::Host;
+use common::{params, Rng, HZ};
+use multistep_core::{Family, LimitsMove, Move, PhaseMove};
+use multistep_hdl::board_sim::BoardLog;
+use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
+use multistep_hdl::link::{
+    core_addr, AxisReg, AxisRun, AxisState, BoardReg, Reg, Reply, Status, BULK_MAX,
+};
+use multistep_hdl::stream::StreamedMove;
+use multistep_hdl::BoardTop;
+
+const TICK0: u64 = 1;
+/// 4 clocks a bit at 50 MHz: the records load in a tenth of the clocks of 3 Mbaud.
+const BAUD: u32 = 12_500_000;
+
+/// The ULX3S-85F's board top level with `k` axes.
+fn chain_board(k: u32) -> BoardTop {
+    let mut b = BoardTop::new(params(k), BAUD);
+    (b.chains, b.stream_buffer_bits) = (true, 12);
+    b
+}
+
+/// A random move of kind `kind` (0, 1: phase scurve, scurve4; 2, 3: limits scurve,
+/// scurve4) of a few milliseconds at up to `vmax` steps/s, with random start and end
+/// speeds; retried until plan accepts it and its records fit the chain unit.
+fn random_move(rng: &mut Rng, kind: u64, vmax: u64) -> (Move<'static>, ChainedMove) {
+    for _ in 0..50 {
+        let v = rng.range(vmax / 3, vmax) as f64;
+        let v0 = rng.zero_or(1000, vmax / 3) as f64;
+        let v1 = rng.zero_or(1000, vmax / 3) as f64;
+        let mv = if kind < 2 {
+            let ms = |r: &mut Rng| r.range(5, 30) as f64 * 1e-4;
+            let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
+            let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
+            let f = if kind == 0 {
+                Family::SCurve { phi: 0.5 }
+            } else {
+                Family::SCurve4 { phi: 0.5, psi: 0.5 }
+            };
+            Move::Phase(PhaseMove::new(steps, f, ta, tb, tc).with_speeds(v0, v1))
+        } else {
+            let steps = rng.range(150, 600);
+            let a = rng.range(20, 80) as f64 * 1e6;
+            let j = a * rng.range(2, 10) as f64 * 1e3;
+            let m = if kind == 2 {
+                LimitsMove::scurve(steps, v, a, j)
+            } else {
+                LimitsMove::scurve4(steps, v, a, j, j * rng.range(2, 10) as f64 * 1e3)
+            };
+            Move::Limits(m.with_speeds(v0, v1))
+        };
+        if let Ok(c) = ChainedMove::plan(&mv, HZ, 24, &CHAIN_LAYOUT) {
+            if c.steps() > 2 {
+                return (mv, c);
+            }
+        }
+    }
+    panic!("no move of kind {kind} planned in 50 tries");
+}
+
+fn rises_after_go(log: &BoardLog, a: usize) -> Vec<u64> {
+    let go = log.go[0];
+    log.rises(a, true)
+        .iter()
+        .filter(|&&c| c > go)
+        .map(|c| c - go - TICK0)
+        .collect()
+}
+
+/// Loads one chained move per axis (the first `sent[a]` records of axis a's; the rest at
+/// move tick `rest_at`) and starts them as one group; returns the log, the replies and
+/// each axis's State and Position read indices.
+fn run_group(
+    b: &BoardTop,
+    moves: &[ChainedMove],
+    sent: &[usize],
+    rest_at: u64,
+    dirs: &[bool],
+    name: &str,
+) -> (BoardLog, Vec<Reply>, Vec<[usize; 2]>) {
+    let w = b.widths().unwrap();
+    let mut h = Host::new();
+    let rec = CHAIN_LAYOUT.record_bytes();
+    for (a, m) in moves.iter().enumerate() {
+        let a = a as u32;
+        h.write(
+            Reg::Core(core_addr(&w, true, a, 1)),
+            u32::from(dirs[a as usize]) << 31,
+        );
+        let arm = m.arm_write(a);
+        h.write(arm.reg, arm.data);
+        let first = sent[a as usize] * rec;
+        for r in m.frames(BULK_MAX) {
+            if r.start < first {
+                let bw = m.bulk(a, r.start..r.end.min(first), h.seq());
+                h.bulk(&bw);
+            }
+        }
+    }
+    h.write(Reg::Board(BoardReg::Start), (1u32 << moves.len()) - 1);
+    for (a, m) in moves.iter().enumerate() {
+        let first = sent[a] * rec;
+        if first < m.bytes.len() {
+            h.s.at_move_tick(rest_at);
+            for s in (first..m.bytes.len()).step_by(BULK_MAX) {
+                let bw = m.bulk(a as u32, s..(s + BULK_MAX).min(m.bytes.len()), h.seq());
+                h.bulk(&bw);
+            }
+        }
+    }
+    h.s.sync().idle();
+    let reads = (0..moves.len() as u32)
+        .map(|a| {
+            [
+                h.read(Reg::Axis(a, AxisReg::State)),
+                h.read(Reg::Axis(a, AxisReg::Position)),
+            ]
+        })
+        .collect();
+    h.s.sync();
+    let end = moves
+        .iter()
+        .map(|m| *m.edges.last().unwrap())
+        .max()
+        .unwrap();
+    let (log, rep) = h.run(b, name, end.max(rest_at) * 2 + 2_000_000);
+    (log, rep, reads)
+}
+
+/// Random scurve and scurve4 moves (both modes) on K axes at once: every edge plan's.
+fn every_kind(k: u32, rounds: u64, seed: u64) {
+    let b = chain_board(k);
+    let mut rng = Rng(seed);
+    for r in 0..rounds {
+        let name = format!("chain-k{k}-r{r}");
+        let (mvs, moves): (Vec<_>, Vec<_>) = (0..u64::from(k))
+            .map(|a| random_move(&mut rng, (r * u64::from(k) + a) % 4, 100_000))
+            .unzip();
+        let dirs: Vec<bool> = (0..k).map(|a| (r + u64::from(a)) % 2 == 0).collect();
+        let all: Vec<usize> = moves.iter().map(|m| m.records).collect();
+        let (log, rep, reads) = run_group(&b, &moves, &all, 0, &dirs, &name);
+        for (i, y) in rep.iter().enumerate() {
+            assert_eq!(y.status, Status::Ok, "{name}: reply {i}");
+        }
+        assert_eq!(log.go.len(), 1, "{name}: one group start");
+        for (a, m) in moves.iter().enumerate() {
+            let what = format!("{name} axis {a} ({:?}, {} records)", mvs[a], m.records);
+            assert_eq!(rises_after_go(&log, a), m.edges, "{what}: edges");
+            let st = AxisState::decode(rep[reads[a][0]].data).unwrap();
+            assert_eq!(st.run, AxisRun::Idle, "{what}: no underrun ({st:?})");
+            assert!(!st.stream_armed && !st.stream_fault, "{what}: {st:?}");
+            let n = m.steps() as i64;
+            let pos = rep[reads[a][1]].data as i32 as i64;
+            assert_eq!(pos, if dirs[a] { n } else { -n }, "{what}: position");
+        }
+    }
+}
+
+#[test]
+fn chained_scurves_one_axis() {
+    every_kind(1, 4, 0xc4a1_0001);
+}
+
+#[test]
+fn chained_scurves_two_axes() {
+    every_kind(2, 2, 0xc4a1_0002);
+}
+
+/// The largest K of the ULX3S-85F: eight chain units at once.
+#[test]
+fn chained_scurves_eight_axes() {
+    every_kind(8, 1, 0xc4a1_0008);
+}
+
+/// Axis 0's last two records come only after its move should have ended: the axis
+/// underruns (flagged in `State`), every step is still made, the edges before the missing
+/// records are plan's and none is early; axis 1's move is exact beside it.
+#[test]
+fn late_records_underrun_flagged() {
+    let b = chain_board(2);
+    let mut rng = Rng(0xc4a1_0bad);
+    let (_, m0) = random_move(&mut rng, 1, 100_000);
+    let (_, m1) = random_move(&mut rng, 3, 100_000);
+    assert!(m0.records >= 3, "{} records", m0.records);
+    let moves = [m0, m1];
+    let sent = [moves[0].records - 2, moves[1].records];
+    let late = moves[0].edges.last().unwrap() + 10_000;
+    let (log, rep, reads) = run_group(&b, &moves, &sent, late, &[true, true], "chain-late");
+    let st = AxisState::decode(rep[reads[0][0]].data).unwrap();
+    assert!(st.underrun && st.run == AxisRun::Underrun, "{st:?}");
+    let got = rises_after_go(&log, 0);
+    let want = &moves[0].edges;
+    assert_eq!(got.len(), want.len(), "every step made, late");
+    let first_late = got.iter().zip(want).position(|(g, w)| g != w).unwrap();
+    assert!(first_late > 0 && got[first_late] > late, "{first_late}");
+    assert!(got.iter().zip(want).all(|(g, w)| g >= w), "no edge early");
+    assert_eq!(rises_after_go(&log, 1), moves[1].edges);
+    let st1 = AxisState::decode(rep[reads[1][0]].data).unwrap();
+    assert_eq!(st1.run, AxisRun::Idle, "{st1:?}");
+}
+
+/// `Chains` names the record size; a chained move then a streamed one on the same axis
+/// (the buffer switches from records to nibble code) are both exact; a board without
+/// chain units refuses `Chains` and `ChainSteps` (status 3).
+#[test]
+fn chains_register_and_a_streamed_move_after_a_chained_one() {
+    let b = chain_board(1);
+    let w = b.widths().unwrap();
+    let mut rng = Rng(0xc4a1_5eed);
+    let (_, c) = random_move(&mut rng, 0, 80_000);
+    let mv = Move::Phase(PhaseMove::new(300, Family::Sine, 1e-3, 1e-3, 1e-3));
+    let s = StreamedMove::plan(&mv, HZ, 24).unwrap();
+    let mut h = Host::new();
+    let chains = h.read(Reg::Board(BoardReg::Chains));
+    h.write(Reg::Core(core_addr(&w, true, 0, 1)), 1 << 31);
+    let arm = c.arm_write(0);
+    h.write(arm.reg, arm.data);
+    for r in c.frames(BULK_MAX) {
+        let bw = c.bulk(0, r, h.seq());
+        h.bulk(&bw);
+    }
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().idle();
+    let arm = s.arm_write(0);
+    h.write(arm.reg, arm.data);
+    for ch in s.chunks(4096, 128) {
+        assert!(ch.not_before.is_none(), "the whole code fits");
+        let bw = s.bulk(0, ch.range, h.seq());
+        h.bulk(&bw);
+    }
+    h.write(Reg::Board(BoardReg::Start), 1);
+    h.s.sync().idle();
+    let pos = h.read(Reg::Axis(0, AxisReg::Position));
+    h.s.sync();
+    let end = c.edges.last().unwrap() + s.edges.last().unwrap();
+    let (log, rep) = h.run(&b, "chain-then-stream", end + 3_000_000);
+    assert_eq!(rep[chains].data as usize, CHAIN_LAYOUT.record_bytes());
+    for (i, y) in rep.iter().enumerate() {
+        assert_eq!(y.status, Status::Ok, "reply {i}");
+    }
+    assert_eq!(log.go.len(), 2);
+    let rises = log.rises(0, true);
+    for (g, want) in log.go.iter().zip([&c.edges, &s.edges]) {
+        let got: Vec<u64> = rises
+            .iter()
+            .filter(|&&r| r > *g)
+            .take(want.len())
+            .map(|r| r - g - TICK0)
+            .collect();
+        assert_eq!(&got, want);
+    }
+    assert_eq!(rep[pos].data as u64, c.steps() + s.steps());
+
+    // no chain units
+    let plain = BoardTop::new(params(1), BAUD);
+    let mut h = Host::new();
+    let chains = h.read(Reg::Board(BoardReg::Chains));
+    let refused = h.write(Reg::Axis(0, AxisReg::ChainSteps), 10);
+    h.s.sync();
+    let (_, rep) = h.run(&plain, "chain-none", 200_000);
+    assert_eq!(rep[chains].status, Status::BadAddress);
+    assert_eq!(rep[refused].status, Status::BadAddress);
+}
