@@ -167,7 +167,10 @@ pub const BOARDS: [Board; 3] = [
         default_axes: 8,
         baud: 3_000_000,
         core: BoardCore {
-            fifo_depth: 16,
+            // a chain walks a tick a clock, so its lead over the pulse unit is what the
+            // FIFO holds: 128 short cruise periods cover an s-curve's long last periods
+            // (`multistep_core::tdm::chain`; 16 do not)
+            fifo_depth: 128,
             pieces: 4,
             step_bits: 20,
             tick_bits: 24,

@@ -6,6 +6,7 @@
 use crate::link::{AxisReg, BulkWrite, Reg, RegWrite, BULK_MAX};
 use crate::HdlError;
 use multistep_core::int::{chain_pieces, ChainEdges, ChainValue, ChainWidths};
+use multistep_core::tdm::chain::{chain_timeline, ChainSpan, ChainTimeline};
 use multistep_core::{Move, Profile};
 use std::ops::Range;
 
@@ -112,6 +113,8 @@ pub struct ChainedMove {
     /// The records, one after the other.
     pub bytes: Vec<u8>,
     pub records: usize,
+    /// Each record's steps and first tick.
+    pub spans: Vec<ChainSpan>,
 }
 
 impl ChainedMove {
@@ -137,6 +140,15 @@ impl ChainedMove {
         layout: &ChainLayout,
     ) -> Result<ChainedMove, HdlError> {
         let records = layout.records(profile, clock_hz)?;
+        let mut spans = Vec::with_capacity(records.len());
+        for c in chain_pieces(profile, clock_hz) {
+            let c = c.map_err(|e| HdlError::Move(e.to_string()))?;
+            spans.push(ChainSpan {
+                first: c.first,
+                last: c.last,
+                lo: c.lo,
+            });
+        }
         let edges: Vec<u64> = multistep_core::EdgeGenerator::new(profile.clone(), clock_hz as f64)
             .map_err(|e| HdlError::Move(format!("plan: {e}")))?
             .collect();
@@ -151,11 +163,37 @@ impl ChainedMove {
             }
             last = t;
         }
+        let n = edges.len() as u64;
+        spans.push(ChainSpan {
+            first: n,
+            last: n,
+            lo: edges.last().copied().unwrap_or(0),
+        });
         Ok(ChainedMove {
             edges,
             records: records.len(),
             bytes: records.concat(),
+            spans,
         })
+    }
+
+    /// The chain's timeline on a board whose axis FIFO holds `fifo_depth` periods
+    /// (`multistep_core::tdm::chain`): whether it stays ahead of the pulse unit.
+    pub fn timeline(&self, fifo_depth: u32) -> ChainTimeline {
+        let load = self.bytes.len().div_ceil(self.records.max(1)) as u64 + RECORD_CLOCKS;
+        chain_timeline(&self.edges, &self.spans, fifo_depth as usize, load).unwrap_or(
+            ChainTimeline {
+                go: 0,
+                least_slack: i64::MIN,
+                first_late: Some(0),
+            },
+        )
+    }
+
+    /// The chain stays ahead of the pulse unit by at least [`CHAIN_MARGIN`] clocks on
+    /// every step, so the board computes this move with no underrun.
+    pub fn keeps_up(&self, fifo_depth: u32) -> bool {
+        self.timeline(fifo_depth).least_slack >= CHAIN_MARGIN
     }
 
     pub fn steps(&self) -> u64 {
@@ -194,6 +232,13 @@ impl ChainedMove {
         }
     }
 }
+
+/// Clocks a record's load takes beyond its bytes (`ms_chain_axis`: the last byte's read,
+/// the start).
+pub const RECORD_CLOCKS: u64 = 3;
+/// Least clocks a chained move's periods must be ahead of the pulse unit for the host to
+/// choose the chain over streaming (the model leaves out the start's few clocks).
+pub const CHAIN_MARGIN: i64 = 64;
 
 /// `a − b` in two's complement.
 fn minus(a: &ChainValue, b: &ChainValue) -> ChainValue {

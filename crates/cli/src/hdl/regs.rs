@@ -158,7 +158,7 @@ fn streamed(a: &RegsArgs, board: &Board, top: &BoardTop, axes: u32) -> anyhow::R
         .chains
         .then(|| ChainedMove::plan(&mv, clock, w.wd, &CHAIN_LAYOUT).ok())
         .flatten()
-        .filter(|c| c.bytes.len() as u64 <= buffer);
+        .filter(|c| c.bytes.len() as u64 <= buffer && c.keeps_up(p.fifo_depth));
     let mut out = std::io::stdout().lock();
     writeln!(
         out,

@@ -650,8 +650,9 @@ impl FpgaBackend {
 
     /// `l`'s chain records, when the board computes its pieces: chain units whose records
     /// are [`CHAIN_LAYOUT`]'s, a move of polynomial pieces (scurve, scurve4 and trapezoid
-    /// pieces) within the units' widths, all its records in the stream buffer at once, and
-    /// no Hall stop (a homing search streams, so the host can code its stop ramp).
+    /// pieces) within the units' widths, all its records in the stream buffer at once, a
+    /// chain that stays ahead of the pulse unit, and no Hall stop (a homing search
+    /// streams, so the host can code its stop ramp).
     fn chained(&self, l: &Launch) -> Option<ChainedMove> {
         if self.chains as usize != CHAIN_LAYOUT.record_bytes() || l.stop_on_sensor.is_some() {
             return None;
@@ -661,6 +662,9 @@ impl FpgaBackend {
         ChainedMove::from_profile(&l.profile, clock, bits, &CHAIN_LAYOUT)
             .ok()
             .filter(|c| c.bytes.len() <= self.buffer as usize)
+            // a chain walks a tick a clock: a slow tail after a fast stretch can outrun
+            // the lead its FIFO holds (multistep_core::tdm::chain), so such a move streams
+            .filter(|c| c.keeps_up(self.params.fifo_depth))
     }
 
     /// Arms the streaming axes' buffers (their free count is the buffer's size) and sends

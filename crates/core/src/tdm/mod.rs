@@ -12,6 +12,7 @@
 pub mod analysis;
 pub mod board;
 pub mod calculator;
+pub mod chain;
 pub mod fifo;
 pub mod pulse;
 pub mod scheduler;
