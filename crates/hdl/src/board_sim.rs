@@ -52,7 +52,8 @@ impl Script {
         Ok(self)
     }
 
-    /// Waits until `ticks` clocks after the last group start (`go`): the move's tick.
+    /// Waits for the group start (`go`) of the last start write, then until `ticks` clocks
+    /// after it: the move's tick.
     pub fn at_move_tick(&mut self, ticks: u64) -> &mut Self {
         self.lines.push(format!("g {ticks} 0"));
         self
@@ -219,7 +220,7 @@ module tb;
     ms_board {params} dut (.clk(clk), .rst_n_async(rst_n), .uart_rx(rx), .uart_tx(tx),
         .estop_in(estop), .hall_in(hall), .limit_in(limit), .step_out(step), .dir_out(dir),
         .enable_out(en), .led(led), .sync_in(1'b1), .sync_oe());
-    integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0, gocycle = 0;
+    integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0, gocycle = 0, startcycle = -1;
     reg [8*8-1:0] cmd;
     reg [{k1}:0] pstep, pdir, pen, phs, pls;
     reg [7:0] rb;
@@ -236,7 +237,10 @@ module tb;
             $fdisplay(f, \"go %0d\", cycle);
             gocycle = cycle;
         end
-        if (dut.u_core.start_wr) $fdisplay(f, \"start %0d\", cycle);
+        if (dut.u_core.start_wr) begin
+            $fdisplay(f, \"start %0d\", cycle);
+            startcycle = cycle;
+        end
         if (dut.req) $fdisplay(f, \"req %0d\", cycle);
         for (a = 0; a < {k}; a = a + 1) begin
             if (accept[a]) $fdisplay(f, \"hall %0d %0d\", a, cycle);
@@ -299,7 +303,12 @@ module tb;
                 \"b\": send(c_a[7:0]);
                 \"w\": repeat (c_a) @(posedge clk);
                 \"t\": #(c_a);
-                \"g\": while (cycle < gocycle + c_a) @(posedge clk);
+                // the go of the last start write (a chained group goes once its chains
+                // have filled their FIFOs), then its tick
+                \"g\": begin
+                    while (gocycle <= startcycle) @(posedge clk);
+                    while (cycle < gocycle + c_a) @(posedge clk);
+                end
                 \"q\": while (nrx < c_a) @(posedge clk);
                 \"i\": begin
                     @(posedge clk);

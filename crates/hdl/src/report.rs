@@ -3,6 +3,7 @@
 
 use crate::tools::{file_names_of, run};
 use crate::{Arch, CoreParams, Design, HdlError};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -218,17 +219,21 @@ pub fn sweep(
         )?),
         Baseline::Full => None,
     };
+    // each yosys run is one process on one core: the runs go side by side
     designs
-        .iter()
+        .par_iter()
         .map(|(k, tdm, ind)| {
-            let independent = match single {
-                Some(one) => one.times(u64::from(*k)),
-                None => synthesize(ind, target, &workdir.join(format!("indep-{k}")))?,
-            };
+            let (tdm, independent) = rayon::join(
+                || synthesize(tdm, target, &workdir.join(format!("tdm-{k}"))),
+                || match single {
+                    Some(one) => Ok(one.times(u64::from(*k))),
+                    None => synthesize(ind, target, &workdir.join(format!("indep-{k}"))),
+                },
+            );
             Ok(Row {
                 axes: *k,
-                tdm: synthesize(tdm, target, &workdir.join(format!("tdm-{k}")))?,
-                independent,
+                tdm: tdm?,
+                independent: independent?,
             })
         })
         .collect()

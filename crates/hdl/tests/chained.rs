@@ -33,15 +33,16 @@ fn chain_board(k: u32) -> BoardTop {
 }
 
 /// A random move of kind `kind` (0, 1: phase scurve, scurve4; 2, 3: limits scurve,
-/// scurve4) of a few milliseconds at up to `vmax` steps/s, with random start and end
-/// speeds; retried until plan accepts it and its records fit the chain unit.
+/// scurve4) of one to four milliseconds at up to `vmax` steps/s (Icarus runs the 85F
+/// board at some 5000 clocks a second), with random start and end speeds; retried until
+/// plan accepts it and its records fit the chain unit.
 fn random_move(rng: &mut Rng, kind: u64, vmax: u64) -> (Move<'static>, ChainedMove) {
     for _ in 0..50 {
         let v = rng.range(vmax / 3, vmax) as f64;
         let v0 = rng.zero_or(1000, vmax / 3) as f64;
         let v1 = rng.zero_or(1000, vmax / 3) as f64;
         let mv = if kind < 2 {
-            let ms = |r: &mut Rng| r.range(5, 30) as f64 * 1e-4;
+            let ms = |r: &mut Rng| r.range(3, 12) as f64 * 1e-4;
             let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
             let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
             let f = if kind == 0 {
@@ -51,7 +52,7 @@ fn random_move(rng: &mut Rng, kind: u64, vmax: u64) -> (Move<'static>, ChainedMo
             };
             Move::Phase(PhaseMove::new(steps, f, ta, tb, tc).with_speeds(v0, v1))
         } else {
-            let steps = rng.range(150, 600);
+            let steps = rng.range(100, 300);
             let a = rng.range(20, 80) as f64 * 1e6;
             let j = a * rng.range(2, 10) as f64 * 1e3;
             let m = if kind == 2 {
@@ -111,6 +112,8 @@ fn run_group(
         }
     }
     h.write(Reg::Board(BoardReg::Start), (1u32 << moves.len()) - 1);
+    // the start is answered (so the move tick counts from its go) before the rest
+    h.s.sync();
     for (a, m) in moves.iter().enumerate() {
         let first = sent[a] * rec;
         if first < m.bytes.len() {
@@ -170,29 +173,28 @@ fn every_kind(k: u32, rounds: u64, seed: u64) {
     }
 }
 
-#[test]
-fn chained_scurves_two_axes() {
-    every_kind(2, 2, 0xc4a1_0002);
-}
-
 /// The largest K of the ULX3S-85F: eight chain units at once.
 #[test]
 fn chained_scurves_eight_axes() {
     every_kind(8, 1, 0xc4a1_0008);
 }
 
-/// Axis 0's last two records come only after its move should have ended: the axis
-/// underruns (flagged in `State`), every step is still made, the edges before the missing
-/// records are plan's and none is early; axis 1's move is exact beside it.
+/// Axis 0's last records (two or more, holding at least three steps) come only after its
+/// move should have ended: the axis underruns (flagged in `State`), every step is still
+/// made, the edges before the missing records are plan's and none is early; axis 1's move
+/// is exact beside it.
 #[test]
 fn late_records_underrun_flagged() {
     let b = chain_board(2);
     let mut rng = Rng(0xc4a1_0bad);
     let (_, m0) = random_move(&mut rng, 1, 100_000);
     let (_, m1) = random_move(&mut rng, 3, 100_000);
-    assert!(m0.records >= 3, "{} records", m0.records);
+    // the last records holding at least 3 steps (a short move's last pieces may hold none)
+    let held = (2..m0.records)
+        .find(|&n| m0.steps() - m0.spans[m0.records - n].first >= 3)
+        .expect("a move of more than two records");
     let moves = [m0, m1];
-    let sent = [moves[0].records - 2, moves[1].records];
+    let sent = [moves[0].records - held, moves[1].records];
     let late = moves[0].edges.last().unwrap() + 10_000;
     let (log, rep, reads) = run_group(&b, &moves, &sent, late, &[true, true], "chain-late");
     let st = AxisState::decode(rep[reads[0][0]].data).unwrap();

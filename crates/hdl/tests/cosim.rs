@@ -262,7 +262,7 @@ fn narrow_widths_and_other_radices() {
     }
 }
 
-/// The throughput goal in model and RTL: at 100 000 steps/s per axis (trapezoids 2/6/2 ms at
+/// The throughput goal in model and RTL: at 100 000 steps/s per axis (trapezoids 1/3/1 ms at
 /// 50 MHz, all started together) the core TDM model with the RTL's latencies finds the
 /// largest axis count with no underrun (>= 8); the RTL runs that many with no underrun and
 /// bit-exact edges, and one more axis underruns in both.
@@ -270,10 +270,10 @@ fn narrow_widths_and_other_radices() {
 fn most_axes_at_100k_steps_per_second() {
     use multistep_core::tdm::k_max;
     let m = IntMove::Phase(IntPhaseMove {
-        steps: 800,
-        accel_ticks: 100_000,
-        cruise_ticks: 300_000,
-        decel_ticks: 100_000,
+        steps: 400,
+        accel_ticks: 50_000,
+        cruise_ticks: 150_000,
+        decel_ticks: 50_000,
         start_speed: 0,
         end_speed: 0,
     });

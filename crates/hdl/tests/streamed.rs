@@ -45,12 +45,12 @@ fn random_move(
         let v0 = rng.zero_or(1000, vmax / 3) as f64;
         let v1 = rng.zero_or(1000, vmax / 3) as f64;
         let mv = if kind < 6 {
-            let ms = |r: &mut Rng| r.range(5, 30) as f64 * 1e-4;
+            let ms = |r: &mut Rng| r.range(3, 12) as f64 * 1e-4;
             let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
             let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
             Move::Phase(PhaseMove::new(steps, family(kind), ta, tb, tc).with_speeds(v0, v1))
         } else {
-            let steps = rng.range(150, 600);
+            let steps = rng.range(100, 300);
             let a = rng.range(20, 80) as f64 * 1e6;
             let j = a * rng.range(2, 10) as f64 * 1e3;
             let m = match kind {
@@ -191,7 +191,7 @@ fn streamed_every_family_two_axes() {
 fn starved_link_is_flagged() {
     let p = params(1);
     let b = BoardTop::new(p.clone(), 3_000_000);
-    let mv = Move::Limits(LimitsMove::scurve4(4000, 150_000.0, 5e7, 2e11, 1e15));
+    let mv = Move::Limits(LimitsMove::scurve4(2600, 150_000.0, 5e7, 2e11, 1e15));
     let m = StreamedMove::plan(&mv, HZ, p.tick_bits).unwrap();
     assert!(
         m.bytes.len() as u64 > 2 * BUFFER,
