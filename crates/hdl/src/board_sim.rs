@@ -1,11 +1,13 @@
-//! Co-simulation of the whole board (`ms_board`, UART included) in Icarus Verilog. A
-//! [`Script`] is what the host and the world do: bytes on `uart_rx` at the host's own bit
-//! time (not the board's rounded one), waits, Hall / limit / e-stop / reset pin changes.
+//! Co-simulation of the whole board (`ms_board`, UART included) in Verilator or Icarus
+//! Verilog ([`Simulator`]). A [`Script`] is what the host and the world do: bytes on
+//! `uart_rx` at the host's own bit time (not the board's rounded one), waits, Hall / limit
+//! / e-stop / reset pin changes.
 //! The testbench logs every pin change with its clock cycle, every byte the board sends,
 //! every group start (`go`) and start write, and every accepted Hall edge ([`BoardLog`]).
 
 use crate::link::{LinkError, Reply, ReplyDecoder, Request};
-use crate::tools::{icarus, run};
+use crate::simulator::Simulator;
+use crate::tools::run;
 use crate::{BoardTop, HdlError};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -146,7 +148,7 @@ pub struct PinEvent {
 }
 
 /// What the testbench saw.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BoardLog {
     /// Per axis: STEP, DIR and ENABLE pin changes.
     pub step: Vec<Vec<PinEvent>>,
@@ -197,11 +199,15 @@ impl BoardLog {
     }
 }
 
-fn testbench(b: &BoardTop, timeout: u64, host_baud: f64) -> Result<String, HdlError> {
+/// The testbench; its timeout (`+timeout=`, clocks) and the host's bit time
+/// (`+host_bit_ps=`) are plusargs, so one compiled testbench serves every script. Every
+/// wait of the script ends 1 ps after a rising clock edge: the clock process has counted
+/// the edge, and an input the host changes next is not sampled at that edge, in any
+/// simulator.
+fn testbench(b: &BoardTop) -> Result<String, HdlError> {
     let params = b.verilog_params()?;
     let k = b.core.axes;
     let clk_ns = 1e9 / b.core.clock_hz;
-    let host_bit = 1e9 / host_baud;
     let board_bit = f64::from(b.div()) * clk_ns;
     let estop_idle = u8::from(!b.estop_active_high);
     let estop_act = u8::from(b.estop_active_high);
@@ -221,6 +227,9 @@ module tb;
         .estop_in(estop), .hall_in(hall), .limit_in(limit), .step_out(step), .dir_out(dir),
         .enable_out(en), .led(led), .sync_in(1'b1), .sync_oe());
     integer f, fs, r, a, cycle = 0, nrx = 0, i, c_a, c_b, t0, gocycle = 0, startcycle = -1;
+    reg [63:0] timeout;
+    reg [63:0] host_ps;
+    real host_bit;
     reg [8*8-1:0] cmd;
     reg [{k1}:0] pstep, pdir, pen, phs, pls;
     reg [7:0] rb;
@@ -255,7 +264,7 @@ module tb;
         end
         pstep = step; pdir = dir; pen = en; phs = dut.hall_s; pls = dut.limit_s;
         cycle = cycle + 1;
-        if (cycle > {timeout}) begin
+        if (cycle > timeout) begin
             $fdisplay(f, \"timeout %0d\", cycle);
             $fclose(f);
             $finish;
@@ -275,48 +284,58 @@ module tb;
         $fdisplay(f, \"t %0d %0d\", rb, cycle);
         nrx = nrx + 1;
     end
+    // the next rising edge, and 1 ps after it
+    task edge_after;
+        begin
+            @(posedge clk);
+            #0.001;
+        end
+    endtask
     task send(input [7:0] v);
         integer j;
         begin
             rx = 1'b0;
-            #({host_bit});
+            #(host_bit);
             for (j = 0; j < 8; j = j + 1) begin
                 rx = v[j];
-                #({host_bit});
+                #(host_bit);
             end
             rx = 1'b1;
-            #({host_bit});
+            #(host_bit);
         end
     endtask
     initial begin
+        if (!$value$plusargs(\"timeout=%d\", timeout)) timeout = 0;
+        if (!$value$plusargs(\"host_bit_ps=%d\", host_ps)) host_ps = 1000;
+        host_bit = host_ps / 1000.0;
         f = $fopen(\"{LOG_FILE}\");
         fs = $fopen(\"{SCRIPT_FILE}\", \"r\");
         pstep = step; pdir = dir; pen = en;
         for (a = 0; a < {k}; a = a + 1) nrise[a] = 0;
         // the power-on reset: bytes sent before it ends are lost, as on the board
-        repeat (64) @(posedge clk);
+        repeat (64) edge_after;
         $fdisplay(f, \"init %0d %0d %0d\", step, dir, en);
         logging = 1'b1;
         r = $fscanf(fs, \"%s %d %d\\n\", cmd, c_a, c_b);
         while (r == 3 && cmd != \"x\") begin
             case (cmd)
                 \"b\": send(c_a[7:0]);
-                \"w\": repeat (c_a) @(posedge clk);
+                \"w\": repeat (c_a) edge_after;
                 \"t\": #(c_a);
                 // the go of the last start write (a chained group goes once its chains
                 // have filled their FIFOs), then its tick
                 \"g\": begin
-                    while (gocycle <= startcycle) @(posedge clk);
-                    while (cycle < gocycle + c_a) @(posedge clk);
+                    while (gocycle <= startcycle) edge_after;
+                    while (cycle < gocycle + c_a) edge_after;
                 end
-                \"q\": while (nrx < c_a) @(posedge clk);
+                \"q\": while (nrx < c_a) edge_after;
                 \"i\": begin
-                    @(posedge clk);
-                    while (dut.busy != 0 || dut.pending) @(posedge clk);
+                    edge_after;
+                    while (dut.busy != 0 || dut.pending) edge_after;
                 end
                 \"p\": begin
                     t0 = nrise[c_a] + 2 * c_b;
-                    while (nrise[c_a] < t0) @(posedge clk);
+                    while (nrise[c_a] < t0) edge_after;
                 end
                 // inputs change at a falling clock edge: no race with the sampling edge
                 \"h\": begin @(negedge clk); hall[c_a] = c_b[0]; end
@@ -328,7 +347,7 @@ module tb;
             endcase
             r = $fscanf(fs, \"%s %d %d\\n\", cmd, c_a, c_b);
         end
-        repeat (4 * {div} * 10) @(posedge clk);
+        repeat (4 * {div} * 10) edge_after;
         $fdisplay(f, \"end %0d\", cycle);
         $fclose(f);
         $finish;
@@ -342,19 +361,39 @@ endmodule
     Ok(s)
 }
 
-/// Runs `script` on the board in Icarus Verilog inside `dir`; stops after `timeout`
-/// cycles at the latest (an error).
+/// Runs `script` on the board inside `dir` in the simulator `MULTISTEP_SIM` names
+/// (Verilator by default); stops after `timeout` cycles at the latest (an error).
 pub fn simulate(
     b: &BoardTop,
     script: &Script,
     dir: &Path,
     timeout: u64,
 ) -> Result<BoardLog, HdlError> {
+    simulate_with(Simulator::from_env()?, b, script, dir, timeout)
+}
+
+/// [`simulate`] in the simulator `sim`.
+pub fn simulate_with(
+    sim: Simulator,
+    b: &BoardTop,
+    script: &Script,
+    dir: &Path,
+    timeout: u64,
+) -> Result<BoardLog, HdlError> {
     let host_baud = script.host_baud.unwrap_or(f64::from(b.baud));
+    if !(host_baud.is_finite() && host_baud >= 1.0) {
+        return Err(HdlError::Param(format!(
+            "host baud {host_baud} is not a rate"
+        )));
+    }
     let mut files = b.files()?;
-    files.push(("tb.v".into(), testbench(b, timeout, host_baud)?));
+    files.push(("tb.v".into(), testbench(b)?));
     files.push((SCRIPT_FILE.into(), script.text()));
-    let text = icarus(dir, &files, LOG_FILE)?;
+    let plusargs = [
+        format!("timeout={timeout}"),
+        format!("host_bit_ps={}", (1e12 / host_baud).round() as u64),
+    ];
+    let text = sim.run(dir, &files, LOG_FILE, &plusargs)?;
     parse(&text, b.core.axes as usize)
 }
 

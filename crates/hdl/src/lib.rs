@@ -14,6 +14,7 @@ mod moves;
 mod params;
 pub mod pnr;
 pub mod report;
+pub mod simulator;
 pub mod stream;
 pub mod sync_sim;
 pub mod testbench;

@@ -280,7 +280,7 @@ pub fn simulate_boards(
     let mut files = boards[0].0.files()?;
     files.push(("tb.v".into(), testbench(boards, timeout_ps)?));
     files.push((SCRIPT_FILE.into(), script.text()));
-    let text = icarus(dir, &files, LOG_FILE)?;
+    let text = icarus(dir, &files, LOG_FILE, &[])?;
     let axes: Vec<usize> = boards.iter().map(|(b, _)| b.core.axes as usize).collect();
     parse(&text, &axes)
 }

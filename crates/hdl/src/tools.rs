@@ -72,33 +72,45 @@ pub struct SimOutput {
     pub go_cycle: u64,
 }
 
-/// Simulates `moves` on the design in Icarus Verilog inside `dir`.
-/// Writes `files` (name, text) into `dir`, compiles them with Icarus Verilog (top
-/// module `tb`), runs the simulation there and returns the text of the file `log` it wrote.
-pub(crate) fn icarus(
-    dir: &Path,
-    files: &[(String, String)],
-    log: &str,
-) -> Result<String, HdlError> {
+/// Writes `files` (name, text) into `dir` (made if missing); returns the names of the
+/// Verilog sources among them.
+pub(crate) fn write_files(dir: &Path, files: &[(String, String)]) -> Result<Vec<String>, HdlError> {
     std::fs::create_dir_all(dir).map_err(|e| HdlError::io(dir, e))?;
-    let mut paths = Vec::new();
+    let mut sources = Vec::new();
     for (name, text) in files {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| HdlError::io(&p, e))?;
         if name.ends_with(".v") {
-            paths.push(p);
+            sources.push(name.clone());
         }
     }
+    Ok(sources)
+}
+
+/// Writes `files` (name, text) into `dir`, compiles them with Icarus Verilog (top
+/// module `tb`), runs the simulation there with `plusargs` and returns the text of the
+/// file `log` it wrote.
+pub(crate) fn icarus(
+    dir: &Path,
+    files: &[(String, String)],
+    log: &str,
+    plusargs: &[String],
+) -> Result<String, HdlError> {
+    let sources = write_files(dir, files)?;
     let mut args = vec!["-g2005".to_string(), "-o".into(), "sim.vvp".into()];
     args.extend(["-s".into(), "tb".into()]);
-    args.extend(file_names_of(&paths));
+    args.extend(sources);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     run("iverilog", "iverilog", &args, dir)?;
-    run("vvp", "iverilog", &["-n", "sim.vvp"], dir)?;
+    let mut vvp = vec!["-n".to_string(), "sim.vvp".into()];
+    vvp.extend(plusargs.iter().map(|a| format!("+{a}")));
+    let vvp: Vec<&str> = vvp.iter().map(String::as_str).collect();
+    run("vvp", "iverilog", &vvp, dir)?;
     let path = dir.join(log);
     std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))
 }
 
+/// Simulates `moves` on the design in Icarus Verilog inside `dir`.
 pub fn simulate(
     design: &Design,
     moves: &[AxisMove],
@@ -107,7 +119,7 @@ pub fn simulate(
 ) -> Result<SimOutput, HdlError> {
     let mut files = design.files.clone();
     files.push(("tb.v".into(), testbench(design, moves, timeout)?));
-    let text = icarus(dir, &files, EDGE_FILE)?;
+    let text = icarus(dir, &files, EDGE_FILE, &[])?;
     let calcs = match design.arch {
         Arch::Tdm => 1,
         Arch::Independent => design.params.axes as usize,

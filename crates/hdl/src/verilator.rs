@@ -236,7 +236,7 @@ pub fn hil_top(b: &BoardTop) -> Result<String, HdlError> {
 }
 
 /// FNV-1a, 64 bits: a hash that stays the same across builds of this crate.
-fn fnv1a(parts: &[&[u8]]) -> u64 {
+pub(crate) fn fnv1a(parts: &[&[u8]]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for p in parts {
         for &b in p.iter().chain(&[0u8]) {

@@ -321,7 +321,7 @@ fn search_move(p: &CoreParams, steps: u64) -> (IntProfile, AxisMove, IntProfile,
 
 /// Hall glitches shorter than the debounce are never accepted; the accepted edge latches
 /// the position exactly and runs the stop ramp from the last computed edge; then a limit
-/// edge stops a second move at once.
+/// edge stops a second move at once. Icarus and Verilator write the same log.
 #[test]
 fn hall_debounce_latch_stop_ramp_and_limit() {
     let name = "board-hall";
@@ -364,7 +364,7 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
     let st2 = h.read(Reg::Axis(0, AxisReg::State));
     let pos2 = h.read(Reg::Axis(0, AxisReg::Position));
     h.s.sync();
-    let (log, rep) = h.run(&b, name, 3_000_000);
+    let (log, rep) = h.run_in_both(&b, name, 3_000_000);
     for (i, r) in rep.iter().enumerate() {
         assert_eq!(r.status, Status::Ok, "{name}: request {i}");
     }
@@ -442,6 +442,7 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
 /// The e-stop input stops STEP at once (combinationally, between clock edges) and
 /// latches; start and clear are refused while it is latched / active; after the clear a
 /// move runs exactly; the e-stop register stops STEP at the clock after its request.
+/// Icarus and Verilator write the same log, to the nanosecond.
 #[test]
 fn estop_pin_and_register() {
     let name = "board-estop";
@@ -474,7 +475,7 @@ fn estop_pin_and_register() {
     h.s.sync().wait(2000);
     let st3 = h.read(Reg::Axis(0, AxisReg::State));
     h.s.sync();
-    let (log, rep) = h.run(&b, name, 3_000_000);
+    let (log, rep) = h.run_in_both(&b, name, 3_000_000);
     let want_status = |i: usize, s: Status| assert_eq!(rep[i].status, s, "{name}: request {i}");
     want_status(clr, Status::Estop);
     want_status(start, Status::Estop);

@@ -1,8 +1,9 @@
 //! The host side of a board co-simulation: requests and bulk writes in order with their
 //! sequence numbers, the simulation directory, and the replies checked against them.
 
-use multistep_hdl::board_sim::{simulate, BoardLog, Script};
+use multistep_hdl::board_sim::{simulate_with, BoardLog, Script};
 use multistep_hdl::link::{BulkWrite, Reg, RegWrite, Reply, Request};
+use multistep_hdl::simulator::Simulator;
 use multistep_hdl::BoardTop;
 use std::path::PathBuf;
 
@@ -77,11 +78,32 @@ impl Host {
         self.seqs.len() - 1
     }
 
-    /// Simulates `b` running this script (at most `timeout` clocks) and checks that every
-    /// request was answered, in order.
+    /// Simulates `b` running this script (at most `timeout` clocks) in the simulator
+    /// `MULTISTEP_SIM` names, and checks that every request was answered, in order.
     pub fn run(&self, b: &BoardTop, name: &str, timeout: u64) -> (BoardLog, Vec<Reply>) {
+        let sim = Simulator::from_env().unwrap();
         let (_dir, path) = sim_dir(name);
-        let log = simulate(b, &self.s, &path, timeout).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let log = simulate_with(sim, b, &self.s, &path, timeout)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        self.replies(name, log)
+    }
+
+    /// [`Host::run`] in Icarus Verilog and in Verilator: both write the same log.
+    pub fn run_in_both(&self, b: &BoardTop, name: &str, timeout: u64) -> (BoardLog, Vec<Reply>) {
+        let [icarus, verilator] = [Simulator::Icarus, Simulator::Verilator].map(|sim| {
+            let (_dir, path) = sim_dir(&format!("{name}-{sim:?}"));
+            simulate_with(sim, b, &self.s, &path, timeout)
+                .unwrap_or_else(|e| panic!("{name} in {sim:?}: {e}"))
+        });
+        assert!(
+            !icarus.step.iter().all(Vec::is_empty),
+            "{name}: no STEP edge"
+        );
+        assert_eq!(icarus, verilator, "{name}: Icarus and Verilator disagree");
+        self.replies(name, verilator)
+    }
+
+    fn replies(&self, name: &str, log: BoardLog) -> (BoardLog, Vec<Reply>) {
         let got: Vec<Reply> = log
             .replies()
             .into_iter()
