@@ -1,6 +1,7 @@
-//! Co-simulation of the whole board (`ms_board`, UART included) in Icarus Verilog, driven
-//! by the Rust host link (`multistep_hdl::link`): frames in, replies decoded, every STEP
-//! edge against `multistep_core::int`. Needs `iverilog` (a missing tool fails).
+//! Co-simulation of the whole board (`ms_board`, UART included) in Verilator (or Icarus
+//! Verilog, `MULTISTEP_SIM=icarus`), driven by the Rust host link (`multistep_hdl::link`):
+//! frames in, replies decoded, every STEP edge against `multistep_core::int`. Needs
+//! `verilator` and `iverilog` (a missing tool fails).
 
 mod common;
 

@@ -1,5 +1,5 @@
 //! Computed scurve and scurve4 moves on the whole board (`ms_board` with a chain unit per
-//! axis, the ULX3S-85F build, in Icarus Verilog, UART included): random phase and limits
+//! axis, the ULX3S-85F build, co-simulated, UART included): random phase and limits
 //! moves with start and end speeds, their chain records (`multistep_hdl::chain`) written
 //! into the axes' stream buffers in bulk writes, then one group start: every STEP rise at
 //! `go + t + 1` for plan's t. A move whose last records never come underruns, flagged,
@@ -8,8 +8,8 @@
 mod common;
 
 use common::host::Host;
-use common::{params, Rng, HZ};
-use multistep_core::{Family, LimitsMove, Move, PhaseMove};
+use common::{board_move, params, Rng, HZ};
+use multistep_core::{Family, Move, PhaseMove};
 use multistep_hdl::board_sim::BoardLog;
 use multistep_hdl::boards::Board;
 use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
@@ -32,38 +32,14 @@ fn chain_board(k: u32) -> BoardTop {
     }
 }
 
-/// A random move of kind `kind` (0, 1: phase scurve, scurve4; 2, 3: limits scurve,
-/// scurve4) of one to four milliseconds at up to `vmax` steps/s (Icarus runs the 85F
-/// board at some 5000 clocks a second), with random start and end speeds; retried until
-/// plan accepts it and its records fit the chain unit.
+/// A random [`board_move`] of kind `kind` (0, 1: phase scurve, scurve4; 2, 3: limits
+/// scurve, scurve4), retried until plan accepts it and the host would chain it (its
+/// records fit the chain unit and keep up with the 128-period FIFO).
 fn random_move(rng: &mut Rng, kind: u64, vmax: u64) -> (Move<'static>, ChainedMove) {
+    let kind = [4, 5, 7, 8][kind as usize % 4];
     for _ in 0..50 {
-        let v = rng.range(vmax / 3, vmax) as f64;
-        let v0 = rng.zero_or(1000, vmax / 3) as f64;
-        let v1 = rng.zero_or(1000, vmax / 3) as f64;
-        let mv = if kind < 2 {
-            let ms = |r: &mut Rng| r.range(3, 12) as f64 * 1e-4;
-            let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
-            let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
-            let f = if kind == 0 {
-                Family::SCurve { phi: 0.5 }
-            } else {
-                Family::SCurve4 { phi: 0.5, psi: 0.5 }
-            };
-            Move::Phase(PhaseMove::new(steps, f, ta, tb, tc).with_speeds(v0, v1))
-        } else {
-            let steps = rng.range(100, 300);
-            let a = rng.range(20, 80) as f64 * 1e6;
-            let j = a * rng.range(2, 10) as f64 * 1e3;
-            let m = if kind == 2 {
-                LimitsMove::scurve(steps, v, a, j)
-            } else {
-                LimitsMove::scurve4(steps, v, a, j, j * rng.range(2, 10) as f64 * 1e3)
-            };
-            Move::Limits(m.with_speeds(v0, v1))
-        };
+        let mv = board_move(rng, kind, vmax);
         if let Ok(c) = ChainedMove::plan(&mv, HZ, 24, &CHAIN_LAYOUT) {
-            // the moves the host computes on the board (the others it streams)
             if c.steps() > 2 && c.keeps_up(128) {
                 return (mv, c);
             }

@@ -1,4 +1,4 @@
-//! Streamed moves on the whole board (`ms_board` in Icarus Verilog, UART included): moves
+//! Streamed moves on the whole board (`ms_board` co-simulated, UART included): moves
 //! of every profile family and mode, with start and end speeds, planned by `plan`'s edge
 //! generator, coded (`multistep_core::stream`), sent in bulk writes at the link's real
 //! baud while they run, and replayed by the axes' `ms_stream` units: every STEP rise at
@@ -7,7 +7,7 @@
 mod common;
 
 use common::host::Host;
-use common::{params, Rng, HZ};
+use common::{board_move, family, params, Rng, BOARD_MOVE_KINDS, HZ};
 use multistep_core::{Family, LimitsMove, Move, PhaseMove};
 use multistep_hdl::board_sim::BoardLog;
 use multistep_hdl::link::{
@@ -20,20 +20,7 @@ const TICK0: u64 = 1;
 /// The board's stream buffer (`ms_board`'s LB = 9).
 const BUFFER: u64 = 512;
 
-fn family(k: u64) -> Family {
-    match k % 6 {
-        0 => Family::Trapezoid,
-        1 => Family::Parabolic,
-        2 => Family::Exponential { rho: 0.4 },
-        3 => Family::Sine,
-        4 => Family::SCurve { phi: 0.5 },
-        _ => Family::SCurve4 { phi: 0.5, psi: 0.5 },
-    }
-}
-
-/// A random move of kind `kind` (0-5: phase mode of each family, 6-8: limits-mode
-/// trapezoid, scurve, scurve4) of a few milliseconds at up to `vmax` steps/s, with
-/// random start and end speeds; retried until plan accepts it.
+/// A random [`board_move`] of kind `kind`, retried until plan accepts it.
 fn random_move(
     rng: &mut Rng,
     kind: u64,
@@ -41,25 +28,7 @@ fn random_move(
     p: &CoreParams,
 ) -> (Move<'static>, StreamedMove) {
     for _ in 0..50 {
-        let v = rng.range(vmax / 3, vmax) as f64;
-        let v0 = rng.zero_or(1000, vmax / 3) as f64;
-        let v1 = rng.zero_or(1000, vmax / 3) as f64;
-        let mv = if kind < 6 {
-            let ms = |r: &mut Rng| r.range(3, 12) as f64 * 1e-4;
-            let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
-            let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
-            Move::Phase(PhaseMove::new(steps, family(kind), ta, tb, tc).with_speeds(v0, v1))
-        } else {
-            let steps = rng.range(100, 300);
-            let a = rng.range(20, 80) as f64 * 1e6;
-            let j = a * rng.range(2, 10) as f64 * 1e3;
-            let m = match kind {
-                6 => LimitsMove::trapezoid(steps, v, a),
-                7 => LimitsMove::scurve(steps, v, a, j),
-                _ => LimitsMove::scurve4(steps, v, a, j, j * rng.range(2, 10) as f64 * 1e3),
-            };
-            Move::Limits(m.with_speeds(v0, v1))
-        };
+        let mv = board_move(rng, kind, vmax);
         if let Ok(s) = StreamedMove::plan(&mv, HZ, p.tick_bits) {
             if s.steps() > 2 {
                 return (mv, s);
@@ -149,7 +118,14 @@ fn every_family(k: u32, rounds: u64, seed: u64) {
     for r in 0..rounds {
         let name = format!("stream-k{k}-r{r}");
         let (mvs, moves): (Vec<_>, Vec<_>) = (0..u64::from(k))
-            .map(|a| random_move(&mut rng, (r * u64::from(k) + a) % 9, 100_000, &p))
+            .map(|a| {
+                random_move(
+                    &mut rng,
+                    (r * u64::from(k) + a) % BOARD_MOVE_KINDS,
+                    100_000,
+                    &p,
+                )
+            })
             .unzip();
         let dirs: Vec<bool> = (0..k).map(|a| (r + u64::from(a)) % 2 == 0).collect();
         let (log, rep, reads) = stream_group(&b, &moves, &dirs, 128, 0, &name);
@@ -291,7 +267,7 @@ fn bytes_per_step_of_every_family() {
 
 /// Ten-second moves (scurve4 and parabolic, about 1 M steps each at up to 100 k
 /// steps/s) on K axes at once over the 3 Mbaud link, in the core's link model (the same
-/// chunks the co-simulation sends; ten seconds are 5·10^8 clocks, too many for Icarus):
+/// chunks the co-simulation sends; ten seconds are 5·10^8 clocks, too many to co-simulate here):
 /// 4 axes keep up with no underrun; the most axes that keep up is found, and one more
 /// underruns, flagged.
 #[test]

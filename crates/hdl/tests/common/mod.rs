@@ -5,7 +5,7 @@
 use multistep_core::int::{
     limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment,
 };
-use multistep_core::{Family, PhaseMove, Profile, Segment};
+use multistep_core::{Family, LimitsMove, Move, PhaseMove, Profile, Segment};
 use multistep_hdl::{AxisMove, CoreParams};
 
 pub mod host;
@@ -196,6 +196,48 @@ fn random_limits(rng: &mut Rng, vmax: u64, ticks: u64) -> Option<IntMove> {
         start_speed: vs,
         end_speed: ve,
     }))
+}
+
+/// The nine kinds of [`board_move`]: phase mode of the six families, then limits-mode
+/// trapezoid, scurve and scurve4.
+pub const BOARD_MOVE_KINDS: u64 = 9;
+
+/// Family `k` of the six, in `plan`'s order.
+pub fn family(k: u64) -> Family {
+    match k % 6 {
+        0 => Family::Trapezoid,
+        1 => Family::Parabolic,
+        2 => Family::Exponential { rho: 0.4 },
+        3 => Family::Sine,
+        4 => Family::SCurve { phi: 0.5 },
+        _ => Family::SCurve4 { phi: 0.5, psi: 0.5 },
+    }
+}
+
+/// A random move of kind `kind` (0-5: phase mode of [`family`] `kind`, 6-8: limits-mode
+/// trapezoid, scurve, scurve4) of one to four milliseconds, or 100 to 300 steps, at up to
+/// `vmax` steps/s with random start and end speeds: short enough to co-simulate the
+/// whole board. `plan` may refuse it (the caller draws again).
+pub fn board_move(rng: &mut Rng, kind: u64, vmax: u64) -> Move<'static> {
+    let v = rng.range(vmax / 3, vmax) as f64;
+    let v0 = rng.zero_or(1000, vmax / 3) as f64;
+    let v1 = rng.zero_or(1000, vmax / 3) as f64;
+    if kind < 6 {
+        let ms = |r: &mut Rng| r.range(3, 12) as f64 * 1e-4;
+        let (ta, tb, tc) = (ms(rng), ms(rng), ms(rng));
+        let steps = ((v + v0) * ta / 2.0 + v * tb + (v + v1) * tc / 2.0).round() as u64;
+        Move::Phase(PhaseMove::new(steps, family(kind), ta, tb, tc).with_speeds(v0, v1))
+    } else {
+        let steps = rng.range(100, 300);
+        let a = rng.range(20, 80) as f64 * 1e6;
+        let j = a * rng.range(2, 10) as f64 * 1e3;
+        let m = match kind {
+            6 => LimitsMove::trapezoid(steps, v, a),
+            7 => LimitsMove::scurve(steps, v, a, j),
+            _ => LimitsMove::scurve4(steps, v, a, j, j * rng.range(2, 10) as f64 * 1e3),
+        };
+        Move::Limits(m.with_speeds(v0, v1))
+    }
 }
 
 /// The default core with `axes` axes.
