@@ -5,7 +5,7 @@
 //! per machine. The testbenches are race-free, so both give the same log (a test checks).
 
 use crate::tools::{find, icarus, run, write_files};
-use crate::verilator::{default_cache_dir, fnv1a};
+use crate::verilator::{default_cache_dir, fnv1a, lock_key};
 use crate::HdlError;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -128,6 +128,10 @@ fn build(files: &[(String, String)]) -> Result<PathBuf, HdlError> {
     let key = format!("tb-{:016x}", fnv1a(&parts));
     let exe = cache.join(&key).join("Vtb");
     let _guard = BUILD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    if exe.is_file() {
+        return Ok(exe);
+    }
+    let _lock = lock_key(&cache, &key)?;
     if exe.is_file() {
         return Ok(exe);
     }

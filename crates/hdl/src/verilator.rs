@@ -1,7 +1,8 @@
 //! The board top level (`ms_board`) compiled by Verilator into a shared library and loaded
 //! in-process: a small C API (create, set inputs, run up to N cycles or until a watched
 //! output changes, read outputs, destroy) over the verilated model. Builds are cached by a
-//! hash of every source and flag, so the second start of the same board is instant.
+//! hash of every source and flag, so the second start of the same board is instant; a
+//! lock file makes processes that need the same model wait for the one building it.
 
 use crate::tools::{find, run};
 use crate::{BoardTop, HdlError};
@@ -260,6 +261,21 @@ pub fn default_cache_dir() -> PathBuf {
 
 const LIB_NAME: &str = "libms_board_hil.so";
 
+/// Locks `cache/key.lock` (made if missing) until the returned file drops: one process
+/// builds a model while the others that need it wait, then find it built.
+pub(crate) fn lock_key(cache: &Path, key: &str) -> Result<std::fs::File, HdlError> {
+    std::fs::create_dir_all(cache).map_err(|e| HdlError::io(cache, e))?;
+    let path = cache.join(format!("{key}.lock"));
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|e| HdlError::io(&path, e))?;
+    file.lock().map_err(|e| HdlError::io(&path, e))?;
+    Ok(file)
+}
+
 /// One build at a time in this process (tests start several simulations at once).
 static BUILD_LOCK: Mutex<()> = Mutex::new(());
 
@@ -294,7 +310,10 @@ pub fn build(b: &BoardTop, cache: &Path) -> Result<PathBuf, HdlError> {
     if lib.is_file() {
         return Ok(lib);
     }
-    std::fs::create_dir_all(cache).map_err(|e| HdlError::io(cache, e))?;
+    let _lock = lock_key(cache, &key)?;
+    if lib.is_file() {
+        return Ok(lib);
+    }
     // built aside and renamed into place: another process never sees a half-built model
     let work = cache.join(format!("{key}.tmp{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&work);
@@ -635,6 +654,25 @@ mod tests {
     fn the_hash_is_stable_and_separates_parts() {
         assert_eq!(fnv1a(&[]), 0xcbf2_9ce4_8422_2325);
         assert_ne!(fnv1a(&[b"ab", b"c"]), fnv1a(&[b"a", b"bc"]));
+    }
+
+    #[test]
+    fn a_key_locked_by_one_builder_waits_for_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let held = lock_key(dir.path(), "k").unwrap();
+        let other = std::fs::OpenOptions::new()
+            .write(true)
+            .open(dir.path().join("k.lock"))
+            .unwrap();
+        assert!(
+            other.try_lock().is_err(),
+            "a second builder does not get the lock"
+        );
+        drop(held);
+        assert!(
+            other.try_lock().is_ok(),
+            "it gets it once the first is done"
+        );
     }
 
     #[test]
