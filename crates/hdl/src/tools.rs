@@ -1,6 +1,7 @@
 //! Runners for the external tools: Icarus Verilog (iverilog + vvp), Verilator (lint) and
 //! yosys. A missing tool is an error naming the Debian package, never a silent skip.
 
+use crate::simulator::Simulator;
 use crate::testbench::{testbench, EDGE_FILE};
 use crate::{Arch, AxisMove, Design, HdlError};
 use std::path::{Path, PathBuf};
@@ -117,9 +118,21 @@ pub fn simulate(
     dir: &Path,
     timeout: u64,
 ) -> Result<SimOutput, HdlError> {
+    simulate_in(Simulator::Icarus, design, moves, dir, timeout)
+}
+
+/// [`simulate`] in `sim`. The testbench holds the moves, so Verilator compiles one per
+/// set of moves (seconds): it pays off on long runs only.
+pub fn simulate_in(
+    sim: Simulator,
+    design: &Design,
+    moves: &[AxisMove],
+    dir: &Path,
+    timeout: u64,
+) -> Result<SimOutput, HdlError> {
     let mut files = design.files.clone();
     files.push(("tb.v".into(), testbench(design, moves, timeout)?));
-    let text = icarus(dir, &files, EDGE_FILE, &[])?;
+    let text = sim.run(dir, &files, EDGE_FILE, &[])?;
     let calcs = match design.arch {
         Arch::Tdm => 1,
         Arch::Independent => design.params.axes as usize,

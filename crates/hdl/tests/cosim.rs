@@ -10,7 +10,8 @@ use common::{narrow_params, params, random_move, IntMove, Rng, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
 use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
 use multistep_core::Profile;
-use multistep_hdl::tools::{simulate, SimOutput};
+use multistep_hdl::simulator::Simulator;
+use multistep_hdl::tools::{simulate, simulate_in, SimOutput};
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design};
 
 /// The core's TDM board on the same moves (float twins) with the RTL's latencies: its
@@ -75,6 +76,17 @@ fn check_timing(out: &SimOutput, lat: Latencies, name: &str) {
 /// Simulates `moves` on `arch`: bit-exact edges against core::int, the 50 % duty falls,
 /// DIR, no underrun, the board's edges, and the measured cycles against the latencies.
 fn cosim(arch: Arch, p: &CoreParams, moves: &[(IntMove, AxisMove)], name: &str) -> SimOutput {
+    cosim_in(Simulator::Icarus, arch, p, moves, name)
+}
+
+/// [`cosim`] in `sim` (Verilator for the long runs).
+fn cosim_in(
+    sim: Simulator,
+    arch: Arch,
+    p: &CoreParams,
+    moves: &[(IntMove, AxisMove)],
+    name: &str,
+) -> SimOutput {
     let d = Design::new(p, arch).expect("parameters");
     let dir = tempfile::Builder::new().prefix(name).tempdir().unwrap();
     let regs: Vec<AxisMove> = moves.iter().map(|m| m.1.clone()).collect();
@@ -83,7 +95,8 @@ fn cosim(arch: Arch, p: &CoreParams, moves: &[(IntMove, AxisMove)], name: &str) 
         .map(|m| m.edges().last().copied().unwrap_or(0))
         .max()
         .unwrap();
-    let out = simulate(&d, &regs, dir.path(), last + 200_000).unwrap_or_else(|e| panic!("{e}"));
+    let out =
+        simulate_in(sim, &d, &regs, dir.path(), last + 200_000).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.underrun, 0, "{name}: underrun");
     let dirs: u32 = regs
         .iter()
@@ -301,13 +314,14 @@ fn most_axes_at_100k_steps_per_second() {
             (m.clone(), r)
         })
         .collect();
-    cosim(Arch::Tdm, &p, &moves, &format!("k{k}-100k"));
+    let sim = Simulator::Verilator;
+    cosim_in(sim, Arch::Tdm, &p, &moves, &format!("k{k}-100k"));
     // one more axis: the RTL underruns as the model does
     let p = params(k + 1);
     let d = Design::new(&p, Arch::Tdm).unwrap();
     let regs = vec![moves[0].1.clone(); k as usize + 1];
     let dir = tempfile::tempdir().unwrap();
-    let out = simulate(&d, &regs, dir.path(), 2_000_000).unwrap_or_else(|e| panic!("{e}"));
+    let out = simulate_in(sim, &d, &regs, dir.path(), 2_000_000).unwrap_or_else(|e| panic!("{e}"));
     assert_ne!(out.underrun, 0, "K = {} in RTL", k + 1);
 }
 
@@ -432,5 +446,5 @@ fn seed000_two_axis_experiment() {
             (m, r)
         })
         .collect();
-    cosim(Arch::Tdm, &p, &moves, "seed000");
+    cosim_in(Simulator::Verilator, Arch::Tdm, &p, &moves, "seed000");
 }
