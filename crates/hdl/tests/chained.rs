@@ -20,16 +20,15 @@ use multistep_hdl::stream::StreamedMove;
 use multistep_hdl::BoardTop;
 
 const TICK0: u64 = 1;
-/// 4 clocks a bit at 50 MHz: the records load in a tenth of the clocks of 3 Mbaud.
-const BAUD: u32 = 12_500_000;
+/// The ULX3S's host link.
+const BAUD: u32 = 3_000_000;
 
-/// The ULX3S-85F's board top level with `k` axes (its 128-period FIFOs).
+/// The ULX3S-85F's board top level with `k` axes (its 128-period FIFOs, its 3 Mbaud).
 fn chain_board(k: u32) -> BoardTop {
     let board = Board::by_name("ulx3s-85f").unwrap();
-    BoardTop {
-        baud: BAUD,
-        ..board.board_top(&board.params(k).unwrap())
-    }
+    let b = board.board_top(&board.params(k).unwrap());
+    assert_eq!(b.baud, BAUD);
+    b
 }
 
 /// A random [`board_move`] of kind `kind` (0, 1: phase scurve, scurve4; 2, 3: limits
@@ -115,7 +114,10 @@ fn run_group(
         .map(|m| *m.edges.last().unwrap())
         .max()
         .unwrap();
-    let (log, rep) = h.run(b, name, end.max(rest_at) * 2 + 2_000_000);
+    // every record byte over the link: 10 bits of the board's clocks each
+    let bytes: u64 = moves.iter().map(|m| m.bytes.len() as u64).sum();
+    let link = bytes * 10 * u64::from(b.div());
+    let (log, rep) = h.run(b, name, end.max(rest_at) * 2 + link * 2 + 2_000_000);
     (log, rep, reads)
 }
 

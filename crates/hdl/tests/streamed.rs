@@ -10,6 +10,7 @@ use common::host::Host;
 use common::{board_move, family, params, Rng, BOARD_MOVE_KINDS, HZ};
 use multistep_core::{Family, LimitsMove, Move, PhaseMove};
 use multistep_hdl::board_sim::BoardLog;
+use multistep_hdl::boards::Board;
 use multistep_hdl::link::{
     core_addr, AxisReg, AxisRun, AxisState, BoardReg, Reg, RegWrite, Reply, Status,
 };
@@ -112,8 +113,13 @@ fn rises_after_go(log: &BoardLog, a: usize) -> Vec<u64> {
 
 /// Random moves of every family and mode on K axes at 3 Mbaud: every edge plan's.
 fn every_family(k: u32, rounds: u64, seed: u64) {
-    let p = params(k);
-    let b = BoardTop::new(p.clone(), 3_000_000);
+    every_family_on(&BoardTop::new(params(k), 3_000_000), rounds, seed);
+}
+
+/// [`every_family`] on board top `b` (its axes, its baud).
+fn every_family_on(b: &BoardTop, rounds: u64, seed: u64) {
+    let p = b.core.clone();
+    let k = p.axes;
     let mut rng = Rng(seed);
     for r in 0..rounds {
         let name = format!("stream-k{k}-r{r}");
@@ -128,7 +134,7 @@ fn every_family(k: u32, rounds: u64, seed: u64) {
             })
             .unzip();
         let dirs: Vec<bool> = (0..k).map(|a| (r + u64::from(a)) % 2 == 0).collect();
-        let (log, rep, reads) = stream_group(&b, &moves, &dirs, 128, 0, &name);
+        let (log, rep, reads) = stream_group(b, &moves, &dirs, 128, 0, &name);
         for (i, y) in rep.iter().enumerate() {
             assert_eq!(y.status, Status::Ok, "{name}: reply {i}");
         }
@@ -151,10 +157,14 @@ fn every_family(k: u32, rounds: u64, seed: u64) {
     }
 }
 
-/// The nine kinds, three axes at a time.
+/// The nine kinds on the ULX3S-25F build at its largest K, 8 axes at once at its 3 Mbaud
+/// (two rounds: every kind at least once).
 #[test]
-fn streamed_every_family_three_axes() {
-    every_family(3, 3, 0x5eed_0001);
+fn streamed_every_family_eight_axes_on_the_ulx3s() {
+    let board = Board::by_name("ulx3s-25f").unwrap();
+    let b = board.board_top(&board.params(8).unwrap());
+    assert_eq!((b.core.axes, b.baud), (8, 3_000_000));
+    every_family_on(&b, 2, 0x5eed_0001);
 }
 
 #[test]
