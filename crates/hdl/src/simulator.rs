@@ -1,6 +1,6 @@
-//! Which simulator runs a generated testbench. Icarus Verilog compiles in about a second
-//! but runs a large board at a few thousand clocks per second; Verilator 5 (`--binary
-//! --timing`) takes seconds to compile and then runs it fifty times faster. Verilator
+//! Which simulator runs a generated testbench. Icarus Verilog starts at once but runs the
+//! 85F board at some 5 500 clocks per second; Verilator 5 (`--binary --timing`) takes some
+//! 15 s to compile it and then runs it forty times faster (docs/BENCHMARKS.md). Verilator
 //! binaries are cached by a hash of every source and flag, so a board is compiled once
 //! per machine. The testbenches are race-free, so both give the same log (a test checks).
 
