@@ -8,7 +8,7 @@ use crate::tools::{find, icarus, run, write_files};
 use crate::verilator::{default_cache_dir, fnv1a, lock_key};
 use crate::HdlError;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 /// A Verilog simulator for the testbenches.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -114,10 +114,7 @@ fn verilated(
 
 /// The testbench binary of the Verilog in `files`, from the cache or built into it.
 fn build(files: &[(String, String)]) -> Result<PathBuf, HdlError> {
-    find("verilator", "verilator")?;
-    let version = run("verilator", "verilator", &["--version"], Path::new("."))?;
-    let version = String::from_utf8_lossy(&version.stdout).into_owned();
-    check_version(&version)?;
+    let version = verilator_version()?;
     let sources: Vec<&(String, String)> = files.iter().filter(|f| f.0.ends_with(".v")).collect();
     let mut parts: Vec<&[u8]> = vec![version.as_bytes(), MAKEFLAGS.as_bytes()];
     parts.extend(FLAGS.iter().map(|f| f.as_bytes()));
@@ -151,6 +148,20 @@ fn build(files: &[(String, String)]) -> Result<PathBuf, HdlError> {
     std::fs::rename(&tmp, &exe).map_err(|e| HdlError::io(&exe, e))?;
     let _ = std::fs::remove_dir_all(&work);
     Ok(exe)
+}
+
+/// `verilator --version`, checked, asked once per process (every simulation needs it for
+/// its cache key).
+fn verilator_version() -> Result<&'static str, HdlError> {
+    static VERSION: OnceLock<String> = OnceLock::new();
+    if let Some(v) = VERSION.get() {
+        return Ok(v);
+    }
+    find("verilator", "verilator")?;
+    let out = run("verilator", "verilator", &["--version"], Path::new("."))?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    check_version(&text)?;
+    Ok(VERSION.get_or_init(|| text))
 }
 
 /// `Verilator 5.006 2023-01-22 …`: at least [`MIN_VERSION`].
