@@ -1,7 +1,7 @@
 //! The host side of a board co-simulation: requests and bulk writes in order with their
 //! sequence numbers, the simulation directory, and the replies checked against them.
 
-use multistep_hdl::board_sim::{simulate_with, BoardLog, Script};
+use multistep_hdl::board_sim::{simulate, simulate_with, BoardLog, Script};
 use multistep_hdl::link::{BulkWrite, Reg, RegWrite, Reply, Request};
 use multistep_hdl::simulator::Simulator;
 use multistep_hdl::BoardTop;
@@ -81,10 +81,8 @@ impl Host {
     /// Simulates `b` running this script (at most `timeout` clocks) in the simulator
     /// `MULTISTEP_SIM` names, and checks that every request was answered, in order.
     pub fn run(&self, b: &BoardTop, name: &str, timeout: u64) -> (BoardLog, Vec<Reply>) {
-        let sim = Simulator::from_env().unwrap();
         let (_dir, path) = sim_dir(name);
-        let log = simulate_with(sim, b, &self.s, &path, timeout)
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let log = simulate(b, &self.s, &path, timeout).unwrap_or_else(|e| panic!("{name}: {e}"));
         self.replies(name, log)
     }
 
