@@ -6,7 +6,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use multistep_hdl::boards::Family;
 use multistep_hdl::boards::{Board, BOARDS};
 use multistep_hdl::build::BuildReport;
-use multistep_hdl::pnr::Placed;
+use multistep_hdl::pnr::{Nextpnr, Placed};
 use multistep_hdl::report::{
     place, sweep, Baseline, Row, Target, PAPER_DSP_RATIO, PAPER_FF_RATIO, PAPER_LUT_RATIO,
 };
@@ -49,6 +49,11 @@ struct BuildArgs {
     out: PathBuf,
     #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
     format: ReportFormat,
+    /// A native nextpnr of the board's family (e.g. nextpnr-ecp5 from a toolchain bundle)
+    /// instead of YoWASP's: it runs on every core, with --parallel-refine when it has it
+    /// (the ULX3S-85F's 8-axis build needs this; YoWASP's runs on one core for hours)
+    #[arg(long, value_name = "EXE")]
+    nextpnr: Option<PathBuf>,
 }
 
 /// Core parameters shared by both subcommands.
@@ -248,7 +253,8 @@ fn boards() -> anyhow::Result<()> {
 fn build(a: &BuildArgs) -> anyhow::Result<()> {
     let board = Board::by_name(&a.board)?;
     let axes = a.axes.unwrap_or(board.default_axes);
-    let r = multistep_hdl::build::build(board, axes, &a.out)?;
+    let nextpnr = a.nextpnr.clone().map_or(Nextpnr::YoWasp, Nextpnr::Native);
+    let r = multistep_hdl::build::build_with(board, axes, &a.out, nextpnr)?;
     let mut out = std::io::stdout().lock();
     match a.format {
         ReportFormat::Json => writeln!(out, "{}", build_json(&r))?,

@@ -147,3 +147,28 @@ fn build_refuses_bad_boards_and_axes_before_writing() {
         assert!(!out.exists(), "{args:?} wrote files");
     }
 }
+
+#[test]
+fn build_with_a_missing_native_nextpnr_fails_before_synthesis() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("build");
+    let exe = dir.path().join("nextpnr-ecp5");
+    let o = multistep(&[
+        "hdl",
+        "build",
+        "--board",
+        "ulx3s-85f",
+        "--out",
+        out.to_str().unwrap(),
+        "--nextpnr",
+        exe.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("{}: no such executable", exe.display())),
+        "{err}"
+    );
+    assert!(!out.join("yosys.log").exists());
+}

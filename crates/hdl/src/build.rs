@@ -4,7 +4,7 @@
 //! YoWASP flow ([`crate::pnr`]) and reports what it uses and how fast it runs.
 
 use crate::boards::{Board, Family, Pll};
-use crate::pnr::{place_and_route, Flow, Placed};
+use crate::pnr::{place_and_route, Flow, Nextpnr, Placed};
 use crate::{CoreParams, HdlError};
 use multistep_core::tdm::{k_max, rate_move, Axis, TdmConfig};
 use serde::Serialize;
@@ -207,6 +207,17 @@ pub fn sources(b: &Board, params: &CoreParams) -> Result<Vec<(String, String)>, 
 /// report is also written to `out/report.json`. A design that does not fit or misses the
 /// core clock is an error (after the report is written, for the timing case).
 pub fn build(b: &Board, axes: u32, out: &Path) -> Result<BuildReport, HdlError> {
+    build_with(b, axes, out, Nextpnr::YoWasp)
+}
+
+/// [`build`] with the given nextpnr.
+pub fn build_with(
+    b: &Board,
+    axes: u32,
+    out: &Path,
+    nextpnr: Nextpnr,
+) -> Result<BuildReport, HdlError> {
+    nextpnr.check()?;
     let params = b.params(axes)?;
     let files = sources(b, &params)?;
     let rtl = out.join("rtl");
@@ -226,6 +237,7 @@ pub fn build(b: &Board, axes: u32, out: &Path) -> Result<BuildReport, HdlError> 
         constraints: Some(cname.to_string()),
         clock_hz: params.clock_hz,
         pack: true,
+        nextpnr,
     };
     let placed = place_and_route(&flow, out)?;
     let report = report_of(b, &params, &placed)?;

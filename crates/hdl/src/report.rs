@@ -291,6 +291,7 @@ pub fn place(
         constraints: None,
         clock_hz: design.params.clock_hz,
         pack: false,
+        nextpnr: crate::pnr::Nextpnr::YoWasp,
     };
     crate::pnr::place_and_route(&flow, dir)
 }
