@@ -27,7 +27,8 @@
 // Replayed axes (ms_board's ms_stream; tie to 0 when unused):
 //   stream[a]  at its start the axis does not take the calculator: its periods come on
 //              s_push / s_din while s_more is high (from init_ax[a] on), into the same
-//              FIFO and pulse unit; ax_full[a] is that FIFO's full flag.
+//              FIFO and pulse unit; ax_full[a] is that FIFO's full flag, ax_afull[a]
+//              high when it has at most one free place.
 //
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
@@ -67,7 +68,8 @@ module ms_core #(
     input  wire [K*WD-1:0] s_din,
     input  wire [K-1:0]  s_more,
     output wire [K-1:0]  init_ax,
-    output wire [K-1:0]  ax_full
+    output wire [K-1:0]  ax_full,
+    output wire [K-1:0]  ax_afull
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
@@ -110,7 +112,7 @@ module ms_core #(
     reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
     reg  [WST-1:0] cur;       // m's state, read at select
     reg  [WP-1:0]  rd;        // m's piece, read at select
-    wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
+    wire [K-1:0]   fifo_full, fifo_afull, fifo_empty, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
 
     // lowest axis with a pending start (initialised first, one per cycle)
@@ -236,6 +238,7 @@ module ms_core #(
                    ((group & (init_pend | ((calc_act | s_more) & ~fifo_full))) == {K{1'b0}});
     assign init_ax = do_init ? ini_bit : {K{1'b0}};
     assign ax_full = fifo_full;
+    assign ax_afull = fifo_afull;
 
     // ---- per axis: FIFO and pulse unit ----
     genvar a;
@@ -248,7 +251,7 @@ module ms_core #(
                 .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
                 .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
-                .empty(fifo_empty[a]), .full(fifo_full[a]));
+                .empty(fifo_empty[a]), .full(fifo_full[a]), .afull(fifo_afull[a]));
             ms_pulse #(.WP(WD)) u_pulse (
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .more(calc_act[a] || s_more[a]),

@@ -1,4 +1,5 @@
-// ms_fifo: one axis's FIFO of periods (first-word fall-through), depth 2^LD.
+// ms_fifo: one axis's FIFO of periods (first-word fall-through), depth 2^LD; `afull`: at
+// most one free place.
 module ms_fifo #(
     parameter W  = 24,
     parameter LD = 4
@@ -10,7 +11,8 @@ module ms_fifo #(
     input  wire         pop,
     output wire [W-1:0] dout,
     output wire         empty,
-    output wire         full
+    output wire         full,
+    output wire         afull
 );
     reg [W-1:0] mem [0:(1<<LD)-1];
     reg [LD:0]  wp;
@@ -22,6 +24,8 @@ module ms_fifo #(
     assign dout  = mem[rp[LD-1:0]];
     assign empty = (wp == rp);
     assign full  = (wp == {~rp[LD], rp[LD-1:0]});
+    wire [LD:0] used = wp - rp;
+    assign afull = full || (used == {1'b0, {LD{1'b1}}});
     always @(posedge clk) begin
         if (push) mem[wp[LD-1:0]] <= din;
     end
