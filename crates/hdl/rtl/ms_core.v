@@ -118,11 +118,15 @@ module ms_core #(
     // lowest axis with a pending start (initialised first, one per cycle)
     reg          ini_any;
     reg [LK-1:0] ini_ax;
-    // first eligible axis from rr on, wrapping
+    // first eligible axis from rr on, wrapping: the lowest eligible axis at or after rr,
+    // else the lowest eligible axis (two flat priority encoders, no rotation)
     wire [K-1:0] elig = calc_act & ~fifo_full & ~init_pend;
-    reg          pick_any;
-    reg [LK-1:0] pick;
-    integer o, x;
+    wire [K-1:0] from_rr = {K{1'b1}} << rr;   // axes rr .. K-1
+    wire [K-1:0] elig_hi = elig & from_rr;
+    wire         pick_any = |elig;
+    reg [LK-1:0] pick_hi, pick_lo;
+    wire [LK-1:0] pick = (elig_hi != {K{1'b0}}) ? pick_hi : pick_lo;
+    integer o;
     always @(*) begin
         ini_any = 1'b0;
         ini_ax = {LK{1'b0}};
@@ -132,20 +136,19 @@ module ms_core #(
                 ini_ax = o[LK-1:0];
             end
         end
-        pick_any = 1'b0;
-        pick = {LK{1'b0}};
+        pick_hi = {LK{1'b0}};
+        pick_lo = {LK{1'b0}};
         for (o = K - 1; o >= 0; o = o - 1) begin
-            x = {{(32-LK){1'b0}}, rr} + o;
-            if (x >= K) x = x - K;
-            if (elig[x]) begin
-                pick_any = 1'b1;
-                pick = x[LK-1:0];
-            end
+            if (elig_hi[o]) pick_hi = o[LK-1:0];
+            if (elig[o]) pick_lo = o[LK-1:0];
         end
     end
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
-    wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
+    // each axis's piece slot, also kept in flip-flops (st_mem's copy is LUT RAM): the piece
+    // memory's address at select is then one multiplexer after the choice, not a RAM read
+    reg  [K*LS-1:0] slots;
+    wire [LS-1:0] pick_slot = slots[pick*LS +: LS];
 
     // the piece word in the calculator
     wire [1:0]    k_mode  = rd[WP-1:WP-2];
@@ -191,6 +194,8 @@ module ms_core #(
     always @(posedge clk) begin
         if (do_init) st_mem[ini_ax] <= {WST{1'b0}};
         else if (done) st_mem[m] <= next_st;
+        if (do_init) slots[ini_ax*LS +: LS] <= {LS{1'b0}};
+        else if (done) slots[m*LS +: LS] <= next_st[WST-1:WST-LS];
         if (do_sel) begin
             rd  <= pmem[{pick, pick_slot}];
             cur <= st_mem[pick];

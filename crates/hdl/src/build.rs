@@ -314,6 +314,12 @@ mod tests {
     fn one_calculator_serves_the_documented_axes_at_100k() {
         let ulx3s = Board::by_name("ulx3s-25f").unwrap();
         assert!(axes_at_rate(&ulx3s.params(8).unwrap(), 100e3).unwrap() >= 8);
+        // the 85F's 128-period FIFOs are within the model's range
+        let ulx3s85 = Board::by_name("ulx3s-85f").unwrap();
+        let p = ulx3s85.params(8).unwrap();
+        assert_eq!(p.fifo_depth, 128);
+        let k = axes_at_rate(&p, 100e3).unwrap();
+        assert!(k >= 8);
     }
 }
 

@@ -6,15 +6,15 @@
 
 use super::TdmError;
 
-/// Deepest FIFO a board supports.
-pub const MAX_FIFO_DEPTH: usize = 64;
+/// Deepest FIFO a board supports (the ULX3S-85F build's chained axes have 128).
+pub const MAX_FIFO_DEPTH: usize = 128;
 // `% MAX_FIFO_DEPTH` below is a mask (it only spares bounds checks)
 const _: () = assert!(MAX_FIFO_DEPTH.is_power_of_two());
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fifo {
     /// Pushes so far (mod 2^64): push n goes to slot n % MAX_FIFO_DEPTH, so the oldest
-    /// the FIFO may still hold, `depth` pushes back, is in slot `(pushes − depth) % 64`
+    /// the FIFO may still hold, `depth` pushes back, is in slot `(pushes − depth) % MAX_FIFO_DEPTH`
     /// (with fewer than `depth` pushes that slot was never written: a slot after every
     /// push so far, as `depth ≤ MAX_FIFO_DEPTH`). No wrap test per push.
     pushes: usize,
