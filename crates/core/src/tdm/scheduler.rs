@@ -176,13 +176,27 @@ impl Queue {
         need: &[u64],
         next: &mut usize,
     ) -> Option<(u64, usize)> {
+        self.pick_from::<true>(policy, t, need, next)
+    }
+
+    /// [`pick`](Self::pick); with `MAY_END` false the caller knows an axis is left (the
+    /// queue is not empty), and the idle case skips the test for the end.
+    #[inline]
+    pub fn pick_from<const MAY_END: bool>(
+        &mut self,
+        policy: Policy,
+        t: u64,
+        need: &[u64],
+        next: &mut usize,
+    ) -> Option<(u64, usize)> {
         let mut t = t;
         if self.eligible == 0 {
             // nobody has room yet: idle until the earliest room tick, if it is later
             let first = self.ring[self.head % RING];
-            if first == u64::MAX {
+            if MAY_END && first == u64::MAX {
                 return None;
             }
+            debug_assert_ne!(first, u64::MAX, "an axis is left");
             t = t.max(first >> AXIS_BITS);
             let after = self.ring[(self.head + 1) % RING];
             if after >> AXIS_BITS > t {
