@@ -150,9 +150,11 @@ pub struct Axis {
     gen: Source,
     /// Steps of the move (`u64::MAX` when open-ended).
     steps: u64,
+    /// Edges computed ahead, in `ahead[ahead_pos..]` (a short last batch is put at the
+    /// end, so the end is always `LOOKAHEAD`: a compare with a constant, and the read
+    /// needs no bounds check).
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
-    ahead_len: usize,
     prev_edge: u64,
     /// A period needed at least this many ticks after its computation starts is in time
     /// and changes no figure: the least slack so far (at least 0) plus the latency
@@ -200,8 +202,7 @@ impl Axis {
             steps,
             gen,
             ahead: [0; LOOKAHEAD],
-            ahead_pos: 0,
-            ahead_len: 0,
+            ahead_pos: LOOKAHEAD,
             prev_edge: 0,
             on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
@@ -218,8 +219,7 @@ impl Axis {
             Source::Track { now, start } => *now = start.clone(),
             Source::IntTrack { now, start } => *now = start.clone(),
         }
-        self.ahead_pos = 0;
-        self.ahead_len = 0;
+        self.ahead_pos = LOOKAHEAD;
         self.prev_edge = 0;
         self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
@@ -231,13 +231,12 @@ impl Axis {
     /// The exact edge (ticks from the start) of the next step.
     #[inline]
     fn next_edge(&mut self) -> Option<u64> {
-        if self.ahead_pos == self.ahead_len {
+        let pos = self.ahead_pos;
+        if pos >= LOOKAHEAD {
             return self.refill();
         }
-        // `% LOOKAHEAD` spares a bounds check (`ahead_pos < ahead_len <= LOOKAHEAD`)
-        let e = self.ahead[self.ahead_pos % LOOKAHEAD];
-        self.ahead_pos += 1;
-        Some(e)
+        self.ahead_pos = pos + 1;
+        Some(self.ahead[pos])
     }
 
     /// The next edge when the look-ahead is empty: a move refills it with a batch; a
@@ -247,13 +246,14 @@ impl Axis {
     fn refill(&mut self) -> Option<u64> {
         match &mut self.gen {
             Source::Move(g) => {
-                self.ahead_len = g.fill(&mut self.ahead);
-                self.ahead_pos = 0;
-                if self.ahead_len == 0 {
+                let from = LOOKAHEAD - (g.remaining().min(LOOKAHEAD as u64) as usize);
+                if from == LOOKAHEAD {
                     return None;
                 }
-                self.ahead_pos = 1;
-                Some(self.ahead[0])
+                let n = g.fill(&mut self.ahead[from..]);
+                debug_assert_eq!(n, LOOKAHEAD - from);
+                self.ahead_pos = from + 1;
+                Some(self.ahead[from])
             }
             Source::Track { now, .. } => now.next(),
             Source::IntTrack { now, .. } => now.next(),
@@ -347,7 +347,7 @@ impl Axis {
     /// Periods not computed yet (`u64::MAX` while a tracker runs).
     fn remaining(&self) -> u64 {
         match &self.gen {
-            Source::Move(g) => g.remaining() + (self.ahead_len - self.ahead_pos) as u64,
+            Source::Move(g) => g.remaining() + (LOOKAHEAD - self.ahead_pos) as u64,
             Source::Track { now, .. } if !now.rate().is_zero() || now.ramp_profile().is_some() => {
                 u64::MAX
             }
