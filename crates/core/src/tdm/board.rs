@@ -295,8 +295,8 @@ impl Axis {
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
     /// slack is not counted), a new least slack and an underrun (the period is loaded
     /// when it arrives). Returns the rise and the pulse it closes, which the caller hands
-    /// to the sink (out of line, a call that takes the sink would make the loop keep the
-    /// sink's state in memory).
+    /// to the sink (when this call took the sink, the loop reloaded the sink's state
+    /// every period).
     #[inline(never)]
     fn load_late_or_first(
         &mut self,

@@ -50,7 +50,7 @@ impl Policy {
 /// FIFO gets room, the others. Axes with no period left to compute are in neither.
 ///
 /// The waiting axes form a sorted run in a ring: releasing takes from its front, and a
-/// served axis is inserted from the front when its key is below the fourth waiting one,
+/// served axis is inserted from the front when its key is below the fifth waiting one,
 /// else from the back, shifting the keys on that side by one. A served axis's FIFO is
 /// full again, so its room tick is usually among the latest (measured on the bench
 /// loads: 2.3 axes from the back on average with 16 axes, 10 with 64), which makes
