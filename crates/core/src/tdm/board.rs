@@ -150,9 +150,11 @@ pub struct Axis {
     gen: Source,
     /// Steps of the move (`u64::MAX` when open-ended).
     steps: u64,
+    /// Edges computed ahead, in `ahead[ahead_pos..]` (a short last batch is put at the
+    /// end, so the end is always `LOOKAHEAD`: a compare with a constant, and the read
+    /// needs no bounds check).
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
-    ahead_len: usize,
     prev_edge: u64,
     /// A period needed at least this many ticks after its computation starts is in time
     /// and changes no figure: the least slack so far (at least 0) plus the latency
@@ -200,8 +202,7 @@ impl Axis {
             steps,
             gen,
             ahead: [0; LOOKAHEAD],
-            ahead_pos: 0,
-            ahead_len: 0,
+            ahead_pos: LOOKAHEAD,
             prev_edge: 0,
             on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
@@ -218,8 +219,7 @@ impl Axis {
             Source::Track { now, start } => *now = start.clone(),
             Source::IntTrack { now, start } => *now = start.clone(),
         }
-        self.ahead_pos = 0;
-        self.ahead_len = 0;
+        self.ahead_pos = LOOKAHEAD;
         self.prev_edge = 0;
         self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
@@ -231,13 +231,12 @@ impl Axis {
     /// The exact edge (ticks from the start) of the next step.
     #[inline]
     fn next_edge(&mut self) -> Option<u64> {
-        if self.ahead_pos == self.ahead_len {
+        let pos = self.ahead_pos;
+        if pos >= LOOKAHEAD {
             return self.refill();
         }
-        // `% LOOKAHEAD` spares a bounds check (`ahead_pos < ahead_len <= LOOKAHEAD`)
-        let e = self.ahead[self.ahead_pos % LOOKAHEAD];
-        self.ahead_pos += 1;
-        Some(e)
+        self.ahead_pos = pos + 1;
+        Some(self.ahead[pos])
     }
 
     /// The next edge when the look-ahead is empty: a move refills it with a batch; a
@@ -247,13 +246,14 @@ impl Axis {
     fn refill(&mut self) -> Option<u64> {
         match &mut self.gen {
             Source::Move(g) => {
-                self.ahead_len = g.fill(&mut self.ahead);
-                self.ahead_pos = 0;
-                if self.ahead_len == 0 {
+                let from = LOOKAHEAD - (g.remaining().min(LOOKAHEAD as u64) as usize);
+                if from == LOOKAHEAD {
                     return None;
                 }
-                self.ahead_pos = 1;
-                Some(self.ahead[0])
+                let n = g.fill(&mut self.ahead[from..]);
+                debug_assert_eq!(n, LOOKAHEAD - from);
+                self.ahead_pos = from + 1;
+                Some(self.ahead[from])
             }
             Source::Track { now, .. } => now.next(),
             Source::IntTrack { now, .. } => now.next(),
@@ -265,7 +265,7 @@ impl Axis {
     /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
     /// `None` if no step was left.
     #[inline]
-    fn compute<F: FnMut(StepPulse)>(
+    fn compute<const HALF: bool, F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
         t: u64,
@@ -280,29 +280,32 @@ impl Axis {
         if due as i64 - t as i64 >= self.on_time_from {
             // the usual case: in time, no new least slack, after period 1 (so `due` is
             // the previous rise): one compare
-            debug_assert_eq!(due, self.pulse.last_rise());
             // the pulse unit's count is the FIFO's push count
             let n = self.computed();
-            let rise = self.pulse.load_on_time(m, period, sink);
+            let rise = self.pulse.load_on_time_as::<HALF, F>(m, due, period, sink);
             return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
-        let rise = self.load_late_or_first(m, t, lat, due, period, sink)?;
+        let (rise, closed) = self.load_late_or_first(m, t, lat, due, period);
+        if let Some(p) = closed {
+            sink(p);
+        }
         Some((rise, self.fifo.room_after(self.computed())))
     }
 
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
     /// slack is not counted), a new least slack and an underrun (the period is loaded
-    /// when it arrives).
+    /// when it arrives). Returns the rise and the pulse it closes, which the caller hands
+    /// to the sink (when this call took the sink, the loop reloaded the sink's state
+    /// every period).
     #[inline(never)]
-    fn load_late_or_first<F: FnMut(StepPulse)>(
+    fn load_late_or_first(
         &mut self,
         m: usize,
         t: u64,
         lat: u64,
         due: u64,
         period: u64,
-        sink: &mut F,
-    ) -> Option<u64> {
+    ) -> (u64, Option<StepPulse>) {
         let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
@@ -320,8 +323,9 @@ impl Axis {
             self.on_time_from = self.stats.min_slack_ticks.max(0) + lat as i64;
         }
         self.fifo.push_nth(self.computed(), load);
-        let rise = self.pulse.load(m, load, period, sink);
-        Some(rise)
+        let mut closed = None;
+        let rise = self.pulse.load(m, load, period, &mut |p| closed = Some(p));
+        (rise, closed)
     }
 
     /// Periods computed so far (the pulse unit's count, kept once).
@@ -343,7 +347,7 @@ impl Axis {
     /// Periods not computed yet (`u64::MAX` while a tracker runs).
     fn remaining(&self) -> u64 {
         match &self.gen {
-            Source::Move(g) => g.remaining() + (self.ahead_len - self.ahead_pos) as u64,
+            Source::Move(g) => g.remaining() + (LOOKAHEAD - self.ahead_pos) as u64,
             Source::Track { now, .. } if !now.rate().is_zero() || now.ramp_profile().is_some() => {
                 u64::MAX
             }
@@ -485,7 +489,10 @@ impl<'a> Board<'a> {
     /// (tracking) axes have no last step: this run ends with the last move, and cuts
     /// them there (with no move, at once); they run by [`Board::run_tracking`].
     pub fn run<F: FnMut(StepPulse)>(self, sink: F) -> Report {
-        self.run_inner::<false, F>(TICK_LIMIT, &mut [], sink)
+        match self.cfg.step_dir.pulse {
+            PulseShape::HalfInterval => self.run_inner::<false, true, F>(TICK_LIMIT, &mut [], sink),
+            _ => self.run_inner::<false, false, F>(TICK_LIMIT, &mut [], sink),
+        }
     }
 
     /// Runs until the calculator's clock passes `until` (or every axis is done), handing
@@ -510,12 +517,16 @@ impl<'a> Board<'a> {
         if commands.windows(2).any(|w| w[1].tick < w[0].tick) {
             return Err(TdmError::CommandOrder);
         }
-        Ok(self.run_inner::<true, F>(until, commands, sink))
+        Ok(match self.cfg.step_dir.pulse {
+            PulseShape::HalfInterval => self.run_inner::<true, true, F>(until, commands, sink),
+            _ => self.run_inner::<true, false, F>(until, commands, sink),
+        })
     }
 
     /// The engine's loop. `TRACK`: tracking commands and a horizon (`run_tracking`);
-    /// without, `run` drops their checks from the per-edge path.
-    fn run_inner<const TRACK: bool, F: FnMut(StepPulse)>(
+    /// without, `run` drops their checks from the per-edge path. `HALF`: every pulse unit
+    /// has half-interval pulses (the in-time path then does not test the shape).
+    fn run_inner<const TRACK: bool, const HALF: bool, F: FnMut(StepPulse)>(
         self,
         until: u64,
         commands: &mut [TrackCommand],
@@ -552,7 +563,8 @@ impl<'a> Board<'a> {
         // better than `if … { loop { … } }` (2 instructions per period fewer, measured)
         #[allow(clippy::while_immutable_condition)]
         while !empty {
-            let picked = queue.pick(policy, t, need, &mut next);
+            // `run` stops when its last move ends, so the queue is never empty here
+            let picked = queue.pick_from::<TRACK>(policy, t, need, &mut next);
             if TRACK {
                 // commands due by the next decision (or by the horizon when the queue is idle)
                 let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));
@@ -574,7 +586,7 @@ impl<'a> Board<'a> {
             }
             t = now;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute(m, t, lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute::<HALF, F>(m, t, lat, need[m], &mut sink) else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {

@@ -19,6 +19,9 @@ pub struct Fifo {
     /// push so far, as `depth ≤ MAX_FIFO_DEPTH`). No wrap test per push.
     pushes: usize,
     depth: usize,
+    /// `MAX_FIFO_DEPTH − depth`: the room slot is `(pushes + back) % 64` (an add, which
+    /// needs no copy of the count, where a subtract does).
+    back: usize,
     /// Leave tick of each of the last MAX_FIFO_DEPTH pushes; a slot never written reads 0.
     leave: [u64; MAX_FIFO_DEPTH],
 }
@@ -34,6 +37,7 @@ impl Fifo {
         Ok(Fifo {
             pushes: 0,
             depth,
+            back: MAX_FIFO_DEPTH - depth,
             leave: [0; MAX_FIFO_DEPTH],
         })
     }
@@ -87,7 +91,7 @@ impl Fifo {
     /// [`room_tick`](Self::room_tick) after `pushes` pushes counted by the caller.
     #[inline]
     pub fn room_after(&self, pushes: u64) -> u64 {
-        self.leave[(pushes as usize).wrapping_sub(self.depth) % MAX_FIFO_DEPTH]
+        self.leave[(pushes as usize).wrapping_add(self.back) % MAX_FIFO_DEPTH]
     }
 
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t` (by the counting

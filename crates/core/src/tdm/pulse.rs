@@ -102,17 +102,39 @@ impl PulseUnit {
     /// at the previous rise, so the previous pulse falls half the period later (at least
     /// one tick) and merges only when the period is at most one tick. The same result as
     /// `load(axis, last rise, period, sink)` without its first-period and late-load cases.
+    /// `last` is the last rise, which the caller holds already (a load fewer).
     #[inline]
     pub fn load_on_time<F: FnMut(StepPulse)>(
         &mut self,
         axis: usize,
+        last: u64,
+        period: u64,
+        sink: &mut F,
+    ) -> u64 {
+        self.load_on_time_as::<false, F>(axis, last, period, sink)
+    }
+
+    /// [`load_on_time`](Self::load_on_time); `HALF`: the caller knows the shape is
+    /// [`PulseShape::HalfInterval`], so the shape is not tested (the engine's loop is
+    /// compiled per shape).
+    #[inline]
+    pub fn load_on_time_as<const HALF: bool, F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        last: u64,
         period: u64,
         sink: &mut F,
     ) -> u64 {
         debug_assert!(self.steps > 0);
-        let last = self.last_rise;
+        debug_assert_eq!(last, self.last_rise);
+        debug_assert!(!HALF || self.shape == PulseShape::HalfInterval);
+        let shape = if HALF {
+            PulseShape::HalfInterval
+        } else {
+            self.shape
+        };
         let rise = last + period;
-        let (fall, merged) = match self.shape {
+        let (fall, merged) = match shape {
             PulseShape::HalfInterval => (last + (period / 2).max(1), period <= 1),
             PulseShape::Fixed { ticks } => (last + ticks, ticks >= period),
         };
@@ -211,7 +233,8 @@ mod tests {
             for period in [0u64, 1, 2, 3, 4, 5, 1000, 1, 0, 2] {
                 let load = general.last_rise;
                 let want = general.load(2, load, period, &mut |p| a.push(p));
-                assert_eq!(fast.load_on_time(2, period, &mut |p| b.push(p)), want);
+                let last = fast.last_rise();
+                assert_eq!(fast.load_on_time(2, last, period, &mut |p| b.push(p)), want);
                 assert_eq!(fast, general, "{shape:?}, period {period}");
             }
             assert_eq!(a, b, "{shape:?}");

@@ -50,15 +50,20 @@ impl Policy {
 /// FIFO gets room, the others. Axes with no period left to compute are in neither.
 ///
 /// The waiting axes form a sorted run in a ring: releasing takes from its front, and a
-/// served axis is inserted from whichever end is nearer (from the back without looking
-/// further when it lands among the last eight), shifting the keys on that side
-/// by one. A served axis's FIFO is full again, so its room tick is usually among the
-/// latest (measured on the bench loads: 2.3 axes from the back on average with 16 axes,
-/// 10 with 64), which makes insertion cheaper than a heap's or a tournament tree's
-/// O(log k) sifts; a fast axis among slow ones goes in near the front. The worst case
-/// shifts half of the waiting axes.
+/// served axis is inserted from the front when its key is below the fifth waiting one,
+/// else from the back, shifting the keys on that side by one. A served axis's FIFO is
+/// full again, so its room tick is usually among the latest (measured on the bench
+/// loads: 2.3 axes from the back on average with 16 axes, 10 with 64), which makes
+/// insertion cheaper than a heap's or a tournament tree's O(log k) sifts; a fast axis
+/// among slow ones goes in at the front. The worst case (a key just after the first
+/// few) shifts almost every waiting axis.
+// `repr(C)`, scalars first: in this order the engine's loop keeps them in registers
+// (in Rust's order it stored and reloaded two of them per period: 6 instructions)
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Queue {
+    head: usize,
+    tail: usize,
     /// Bit m: axis m has room and periods left.
     eligible: AxisMask,
     /// `(room tick << AXIS_BITS) | m`, ascending from `head` to before `tail` (indices mod
@@ -67,14 +72,12 @@ pub struct Queue {
     /// larger than any key still to come (room ticks after the current tick go in, those
     /// at or before it come out), so a scan from the back stops at `head − 1`.
     ring: [u64; RING],
-    head: usize,
-    tail: usize,
 }
 
 /// At most 64 waiting keys and the MAX after them, with room to spare.
 const RING: usize = 2 * MAX_AXES;
-/// Keys from the back within which an insertion skips the front-or-back choice.
-const NEAR_BACK: usize = 8;
+/// Keys from the front before which an insertion goes in from the front.
+const NEAR_FRONT: usize = 4;
 
 impl Default for Queue {
     fn default() -> Self {
@@ -98,11 +101,10 @@ impl Queue {
             return;
         }
         let key = (room << AXIS_BITS) | m as u64;
-        // among the last few (the usual case) it goes in from the back without finding
-        // the middle; fewer waiting, the slot read is a released one, no larger
-        let near_back = key >= self.ring[self.tail.wrapping_sub(NEAR_BACK) % RING];
-        let mid = self.head + self.tail.wrapping_sub(self.head) % RING / 2;
-        if near_back || key >= self.ring[mid % RING] {
+        // a scan from either end finds the place (it stops at the other end's marker),
+        // so this choice only sets the cost; with fewer than five waiting the slot read
+        // is past the run
+        if key >= self.ring[(self.head + NEAR_FRONT) % RING] {
             self.insert_from_back(key);
         } else {
             self.insert_from_front(key);
@@ -176,13 +178,27 @@ impl Queue {
         need: &[u64],
         next: &mut usize,
     ) -> Option<(u64, usize)> {
+        self.pick_from::<true>(policy, t, need, next)
+    }
+
+    /// [`pick`](Self::pick); with `MAY_END` false the caller knows an axis is left (the
+    /// queue is not empty), and the idle case skips the test for the end.
+    #[inline]
+    pub fn pick_from<const MAY_END: bool>(
+        &mut self,
+        policy: Policy,
+        t: u64,
+        need: &[u64],
+        next: &mut usize,
+    ) -> Option<(u64, usize)> {
         let mut t = t;
         if self.eligible == 0 {
             // nobody has room yet: idle until the earliest room tick, if it is later
             let first = self.ring[self.head % RING];
-            if first == u64::MAX {
+            if MAY_END && first == u64::MAX {
                 return None;
             }
+            debug_assert_ne!(first, u64::MAX, "an axis is left");
             t = t.max(first >> AXIS_BITS);
             let after = self.ring[(self.head + 1) % RING];
             if after >> AXIS_BITS > t {
