@@ -45,7 +45,8 @@ module ms_core #(
     parameter WK  = 68,
     parameter RB  = 2,
     parameter MD  = 16,
-    parameter AW  = 7      // 1 + LK + 5
+    parameter AW  = 7,     // 1 + LK + 5
+    parameter FAST = 0     // registered FIFO flags and a flat choice (large devices)
 ) (
     input  wire          clk,
     input  wire          wr_en,
@@ -118,15 +119,23 @@ module ms_core #(
     // lowest axis with a pending start (initialised first, one per cycle)
     reg          ini_any;
     reg [LK-1:0] ini_ax;
-    // first eligible axis from rr on, wrapping: the lowest eligible axis at or after rr,
-    // else the lowest eligible axis (two flat priority encoders, no rotation)
+    // first eligible axis from rr on, wrapping. FAST = 1: the lowest eligible axis at or
+    // after rr, else the lowest eligible axis (two flat priority encoders); FAST = 0: a
+    // rotation searched in order (fewer cells). The same axis either way.
     wire [K-1:0] elig = calc_act & ~fifo_full & ~init_pend;
     wire [K-1:0] from_rr = {K{1'b1}} << rr;   // axes rr .. K-1
     wire [K-1:0] elig_hi = elig & from_rr;
-    wire         pick_any = |elig;
-    reg [LK-1:0] pick_hi, pick_lo;
-    wire [LK-1:0] pick = (elig_hi != {K{1'b0}}) ? pick_hi : pick_lo;
-    integer o;
+    reg          pick_any;
+    reg [LK-1:0] pick, pick_hi, pick_lo;
+    integer o, x, h;
+    always @(*) begin
+        pick_hi = {LK{1'b0}};
+        pick_lo = {LK{1'b0}};
+        for (h = K - 1; h >= 0; h = h - 1) begin
+            if (elig_hi[h]) pick_hi = h[LK-1:0];
+            if (elig[h]) pick_lo = h[LK-1:0];
+        end
+    end
     always @(*) begin
         ini_any = 1'b0;
         ini_ax = {LK{1'b0}};
@@ -136,19 +145,29 @@ module ms_core #(
                 ini_ax = o[LK-1:0];
             end
         end
-        pick_hi = {LK{1'b0}};
-        pick_lo = {LK{1'b0}};
-        for (o = K - 1; o >= 0; o = o - 1) begin
-            if (elig_hi[o]) pick_hi = o[LK-1:0];
-            if (elig[o]) pick_lo = o[LK-1:0];
+        pick_any = 1'b0;
+        pick = {LK{1'b0}};
+        if (FAST != 0) begin
+            pick_any = (elig != {K{1'b0}});
+            pick = (elig_hi != {K{1'b0}}) ? pick_hi : pick_lo;
+        end else begin
+            for (o = K - 1; o >= 0; o = o - 1) begin
+                x = {{(32-LK){1'b0}}, rr} + o;
+                if (x >= K) x = x - K;
+                if (elig[x]) begin
+                    pick_any = 1'b1;
+                    pick = x[LK-1:0];
+                end
+            end
         end
     end
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
-    // each axis's piece slot, also kept in flip-flops (st_mem's copy is LUT RAM): the piece
-    // memory's address at select is then one multiplexer after the choice, not a RAM read
+    // FAST = 1: each axis's piece slot also kept in flip-flops (st_mem's copy is LUT RAM):
+    // the piece memory's address at select is then one multiplexer after the choice
     reg  [K*LS-1:0] slots;
-    wire [LS-1:0] pick_slot = slots[pick*LS +: LS];
+    wire [LS-1:0] pick_slot = (FAST != 0) ? slots[pick*LS +: LS]
+                                          : st_mem[pick][WST-1:WST-LS];
 
     // the piece word in the calculator
     wire [1:0]    k_mode  = rd[WP-1:WP-2];
@@ -252,7 +271,7 @@ module ms_core #(
             // a replayed axis never has the calculator, so the two pushes never collide
             wire          push = (done && ({1'b0, m} == a)) || s_push[a];
             wire [WD-1:0] din  = s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
-            ms_fifo #(.W(WD), .LD(LF)) u_fifo (
+            ms_fifo #(.W(WD), .LD(LF), .REG(FAST)) u_fifo (
                 .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
                 .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),

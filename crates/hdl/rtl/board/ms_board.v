@@ -117,7 +117,7 @@ module ms_board #(
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
-              .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
+              .WK(WK), .RB(RB), .MD(MD), .AW(AW), .FAST(CHAINS != 0 ? 1 : 0)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
