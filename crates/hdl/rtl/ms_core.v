@@ -27,8 +27,7 @@
 // Replayed axes (ms_board's ms_stream; tie to 0 when unused):
 //   stream[a]  at its start the axis does not take the calculator: its periods come on
 //              s_push / s_din while s_more is high (from init_ax[a] on), into the same
-//              FIFO and pulse unit; ax_full[a] is that FIFO's full flag, ax_afull[a]
-//              high when it has at most one free place.
+//              FIFO and pulse unit; ax_full[a] is that FIFO's full flag.
 //
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
@@ -45,8 +44,7 @@ module ms_core #(
     parameter WK  = 68,
     parameter RB  = 2,
     parameter MD  = 16,
-    parameter AW  = 7,     // 1 + LK + 5
-    parameter FAST = 0     // registered FIFO flags and a flat choice (large devices)
+    parameter AW  = 7      // 1 + LK + 5
 ) (
     input  wire          clk,
     input  wire          wr_en,
@@ -69,8 +67,7 @@ module ms_core #(
     input  wire [K*WD-1:0] s_din,
     input  wire [K-1:0]  s_more,
     output wire [K-1:0]  init_ax,
-    output wire [K-1:0]  ax_full,
-    output wire [K-1:0]  ax_afull
+    output wire [K-1:0]  ax_full
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
@@ -113,29 +110,17 @@ module ms_core #(
     reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
     reg  [WST-1:0] cur;       // m's state, read at select
     reg  [WP-1:0]  rd;        // m's piece, read at select
-    wire [K-1:0]   fifo_full, fifo_afull, fifo_empty, fifo_pop, running;
+    wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
 
     // lowest axis with a pending start (initialised first, one per cycle)
     reg          ini_any;
     reg [LK-1:0] ini_ax;
-    // first eligible axis from rr on, wrapping. FAST = 1: the lowest eligible axis at or
-    // after rr, else the lowest eligible axis (two flat priority encoders); FAST = 0: a
-    // rotation searched in order (fewer cells). The same axis either way.
+    // first eligible axis from rr on, wrapping
     wire [K-1:0] elig = calc_act & ~fifo_full & ~init_pend;
-    wire [K-1:0] from_rr = {K{1'b1}} << rr;   // axes rr .. K-1
-    wire [K-1:0] elig_hi = elig & from_rr;
     reg          pick_any;
-    reg [LK-1:0] pick, pick_hi, pick_lo;
-    integer o, x, h;
-    always @(*) begin
-        pick_hi = {LK{1'b0}};
-        pick_lo = {LK{1'b0}};
-        for (h = K - 1; h >= 0; h = h - 1) begin
-            if (elig_hi[h]) pick_hi = h[LK-1:0];
-            if (elig[h]) pick_lo = h[LK-1:0];
-        end
-    end
+    reg [LK-1:0] pick;
+    integer o, x;
     always @(*) begin
         ini_any = 1'b0;
         ini_ax = {LK{1'b0}};
@@ -147,27 +132,18 @@ module ms_core #(
         end
         pick_any = 1'b0;
         pick = {LK{1'b0}};
-        if (FAST != 0) begin
-            pick_any = (elig != {K{1'b0}});
-            pick = (elig_hi != {K{1'b0}}) ? pick_hi : pick_lo;
-        end else begin
-            for (o = K - 1; o >= 0; o = o - 1) begin
-                x = {{(32-LK){1'b0}}, rr} + o;
-                if (x >= K) x = x - K;
-                if (elig[x]) begin
-                    pick_any = 1'b1;
-                    pick = x[LK-1:0];
-                end
+        for (o = K - 1; o >= 0; o = o - 1) begin
+            x = {{(32-LK){1'b0}}, rr} + o;
+            if (x >= K) x = x - K;
+            if (elig[x]) begin
+                pick_any = 1'b1;
+                pick = x[LK-1:0];
             end
         end
     end
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
-    // FAST = 1: each axis's piece slot also kept in flip-flops (st_mem's copy is LUT RAM):
-    // the piece memory's address at select is then one multiplexer after the choice
-    reg  [K*LS-1:0] slots;
-    wire [LS-1:0] pick_slot = (FAST != 0) ? slots[pick*LS +: LS]
-                                          : st_mem[pick][WST-1:WST-LS];
+    wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
 
     // the piece word in the calculator
     wire [1:0]    k_mode  = rd[WP-1:WP-2];
@@ -213,8 +189,6 @@ module ms_core #(
     always @(posedge clk) begin
         if (do_init) st_mem[ini_ax] <= {WST{1'b0}};
         else if (done) st_mem[m] <= next_st;
-        if (do_init) slots[ini_ax*LS +: LS] <= {LS{1'b0}};
-        else if (done) slots[m*LS +: LS] <= next_st[WST-1:WST-LS];
         if (do_sel) begin
             rd  <= pmem[{pick, pick_slot}];
             cur <= st_mem[pick];
@@ -262,7 +236,6 @@ module ms_core #(
                    ((group & (init_pend | ((calc_act | s_more) & ~fifo_full))) == {K{1'b0}});
     assign init_ax = do_init ? ini_bit : {K{1'b0}};
     assign ax_full = fifo_full;
-    assign ax_afull = fifo_afull;
 
     // ---- per axis: FIFO and pulse unit ----
     genvar a;
@@ -271,11 +244,11 @@ module ms_core #(
             // a replayed axis never has the calculator, so the two pushes never collide
             wire          push = (done && ({1'b0, m} == a)) || s_push[a];
             wire [WD-1:0] din  = s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
-            ms_fifo #(.W(WD), .LD(LF), .REG(FAST)) u_fifo (
+            ms_fifo #(.W(WD), .LD(LF)) u_fifo (
                 .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
                 .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
-                .empty(fifo_empty[a]), .full(fifo_full[a]), .afull(fifo_afull[a]));
+                .empty(fifo_empty[a]), .full(fifo_full[a]));
             ms_pulse #(.WP(WD)) u_pulse (
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .more(calc_act[a] || s_more[a]),

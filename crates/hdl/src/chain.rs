@@ -186,7 +186,6 @@ impl ChainedMove {
                 go: 0,
                 least_slack: i64::MIN,
                 first_late: Some(0),
-                late_by: 0,
             },
         )
     }

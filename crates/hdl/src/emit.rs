@@ -152,7 +152,7 @@ fn tdm_top(p: &CoreParams, w: &Widths) -> String {
          \x20   wire ready;\n\
          \x20   /* verilator lint_off UNUSED */\n\
          \x20   wire pending;\n\
-         \x20   wire [{k1}:0] init_ax, ax_full, ax_afull;\n\
+         \x20   wire [{k1}:0] init_ax, ax_full;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = ready;\n\
          \x20   ms_core #({}) u_core (\n\
@@ -160,8 +160,7 @@ fn tdm_top(p: &CoreParams, w: &Widths) -> String {
          \x20       .ready(ready), .pending(pending), .go(go), .halt({k}'d0), .divert({k}'d0),\n\
          \x20       .div_slot({ks}'d0), .step(step), .dir(dir),\n\
          \x20       .busy(busy), .underrun(underrun), .stream({k}'d0), .s_push({k}'d0),\n\
-         \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full),\n\
-         \x20       .ax_afull(ax_afull));\n\
+         \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full));\n\
          endmodule\n",
         ports(p, w),
         core_params(w, p.axes, w.lk),
@@ -187,7 +186,7 @@ fn indep_top(p: &CoreParams, w: &Widths) -> String {
          \x20   wire            is_start = is_cmd && (wr_addr[4:0] == 5'd2);\n\
          \x20   wire [{k1}:0] rdy, pend;\n\
          \x20   /* verilator lint_off UNUSED */\n\
-         \x20   wire [{k1}:0] init_ax, ax_full, ax_afull;\n\
+         \x20   wire [{k1}:0] init_ax, ax_full;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = (|pend) && ((rdy | ~pend) == {{{k}{{1'b1}}}});\n",
         ports(p, w),
@@ -208,8 +207,7 @@ fn indep_top(p: &CoreParams, w: &Widths) -> String {
              \x20       .divert(1'b0), .div_slot({ls}'d0), .step(step[{a}]),\n\
              \x20       .dir(dir[{a}]), .busy(busy[{a}]), .underrun(underrun[{a}]),\n\
              \x20       .stream(1'b0), .s_push(1'b0), .s_din({wd}'d0), .s_more(1'b0),\n\
-             \x20       .init_ax(init_ax[{a}]), .ax_full(ax_full[{a}]),\n\
-             \x20       .ax_afull(ax_afull[{a}]));\n",
+             \x20       .init_ax(init_ax[{a}]), .ax_full(ax_full[{a}]));\n",
             lk = w.lk,
             ls = w.ls,
             wd = w.wd

@@ -7,10 +7,8 @@
 //!
 //! - **Walk**: from a record's first tick `lo` the chain reaches step i's edge `t_i` after
 //!   `t_i − lo` clocks, one more for the edge; a piece's record takes `load` clocks first.
-//! - **Stage**: the period the chain makes at a clock is held one clock in a register
-//!   and goes into the FIFO at the next ([`STAGE`]); the stage counts as a FIFO place.
-//! - **FIFO**: step i's period is made only after period `i − depth` left the FIFO, which
-//!   the pulse unit takes at step `i − depth − 1`'s edge.
+//! - **FIFO**: step i's period goes into a FIFO of `depth` only after period `i − depth`
+//!   left it, which the pulse unit takes at step `i − depth − 1`'s edge.
 //! - **Start**: the group goes when the FIFO is full (or holds the whole move).
 //! - **Underrun**: the pulse unit takes period i at step `i − 1`'s edge; a later push is
 //!   an underrun there (its edges are late, none early).
@@ -18,10 +16,6 @@
 //! A slow tail after a fast stretch is what starves it: a FIFO full of short periods is
 //! little lead, and periods longer than the lead come late. The host streams such moves.
 //! No allocation: the edges and pieces are caller slices.
-
-/// Clocks from the chain making a period to that period going into the FIFO (the
-/// register between them keeps the FIFO's full flag and the pulse unit on separate paths).
-pub const STAGE: u64 = 1;
 
 /// A record's steps `first..=last` (1-based) and the tick `lo` it starts walking from
 /// (`int::ChainPiece`'s fields; step N's own record has `lo` at its tick).
@@ -42,9 +36,6 @@ pub struct ChainTimeline {
     pub least_slack: i64,
     /// The first step (0-based) whose period comes late, if any.
     pub first_late: Option<usize>,
-    /// Clocks that first late period comes late by: its edge, and every later one, is
-    /// that much late (0 when none is late).
-    pub late_by: u64,
 }
 
 /// The timeline of a chain making `edges` (ticks from the move's start, step i at
@@ -85,17 +76,16 @@ pub fn chain_timeline(
                 if i > depth {
                     c = c.max(g + edge(i - depth - 1) + 1);
                 }
-                let slack = (g + edge(i - 1)) as i64 - (c + STAGE) as i64;
+                let slack = (g + edge(i - 1)) as i64 - c as i64;
                 if slack < out.least_slack {
                     out.least_slack = slack;
                 }
                 if slack < 0 && out.first_late.is_none() {
                     out.first_late = Some(i - 1);
-                    out.late_by = slack.unsigned_abs();
                 }
             }
             if go.is_none() && (i == depth || i == n) {
-                go = Some(c + STAGE + 1);
+                go = Some(c + 1);
             }
             c += 1;
             e = t + 1;

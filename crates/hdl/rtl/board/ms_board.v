@@ -96,8 +96,7 @@ module ms_board #(
     wire [K*32-1:0] pos, hall_pos;
     wire [K*WD-1:0] period;
     // the replay units
-    wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full,
-                  ax_afull;
+    wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
     wire [K*(LBR+1)-1:0] s_free;
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
@@ -117,12 +116,12 @@ module ms_board #(
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
-              .WK(WK), .RB(RB), .MD(MD), .AW(AW), .FAST(CHAINS != 0 ? 1 : 0)) u_core (
+              .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
         .stream(s_armed), .s_push(s_push), .s_din(s_din), .s_more(s_more), .init_ax(init_ax),
-        .ax_full(ax_full), .ax_afull(ax_afull));
+        .ax_full(ax_full));
     // a bulk frame's axis: the StreamData register 0x2000 | axis << 4 | 7
     wire          b_data = (bulk_addr[15:10] == 6'b001000) && (bulk_addr[3:0] == 4'h7);
     wire [5:0]    b_ax   = bulk_addr[9:4];
@@ -141,8 +140,7 @@ module ms_board #(
                     .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
                     .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
                     .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
-                    .afull(ax_afull[a]), .armed(s_armed[a]), .bok(s_bok[a]),
-                    .free(s_free[a*(LBR+1) +: LBR+1]),
+                    .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
                     .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
                     .fault(s_fault[a]));
             end else if (LB > 0) begin : replay
@@ -202,6 +200,6 @@ module ms_board #(
     assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_chain) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ (^ax_afull) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_chain) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

@@ -68,9 +68,7 @@ module ms_chain #(
     wire [W3-1:0] d4x = {{(W3-W4){d4[W4-1]}}, d4};
     wire [WM-1:0] d2m = {{(WM-W2){d2[W2-1]}}, d2};
     wire [WR-1:0] mx  = {{(WR-WM){m[WM-1]}}, m};
-    // the operand follows `due`, not `emit`: R is written only when it advances, and then
-    // due means emit, so the FIFO's full flag reaches only the enables (not the carry chain)
-    wire [WR-1:0] r_n = r + ((due && !at_end) ? mx : d1x);
+    wire [WR-1:0] r_n = r + ((emit && !at_end) ? mx : d1x);
     wire [WT-1:0] gap = e - last;
     wire          bad = (e <= last) || (gap[WT-1:WD] != {(WT-WD){1'b0}});
     assign push   = emit && !bad;

@@ -5,9 +5,6 @@
 // records (RECB bytes each, a byte a clock while the chain rests), starts each record once
 // it is complete, and pushes the chain's periods. Either way the steps are counted against
 // the armed count, so the axis ends, underruns and halts as for any streamed move.
-// The chain's periods pass one register (the stage) before the FIFO, so no path runs from
-// the FIFO's pointers through the chain back into the pulse unit: the chain sees the FIFO
-// full when it and the stage hold its depth (`afull` with a period in the stage).
 module ms_chain_axis #(
     parameter WD = 24,
     parameter LB = 12,
@@ -34,7 +31,6 @@ module ms_chain_axis #(
     input  wire          init,
     input  wire          halt,
     input  wire          full,
-    input  wire          afull,     // the FIFO has at most one free place
     output wire          armed,
     output wire          bok,
     output wire [LB:0]   free,
@@ -45,24 +41,19 @@ module ms_chain_axis #(
 );
     // a record: lo, hi (WT), count (WN), R (WR), D1..D4, M (WR): multistep_hdl::chain
     localparam RECB = (2 * WT + WN + 2 * WR + W1 + W2 + W3 + W4) / 8;
-    wire          avail, feed, s_push, s_fault, c_busy, c_emit, c_fault;
+    wire          avail, feed, s_push, s_fault, c_busy, c_push, c_fault;
     wire [7:0]    rbyte;
-    wire [WD-1:0] s_period, c_out;
-    reg           c_push;    // the stage holds a period: it goes into the FIFO now
-    reg  [WD-1:0] c_period;
+    wire [WD-1:0] s_period, c_period;
     reg  [8:0]    got;     // bytes of the record taken
     reg           ld;      // the byte taken last clock is at rbyte
     initial begin
         got = 9'd0;
         ld = 1'b0;
-        c_push = 1'b0;
     end
     wire pop = feed && !c_busy && (got != RECB[8:0]) && avail;
     wire go  = feed && !c_busy && (got == RECB[8:0]) && !ld;
     always @(posedge clk) begin
         ld <= pop;
-        c_push   <= c_emit && !(rst || init || halt);
-        c_period <= c_out;
         if (rst || arm || arm_ch || init || halt || go) got <= 9'd0;
         else if (pop) got <= got + 1'b1;
     end
@@ -77,8 +68,7 @@ module ms_chain_axis #(
     ms_chain #(.WR(WR), .W1(W1), .W2(W2), .W3(W3), .W4(W4), .WM(WR), .WT(WT), .WN(WN),
                .WD(WD)) u_chain (
         .clk(clk), .rst(rst), .init(init), .halt(halt), .ld(ld), .ld_byte(rbyte), .go(go),
-        .full(full || (c_push && afull)), .busy(c_busy), .push(c_emit), .period(c_out),
-        .fault(c_fault));
+        .full(full), .busy(c_busy), .push(c_push), .period(c_period), .fault(c_fault));
     assign push   = s_push || c_push;
     assign period = c_push ? c_period : s_period;
     assign fault  = s_fault || c_fault;
