@@ -14,12 +14,12 @@ const _: () = assert!(MAX_FIFO_DEPTH.is_power_of_two());
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fifo {
     /// Pushes so far (mod 2^64): push n goes to slot n % MAX_FIFO_DEPTH, so the oldest
-    /// the FIFO may still hold, `depth` pushes back, is in slot `(pushes − depth) % MAX_FIFO_DEPTH`
-    /// (with fewer than `depth` pushes that slot was never written: a slot after every
+    /// the FIFO may still hold, `depth` pushes back, is in slot
+    /// `(pushes − depth) % MAX_FIFO_DEPTH` (with fewer than `depth` pushes that slot was never written: a slot after every
     /// push so far, as `depth ≤ MAX_FIFO_DEPTH`). No wrap test per push.
     pushes: usize,
     depth: usize,
-    /// `MAX_FIFO_DEPTH − depth`: the room slot is `(pushes + back) % 64` (an add, which
+    /// `MAX_FIFO_DEPTH − depth`: the room slot is `(pushes + back) % MAX_FIFO_DEPTH` (an add, which
     /// needs no copy of the count, where a subtract does).
     back: usize,
     /// Leave tick of each of the last MAX_FIFO_DEPTH pushes; a slot never written reads 0.
