@@ -694,13 +694,23 @@ fn plan_edges(profile: &str, steps: u64, t: (f64, f64, f64)) -> Vec<u64> {
 
 /// `plan`'s edges of a move at the board's 50 MHz.
 fn plan_edges_of(profile: &str, steps: u64, params: multistep_core::MoveParams) -> Vec<u64> {
+    plan_edges_at(profile, steps, params, 50e6)
+}
+
+/// `plan`'s edges of a move at `clock_hz`.
+fn plan_edges_at(
+    profile: &str,
+    steps: u64,
+    params: multistep_core::MoveParams,
+    clock_hz: f64,
+) -> Vec<u64> {
     let spec = multistep_core::MoveSpec {
         profile: Some(profile),
         steps: Some(steps),
         params,
         ..Default::default()
     };
-    multistep_core::edges(&spec.resolve().unwrap(), 50e6)
+    multistep_core::edges(&spec.resolve().unwrap(), clock_hz)
         .unwrap()
         .collect()
 }
@@ -782,8 +792,18 @@ fn scurve_moves_are_computed_on_a_board_with_chain_units() {
         "{stats:?}"
     );
     let [ex, ey] = r.move_edges([0, 1], 5000);
-    same_edges("X", &ex, &plan_edges("scurve4", 3000, (0.02, 0.02, 0.02)));
-    same_edges("Y", &ey, &plan_edges("scurve", 2000, (0.02, 0.01, 0.02)));
+    // the 85F's clock is 30 MHz
+    let plan = |profile, steps, t: (f64, f64, f64)| {
+        let times = multistep_core::MoveParams {
+            accel_time: Some(t.0),
+            cruise_time: Some(t.1),
+            decel_time: Some(t.2),
+            ..Default::default()
+        };
+        plan_edges_at(profile, steps, times, 30e6)
+    };
+    same_edges("X", &ex, &plan("scurve4", 3000, (0.02, 0.02, 0.02)));
+    same_edges("Y", &ey, &plan("scurve", 2000, (0.02, 0.01, 0.02)));
     // a sine move is not polynomial: it streams on the same board
     r.req("move X -500 profile=sine accel=0.01 decel=0.01");
     let x = r.wait_idle("X");

@@ -8,7 +8,7 @@
 mod common;
 
 use common::host::Host;
-use common::{board_move, params, Rng, HZ};
+use common::{board_move, params, Rng};
 use multistep_core::{Family, Move, PhaseMove};
 use multistep_hdl::board_sim::BoardLog;
 use multistep_hdl::boards::Board;
@@ -22,6 +22,11 @@ use multistep_hdl::BoardTop;
 const TICK0: u64 = 1;
 /// The ULX3S's host link.
 const BAUD: u32 = 3_000_000;
+
+/// The ULX3S-85F's core clock: moves are planned in its ticks.
+fn hz() -> u64 {
+    Board::by_name("ulx3s-85f").unwrap().clock_hz() as u64
+}
 
 /// The ULX3S-85F's board top level with `k` axes (its 128-period FIFOs, its 3 Mbaud).
 fn chain_board(k: u32) -> BoardTop {
@@ -38,7 +43,7 @@ fn random_move(rng: &mut Rng, kind: u64, vmax: u64) -> (Move<'static>, ChainedMo
     let kind = [4, 5, 7, 8][kind as usize % 4];
     for _ in 0..50 {
         let mv = board_move(rng, kind, vmax);
-        if let Ok(c) = ChainedMove::plan(&mv, HZ, 24, &CHAIN_LAYOUT) {
+        if let Ok(c) = ChainedMove::plan(&mv, hz(), 24, &CHAIN_LAYOUT) {
             if c.steps() > 2 && c.keeps_up(128) {
                 return (mv, c);
             }
@@ -199,7 +204,7 @@ fn chains_register_and_a_streamed_move_after_a_chained_one() {
     let mut rng = Rng(0xc4a1_5eed);
     let (_, c) = random_move(&mut rng, 0, 80_000);
     let mv = Move::Phase(PhaseMove::new(300, Family::Sine, 1e-3, 1e-3, 1e-3));
-    let s = StreamedMove::plan(&mv, HZ, 24).unwrap();
+    let s = StreamedMove::plan(&mv, hz(), 24).unwrap();
     let mut h = Host::new();
     let chains = h.read(Reg::Board(BoardReg::Chains));
     h.write(Reg::Core(core_addr(&w, true, 0, 1)), 1 << 31);
@@ -267,7 +272,7 @@ fn a_slow_tail_underruns_where_the_chain_model_says() {
         0.001,
         0.002,
     ));
-    let m = ChainedMove::plan(&mv, HZ, 24, &CHAIN_LAYOUT).unwrap();
+    let m = ChainedMove::plan(&mv, hz(), 24, &CHAIN_LAYOUT).unwrap();
     let predicted = m.timeline(16).first_late.expect("the model says late");
     assert!(m.keeps_up(128), "{:?}", m.timeline(128));
     let all = [m.records];
