@@ -548,7 +548,8 @@ impl<'a> Board<'a> {
 
         let policy = self.cfg.policy;
         let mut t = 0u64;
-        let mut next = 0usize;
+        // the axis served last (round-robin goes on after it)
+        let mut last = usize::MAX;
         let mut cmd = 0usize;
         let mut done = [false; MAX_AXES];
         let mut moves_left = self
@@ -564,7 +565,7 @@ impl<'a> Board<'a> {
         #[allow(clippy::while_immutable_condition)]
         while !empty {
             // `run` stops when its last move ends, so the queue is never empty here
-            let picked = queue.pick_from::<TRACK>(policy, t, need, &mut next);
+            let picked = queue.pick_from::<TRACK>(policy, t, need, last);
             if TRACK {
                 // commands due by the next decision (or by the horizon when the queue is idle)
                 let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));
@@ -585,6 +586,7 @@ impl<'a> Board<'a> {
                 break;
             }
             t = now;
+            last = m;
             let a = &mut self.axes[m];
             let Some((rise, room)) = a.compute::<HALF, F>(m, t, lat, need[m], &mut sink) else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
