@@ -113,11 +113,14 @@ impl Queue {
 
     // Indices count mod 2^64, a multiple of RING, so `i % RING` wraps correctly.
 
-    /// The later keys move up one slot, the first over the MAX, which is put back after.
+    /// The later keys move up one slot, the first over the MAX, which is put after them
+    /// first (the new tail then stays in a register: the loop reloaded the old one twice).
     #[inline]
     fn insert_from_back(&mut self, key: u64) {
         // j: the free slot, kept reduced mod RING
         let mut j = self.tail % RING;
+        let tail = (j + 1) % RING;
+        self.ring[tail] = u64::MAX;
         loop {
             let i = j.wrapping_sub(1) % RING;
             let before = self.ring[i];
@@ -128,8 +131,7 @@ impl Queue {
             j = i;
         }
         self.ring[j] = key;
-        self.tail = (self.tail + 1) % RING;
-        self.ring[self.tail] = u64::MAX;
+        self.tail = tail;
     }
 
     /// The earlier keys move down one slot, into the one before `head`.
