@@ -155,7 +155,10 @@ pub struct Axis {
     /// needs no bounds check).
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
-    prev_edge: u64,
+    /// Rise tick minus edge tick of the last step loaded (the group's start until an
+    /// underrun delays the axis): the next rise, in time, is its edge plus this, so a
+    /// period needs no previous edge stored.
+    shift: u64,
     /// A period needed at least this many ticks after its computation starts is in time
     /// and changes no figure: the least slack so far (at least 0) plus the latency
     /// (`i64::MAX` until two periods are computed, so period 1 and 2 take the general
@@ -203,7 +206,7 @@ impl Axis {
             gen,
             ahead: [0; LOOKAHEAD],
             ahead_pos: LOOKAHEAD,
-            prev_edge: 0,
+            shift: 0,
             on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
             pulse: PulseUnit::default(),
@@ -220,7 +223,7 @@ impl Axis {
             Source::IntTrack { now, start } => *now = start.clone(),
         }
         self.ahead_pos = LOOKAHEAD;
-        self.prev_edge = 0;
+        self.shift = 0;
         self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
         self.pulse = PulseUnit::new(shape);
@@ -274,8 +277,9 @@ impl Axis {
         sink: &mut F,
     ) -> Option<(u64, u64)> {
         let edge = self.next_edge()?;
-        let period = edge - self.prev_edge;
-        self.prev_edge = edge;
+        // `due` is the previous rise, the previous edge plus `shift`
+        let rise = edge + self.shift;
+        let period = rise - due;
         // ticks are below 2^57 (checked by the board): the difference fits
         if due as i64 - t as i64 >= self.on_time_from {
             // the usual case: in time, no new least slack, after period 1 (so `due` is
@@ -286,6 +290,7 @@ impl Axis {
             return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
         let (rise, closed) = self.load_late_or_first(m, t, lat, due, period);
+        self.shift = rise - edge;
         if let Some(p) = closed {
             sink(p);
         }
@@ -544,6 +549,10 @@ impl<'a> Board<'a> {
         }
         let start = self.start_tick();
         need[..k].fill(start);
+        for a in self.axes.iter_mut() {
+            // step 0 "rises" at the start
+            a.shift = start;
+        }
         let need = &mut need[..k];
 
         let policy = self.cfg.policy;
