@@ -283,10 +283,11 @@ impl Axis {
         // ticks are below 2^57 (checked by the board): the difference fits
         if due as i64 - t as i64 >= self.on_time_from {
             // the usual case: in time, no new least slack, after period 1 (so `due` is
-            // the previous rise): one compare
-            // the pulse unit's count is the FIFO's push count
+            // the previous rise): one compare. The pulse unit's count is the FIFO's push
+            // count; its rises stay with the caller (`need`) and the FIFO until
+            // `resume_pulse`
             let n = self.computed();
-            let rise = self.pulse.load_on_time_as::<HALF, F>(m, due, period, sink);
+            self.pulse.load_kept::<HALF, F>(m, due, period, sink);
             return Some((rise, self.fifo.push_nth_then_room(n, due)));
         }
         let (rise, closed) = self.load_late_or_first(m, t, lat, due, period);
@@ -311,6 +312,7 @@ impl Axis {
         due: u64,
         period: u64,
     ) -> (u64, Option<StepPulse>) {
+        self.resume_pulse(due);
         let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
@@ -333,6 +335,15 @@ impl Axis {
         (rise, closed)
     }
 
+    /// Hands the pulse unit the rises of its in-time loads: `last` is the last rise, and
+    /// the last period was loaded at the tick the FIFO holds for it.
+    fn resume_pulse(&mut self, last: u64) {
+        let n = self.computed();
+        if n > 0 {
+            self.pulse.resume(last, self.fifo.leave_of(n - 1));
+        }
+    }
+
     /// Periods computed so far (the pulse unit's count, kept once).
     #[inline]
     fn computed(&self) -> u64 {
@@ -342,6 +353,7 @@ impl Axis {
     /// Closes the last pulse, which rises at `rise` (the move is computed), and records
     /// the pulse unit's figures.
     fn finish<F: FnMut(StepPulse)>(&mut self, m: usize, rise: u64, sink: &mut F) {
+        self.resume_pulse(rise);
         self.pulse.finish(m, sink);
         self.stats.steps = self.computed();
         self.stats.last_rise = rise;
