@@ -565,7 +565,6 @@ impl<'a> Board<'a> {
             // step 0 "rises" at the start
             a.shift = start;
         }
-        let need = &mut need[..k];
 
         let policy = self.cfg.policy;
         let mut t = 0u64;
@@ -586,7 +585,7 @@ impl<'a> Board<'a> {
         #[allow(clippy::while_immutable_condition)]
         while !empty {
             // `run` stops when its last move ends, so the queue is never empty here
-            let picked = queue.pick_from::<TRACK>(policy, t, need, last);
+            let picked = queue.pick_from::<TRACK>(policy, t, &need, last);
             if TRACK {
                 // commands due by the next decision (or by the horizon when the queue is idle)
                 let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));

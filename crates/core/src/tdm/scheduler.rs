@@ -5,6 +5,7 @@
 //! the calculator idles until the earliest room tick.
 
 use super::TdmError;
+use core::num::NonZeroU64;
 
 /// Most axes one board holds: one bit each in the eligible mask.
 pub const MAX_AXES: usize = 64;
@@ -177,7 +178,7 @@ impl Queue {
         &mut self,
         policy: Policy,
         t: u64,
-        need: &[u64],
+        need: &[u64; MAX_AXES],
         last: usize,
     ) -> Option<(u64, usize)> {
         self.pick_from::<true>(policy, t, need, last)
@@ -190,7 +191,7 @@ impl Queue {
         &mut self,
         policy: Policy,
         t: u64,
-        need: &[u64],
+        need: &[u64; MAX_AXES],
         last: usize,
     ) -> Option<(u64, usize)> {
         let mut t = t;
@@ -223,7 +224,7 @@ impl Queue {
 
     /// The policy's choice among the axes of `mask` (at least two); `last` served last.
     #[inline]
-    fn choose(policy: Policy, mask: AxisMask, need: &[u64], last: usize) -> u64 {
+    fn choose(policy: Policy, mask: AxisMask, need: &[u64; MAX_AXES], last: usize) -> u64 {
         match policy {
             Policy::RoundRobin => {
                 // the pointer: after the last axis it reads k, which counts as 0 (bits
@@ -237,14 +238,18 @@ impl Queue {
                     % AxisMask::BITS as u64
             }
             Policy::EarliestDeadline => {
-                // (need, axis) packed in one key: the smallest is the earliest, then lowest m
-                let (mut bits, mut best) = (mask, u64::MAX);
-                while bits != 0 {
-                    let m = bits.trailing_zeros() as u64;
-                    best = best.min((need[m as usize] << AXIS_BITS) | m);
+                // axes in increasing order, a later one only if strictly earlier: ties go
+                // to the lowest m (a nonzero mask's lowest bit is below 64: no bounds check)
+                let (mut bits, mut best, mut earliest) = (mask, 0, u64::MAX);
+                while let Some(b) = NonZeroU64::new(bits) {
+                    let m = b.trailing_zeros() as u64;
+                    let due = need[m as usize];
+                    if due < earliest {
+                        (best, earliest) = (m, due);
+                    }
                     bits &= bits - 1;
                 }
-                best & AXIS_FIELD
+                best
             }
         }
     }
@@ -272,9 +277,16 @@ mod tests {
         q
     }
 
+    /// `need` for the first axes, 0 for the others.
+    fn deadlines(first: &[u64]) -> [u64; MAX_AXES] {
+        let mut need = [0; MAX_AXES];
+        need[..first.len()].copy_from_slice(first);
+        need
+    }
+
     #[test]
     fn round_robin_goes_on_from_the_axis_after_the_last_served() {
-        let need = [9, 1, 5, 7];
+        let need = deadlines(&[9, 1, 5, 7]);
         let rr = Policy::RoundRobin;
         let mut q = queue(&[0, 50, u64::MAX, 0], 10);
         // axis 0 served last; axis 1 has no room until 50, axis 2 is done: axis 3
@@ -294,7 +306,7 @@ mod tests {
 
     #[test]
     fn earliest_deadline_serves_the_axis_that_runs_dry_first() {
-        let need = [9, 1, 5, 5];
+        let need = deadlines(&[9, 1, 5, 5]);
         let edf = Policy::EarliestDeadline;
         let last = usize::MAX;
         let mut q = queue(&[0, 50, 0, 0], 10);
@@ -318,7 +330,7 @@ mod tests {
         for (m, &r) in ticks.iter().enumerate() {
             q.insert(m, r, 1);
         }
-        let need = [0u64; 10];
+        let need = [0u64; MAX_AXES];
         let (mut got, mut now) = (std::vec::Vec::new(), 0);
         while let Some((t, m)) = q.pick(Policy::EarliestDeadline, now, &need, 0) {
             got.push((t, m));
@@ -343,7 +355,7 @@ mod tests {
             };
             let mut q = Queue::default();
             let mut room = [0u64; K];
-            let mut need = [0u64; K];
+            let mut need = [0u64; MAX_AXES];
             let mut left = [0u64; K];
             for m in 0..K {
                 room[m] = rand(3000);
