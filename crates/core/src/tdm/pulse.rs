@@ -158,14 +158,23 @@ impl PulseUnit {
         } else {
             self.shape
         };
-        let (fall, merged) = match shape {
-            PulseShape::HalfInterval => (last + (period / 2).max(1), period <= 1),
-            PulseShape::Fixed { ticks } => (last + ticks, ticks >= period),
+        // merging is rare (a period of one tick or a wide fixed pulse): a branch, not an
+        // add; half a period of 0 both merges and widens the pulse to one tick
+        let fall = match shape {
+            PulseShape::HalfInterval => match period / 2 {
+                0 => {
+                    self.merged += 1;
+                    last + 1
+                }
+                half => last + half,
+            },
+            PulseShape::Fixed { ticks } => {
+                if ticks >= period {
+                    self.merged += 1;
+                }
+                last + ticks
+            }
         };
-        // rare (a period of one tick or a wide fixed pulse): a branch, not an add
-        if merged {
-            self.merged += 1;
-        }
         sink(StepPulse {
             axis,
             step: self.steps,
