@@ -14,6 +14,7 @@
 //! instead of two) is counted as merged.
 
 pub use crate::step_dir::PulseShape;
+use core::num::NonZeroU64;
 
 /// One STEP pulse as it leaves the board; ticks count from the board's tick 0 (when the
 /// move is loaded and DIR is set).
@@ -161,12 +162,14 @@ impl PulseUnit {
         // merging is rare (a period of one tick or a wide fixed pulse): a branch, not an
         // add; half a period of 0 both merges and widens the pulse to one tick
         let fall = match shape {
-            PulseShape::HalfInterval => match period / 2 {
-                0 => {
+            // as a NonZeroU64 the usual arm falls through (tested as `half == 0` or
+            // `half != 0`, it took one jump more per period)
+            PulseShape::HalfInterval => match NonZeroU64::new(period / 2) {
+                Some(half) => last + half.get(),
+                None => {
                     self.merged += 1;
                     last + 1
                 }
-                half => last + half,
             },
             PulseShape::Fixed { ticks } => {
                 if ticks >= period {
