@@ -89,6 +89,12 @@ impl AxisStats {
 /// unchanged).
 const LOOKAHEAD: usize = 64;
 
+/// Marks the branch whose block calls it as rare, so the compiler lays the other one out
+/// as the fall-through (a call behind a further test in that block gives no hint).
+#[cold]
+#[inline(always)]
+fn cold() {}
+
 /// Where an axis's edges come from: a move (a known number of steps) or open-ended motion
 /// (a tracker, float or integer, with its state at the start so the axis can run again).
 // the sources are large, but boxing would allocate (the crate is no_std, no alloc)
@@ -230,11 +236,20 @@ impl Axis {
         Ok(())
     }
 
-    /// The exact edge (ticks from the start) of the next step.
+    /// The exact edge (ticks from the start) of the next step; `TRACK`: in
+    /// `run_tracking`'s loop.
     #[inline]
-    fn next_edge(&mut self) -> Option<u64> {
+    fn next_edge<const TRACK: bool>(&mut self) -> Option<u64> {
         let pos = self.ahead_pos;
-        if pos >= LOOKAHEAD {
+        // in `run` a refill is a move's batch, once per LOOKAHEAD edges: cold (the usual
+        // path then falls through and keeps the sink's pointer in a register, 2
+        // instructions per period); in `run_tracking` a tracker refills every edge, and
+        // the hint cost its path 4
+        if !TRACK && pos >= LOOKAHEAD {
+            cold();
+            return self.refill();
+        }
+        if TRACK && pos >= LOOKAHEAD {
             return self.refill();
         }
         self.ahead_pos = pos + 1;
@@ -265,9 +280,9 @@ impl Axis {
     /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later and
     /// is needed at `due`, and loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
     /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
-    /// `None` if no step was left.
+    /// `None` if no step was left. `TRACK`: in `run_tracking`'s loop.
     #[inline]
-    fn compute<const HALF: bool, F: FnMut(StepPulse)>(
+    fn compute<const TRACK: bool, const HALF: bool, F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
         t: u64,
@@ -275,7 +290,7 @@ impl Axis {
         due: u64,
         sink: &mut F,
     ) -> Option<(u64, u64)> {
-        let edge = self.next_edge()?;
+        let edge = self.next_edge::<TRACK>()?;
         // `due` is the previous rise, the previous edge plus `shift`
         let rise = edge + self.shift;
         let period = rise - due;
@@ -615,7 +630,8 @@ impl<'a> Board<'a> {
             t = now;
             last = m;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute::<HALF, F>(m, t, lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute::<TRACK, HALF, F>(m, t, lat, need[m], &mut sink)
+            else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {
