@@ -89,6 +89,12 @@ impl AxisStats {
 /// unchanged).
 const LOOKAHEAD: usize = 64;
 
+/// Marks the branch whose block calls it as rare, so the compiler lays the other one out
+/// as the fall-through (a call behind a further test in that block gives no hint).
+#[cold]
+#[inline(always)]
+fn cold() {}
+
 /// Where an axis's edges come from: a move (a known number of steps) or open-ended motion
 /// (a tracker, float or integer, with its state at the start so the axis can run again).
 // the sources are large, but boxing would allocate (the crate is no_std, no alloc)
@@ -155,11 +161,13 @@ pub struct Axis {
     /// needs no bounds check).
     ahead: [u64; LOOKAHEAD],
     ahead_pos: usize,
-    prev_edge: u64,
+    /// Rise tick minus edge tick of the last step loaded (the group's start until an
+    /// underrun delays the axis): the next rise, in time, is its edge plus this, so a
+    /// period needs no previous edge stored.
+    shift: u64,
     /// A period needed at least this many ticks after its computation starts is in time
     /// and changes no figure: the least slack so far (at least 0) plus the latency
-    /// (`i64::MAX` until two periods are computed, so period 1 and 2 take the general
-    /// path).
+    /// (`i64::MAX` until period 2 sets it: it has no least slack to keep).
     on_time_from: i64,
     fifo: Fifo,
     pulse: PulseUnit,
@@ -203,7 +211,7 @@ impl Axis {
             gen,
             ahead: [0; LOOKAHEAD],
             ahead_pos: LOOKAHEAD,
-            prev_edge: 0,
+            shift: 0,
             on_time_from: i64::MAX,
             fifo: Fifo::new(1)?,
             pulse: PulseUnit::default(),
@@ -220,7 +228,7 @@ impl Axis {
             Source::IntTrack { now, start } => *now = start.clone(),
         }
         self.ahead_pos = LOOKAHEAD;
-        self.prev_edge = 0;
+        self.shift = 0;
         self.on_time_from = i64::MAX;
         self.fifo = Fifo::new(depth)?;
         self.pulse = PulseUnit::new(shape);
@@ -228,11 +236,20 @@ impl Axis {
         Ok(())
     }
 
-    /// The exact edge (ticks from the start) of the next step.
+    /// The exact edge (ticks from the start) of the next step; `TRACK`: in
+    /// `run_tracking`'s loop.
     #[inline]
-    fn next_edge(&mut self) -> Option<u64> {
+    fn next_edge<const TRACK: bool>(&mut self) -> Option<u64> {
         let pos = self.ahead_pos;
-        if pos >= LOOKAHEAD {
+        // in `run` a refill is a move's batch, once per LOOKAHEAD edges: cold (the usual
+        // path then falls through and keeps the sink's pointer in a register, 2
+        // instructions per period); in `run_tracking` a tracker refills every edge, and
+        // the hint cost its path 4
+        if !TRACK && pos >= LOOKAHEAD {
+            cold();
+            return self.refill();
+        }
+        if TRACK && pos >= LOOKAHEAD {
             return self.refill();
         }
         self.ahead_pos = pos + 1;
@@ -263,9 +280,9 @@ impl Axis {
     /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later and
     /// is needed at `due`, and loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
     /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
-    /// `None` if no step was left.
+    /// `None` if no step was left. `TRACK`: in `run_tracking`'s loop.
     #[inline]
-    fn compute<const HALF: bool, F: FnMut(StepPulse)>(
+    fn compute<const TRACK: bool, const HALF: bool, F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
         t: u64,
@@ -273,30 +290,41 @@ impl Axis {
         due: u64,
         sink: &mut F,
     ) -> Option<(u64, u64)> {
-        let edge = self.next_edge()?;
-        let period = edge - self.prev_edge;
-        self.prev_edge = edge;
+        let edge = self.next_edge::<TRACK>()?;
+        // `due` is the previous rise, the previous edge plus `shift`
+        let rise = edge + self.shift;
+        let period = rise - due;
         // ticks are below 2^57 (checked by the board): the difference fits
-        if due as i64 - t as i64 >= self.on_time_from {
-            // the usual case: in time, no new least slack, after period 1 (so `due` is
-            // the previous rise): one compare
-            // the pulse unit's count is the FIFO's push count
-            let n = self.computed();
-            let rise = self.pulse.load_on_time_as::<HALF, F>(m, due, period, sink);
-            return Some((rise, self.fifo.push_nth_then_room(n, due)));
+        let ahead = due as i64 - t as i64;
+        let n = self.computed();
+        if ahead < self.on_time_from {
+            if ahead < lat as i64 || n == 0 {
+                let (rise, room, closed) = self.load_late_or_first(m, t, lat, due, period);
+                self.shift = rise - edge;
+                if let Some(p) = closed {
+                    sink(p);
+                }
+                return Some((rise, room));
+            }
+            // in time with a new least slack (4.7 % of the periods on the 16-axis bench
+            // load, while the moves speed up): that figure alone changes
+            self.stats.min_slack_ticks = ahead - lat as i64;
+            self.on_time_from = ahead;
         }
-        let (rise, closed) = self.load_late_or_first(m, t, lat, due, period);
-        if let Some(p) = closed {
-            sink(p);
-        }
-        Some((rise, self.fifo.room_after(self.computed())))
+        // in time, after period 1 (so `due` is the previous rise). The pulse unit's count
+        // is the FIFO's push count; its rises stay with the caller (`need`) and the FIFO
+        // until `resume_pulse`
+        self.pulse.load_kept::<HALF, F>(m, due, period, sink);
+        Some((rise, self.fifo.push_nth_then_room(n, due)))
     }
 
     /// [`compute`](Self::compute)'s rare cases: period 1 (it fixes the start, so its
-    /// slack is not counted), a new least slack and an underrun (the period is loaded
-    /// when it arrives). Returns the rise and the pulse it closes, which the caller hands
-    /// to the sink (when this call took the sink, the loop reloaded the sink's state
-    /// every period).
+    /// slack is not counted) and an underrun (the period is loaded when it arrives; any
+    /// period, in time or not, gives the same result here). Returns the rise, the room
+    /// tick (read here: read by the caller, it was merged with the in-time path's read
+    /// through a computed address, 3 instructions per period) and the pulse it closes,
+    /// which the caller hands to the sink (when this call took the sink, the loop
+    /// reloaded the sink's state every period).
     #[inline(never)]
     fn load_late_or_first(
         &mut self,
@@ -305,7 +333,8 @@ impl Axis {
         lat: u64,
         due: u64,
         period: u64,
-    ) -> (u64, Option<StepPulse>) {
+    ) -> (u64, u64, Option<StepPulse>) {
+        self.resume_pulse(due);
         let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
@@ -325,7 +354,16 @@ impl Axis {
         self.fifo.push_nth(self.computed(), load);
         let mut closed = None;
         let rise = self.pulse.load(m, load, period, &mut |p| closed = Some(p));
-        (rise, closed)
+        (rise, self.fifo.room_after(self.computed()), closed)
+    }
+
+    /// Hands the pulse unit the rises of its in-time loads: `last` is the last rise, and
+    /// the last period was loaded at the tick the FIFO holds for it.
+    fn resume_pulse(&mut self, last: u64) {
+        let n = self.computed();
+        if n > 0 {
+            self.pulse.resume(last, self.fifo.leave_of(n - 1));
+        }
     }
 
     /// Periods computed so far (the pulse unit's count, kept once).
@@ -337,6 +375,7 @@ impl Axis {
     /// Closes the last pulse, which rises at `rise` (the move is computed), and records
     /// the pulse unit's figures.
     fn finish<F: FnMut(StepPulse)>(&mut self, m: usize, rise: u64, sink: &mut F) {
+        self.resume_pulse(rise);
         self.pulse.finish(m, sink);
         self.stats.steps = self.computed();
         self.stats.last_rise = rise;
@@ -544,11 +583,15 @@ impl<'a> Board<'a> {
         }
         let start = self.start_tick();
         need[..k].fill(start);
-        let need = &mut need[..k];
+        for a in self.axes.iter_mut() {
+            // step 0 "rises" at the start
+            a.shift = start;
+        }
 
         let policy = self.cfg.policy;
         let mut t = 0u64;
-        let mut next = 0usize;
+        // the axis served last (round-robin goes on after it)
+        let mut last = usize::MAX;
         let mut cmd = 0usize;
         let mut done = [false; MAX_AXES];
         let mut moves_left = self
@@ -564,7 +607,7 @@ impl<'a> Board<'a> {
         #[allow(clippy::while_immutable_condition)]
         while !empty {
             // `run` stops when its last move ends, so the queue is never empty here
-            let picked = queue.pick_from::<TRACK>(policy, t, need, &mut next);
+            let picked = queue.pick_from::<TRACK>(policy, t, &need, last);
             if TRACK {
                 // commands due by the next decision (or by the horizon when the queue is idle)
                 let now = picked.map_or(until, |(now, _)| now.min(until.saturating_add(1)));
@@ -585,8 +628,10 @@ impl<'a> Board<'a> {
                 break;
             }
             t = now;
+            last = m;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute::<HALF, F>(m, t, lat, need[m], &mut sink) else {
+            let Some((rise, room)) = a.compute::<TRACK, HALF, F>(m, t, lat, need[m], &mut sink)
+            else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
                 if a.computed() > 0 {

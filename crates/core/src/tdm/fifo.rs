@@ -94,6 +94,13 @@ impl Fifo {
         self.leave[(pushes as usize).wrapping_add(self.back) % MAX_FIFO_DEPTH]
     }
 
+    /// Leave tick of push number `n` (0-based, counted by the caller), while it is among
+    /// the last MAX_FIFO_DEPTH.
+    #[inline]
+    pub fn leave_of(&self, n: u64) -> u64 {
+        self.leave[n as usize % MAX_FIFO_DEPTH]
+    }
+
     /// Periods in the FIFO at tick `t`, of those pushed at or before `t` (by the counting
     /// forms: the `_nth` ones leave the count alone).
     pub fn occupancy_at(&self, t: u64) -> usize {

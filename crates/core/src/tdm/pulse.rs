@@ -14,6 +14,7 @@
 //! instead of two) is counted as merged.
 
 pub use crate::step_dir::PulseShape;
+use core::num::NonZeroU64;
 
 /// One STEP pulse as it leaves the board; ticks count from the board's tick 0 (when the
 /// move is loaded and DIR is set).
@@ -35,6 +36,9 @@ pub struct PulseUnit {
     prev_rise: u64,
     last_rise: u64,
     merged: u64,
+    /// `steps` when `prev_rise` and `last_rise` were last written: the loads after it
+    /// were [`load_kept`](Self::load_kept) ones, whose rises the caller keeps.
+    kept_from: u64,
 }
 
 impl PulseUnit {
@@ -95,6 +99,7 @@ impl PulseUnit {
         self.steps += 1;
         self.prev_rise = self.last_rise;
         self.last_rise = rise;
+        self.kept_from = self.steps;
         rise
     }
 
@@ -125,23 +130,54 @@ impl PulseUnit {
         period: u64,
         sink: &mut F,
     ) -> u64 {
-        debug_assert!(self.steps > 0);
         debug_assert_eq!(last, self.last_rise);
+        self.load_kept::<HALF, F>(axis, last, period, sink);
+        let rise = last + period;
+        self.prev_rise = last;
+        self.last_rise = rise;
+        self.kept_from = self.steps;
+        rise
+    }
+
+    /// [`load_on_time_as`](Self::load_on_time_as) for a caller that keeps the rises
+    /// itself (the engine holds the last rise, which it knows to be `last + period`, and
+    /// its FIFO each load tick): the count alone is stored, two stores fewer per period.
+    /// Before any other load and before [`finish`](Self::finish), hand the rises back by
+    /// [`resume`](Self::resume).
+    #[inline]
+    pub(crate) fn load_kept<const HALF: bool, F: FnMut(StepPulse)>(
+        &mut self,
+        axis: usize,
+        last: u64,
+        period: u64,
+        sink: &mut F,
+    ) {
+        debug_assert!(self.steps > 0);
         debug_assert!(!HALF || self.shape == PulseShape::HalfInterval);
         let shape = if HALF {
             PulseShape::HalfInterval
         } else {
             self.shape
         };
-        let rise = last + period;
-        let (fall, merged) = match shape {
-            PulseShape::HalfInterval => (last + (period / 2).max(1), period <= 1),
-            PulseShape::Fixed { ticks } => (last + ticks, ticks >= period),
+        // merging is rare (a period of one tick or a wide fixed pulse): a branch, not an
+        // add; half a period of 0 both merges and widens the pulse to one tick
+        let fall = match shape {
+            // as a NonZeroU64 the usual arm falls through (tested as `half == 0` or
+            // `half != 0`, it took one jump more per period)
+            PulseShape::HalfInterval => match NonZeroU64::new(period / 2) {
+                Some(half) => last + half.get(),
+                None => {
+                    self.merged += 1;
+                    last + 1
+                }
+            },
+            PulseShape::Fixed { ticks } => {
+                if ticks >= period {
+                    self.merged += 1;
+                }
+                last + ticks
+            }
         };
-        // rare (a period of one tick or a wide fixed pulse): a branch, not an add
-        if merged {
-            self.merged += 1;
-        }
         sink(StepPulse {
             axis,
             step: self.steps,
@@ -149,9 +185,18 @@ impl PulseUnit {
             fall,
         });
         self.steps += 1;
-        self.prev_rise = last;
-        self.last_rise = rise;
-        rise
+    }
+
+    /// After [`load_kept`](Self::load_kept) loads: `last` is the last rise and `loaded`
+    /// the tick the last period was loaded (the previous rise). Nothing to do if the last
+    /// load was another kind.
+    #[inline]
+    pub(crate) fn resume(&mut self, last: u64, loaded: u64) {
+        if self.steps != self.kept_from {
+            self.prev_rise = loaded;
+            self.last_rise = last;
+            self.kept_from = self.steps;
+        }
     }
 
     /// Tick of the last rise.
@@ -239,6 +284,34 @@ mod tests {
             }
             assert_eq!(a, b, "{shape:?}");
             assert!(general.merged() > 0, "{shape:?}: merged pulses are covered");
+        }
+    }
+
+    /// In-time loads whose rises the caller keeps, handed back before `finish`: the same
+    /// pulses and the same unit as general loads.
+    #[test]
+    fn kept_loads_resume_to_the_general_unit() {
+        for shape in [PulseShape::HalfInterval, PulseShape::Fixed { ticks: 3 }] {
+            let (mut general, mut kept) = (PulseUnit::new(shape), PulseUnit::new(shape));
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            general.load(2, 40, 7, &mut |p| a.push(p));
+            let mut rises = std::vec![kept.load(2, 40, 7, &mut |p| b.push(p))];
+            for period in [0u64, 1, 2, 3, 1000, 5] {
+                let load = general.last_rise;
+                general.load(2, load, period, &mut |p| a.push(p));
+                let last = rises[rises.len() - 1];
+                kept.load_kept::<false, _>(2, last, period, &mut |p| b.push(p));
+                rises.push(last + period);
+            }
+            // the last period was loaded at the rise before the last
+            kept.resume(rises[rises.len() - 1], rises[rises.len() - 2]);
+            assert_eq!(kept, general, "{shape:?}");
+            // nothing to hand back after a general load
+            kept.resume(0, 0);
+            assert_eq!(kept, general, "{shape:?}");
+            general.finish(2, &mut |p| a.push(p));
+            kept.finish(2, &mut |p| b.push(p));
+            assert_eq!(a, b, "{shape:?}");
         }
     }
 

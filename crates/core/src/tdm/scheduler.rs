@@ -5,6 +5,7 @@
 //! the calculator idles until the earliest room tick.
 
 use super::TdmError;
+use core::num::NonZeroU64;
 
 /// Most axes one board holds: one bit each in the eligible mask.
 pub const MAX_AXES: usize = 64;
@@ -113,11 +114,14 @@ impl Queue {
 
     // Indices count mod 2^64, a multiple of RING, so `i % RING` wraps correctly.
 
-    /// The later keys move up one slot, the first over the MAX, which is put back after.
+    /// The later keys move up one slot, the first over the MAX, which is put after them
+    /// first (the new tail then stays in a register: the loop reloaded the old one twice).
     #[inline]
     fn insert_from_back(&mut self, key: u64) {
         // j: the free slot, kept reduced mod RING
         let mut j = self.tail % RING;
+        let tail = (j + 1) % RING;
+        self.ring[tail] = u64::MAX;
         loop {
             let i = j.wrapping_sub(1) % RING;
             let before = self.ring[i];
@@ -128,8 +132,7 @@ impl Queue {
             j = i;
         }
         self.ring[j] = key;
-        self.tail = (self.tail + 1) % RING;
-        self.ring[self.tail] = u64::MAX;
+        self.tail = tail;
     }
 
     /// The earlier keys move down one slot, into the one before `head`.
@@ -166,19 +169,19 @@ impl Queue {
 
     /// The next computation at or after tick `t`: `(start tick, axis)`, or `None` when no
     /// axis has periods left. When none has room at `t` the calculator idles until the
-    /// earliest room tick. `need[m]`: tick axis m's next period is needed; `next`: the
-    /// round-robin pointer, moved past the chosen axis (k after the last axis, which
-    /// counts as 0). The chosen axis leaves the queue; [`insert`](Self::insert) it again
-    /// with its new room tick.
+    /// earliest room tick. `need[m]`: tick axis m's next period is needed; `last`: the
+    /// axis served last (`usize::MAX` before the first), round-robin goes on after it.
+    /// The chosen axis leaves the queue; [`insert`](Self::insert) it again with its new
+    /// room tick.
     #[inline]
     pub fn pick(
         &mut self,
         policy: Policy,
         t: u64,
-        need: &[u64],
-        next: &mut usize,
+        need: &[u64; MAX_AXES],
+        last: usize,
     ) -> Option<(u64, usize)> {
-        self.pick_from::<true>(policy, t, need, next)
+        self.pick_from::<true>(policy, t, need, last)
     }
 
     /// [`pick`](Self::pick); with `MAY_END` false the caller knows an axis is left (the
@@ -188,8 +191,8 @@ impl Queue {
         &mut self,
         policy: Policy,
         t: u64,
-        need: &[u64],
-        next: &mut usize,
+        need: &[u64; MAX_AXES],
+        last: usize,
     ) -> Option<(u64, usize)> {
         let mut t = t;
         if self.eligible == 0 {
@@ -205,7 +208,7 @@ impl Queue {
                 // it alone has room at t (the usual case below full load): every policy
                 // takes it, and the mask stays empty
                 self.head = (self.head + 1) % RING;
-                return Some((t, Self::served(first & AXIS_FIELD, next)));
+                return Some((t, (first & AXIS_FIELD) as usize));
             }
         }
         self.release(t);
@@ -213,27 +216,20 @@ impl Queue {
         let m = if mask & (mask - 1) == 0 {
             mask.trailing_zeros() as u64
         } else {
-            Self::choose(policy, mask, need, *next)
+            Self::choose(policy, mask, need, last)
         };
         self.eligible = mask & !(1 << m);
-        Some((t, Self::served(m, next)))
+        Some((t, m as usize))
     }
 
-    /// Axis m as the choice: the round-robin pointer moves past it. Past the last axis it
-    /// reads k, which [`choose`](Self::choose) takes as 0 (bits k…63 of the mask are
-    /// clear), so no wrap is needed here.
+    /// The policy's choice among the axes of `mask` (at least two); `last` served last.
     #[inline]
-    fn served(m: u64, next: &mut usize) -> usize {
-        let m = m as usize;
-        *next = m + 1;
-        m
-    }
-
-    /// The policy's choice among the axes of `mask` (at least two).
-    #[inline]
-    fn choose(policy: Policy, mask: AxisMask, need: &[u64], next: usize) -> u64 {
+    fn choose(policy: Policy, mask: AxisMask, need: &[u64; MAX_AXES], last: usize) -> u64 {
         match policy {
             Policy::RoundRobin => {
+                // the pointer: after the last axis it reads k, which counts as 0 (bits
+                // k…63 of the mask are clear), so no wrap is needed
+                let next = last.wrapping_add(1);
                 // the first eligible axis at or after the pointer, wrapping around: rotated
                 // right by the pointer, axes before it sit above every axis after it
                 // (bits k…63 are clear), so no branch is needed; a pointer of 64 rotates
@@ -242,14 +238,18 @@ impl Queue {
                     % AxisMask::BITS as u64
             }
             Policy::EarliestDeadline => {
-                // (need, axis) packed in one key: the smallest is the earliest, then lowest m
-                let (mut bits, mut best) = (mask, u64::MAX);
-                while bits != 0 {
-                    let m = bits.trailing_zeros() as u64;
-                    best = best.min((need[m as usize] << AXIS_BITS) | m);
+                // axes in increasing order, a later one only if strictly earlier: ties go
+                // to the lowest m (a nonzero mask's lowest bit is below 64: no bounds check)
+                let (mut bits, mut best, mut earliest) = (mask, 0, u64::MAX);
+                while let Some(b) = NonZeroU64::new(bits) {
+                    let m = b.trailing_zeros() as u64;
+                    let due = need[m as usize];
+                    if due < earliest {
+                        (best, earliest) = (m, due);
+                    }
                     bits &= bits - 1;
                 }
-                best & AXIS_FIELD
+                best
             }
         }
     }
@@ -277,45 +277,48 @@ mod tests {
         q
     }
 
+    /// `need` for the first axes, 0 for the others.
+    fn deadlines(first: &[u64]) -> [u64; MAX_AXES] {
+        let mut need = [0; MAX_AXES];
+        need[..first.len()].copy_from_slice(first);
+        need
+    }
+
     #[test]
     fn round_robin_goes_on_from_the_axis_after_the_last_served() {
-        let need = [9, 1, 5, 7];
+        let need = deadlines(&[9, 1, 5, 7]);
         let rr = Policy::RoundRobin;
         let mut q = queue(&[0, 50, u64::MAX, 0], 10);
-        let mut next = 1;
-        // axis 1 has no room until 50, axis 2 is done: axis 3
-        assert_eq!(q.pick(rr, 10, &need, &mut next), Some((10, 3)));
-        assert_eq!(next % 4, 0);
-        assert_eq!(q.pick(rr, 10, &need, &mut next), Some((10, 0)));
+        // axis 0 served last; axis 1 has no room until 50, axis 2 is done: axis 3
+        assert_eq!(q.pick(rr, 10, &need, 0), Some((10, 3)));
+        assert_eq!(q.pick(rr, 10, &need, 3), Some((10, 0)));
         // nobody left with room at 10: idle until 50
-        assert_eq!(q.pick(rr, 10, &need, &mut next), Some((50, 1)));
-        assert_eq!(next, 2);
-        assert_eq!(q.pick(rr, 60, &need, &mut next), None);
+        assert_eq!(q.pick(rr, 10, &need, 0), Some((50, 1)));
+        assert_eq!(q.pick(rr, 60, &need, 1), None);
         // several get room at the same tick: the first in round-robin order from 2
         let mut q = queue(&[70, 50, 90, 50], 10);
-        let mut next = 2;
-        assert_eq!(q.pick(rr, 10, &need, &mut next), Some((50, 3)));
-        assert_eq!(q.pick(rr, 50, &need, &mut next), Some((50, 1)));
+        assert_eq!(q.pick(rr, 10, &need, 1), Some((50, 3)));
+        assert_eq!(q.pick(rr, 50, &need, 3), Some((50, 1)));
         q.insert(3, 60, 50);
-        assert_eq!(q.pick(rr, 50, &need, &mut next), Some((60, 3)));
-        assert_eq!(q.pick(rr, 60, &need, &mut next), Some((70, 0)));
+        assert_eq!(q.pick(rr, 50, &need, 1), Some((60, 3)));
+        assert_eq!(q.pick(rr, 60, &need, 3), Some((70, 0)));
     }
 
     #[test]
     fn earliest_deadline_serves_the_axis_that_runs_dry_first() {
-        let need = [9, 1, 5, 5];
+        let need = deadlines(&[9, 1, 5, 5]);
         let edf = Policy::EarliestDeadline;
-        let mut next = 0;
+        let last = usize::MAX;
         let mut q = queue(&[0, 50, 0, 0], 10);
         assert_eq!(
-            q.pick(edf, 10, &need, &mut next),
+            q.pick(edf, 10, &need, last),
             Some((10, 2)),
             "1 has no room, 2 ties 3"
         );
-        assert_eq!(q.pick(edf, 50, &need, &mut next), Some((50, 1)));
+        assert_eq!(q.pick(edf, 50, &need, last), Some((50, 1)));
         let mut q = queue(&[70, 50, 90, 50], 10);
-        assert_eq!(q.pick(edf, 10, &need, &mut next), Some((50, 1)));
-        assert_eq!(q.pick(edf, 50, &need, &mut next), Some((50, 3)));
+        assert_eq!(q.pick(edf, 10, &need, last), Some((50, 1)));
+        assert_eq!(q.pick(edf, 50, &need, last), Some((50, 3)));
         assert_eq!(Policy::parse("earliest-deadline"), Ok(edf));
         assert_eq!(Policy::parse("fifo"), Err(TdmError::UnknownPolicy));
     }
@@ -327,10 +330,9 @@ mod tests {
         for (m, &r) in ticks.iter().enumerate() {
             q.insert(m, r, 1);
         }
-        let need = [0u64; 10];
-        let mut next = 0;
+        let need = [0u64; MAX_AXES];
         let (mut got, mut now) = (std::vec::Vec::new(), 0);
-        while let Some((t, m)) = q.pick(Policy::EarliestDeadline, now, &need, &mut next) {
+        while let Some((t, m)) = q.pick(Policy::EarliestDeadline, now, &need, 0) {
             got.push((t, m));
             now = t;
         }
@@ -353,7 +355,7 @@ mod tests {
             };
             let mut q = Queue::default();
             let mut room = [0u64; K];
-            let mut need = [0u64; K];
+            let mut need = [0u64; MAX_AXES];
             let mut left = [0u64; K];
             for m in 0..K {
                 room[m] = rand(3000);
@@ -361,12 +363,12 @@ mod tests {
                 left[m] = 1 + rand(400);
                 q.insert(m, room[m], 0);
             }
-            let (mut t, mut next, mut want_next) = (0u64, 0usize, 0usize);
+            let (mut t, mut last, mut want_next) = (0u64, usize::MAX, 0usize);
             loop {
                 // the scan: idle until the earliest room tick, then choose by the policy
                 let active = (0..K).filter(|&m| left[m] > 0);
                 let Some(earliest) = active.clone().map(|m| room[m]).min() else {
-                    assert_eq!(q.pick(policy, t, &need, &mut next), None);
+                    assert_eq!(q.pick(policy, t, &need, last), None);
                     break;
                 };
                 let now = t.max(earliest);
@@ -377,8 +379,8 @@ mod tests {
                 }
                 .unwrap();
                 want_next = (want + 1) % K;
-                assert_eq!(q.pick(policy, t, &need, &mut next), Some((now, want)));
-                assert_eq!(next % K, want_next);
+                assert_eq!(q.pick(policy, t, &need, last), Some((now, want)));
+                last = want;
                 t = now + 1 + rand(40);
                 need[want] += rand(5000);
                 left[want] -= 1;
