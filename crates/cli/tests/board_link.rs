@@ -680,16 +680,18 @@ fn same_edges(axis: &str, got: &[u64], want: &[u64]) {
 
 /// `plan`'s edges of a phase-mode move of `steps` at the board's 50 MHz.
 fn plan_edges(profile: &str, steps: u64, t: (f64, f64, f64)) -> Vec<u64> {
-    plan_edges_of(
-        profile,
-        steps,
-        multistep_core::MoveParams {
-            accel_time: Some(t.0),
-            cruise_time: Some(t.1),
-            decel_time: Some(t.2),
-            ..Default::default()
-        },
-    )
+    plan_edges_on(50e6, profile, steps, t)
+}
+
+/// [`plan_edges`] at `clock_hz`.
+fn plan_edges_on(clock_hz: f64, profile: &str, steps: u64, t: (f64, f64, f64)) -> Vec<u64> {
+    let times = multistep_core::MoveParams {
+        accel_time: Some(t.0),
+        cruise_time: Some(t.1),
+        decel_time: Some(t.2),
+        ..Default::default()
+    };
+    plan_edges_at(profile, steps, times, clock_hz)
 }
 
 /// `plan`'s edges of a move at the board's 50 MHz.
@@ -793,15 +795,7 @@ fn scurve_moves_are_computed_on_a_board_with_chain_units() {
     );
     let [ex, ey] = r.move_edges([0, 1], 5000);
     // the 85F's clock is 30 MHz
-    let plan = |profile, steps, t: (f64, f64, f64)| {
-        let times = multistep_core::MoveParams {
-            accel_time: Some(t.0),
-            cruise_time: Some(t.1),
-            decel_time: Some(t.2),
-            ..Default::default()
-        };
-        plan_edges_at(profile, steps, times, 30e6)
-    };
+    let plan = |profile, steps, t| plan_edges_on(30e6, profile, steps, t);
     same_edges("X", &ex, &plan("scurve4", 3000, (0.02, 0.02, 0.02)));
     same_edges("Y", &ey, &plan("scurve", 2000, (0.02, 0.01, 0.02)));
     // a sine move is not polynomial: it streams on the same board

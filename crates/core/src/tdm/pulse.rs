@@ -116,22 +116,8 @@ impl PulseUnit {
         period: u64,
         sink: &mut F,
     ) -> u64 {
-        self.load_on_time_as::<false, F>(axis, last, period, sink)
-    }
-
-    /// [`load_on_time`](Self::load_on_time); `HALF`: the caller knows the shape is
-    /// [`PulseShape::HalfInterval`], so the shape is not tested (the engine's loop is
-    /// compiled per shape).
-    #[inline]
-    pub fn load_on_time_as<const HALF: bool, F: FnMut(StepPulse)>(
-        &mut self,
-        axis: usize,
-        last: u64,
-        period: u64,
-        sink: &mut F,
-    ) -> u64 {
         debug_assert_eq!(last, self.last_rise);
-        self.load_kept::<HALF, F>(axis, last, period, sink);
+        self.load_kept::<false, F>(axis, last, period, sink);
         let rise = last + period;
         self.prev_rise = last;
         self.last_rise = rise;
@@ -139,9 +125,11 @@ impl PulseUnit {
         rise
     }
 
-    /// [`load_on_time_as`](Self::load_on_time_as) for a caller that keeps the rises
+    /// [`load_on_time`](Self::load_on_time) for a caller that keeps the rises
     /// itself (the engine holds the last rise, which it knows to be `last + period`, and
     /// its FIFO each load tick): the count alone is stored, two stores fewer per period.
+    /// `HALF`: the caller knows the shape is [`PulseShape::HalfInterval`], so the shape is
+    /// not tested (the engine's loop is compiled per shape).
     /// Before any other load and before [`finish`](Self::finish), hand the rises back by
     /// [`resume`](Self::resume).
     #[inline]
