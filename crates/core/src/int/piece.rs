@@ -280,6 +280,30 @@ impl IntPiece {
         guess: [0; 5],
     };
 
+    /// Fills a profile's unused slots. Every byte is zero, so a profile's array starts as
+    /// one memset instead of a copy of [`EMPTY`](Self::EMPTY) per slot (its den, first
+    /// step and kernel are nonzero); no slot past a profile's length is ever read.
+    pub(super) const UNUSED: IntPiece = IntPiece {
+        t0: 0,
+        dur: 0,
+        den: 0,
+        a: 0,
+        b: 0,
+        c: 0,
+        m_end: 0,
+        first: 0,
+        steps: 0,
+        kernel: StepKernel {
+            mode: KernelMode::Accel,
+            y0: 0,
+            dy: 0,
+            k: 0,
+            dv: 0,
+        },
+        wide: None,
+        guess: [0; 5],
+    };
+
     /// A piece from speed `u/g` to speed `w/g` (steps/tick) over `dur` ticks, starting at
     /// position `s/(2g)` steps and tick `t0`: `Den = 2gD`, `A = 2Du`, `B = w − u`, `C = Ds`,
     /// reduced by their common divisor.

@@ -119,7 +119,7 @@ impl<const N: usize> IntProfile<N> {
             return Err(IntError::NoSteps);
         }
         Ok(IntProfile {
-            pieces: [IntPiece::EMPTY; N],
+            pieces: [IntPiece::UNUSED; N],
             len: 0,
             steps,
             end_tick: 0,
@@ -140,7 +140,9 @@ impl<const N: usize> IntProfile<N> {
         Ok(())
     }
 
-    fn finish(self) -> Result<Self, IntError> {
+    /// Checks a planned profile (by reference: the profile is large, and a move by value
+    /// copied it twice more).
+    fn check(&self) -> Result<(), IntError> {
         if self.len == 0 {
             return Err(IntError::ZeroDuration);
         }
@@ -161,7 +163,7 @@ impl<const N: usize> IntProfile<N> {
         if self.pieces().iter().map(|p| p.steps).sum::<u64>() != self.steps {
             return Err(IntError::TooWide);
         }
-        Ok(self)
+        Ok(())
     }
 
     /// Phase mode: `vm = (2N·F − vs·Ta − ve·Tc) / (F·W)` steps/tick, `W = Ta + 2Tb + Tc`.
@@ -191,7 +193,8 @@ impl<const N: usize> IntProfile<N> {
             let sum = checked(u0.checked_add(u1))?;
             s = checked(checked(sum.checked_mul(dur))?.checked_add(s))?;
         }
-        p.finish()
+        p.check()?;
+        Ok(p)
     }
 
     /// Segment mode (seed 000): `w = 2n/D − v0` ≥ 0, `a = 2(n − v0·D)/D²`.
@@ -218,7 +221,8 @@ impl<const N: usize> IntProfile<N> {
             p.push(sg.ticks, g, u, w, s)?;
             p0 += sg.steps as u128;
         }
-        p.finish()
+        p.check()?;
+        Ok(p)
     }
 
     /// Limits mode, trapezoid: peak speed vmax or, if the move is too short,
