@@ -279,19 +279,24 @@ impl Sink for ChunkTimer {
     }
 }
 
-/// Edges per second (planning included, edges folded rather than stored), from the best
-/// time of every 4096-edge chunk over repeated runs lasting at least `min_time`.
-fn speed(imp: Impl, m: &BenchMove, opts: &Options) -> f64 {
+/// Edges per second of every implementation on one move (planning included, edges folded
+/// rather than stored), from the best time of every 4096-edge chunk over repeated runs.
+/// The implementations take turns, one run each, for `min_time` apiece in all: a slow
+/// spell of the machine (another guest, a frequency change) then falls on all of them,
+/// where timing each alone for its own `min_time` let it fall on one and move the ratios.
+fn speeds(m: &BenchMove, opts: &Options) -> [f64; Impl::ALL.len()] {
     let start = Instant::now();
-    let mut timer = ChunkTimer::default();
+    let mut timers: [ChunkTimer; Impl::ALL.len()] = Default::default();
     let mut runs = 0;
-    while start.elapsed() < opts.min_time || runs < 3 {
-        timer.start();
-        drive(imp, black_box(m), opts, &mut timer);
-        black_box(timer.fold);
+    while start.elapsed() < opts.min_time * Impl::ALL.len() as u32 || runs < 3 {
+        for (imp, timer) in Impl::ALL.into_iter().zip(&mut timers) {
+            timer.start();
+            drive(imp, black_box(m), opts, timer);
+            black_box(timer.fold);
+        }
         runs += 1;
     }
-    m.steps as f64 / timer.total()
+    timers.map(|t| m.steps as f64 / t.total())
 }
 
 /// Runs a family move through multistep-float, handing its edges to `sink`.
@@ -343,14 +348,15 @@ pub fn run(moves: &[BenchMove], opts: &Options) -> Vec<Case> {
         let p = m.int_profile().expect("bench moves fit");
         let exact: Vec<u64> = IntEdgeGenerator::new(p.clone()).collect();
         let times = exact_times(&p);
-        for imp in Impl::ALL {
+        let speeds = speeds(m, opts);
+        for (imp, edges_per_s) in Impl::ALL.into_iter().zip(speeds) {
             edges_into(imp, m, opts, &mut buf);
             let (max_err, drift, pct) = accuracy(&buf, &exact, &times);
             cases.push(Case {
                 mv: m.name,
                 imp: imp.name(),
                 steps: m.steps,
-                edges_per_s: speed(imp, m, opts),
+                edges_per_s,
                 max_edge_error_ticks: max_err,
                 drift_ticks: drift,
                 max_period_error_pct: pct,
