@@ -280,23 +280,35 @@ impl Sink for ChunkTimer {
 }
 
 /// Edges per second of every implementation on one move (planning included, edges folded
-/// rather than stored), from the best time of every 4096-edge chunk over repeated runs.
-/// The implementations take turns, one run each, for `min_time` apiece in all: a slow
-/// spell of the machine (another guest, a frequency change) then falls on all of them,
-/// where timing each alone for its own `min_time` let it fall on one and move the ratios.
+/// rather than stored). The implementations take turns, one run each: a slow spell of
+/// the machine (another guest, a frequency change) then falls on all of them, where
+/// timing each alone for its own `min_time` let it fall on one and move the ratios.
 fn speeds(m: &BenchMove, opts: &Options) -> [f64; Impl::ALL.len()] {
+    best_chunk_speeds(m.steps, opts, |k, timer| {
+        drive(Impl::ALL[k], black_box(m), opts, timer)
+    })
+}
+
+/// Edges per second of `K` runners of a `steps`-step move, each from the best time of
+/// every 4096-edge chunk over repeated rounds (`run(k, timer)` runs runner k once, one
+/// after another in each round) lasting `min_time` per runner and at least 3 rounds.
+fn best_chunk_speeds<const K: usize>(
+    steps: u64,
+    opts: &Options,
+    mut run: impl FnMut(usize, &mut ChunkTimer),
+) -> [f64; K] {
     let start = Instant::now();
-    let mut timers: [ChunkTimer; Impl::ALL.len()] = Default::default();
-    let mut runs = 0;
-    while start.elapsed() < opts.min_time * Impl::ALL.len() as u32 || runs < 3 {
-        for (imp, timer) in Impl::ALL.into_iter().zip(&mut timers) {
+    let mut timers: [ChunkTimer; K] = core::array::from_fn(|_| ChunkTimer::default());
+    let mut rounds = 0;
+    while start.elapsed() < opts.min_time * K as u32 || rounds < 3 {
+        for (k, timer) in timers.iter_mut().enumerate() {
             timer.start();
-            drive(imp, black_box(m), opts, timer);
+            run(k, timer);
             black_box(timer.fold);
         }
-        runs += 1;
+        rounds += 1;
     }
-    timers.map(|t| m.steps as f64 / t.total())
+    timers.map(|t| steps as f64 / t.total())
 }
 
 /// Runs a family move through multistep-float, handing its edges to `sink`.
@@ -319,20 +331,13 @@ pub fn run_families(moves: &[FamilyMove], opts: &Options) -> Vec<FamilyCase> {
         .iter()
         .map(|m| {
             let settled = settled(m);
-            let start = Instant::now();
-            let mut timer = ChunkTimer::default();
-            let mut runs = 0;
-            while start.elapsed() < opts.min_time || runs < 3 {
-                timer.start();
-                drive_family(black_box(m), &mut timer);
-                black_box(timer.fold);
-                runs += 1;
-            }
+            let [edges_per_s] =
+                best_chunk_speeds(m.steps, opts, |_, timer| drive_family(black_box(m), timer));
             FamilyCase {
                 mv: m.name,
                 imp: Impl::Float.name(),
                 steps: m.steps,
-                edges_per_s: m.steps as f64 / timer.total(),
+                edges_per_s,
                 settled_edges: settled,
                 instructions_per_edge: None,
             }

@@ -140,8 +140,7 @@ impl<const N: usize> IntProfile<N> {
         Ok(())
     }
 
-    /// Checks a planned profile (by reference: the profile is large, and a move by value
-    /// copied it twice more).
+    /// Checks a planned profile (by reference: with 64 slots it is about 17 kB).
     fn check(&self) -> Result<(), IntError> {
         if self.len == 0 {
             return Err(IntError::ZeroDuration);
