@@ -55,7 +55,7 @@ pub struct BoardSimArgs {
     /// Seed of the glitch and bounce generator (axis a uses seed + a)
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// A board config file (as `serve --config`): each axis's sensor from its `sim.*`,
+    /// A board config file (as `serve --board-config`): each axis's sensor from its `sim.*`,
     /// `home_dir` and `period`, its DIR and ENABLE levels from `invert_dir` and
     /// `enable_active_high` (axis a of the board is the file's a-th `[[axis]]`)
     #[arg(long, conflicts_with_all = ["sensor_at", "sensor_width", "home_dir", "bounce_count",

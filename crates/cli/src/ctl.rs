@@ -1,7 +1,7 @@
 //! `multistep ctl`: the host client. Sends protocol lines to one or more boards; axes are
 //! `BOARD:AXIS` (a bare `AXIS` when there is one board).
 
-use crate::moveargs::MoveArgs;
+use crate::moveargs::ShapeArgs;
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Subcommand};
 use multistep_controller::client::{Client, ClientError, Endpoint};
@@ -34,7 +34,7 @@ pub enum CtlCmd {
         #[arg(allow_hyphen_values = true, value_name = "STEPS")]
         distance: String,
         #[command(flatten)]
-        m: MoveArgs,
+        m: ShapeArgs,
         /// Use a stored speed preset
         #[arg(long)]
         preset: Option<String>,
@@ -45,7 +45,8 @@ pub enum CtlCmd {
         #[arg(allow_hyphen_values = true)]
         position: String,
         #[command(flatten)]
-        m: MoveArgs,
+        m: ShapeArgs,
+        /// Use a stored speed preset
         #[arg(long)]
         preset: Option<String>,
     },
@@ -53,7 +54,7 @@ pub enum CtlCmd {
     /// boards are armed on each and started by one fall of the boards' SYNC line
     Group {
         /// AXIS=N targets (BOARD:AXIS=N with several boards)
-        #[arg(required = true, allow_hyphen_values = true)]
+        #[arg(required = true)]
         targets: Vec<String>,
         /// Targets are absolute positions (default: relative distances)
         #[arg(long)]
@@ -62,7 +63,8 @@ pub enum CtlCmd {
         #[arg(long)]
         sync: bool,
         #[command(flatten)]
-        m: MoveArgs,
+        m: ShapeArgs,
+        /// Use a stored speed preset
         #[arg(long)]
         preset: Option<String>,
     },
@@ -121,6 +123,8 @@ pub enum CtlCmd {
         /// Board name (may be left out with one board)
         #[arg(long = "to")]
         to: Option<String>,
+        /// The line's words; every word from the first on is sent, so options such as
+        /// --to go before it
         #[arg(required = true, allow_hyphen_values = true)]
         line: Vec<String>,
     },
@@ -208,10 +212,7 @@ impl Boards {
     }
 }
 
-pub(crate) fn move_words(m: &MoveArgs, preset: &Option<String>) -> anyhow::Result<String> {
-    if m.steps.is_some() || !m.segments.is_empty() {
-        bail!("give the distance as the STEPS argument; --steps and --segment do not apply here");
-    }
+pub(crate) fn move_words(m: &ShapeArgs, preset: &Option<String>) -> anyhow::Result<String> {
     let opts = MoveOpts {
         preset: preset.clone(),
         profile: m.profile.clone(),
@@ -533,5 +534,54 @@ mod tests {
         let d = deadline_after(0.0).unwrap();
         assert!(d <= Instant::now());
         assert!(deadline_after(60.0).unwrap() > Instant::now());
+    }
+
+    /// The command line a user types: options may follow a group's targets, and a
+    /// negative distance is a target, not an option; `move` has no `--steps`.
+    #[test]
+    fn group_options_may_follow_the_targets() {
+        let ctl = |words: &[&str]| {
+            let args = [
+                &["multistep", "ctl", "--board", "a=tcp://127.0.0.1:1"],
+                words,
+            ]
+            .concat();
+            match crate::params_test::cli(&args).cmd {
+                crate::Cmd::Ctl(a) => a.cmd,
+                _ => unreachable!(),
+            }
+        };
+        let CtlCmd::Group {
+            targets, sync, m, ..
+        } = ctl(&["group", "X=100", "Y=-50", "--sync", "--vmax", "1000"])
+        else {
+            panic!("not a group")
+        };
+        assert_eq!(targets, ["X=100", "Y=-50"]);
+        assert!(sync);
+        assert_eq!(m.params.vmax, Some(1000.0));
+        let CtlCmd::Raw { to, line } = ctl(&["raw", "--to", "a", "move", "X", "-5"]) else {
+            panic!("not raw")
+        };
+        assert_eq!(
+            (to.as_deref(), line.join(" ").as_str()),
+            (Some("a"), "move X -5")
+        );
+        let args = [
+            "multistep",
+            "ctl",
+            "--board",
+            "a=tcp://h:1",
+            "move",
+            "X",
+            "5",
+            "--steps",
+            "5",
+        ];
+        assert!(
+            crate::allow_negative_numbers(<crate::Cli as clap::CommandFactory>::command())
+                .try_get_matches_from(args)
+                .is_err()
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! `multistep hdl`: emit the TDM IP core as Verilog, and report its resource use from
 //! yosys against K independent single-axis cores.
 
+use crate::output::ReportFormat;
 use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use multistep_hdl::boards::Family;
@@ -59,10 +60,10 @@ struct BuildArgs {
 /// Core parameters shared by both subcommands.
 #[derive(Args, Debug)]
 struct CoreArgs {
-    /// Periods per axis FIFO (power of two)
+    /// Periods per axis FIFO (a power of two, at least 2)
     #[arg(long, default_value_t = 16)]
     fifo_depth: u32,
-    /// Piece slots per axis (power of two; a trapezoid needs 3)
+    /// Piece slots per axis (a power of two, at least 2; a trapezoid needs 3)
     #[arg(long, default_value_t = 4)]
     pieces: u32,
     /// Bits of a piece's step count
@@ -71,7 +72,7 @@ struct CoreArgs {
     /// Bits of a piece's duration in ticks (and of a period)
     #[arg(long, default_value_t = 24)]
     tick_bits: u32,
-    /// Bits of the square root's radicand (even, <= 128)
+    /// Bits of the square root's radicand (a multiple of 2 × --radix-bits, at most 128)
     #[arg(long, default_value_t = 128)]
     radicand_bits: u32,
     /// Bits of the divisor (the kernel's k has one more)
@@ -119,12 +120,6 @@ struct EmitArgs {
     out: PathBuf,
     #[command(flatten)]
     core: CoreArgs,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum ReportFormat {
-    Table,
-    Json,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

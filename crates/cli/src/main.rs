@@ -37,7 +37,7 @@ enum Cmd {
     Demo(demo::DemoArgs),
     /// Plan one move: the exact tick of every step edge
     Plan(plan::PlanArgs),
-    /// Run a simulated controller board: line protocol on TCP (and a serial line)
+    /// Run a controller board, simulated or the FPGA board on --board-link: line protocol on TCP (and a serial line)
     Serve(serve::ServeArgs),
     /// Talk to controller boards: move, home, stop, status, …
     Ctl(ctl::CtlArgs),
@@ -47,7 +47,7 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// Run a board's RTL in Verilator behind a pseudo-terminal, with simulated motors and Hall sensors
     BoardSim(board_sim::BoardSimArgs),
-    /// The TDM IP core as Verilog: emit it, and report its FPGA resource use (yosys)
+    /// The TDM IP core as Verilog: emit it, report its resource use, build a board's bitstream, print its link frames
     Hdl(hdl::HdlArgs),
     /// Simulate one move on a motor and driver: lost steps and following error
     Simulate(Box<simulate::SimulateArgs>),

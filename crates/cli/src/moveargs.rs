@@ -5,18 +5,26 @@ use multistep_core::{MoveName, MoveParams, MoveSpec, PlanError, Profile, Segment
 
 #[derive(Args, Clone, Debug, Default)]
 pub struct MoveArgs {
-    /// Profile family: trapezoid, parabolic, exponential, sine, scurve, scurve4
-    #[arg(long, value_name = "FAMILY")]
-    pub profile: Option<String>,
+    #[command(flatten)]
+    pub shape: ShapeArgs,
     /// Steps (microsteps) to move
     #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    // times, speeds, limits and shape fractions: the core's one list of them
-    #[command(flatten)]
-    pub params: MoveParams,
     /// Segment mode: a constant-acceleration segment V0:T:N (steps/s, s, steps); repeat
     #[arg(long = "segment", value_name = "V0:T:N", value_parser = parse_segment, allow_hyphen_values = true)]
     pub segments: Vec<Segment>,
+}
+
+/// The family and its values, without the distance: also `ctl`'s move flags (its distance
+/// is an argument).
+#[derive(Args, Clone, Debug, Default)]
+pub struct ShapeArgs {
+    /// Profile family: trapezoid, parabolic, exponential, sine, scurve, scurve4
+    #[arg(long, value_name = "FAMILY")]
+    pub profile: Option<String>,
+    // times, speeds, limits and shape fractions: the core's one list of them
+    #[command(flatten)]
+    pub params: MoveParams,
 }
 
 pub fn parse_segment(s: &str) -> Result<Segment, String> {
@@ -43,9 +51,9 @@ pub fn parse_segment(s: &str) -> Result<Segment, String> {
 impl MoveArgs {
     pub fn spec(&self) -> MoveSpec<'_> {
         MoveSpec {
-            profile: self.profile.as_deref(),
+            profile: self.shape.profile.as_deref(),
             steps: self.steps,
-            params: self.params,
+            params: self.shape.params,
             segments: &self.segments,
         }
     }

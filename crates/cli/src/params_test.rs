@@ -8,7 +8,7 @@ use clap::{CommandFactory, FromArgMatches};
 use multistep_controller::protocol::{self, word_of_param, Command};
 use multistep_core::{MoveParams, PARAMS};
 
-fn cli(args: &[&str]) -> Cli {
+pub(crate) fn cli(args: &[&str]) -> Cli {
     let m = crate::allow_negative_numbers(Cli::command())
         .try_get_matches_from(args)
         .unwrap_or_else(|e| panic!("{args:?}: {e}"));
@@ -38,12 +38,12 @@ fn every_move_value_is_a_flag_a_toml_key_and_a_protocol_word() {
         let Cmd::Plan(a) = cli(&["multistep", "plan", &f, &value]).cmd else {
             unreachable!()
         };
-        assert!(given(&a.mv.params), "plan {f}");
+        assert!(given(&a.mv.shape.params), "plan {f}");
         let Cmd::Simulate(a) = cli(&["multistep", "simulate", "--motor", "42mm", &f, &value]).cmd
         else {
             unreachable!()
         };
-        assert!(given(&a.mv.params), "simulate {f}");
+        assert!(given(&a.mv.shape.params), "simulate {f}");
 
         let toml = format!("[[axis]]\n{} = {value}", p.name);
         let cfg = crate::tdm::config::ConfigFile::parse(&toml).unwrap();

@@ -41,13 +41,13 @@ struct TrackSummary {
 fn check_flags(mv: &MoveArgs) -> anyhow::Result<()> {
     let fixed = [
         ("--steps", mv.steps.is_some()),
-        ("--profile", mv.profile.is_some()),
-        ("--accel-time", mv.params.accel_time.is_some()),
-        ("--cruise-time", mv.params.cruise_time.is_some()),
-        ("--decel-time", mv.params.decel_time.is_some()),
-        ("--end-speed", mv.params.end_speed.is_some()),
-        ("--vmax", mv.params.vmax.is_some()),
-        ("--smax", mv.params.smax.is_some()),
+        ("--profile", mv.shape.profile.is_some()),
+        ("--accel-time", mv.shape.params.accel_time.is_some()),
+        ("--cruise-time", mv.shape.params.cruise_time.is_some()),
+        ("--decel-time", mv.shape.params.decel_time.is_some()),
+        ("--end-speed", mv.shape.params.end_speed.is_some()),
+        ("--vmax", mv.shape.params.vmax.is_some()),
+        ("--smax", mv.shape.params.smax.is_some()),
         ("--segment", !mv.segments.is_empty()),
     ];
     if let Some((name, _)) = fixed.iter().find(|(_, given)| *given) {
@@ -64,9 +64,9 @@ pub fn run(track: &TrackArgs, mv: &MoveArgs, clock: f64, format: Format) -> anyh
     let run = TrackRun {
         rate,
         duration,
-        start_speed: mv.params.start_speed.unwrap_or(0.0),
-        amax: mv.params.amax,
-        jmax: mv.params.jmax,
+        start_speed: mv.shape.params.start_speed.unwrap_or(0.0),
+        amax: mv.shape.params.amax,
+        jmax: mv.shape.params.jmax,
     };
     let (mut tr, end) = run.start::<EdgeGenerator>(clock)?;
     let stdout = std::io::stdout();
