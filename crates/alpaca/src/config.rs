@@ -18,6 +18,8 @@
 //!
 //! Devices of one type are numbered 0, 1, … in the order they are listed.
 
+use multistep_controller::axis::{valid_axis_name, MAX_POSITION};
+use multistep_controller::config::NAME_RULE;
 use multistep_controller::BoardConfig;
 use serde::Deserialize;
 
@@ -164,6 +166,24 @@ impl AlpacaSection {
                         w.axis, s.name
                     ));
                 }
+                match s.position {
+                    Some(p) if p.unsigned_abs() > MAX_POSITION as u64 => {
+                        return err(format!(
+                            "filterwheel '{}': slot '{}' position {p} is outside \
+                             [-{MAX_POSITION}, {MAX_POSITION}] (microsteps)",
+                            w.axis, s.name
+                        ))
+                    }
+                    // Without a position the name is a saved named position's.
+                    None if !valid_axis_name(&s.name) => {
+                        return err(format!(
+                            "filterwheel '{}': slot {:?} has no position and is not a \
+                             saved position's name ({NAME_RULE})",
+                            w.axis, s.name
+                        ))
+                    }
+                    _ => {}
+                }
             }
         }
         Ok(())
@@ -188,7 +208,8 @@ mod tests {
     fn a_good_section_parses() {
         let s = section(
             "[[alpaca.focuser]]\naxis = \"F\"\n[[alpaca.rotator]]\naxis = \"R\"\n\
-             [[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = 0 }, { name = \"b\" }]\n",
+             [[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = 0 }, { name = \"b\" }, \
+             { name = \"H alpha\", position = -1000000000000000 }]\n",
         )
         .unwrap();
         assert_eq!(s.focuser[0].microns_per_unit, 1000.0);
@@ -225,6 +246,10 @@ mod tests {
             ("[[alpaca.focuser]]\naxis = \"F\"\nspeed = 3\n", "unknown field"),
             ("[[alpaca.telescope]]\naxis = \"F\"\n", "unknown field"),
             ("[[alpaca.focuser]]\naxis = \"F\"\nmicrons_per_unit = -1.0\n", "positive"),
+            ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"\", position = 0 }]\n", "non-empty"),
+            ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = 9223372036854775807 }]\n", "outside [-1000000000000000, 1000000000000000]"),
+            ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = -9223372036854775808 }]\n", "outside"),
+            ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"H alpha\" }]\n", "saved position's name"),
         ] {
             let e = section(extra).unwrap_err();
             assert!(e.contains(says), "{extra}: {e}");

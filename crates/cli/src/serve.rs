@@ -6,7 +6,7 @@ use clap::Args;
 use multistep_controller::backend::{FpgaBackend, LinkSpec};
 use multistep_controller::store::Store;
 use multistep_controller::CtlError;
-use multistep_controller::{service, BoardConfig, Controller};
+use multistep_controller::{controller, service, BoardConfig, Controller};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -30,7 +30,8 @@ pub struct ServeArgs {
     /// overrides the config's board.link
     #[arg(long, value_name = "LINK")]
     pub board_link: Option<String>,
-    /// Simulated time runs this many times faster than the wall clock (1 with a board link)
+    /// Simulated time runs this many times faster than the wall clock, 0.001 to 10000
+    /// (below 1: slower); 1 with a board link
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub time_scale: f64,
     #[command(flatten)]
@@ -77,6 +78,8 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         Some(p) => load_board_config(p)?,
         None => BoardConfig::default(),
     };
+    // Before the database is touched: a refused start changes nothing.
+    controller::check_time_scale(a.time_scale)?;
     let l = &a.line;
     service::check_listen(&a.listen, l.listen_allow_remote, l.listen_token.as_deref())?;
     let limits = service::Limits::new(l.max_clients, l.idle_timeout, l.line_timeout)?;

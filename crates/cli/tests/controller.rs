@@ -948,6 +948,7 @@ fn a_damaged_database_gives_one_error_line_and_a_fresh_start_needs_a_flag() {
     for (what, bytes) in [
         ("truncated", &full[..full.len() / 2]),
         ("empty", &full[..0]),
+        ("not a database", &b"hello world garbage"[..]),
     ] {
         std::fs::write(&db, bytes).unwrap();
         let (code, err) = serve_exits(&listen, &data);
@@ -1188,4 +1189,73 @@ fn ctl_tracks_axes_by_board_and_number_with_named_rates() {
     assert!(!y.enabled && !y.trusted && y.position < 0, "{y:?}");
     assert_eq!(ctl(&["energize", "a:Y"]).0, Some(0));
     assert!(status(&mut c, "Y").enabled);
+}
+
+// ---- start-up settings that would lose data or freeze the board are refused ----
+
+#[test]
+fn a_sync_line_in_the_data_directory_or_on_a_device_is_refused_and_nothing_is_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    {
+        let mut srv = Server::start(&data, None, 10.0, &[]);
+        srv.client().request("set X vmax 1234").unwrap();
+        srv.kill9();
+    }
+    let db = data.join("board.redb");
+    let listen = ["--listen", "127.0.0.1:0", "--board-config"];
+    for (line, why) in [
+        (db.to_str().unwrap(), "inside the board's data directory"),
+        ("/dev/zero", "not a regular file"),
+        ("", "is empty"),
+        ("/no/such/dir/line", "not a directory"),
+    ] {
+        let config = write_config(
+            dir.path(),
+            &TWO_AXES.replace("[board]\n", &format!("[board]\nsync_line = {line:?}\n")),
+        );
+        let args = [&listen[..], &[config.to_str().unwrap()]].concat();
+        let (code, err) = serve_exits(&args, &data);
+        assert_eq!(code, Some(2), "{line}: {err}");
+        assert_eq!(err.lines().count(), 1, "{line}: {err}");
+        assert!(
+            err.starts_with("error:") && err.contains("board.sync_line") && err.contains(why),
+            "{line}: {err}"
+        );
+    }
+    // The database is still the board's: its setting survived every refusal.
+    let srv = Server::start(&data, None, 10.0, &[]);
+    assert_eq!(srv.client().request("get X vmax").unwrap(), ["vmax=1234.0"]);
+}
+
+#[test]
+fn a_time_scale_outside_its_range_is_refused_and_the_slowest_still_ticks() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    for x in ["1e-300", "0.0009", "0", "-1", "10001", "NaN", "inf"] {
+        let (code, err) = serve_exits(&["--listen", "127.0.0.1:0", "--time-scale", x], &data);
+        assert_eq!(code, Some(2), "{x}: {err}");
+        assert_eq!(err.lines().count(), 1, "{x}: {err}");
+        assert!(
+            err.contains("time scale must be in [0.001, 10000]"),
+            "{x}: {err}"
+        );
+    }
+    assert!(!data.exists(), "a refused start creates no board");
+    let help = Command::new(BIN)
+        .args(["serve", "--help"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&help.stdout).contains("0.001 to 10000"));
+    // At the slowest scale the board's clock still moves.
+    let srv = Server::start(&data, None, 0.001, &[]);
+    let mut c = srv.client();
+    let tick = |c: &mut Client| -> u64 {
+        let info = c.request("info").unwrap();
+        let t = info.iter().find_map(|l| l.strip_prefix("tick="));
+        t.unwrap().parse().unwrap()
+    };
+    let t0 = tick(&mut c);
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(tick(&mut c) > t0);
 }

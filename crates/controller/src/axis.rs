@@ -408,6 +408,14 @@ impl AxisSettings {
     pub fn set(&mut self, key: &str, value: &str) -> Result<(), CtlError> {
         let mut v = serde_json::to_value(&*self)?;
         let slot = lookup_mut(&mut v, key).ok_or_else(|| unknown_key(key))?;
+        // A group is set key by key: a whole object would reset every key it leaves out.
+        if let Some(group) = slot.as_object() {
+            let keys: Vec<String> = group.keys().map(|k| format!("{key}.{k}")).collect();
+            return Err(CtlError::Setting(format!(
+                "'{key}' is a group of settings; set one of {}",
+                keys.join(", ")
+            )));
+        }
         *slot = match slot {
             serde_json::Value::String(_) => serde_json::Value::String(value.to_string()),
             _ if value == "none" || (key == "idle_release" && value == "never") => {

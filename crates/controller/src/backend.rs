@@ -18,6 +18,7 @@ mod sim_sync;
 
 pub use fpga::{FpgaBackend, LinkSpec};
 pub use sim::SimBackend;
+pub(crate) use sim_sync::check_line_path;
 
 /// One axis's move handed to a backend.
 pub struct Launch {

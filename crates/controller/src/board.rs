@@ -13,7 +13,7 @@ use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::int::IntProfile;
 use multistep_core::tdm::TdmConfig;
-use multistep_core::{Family, MoveSpec, Profile};
+use multistep_core::{MoveSpec, Profile};
 use std::collections::BTreeMap;
 
 mod driver;
@@ -1162,11 +1162,9 @@ impl Board {
         }
     }
 
-    /// Stores a speed preset; its family and values are checked on a sample move.
+    /// Stores a speed preset once its family and values pass a move's checks.
     pub fn set_preset(&mut self, name: &str, opts: &MoveOpts) -> Result<(), CtlError> {
-        let fam = opts.profile.as_deref().unwrap_or("trapezoid");
-        let p = &opts.params;
-        Family::parse(fam, p.rho, p.phi, p.psi)?;
+        opts.check_values()?;
         self.store.put_preset(name, opts)
     }
 

@@ -137,10 +137,17 @@ impl BoardConfig {
                 self.board.fifo_depth
             )));
         }
+        // Board and axis names are written in `BOARD:AXIS` and on protocol lines.
+        if !valid_axis_name(&self.board.name) {
+            return Err(CtlError::Setting(format!(
+                "board.name {:?} is not a valid name ({NAME_RULE})",
+                self.board.name
+            )));
+        }
         for (i, a) in self.axes.iter().enumerate() {
             if !valid_axis_name(&a.name) {
                 return Err(CtlError::Setting(format!(
-                    "'{}' is not a valid axis name",
+                    "{:?} is not a valid axis name ({NAME_RULE})",
                     a.name
                 )));
             }
@@ -157,6 +164,9 @@ impl BoardConfig {
         Ok(())
     }
 }
+
+/// What a board or axis name may be ([`valid_axis_name`]), for error messages.
+pub const NAME_RULE: &str = "1 to 32 letters, digits, '_' or '-', not 'ok' or 'all'";
 
 impl BoardSection {
     /// The TDM engine that times this board's moves (seed 000's calculator latencies).
@@ -188,6 +198,18 @@ mod tests {
         assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmaxx = 3.0\n").is_err());
         assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = -3.0\n").is_err());
         assert!(BoardConfig::parse("[[axis]]\nname = \"X:1\"\n").is_err());
+        for bad in ["", "a b", "a\\nb", "all", "a:b", &"b".repeat(33)] {
+            let text = format!("[board]\nname = \"{bad}\"\n[[axis]]\nname = \"X\"\n");
+            let e = BoardConfig::parse(&text).unwrap_err().to_string();
+            assert!(
+                e.contains("board.name") && e.contains(NAME_RULE),
+                "{bad}: {e}"
+            );
+            assert!(!e.contains('\n'), "{e}");
+        }
+        assert!(
+            BoardConfig::parse("[board]\nname = \"optics-2_b\"\n[[axis]]\nname = \"X\"\n").is_ok()
+        );
         assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\n[[axis]]\nname = \"X\"\n").is_err());
         let c = BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = 3.0\n").unwrap();
         assert_eq!(c.axes[0].settings.vmax, 3.0);

@@ -35,6 +35,23 @@ pub const WORK_BUDGET: u64 = 100_000;
 /// How often the simulated mechanics of moving axes are written down (wall time).
 pub const SIM_SAVE_PERIOD: Duration = Duration::from_millis(50);
 
+/// The time scales a simulated board runs at. At the lower end a board on the slowest
+/// clock (1000 Hz) still ticks once a wall-clock second; slower, a board looks frozen (a
+/// stop of a second's deceleration would take over 16 minutes).
+pub const TIME_SCALE_RANGE: (f64, f64) = (1e-3, 1e4);
+
+/// Checks a time scale against [`TIME_SCALE_RANGE`].
+pub fn check_time_scale(time_scale: f64) -> Result<(), CtlError> {
+    let (lo, hi) = TIME_SCALE_RANGE;
+    if (lo..=hi).contains(&time_scale) {
+        Ok(())
+    } else {
+        Err(CtlError::Setting(format!(
+            "time scale must be in [{lo}, {hi}] (got {time_scale})"
+        )))
+    }
+}
+
 pub struct Controller {
     board: Arc<Mutex<Board>>,
     clock: SimClock,
@@ -50,11 +67,7 @@ impl Controller {
         data: &Path,
         time_scale: f64,
     ) -> Result<Controller, CtlError> {
-        if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
-            return Err(CtlError::Setting(format!(
-                "time scale must be in (0, 10000] (got {time_scale})"
-            )));
-        }
+        check_time_scale(time_scale)?;
         Controller::open_store(config, Store::open(data)?, time_scale)
     }
 
@@ -66,6 +79,7 @@ impl Controller {
     ) -> Result<Controller, CtlError> {
         let mut sim = SimBackend::new(config.board.clock_hz, config.axes.len());
         if let Some(line) = &config.board.sync_line {
+            crate::backend::check_line_path(line, store.dir())?;
             sim = sim.with_sync_line(line, config.board.clock_hz * time_scale);
         }
         Controller::open_backend(config, store, time_scale, Box::new(sim))
@@ -78,11 +92,7 @@ impl Controller {
         time_scale: f64,
         pins: Box<dyn BoardBackend>,
     ) -> Result<Controller, CtlError> {
-        if !(time_scale.is_finite() && time_scale > 0.0 && time_scale <= 1e4) {
-            return Err(CtlError::Setting(format!(
-                "time scale must be in (0, 10000] (got {time_scale})"
-            )));
-        }
+        check_time_scale(time_scale)?;
         if pins.clock_hz().is_some() && time_scale != 1.0 {
             return Err(CtlError::Setting(format!(
                 "a real board runs in real time: time scale 1 (got {time_scale})"

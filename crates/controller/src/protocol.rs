@@ -2,7 +2,9 @@
 //! exactly one `ok` or `error:<code> <message>` (grbl style). See docs/PROTOCOL.md.
 
 use crate::error::CtlError;
-use multistep_core::{MoveParams, Param, PARAMS};
+use multistep_core::{
+    Family, LimitsMove, MoveParams, Order, Param, PhaseMove, PlanError, Profile, PARAMS,
+};
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, ErrorKind};
 use std::time::Instant;
@@ -86,6 +88,54 @@ impl MoveOpts {
             }
         }
         Ok(true)
+    }
+
+    /// Checks every value given as a move checks it (the core's rules, `error:7`), so a
+    /// preset never stores a value that every move using it would refuse. Whether the
+    /// values suit a move together depends on the move, and is checked when one uses them.
+    pub fn check_values(&self) -> Result<(), CtlError> {
+        let p = &self.params;
+        // Without a family the axis's applies: every family that reads rho, phi or psi.
+        let families = match &self.profile {
+            Some(f) => vec![f.as_str()],
+            None => Family::NAMES.to_vec(),
+        };
+        for f in families {
+            Family::parse(f, p.rho, p.phi, p.psi)?;
+        }
+        // One-step sample moves carry the values; the core checks each value before it
+        // looks at how they combine, so only a value's own error is taken from them.
+        let phase = PhaseMove {
+            steps: 1,
+            accel_time: p.accel_time.unwrap_or(1.0),
+            cruise_time: p.cruise_time.unwrap_or(0.0),
+            decel_time: p.decel_time.unwrap_or(0.0),
+            start_speed: p.start_speed.unwrap_or(0.0),
+            end_speed: p.end_speed.unwrap_or(0.0),
+            family: Family::Trapezoid,
+        };
+        let limits = LimitsMove {
+            steps: 1,
+            order: Order::SCurve4,
+            vmax: p.vmax.unwrap_or(1.0),
+            amax: p.amax.unwrap_or(1.0),
+            jmax: Some(p.jmax.unwrap_or(1.0)),
+            smax: Some(p.smax.unwrap_or(1.0)),
+            start_speed: 0.0,
+            end_speed: 0.0,
+        };
+        for r in [Profile::phase(&phase), Profile::limits(&limits)] {
+            if let Err(
+                e @ (PlanError::NotFinite { .. }
+                | PlanError::NotPositive { .. }
+                | PlanError::Negative { .. }
+                | PlanError::FractionOutOfRange { .. }),
+            ) = r
+            {
+                return Err(e.into());
+            }
+        }
+        Ok(())
     }
 
     /// The `key=value` words that give these options (for presets and the host client).

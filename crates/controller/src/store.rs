@@ -82,8 +82,12 @@ fn try_open(path: &Path) -> Result<Store, Failure> {
                     path.display()
                 ))))
             }
+            // A short or unreadable file is damage; other I/O (permissions, disk) is not.
             Err(DatabaseError::Storage(StorageError::Io(e)))
-                if e.kind() != std::io::ErrorKind::UnexpectedEof =>
+                if !matches!(
+                    e.kind(),
+                    std::io::ErrorKind::UnexpectedEof | std::io::ErrorKind::InvalidData
+                ) =>
             {
                 return Err(Failure::Other(CtlError::Store(format!(
                     "cannot open {}: {e}",
@@ -138,6 +142,11 @@ impl Store {
     /// one clear error, never opened as a new board.
     pub fn open(dir: &Path) -> Result<Store, CtlError> {
         Store::open_or_reset(dir, false).map(|(s, _)| s)
+    }
+
+    /// The board's data directory (the database's).
+    pub fn dir(&self) -> &Path {
+        &self.dir
     }
 
     /// As [`Store::open`]; with `reset`, a damaged file is renamed aside (the new name is
@@ -361,5 +370,25 @@ mod tests {
         // A key no version knows is still refused.
         let bad = r#"{"vmax":1.0,"vmx":2.0}"#;
         assert!(serde_json::from_str::<MoveOpts>(bad).is_err());
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_database_is_damaged_and_a_reset_moves_it_aside() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(DB_FILE);
+        std::fs::write(&path, "hello world garbage").unwrap();
+        let msg = Store::open(dir.path()).err().unwrap().to_string();
+        assert!(
+            msg.contains("is damaged") && msg.contains("--reset-damaged-data"),
+            "{msg}"
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), b"hello world garbage");
+        let (s, aside) = Store::open_or_reset(dir.path(), true).unwrap();
+        assert_eq!(
+            std::fs::read(aside.unwrap()).unwrap(),
+            b"hello world garbage"
+        );
+        assert!(s.presets().unwrap().is_empty());
+        assert_eq!(s.axis("X").unwrap(), None);
     }
 }

@@ -169,3 +169,62 @@ fn a_simulated_board_refuses_arm_fire_and_synctick_with_one_error_each() {
         "{text}"
     );
 }
+
+/// A preset's values are checked when it is stored, with the answer a move with those
+/// values gets; values that only fail together with a move are left to the move.
+#[test]
+fn a_preset_with_a_value_no_move_takes_is_refused_as_the_move_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
+    let answer = |line: &str| ctl.execute_bytes(line.as_bytes()).to_text();
+    for (values, family) in [
+        ("accel=-1", ""),
+        ("vs=-5 ve=-5 rho=1e308 phi=-1e308", "profile=scurve"),
+        ("cruise=nan_is_not_a_number", ""),
+        ("ve=-0.5", ""),
+        ("amax=0", ""),
+        ("vmax=-3", ""),
+        ("profile=scurve jmax=-1", ""),
+        ("profile=scurve4 smax=0 jmax=5", ""),
+        ("psi=0.7", "profile=scurve4"),
+        ("rho=0", "profile=exponential"),
+        ("profile=bogus", ""),
+    ] {
+        let preset = answer(&format!("preset bad {values}"));
+        let moved = answer(&format!("move X 100 {family} {values}"));
+        assert!(preset.starts_with("error:"), "{values}: {preset}");
+        assert_eq!(preset, moved, "{values}");
+    }
+    assert_eq!(answer("presets"), "ok\n", "nothing was stored");
+    assert!(answer("status X").contains(" pos=0 "));
+    // Values a move takes are stored, even where a given move may not suit them.
+    for values in [
+        "vmax=1e308",
+        "vmax=500 amax=2000",
+        "accel=0.1 decel=0.1 vs=10",
+        "profile=scurve phi=0.25 jmax=1e5",
+        "rho=1e308",
+    ] {
+        assert_eq!(answer(&format!("preset good {values}")), "ok\n", "{values}");
+    }
+}
+
+/// `sim` is set key by key: the whole group as one value would reset the keys it omits.
+#[test]
+fn the_sim_group_is_refused_as_one_key_and_its_keys_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
+    let answer = |line: &str| ctl.execute_bytes(line.as_bytes()).to_text();
+    assert_eq!(answer("set X sim.seed 7"), "ok\n");
+    for value in [r#"{"sensor_at":1}"#, "{}", "1"] {
+        let text = answer(&format!("set X sim {value}"));
+        assert!(
+            text.starts_with("error:9 setting: 'sim' is a group") && text.contains("sim.sensor_at"),
+            "{value}: {text}"
+        );
+    }
+    assert_eq!(answer("get X sim.seed"), "sim.seed=7\nok\n");
+    assert_eq!(answer("set X sim.sensor_at 1"), "ok\n");
+    assert_eq!(answer("get X sim.sensor_at"), "sim.sensor_at=1\nok\n");
+    assert_eq!(answer("get X sim.seed"), "sim.seed=7\nok\n");
+}

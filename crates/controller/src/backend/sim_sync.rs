@@ -4,6 +4,7 @@
 //! processes' ticks follow the wall clock, scaled by their time scale).
 
 use crate::error::CtlError;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -23,6 +24,80 @@ struct Armed<M> {
     tick: u64,
     /// Each member's axis and move; a member stopped before the fall is taken out.
     moves: Vec<(usize, M)>,
+}
+
+/// Most bytes of the line's file that are read: a fall is one decimal number of
+/// nanoseconds (a u128 has at most 39 digits), so a longer file is not a fall.
+const MAX_FALL_BYTES: u64 = 64;
+
+/// Checks a simulated SYNC line's path at start-up: `fire` replaces that file (temp file
+/// and rename) and every poll of an armed group reads it, so it must be a regular file
+/// (or none yet) in an existing directory, outside the board's data directory `data`.
+pub fn check_line_path(path: &Path, data: &Path) -> Result<(), CtlError> {
+    let bad = |why: String| {
+        CtlError::Setting(format!(
+            "board.sync_line '{}' {why}; it must name a regular file (or one not yet there) in \
+             an existing directory outside the board's data directory",
+            path.display()
+        ))
+    };
+    if path.as_os_str().is_empty() {
+        return Err(bad("is empty".into()));
+    }
+    let Some(name) = path.file_name() else {
+        return Err(bad("names no file".into()));
+    };
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let dir = parent
+        .canonicalize()
+        .ok()
+        .filter(|d| d.is_dir())
+        .ok_or_else(|| {
+            bad(format!(
+                "is in {}, which is not a directory",
+                parent.display()
+            ))
+        })?;
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => return Err(bad("is a directory".into())),
+        Ok(m) if !m.is_file() => return Err(bad("is not a regular file (a device?)".into())),
+        Ok(_) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(bad(format!("cannot be read ({e})"))),
+    }
+    let data = data
+        .canonicalize()
+        .map_err(|e| CtlError::Io(format!("{}: {e}", data.display())))?;
+    // Through symlinks too: the file replaced, or the one read, must not be the board's.
+    let real = path.canonicalize().unwrap_or_else(|_| dir.join(name));
+    if dir.starts_with(&data) || real.starts_with(&data) {
+        return Err(bad(format!(
+            "is inside the board's data directory {}",
+            data.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The instant of the line's last fall, if its file holds one.
+fn read_fall(path: &Path) -> Option<u128> {
+    // Only a regular file: opening a pipe would block, reading a device may never end.
+    if !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .ok()?
+        .take(MAX_FALL_BYTES + 1)
+        .read_to_string(&mut text)
+        .ok()?;
+    if text.len() as u64 > MAX_FALL_BYTES {
+        return None;
+    }
+    text.trim().parse().ok()
 }
 
 fn wall_ns() -> u128 {
@@ -79,11 +154,7 @@ impl<M> SimSyncLine<M> {
     /// fall's, never before the arming) and its moves.
     pub fn take_fired(&mut self, now: u64) -> Option<(u64, Vec<(usize, M)>)> {
         let a = self.armed.as_ref()?;
-        let fall: u128 = std::fs::read_to_string(&self.path)
-            .ok()?
-            .trim()
-            .parse()
-            .ok()?;
+        let fall = read_fall(&self.path)?;
         if fall < a.wall_ns {
             return None;
         }
@@ -124,5 +195,62 @@ mod tests {
         assert!((900_000..=980_000).contains(&tick), "{tick}");
         assert_eq!(a.last_fall(), tick as u32);
         assert!(!a.is_armed());
+    }
+
+    #[test]
+    fn a_line_path_must_be_a_regular_file_in_a_directory_outside_the_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let data = dir.path().join("data");
+        std::fs::create_dir_all(data.join("sub")).unwrap();
+        std::fs::write(data.join("board.redb"), "db").unwrap();
+        let shared = dir.path().join("shared");
+        std::fs::write(&shared, "1").unwrap();
+        let refused = [
+            (PathBuf::new(), "is empty"),
+            (PathBuf::from("/"), "names no file"),
+            (dir.path().to_path_buf(), "is a directory"),
+            (PathBuf::from("/dev/null"), "not a regular file"),
+            (PathBuf::from("/dev/zero"), "not a regular file"),
+            (dir.path().join("no/such/line"), "not a directory"),
+            (shared.join("line"), "not a directory"),
+            (data.join("board.redb"), "inside the board's data directory"),
+            (data.join("sub/line"), "inside the board's data directory"),
+            (
+                data.join("sub/../line"),
+                "inside the board's data directory",
+            ),
+        ];
+        for (path, why) in refused {
+            let e = check_line_path(&path, &data).unwrap_err();
+            assert_eq!(e.code(), 9, "{path:?}");
+            let msg = e.to_string();
+            assert!(msg.contains(why) && !msg.contains('\n'), "{path:?}: {msg}");
+        }
+        // A symlink outside whose target is the board's database.
+        let link = dir.path().join("link");
+        std::os::unix::fs::symlink(data.join("board.redb"), &link).unwrap();
+        assert!(check_line_path(&link, &data).is_err());
+        for ok in [shared, dir.path().join("new-line")] {
+            check_line_path(&ok, &data).unwrap();
+        }
+        assert_eq!(std::fs::read(data.join("board.redb")).unwrap(), b"db");
+    }
+
+    #[test]
+    fn an_overlong_or_malformed_line_file_is_no_fall() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sync");
+        let mut a = SimSyncLine::new(&path, 1e6);
+        a.arm(vec![(0, ())], 0);
+        let later = (wall_ns() + 1_000_000).to_string();
+        // A valid instant padded past the limit, then text: neither is a fall.
+        std::fs::write(&path, format!("{later}{}", " ".repeat(1 << 20))).unwrap();
+        assert!(a.take_fired(10).is_none());
+        std::fs::write(&path, "soon").unwrap();
+        assert!(a.take_fired(10).is_none());
+        assert!(a.is_armed());
+        // Within the limit it is one.
+        std::fs::write(&path, format!("{later}\n")).unwrap();
+        assert!(a.take_fired(10).is_some());
     }
 }
