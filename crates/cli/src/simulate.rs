@@ -23,7 +23,7 @@ pub struct SimulateArgs {
     /// Microsteps per full step (default: the motor file's)
     #[arg(long, value_name = "M")]
     pub microsteps: Option<u32>,
-    /// Driver supply voltage (default: the motor file's)
+    /// Driver supply voltage (V, up to 1000; default: the motor file's)
     #[arg(long, value_name = "V")]
     pub supply: Option<f64>,
     /// Driver: rl (PI current loop, voltage clamped to the supply) or ideal (i = i*)
@@ -32,13 +32,13 @@ pub struct SimulateArgs {
     /// Load inertia on the shaft (kg·m²; default: the motor file's)
     #[arg(long, value_name = "J")]
     pub load_inertia: Option<f64>,
-    /// Load torque opposing the move (N·m; default: the motor file's)
+    /// Load torque opposing the move (N·m, 0 to 10 × holding torque; default: the motor file's)
     #[arg(long, value_name = "T")]
     pub load_torque: Option<f64>,
     /// Damping ratio ζ of the rotor oscillation (default: the motor file's)
     #[arg(long, value_name = "Z")]
     pub damping_ratio: Option<f64>,
-    /// RK4 time step (s)
+    /// RK4 time step (s): at least 1e-9 and small enough to be stable for the motor
     #[arg(long, value_name = "S", default_value_t = DEFAULT_DT)]
     pub dt: f64,
     /// Write the trace (every 10 µs) as CSV
@@ -72,6 +72,8 @@ pub fn run(a: &SimulateArgs) -> anyhow::Result<()> {
     if let Some(v) = a.supply {
         cfg.driver.supply_voltage = v;
     }
+    // a run of more than a few seconds shows a bar on stderr (when it is a terminal)
+    cfg.progress = true;
     if a.trace.is_some() || a.plot.is_some() {
         cfg.trace_interval = Some(10e-6);
     }

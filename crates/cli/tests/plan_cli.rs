@@ -229,3 +229,50 @@ fn bad_input_gets_one_error_line_and_status_2() {
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
     }
 }
+
+#[test]
+fn a_move_faster_than_the_clock_is_refused() {
+    let limits = ["--steps", "1000", "--vmax", "1000", "--amax", "10000"];
+    for clock in ["1", "0.001", "999"] {
+        let mut args = limits.to_vec();
+        args.extend(["--clock", clock]);
+        let out = plan(&args);
+        assert_eq!(out.status.code(), Some(2), "--clock {clock}");
+        assert!(out.stdout.is_empty());
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert!(
+            err.starts_with("error: the move peaks at ")
+                && err.contains(&format!(
+                    "faster than one step per tick of the {clock} Hz clock"
+                ))
+                && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+    // every edge at tick 0 before: an unbounded peak speed
+    let out = plan(&[
+        "--steps",
+        "5",
+        "--accel-time",
+        "1e-300",
+        "--cruise-time",
+        "0",
+        "--decel-time",
+        "1e-300",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("faster than one step per tick"), "{err}");
+    // at one step per tick the edges are still distinct, one tick apart at the peak
+    let mut args = limits.to_vec();
+    args.extend(["--clock", "1000", "--format", "csv"]);
+    let out = plan(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = csv_rows(&out);
+    assert_eq!(rows.len(), 1000);
+    assert!(rows.iter().all(|&(_, _, period)| period >= 1));
+}

@@ -112,3 +112,74 @@ fn two_axis_json_has_axes() {
         assert!(ax["peak_following_error_steps"].as_f64().unwrap() <= 8.0);
     }
 }
+
+/// One `error:` line, exit 2, no report on stdout.
+fn refused(args: &[&str]) -> String {
+    let (code, out, err) = multistep(args);
+    assert_eq!(code, 2, "{args:?}: {out}{err}");
+    assert!(out.is_empty(), "{args:?}: {out}");
+    assert!(
+        err.starts_with("error: ") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+    err
+}
+
+#[test]
+fn simulate_refuses_nonsense_physics_and_divergence() {
+    let mv = ["--steps", "1000", "--vmax", "1000", "--amax", "10000"];
+    let with = |extra: &[&'static str]| {
+        let mut a = vec!["simulate", "--motor", "42mm"];
+        a.extend(mv);
+        a.extend(extra);
+        a
+    };
+    for t in ["1e308", "1e200", "6"] {
+        let err = refused(&with(&["--load-torque", t]));
+        assert!(
+            err.contains("`load_torque`") && err.contains("10 × holding_torque"),
+            "{err}"
+        );
+        assert!(err.len() < 200, "{err}");
+    }
+    let err = refused(&with(&["--supply", "1e308"]));
+    assert!(
+        err.contains("`supply` = 1e308") && err.contains("1000 V"),
+        "{err}"
+    );
+    // no damping against a load far above the holding torque: the rotor runs away
+    let err = refused(&with(&["--load-torque", "5", "--damping-ratio", "0"]));
+    assert!(err.contains("diverged at t = "), "{err}");
+    // within the bounds a stall is a result: steps lost, finite error
+    let (code, out, err) = multistep(&with(&["--load-torque", "1", "--format", "json"]));
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["lost"], true);
+    assert!(v["final_error_deg"].as_f64().unwrap().is_finite());
+}
+
+#[test]
+fn simulate_refuses_unbounded_work_at_once() {
+    let started = std::time::Instant::now();
+    let err = refused(&[
+        "simulate", "--motor", "42mm", "--steps", "1000", "--vmax", "1000", "--amax", "10000",
+        "--dt", "1e-300",
+    ]);
+    assert!(
+        err.contains("`dt`") && err.contains("at least 1e-9 s"),
+        "{err}"
+    );
+    for mv in [
+        ["--steps", "1000", "--vmax", "1e-3", "--amax", "1e-3"],
+        ["--steps", "100000000", "--vmax", "1000", "--amax", "10000"],
+    ] {
+        let mut a = vec!["simulate", "--motor", "42mm"];
+        a.extend(mv);
+        let err = refused(&a);
+        assert!(
+            err.contains("RK4 steps") && err.contains("5e8 allowed") && err.contains("larger dt"),
+            "{err}"
+        );
+    }
+    assert!(started.elapsed().as_secs() < 10);
+}

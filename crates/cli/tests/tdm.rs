@@ -157,3 +157,70 @@ fn k_max_of_a_config_against_eq12() {
     assert!(rr["k_max"].as_u64().unwrap() >= rr["k_eq12"].as_u64().unwrap());
     assert!(rr["k_load"].as_u64().unwrap() > rr["k_max"].as_u64().unwrap());
 }
+
+/// Writes `text` as a config, runs `tdm` on it with `extra`, and returns the error.
+fn config_error(name: &str, text: &str, extra: &[&str]) -> String {
+    let path = std::env::temp_dir().join(format!("multistep-{name}-{}.toml", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let mut args = vec!["tdm", "--config", path.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let started = std::time::Instant::now();
+    let (ok, out, err) = multistep(&args);
+    std::fs::remove_file(&path).ok();
+    assert!(started.elapsed().as_secs() < 10, "not refused at once");
+    // a failure, no report, one `error:` line
+    assert_eq!(
+        (ok, out.as_str(), err.lines().count()),
+        (false, "", 1),
+        "{err}"
+    );
+    assert!(err.starts_with("error: "), "{err}");
+    err
+}
+
+#[test]
+fn board_keys_out_of_range_are_named() {
+    let axis = "[[axis]]\nsteps = 100\nvmax = 10\namax = 10\n";
+    let err = config_error("clock", &format!("clock = 0.5\n{axis}"), &[]);
+    assert!(
+        err.contains("axis 0") && err.contains("faster than one step per tick of the 0.5 Hz clock"),
+        "{err}"
+    );
+    let err = config_error("negclock", &format!("clock = -1\n{axis}"), &[]);
+    assert!(err.contains("clock = -1 must be"), "{err}");
+    for key in ["pulse_width_ticks", "dir_setup_ticks"] {
+        let err = config_error(key, &format!("{key} = 9223372036854775807\n{axis}"), &[]);
+        assert!(
+            err.contains(key) && err.contains("at most 50000000 ticks"),
+            "{err}"
+        );
+    }
+    let err = config_error(
+        "zerocycles",
+        &format!("mul_cycles = 0\ndiv_cycles = 0\nsqrt_cycles = 0\noverhead_cycles = 0\n{axis}"),
+        &[],
+    );
+    assert!(err.contains("at least one cycle"), "{err}");
+}
+
+#[test]
+fn runs_past_the_edge_limit_are_refused_at_once() {
+    let big = "[[axis]]\nsteps = 100000000000\nvmax = 1000000\namax = 1000000\n";
+    let err = config_error("big", big, &[]);
+    assert!(
+        err.contains("100000000000 step edges") && err.contains("5000000000 allowed"),
+        "{err}"
+    );
+    // k-max runs 1…64 axes: 64·65/2 = 2080 runs of the move's 3 000 000 steps
+    let mid = "[[axis]]\nsteps = 3000000\nvmax = 1000000\namax = 1000000\n";
+    let err = config_error("kmax", mid, &["--k-max"]);
+    assert!(
+        err.contains("6240000000 step edges") && err.contains("--max-axes"),
+        "{err}"
+    );
+    let (ok, _, err) = multistep(&["tdm", "--sweep", "--move-times", "100:100:100"]);
+    assert!(
+        !ok && err.contains("allowed") && err.contains("--move-times"),
+        "{err}"
+    );
+}

@@ -6,7 +6,7 @@ use thiserror::Error;
 #[derive(Clone, Debug, Error, PartialEq)]
 /// Why a move cannot be planned.
 pub enum PlanError {
-    #[error("{name} must be a finite number (got {value})")]
+    #[error("{name} must be a finite number (got {})", Num(*.value))]
     /// A value is NaN or infinite.
     NotFinite {
         /// Which value, as the command line names it.
@@ -14,7 +14,7 @@ pub enum PlanError {
         /// The value given.
         value: f64,
     },
-    #[error("{name} must be greater than zero (got {value})")]
+    #[error("{name} must be greater than zero (got {})", Num(*.value))]
     /// A value that must be positive is not.
     NotPositive {
         /// Which value, as the command line names it.
@@ -22,7 +22,7 @@ pub enum PlanError {
         /// The value given.
         value: f64,
     },
-    #[error("{name} must not be negative (got {value})")]
+    #[error("{name} must not be negative (got {})", Num(*.value))]
     /// A value that must not be negative is.
     Negative {
         /// Which value, as the command line names it.
@@ -44,7 +44,7 @@ pub enum PlanError {
     #[error("the phases add up to zero time: accel, cruise and decel time cannot all be 0")]
     /// The phases add up to zero time.
     ZeroDuration,
-    #[error("{name} must be in (0, 0.5] (got {value})")]
+    #[error("{name} must be in (0, 0.5] (got {})", Num(*.value))]
     /// φ or ψ outside (0, ½].
     FractionOutOfRange {
         /// Which value, as the command line names it.
@@ -53,8 +53,9 @@ pub enum PlanError {
         value: f64,
     },
     #[error(
-        "the move cannot be done: {steps} steps are too few for a start speed of {start_speed} \
-         and end speed of {end_speed} steps/s in these phase times (the cruise speed would be {cruise_speed:.6} steps/s)"
+        "the move cannot be done: {steps} steps are too few for a start speed of {} \
+         and end speed of {} steps/s in these phase times (the cruise speed would be {:.6} steps/s)",
+        Num(*.start_speed), Num(*.end_speed), Num(*.cruise_speed)
     )]
     /// Phase mode: too few steps for the start and end speeds in these times.
     CannotShed {
@@ -68,7 +69,8 @@ pub enum PlanError {
         cruise_speed: f64,
     },
     #[error(
-        "segment {index}: end speed 2n/T − v0 = {end_speed} steps/s is negative; the motor would reverse"
+        "segment {index}: end speed 2n/T − v0 = {} steps/s is negative; the motor would reverse",
+        Num(*.end_speed)
     )]
     /// Segment mode: a segment would end below zero speed.
     SegmentReverses {
@@ -85,7 +87,7 @@ pub enum PlanError {
         /// What the pieces come from.
         what: &'static str,
     },
-    #[error("{name} ({value} steps/s) is above vmax ({vmax} steps/s)")]
+    #[error("{name} ({} steps/s) is above vmax ({} steps/s)", Num(*.value), Num(*.vmax))]
     /// Limits mode: a start or end speed above vmax.
     SpeedAboveLimit {
         /// Which value, as the command line names it.
@@ -96,8 +98,9 @@ pub enum PlanError {
         vmax: f64,
     },
     #[error(
-        "{steps} steps are too few to go from {start_speed} to {end_speed} steps/s within the \
-         acceleration limits (needs at least {needed:.6} steps)"
+        "{steps} steps are too few to go from {} to {} steps/s within the \
+         acceleration limits (needs at least {:.6} steps)",
+        Num(*.start_speed), Num(*.end_speed), Num(*.needed)
     )]
     /// Limits mode: too few steps for the end speeds within the limits.
     TooShortForLimits {
@@ -127,7 +130,9 @@ pub enum PlanError {
     #[error("unknown profile family '{0}' (expected trapezoid, parabolic, exponential, sine, scurve or scurve4)")]
     /// A family name that is not one of [`Family::NAMES`](crate::Family::NAMES).
     UnknownFamily(UnknownName),
-    #[error("the move lasts {ticks:.0} ticks at this clock; at most {max:.0} ticks are supported")]
+    #[error(
+        "the move lasts {ticks:.3e} ticks at this clock; at most {max:.0} (2^50) are supported"
+    )]
     /// The move is longer than [`MAX_TICKS`](crate::MAX_TICKS) at this clock.
     TooManyTicks {
         /// The move's length in ticks.
@@ -139,8 +144,9 @@ pub enum PlanError {
     /// Values of more than one mode, or of none.
     AmbiguousMode(&'static str),
     #[error(
-        "the planned pieces end at step {reached}, not on step {steps} (the move's values are \
-         too far apart for f64)"
+        "the planned pieces end at step {}, not on step {steps} (the move's values are \
+         too far apart for f64)",
+        Num(*.reached)
     )]
     /// The planned pieces do not end on step N (values too far apart for f64).
     MissesLastStep {
@@ -148,6 +154,28 @@ pub enum PlanError {
         reached: f64,
         /// Steps of the move.
         steps: u64,
+    },
+    #[error(
+        "the move peaks at {:.3} steps/s, faster than one step per tick of the {} Hz clock",
+        Num(*.peak), Num(*.clock_hz)
+    )]
+    /// The move is faster than the clock: two steps would fall on one tick.
+    FasterThanClock {
+        /// The move's peak speed (steps/s).
+        peak: f64,
+        /// The clock (Hz).
+        clock_hz: f64,
+    },
+    #[error(
+        "the limits are too small for the move: its {steps} steps would take more than \
+         {seconds:e} s (amax, jmax or smax is too small)"
+    )]
+    /// Limits mode: limits so small that the move would last beyond any clock's range.
+    LimitsTooSmall {
+        /// Steps of the move.
+        steps: u64,
+        /// The least time it would take (s).
+        seconds: f64,
     },
     #[error("missing {0}")]
     /// A required value is missing.
@@ -189,6 +217,24 @@ impl core::fmt::Display for UnknownName {
     }
 }
 
+/// A number for messages: as is from 10⁻⁴ to 10¹⁵, in e-notation outside that range, so
+/// 1e308 is not printed as 309 digits. A precision (`{:.3}`) is kept in both forms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f64);
+
+impl core::fmt::Display for Num {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let a = self.0.abs();
+        let plain = a == 0.0 || !a.is_finite() || (1e-4..1e15).contains(&a);
+        match (plain, f.precision()) {
+            (true, Some(p)) => write!(f, "{:.*}", p, self.0),
+            (true, None) => write!(f, "{}", self.0),
+            (false, Some(p)) => write!(f, "{:.*e}", p, self.0),
+            (false, None) => write!(f, "{:e}", self.0),
+        }
+    }
+}
+
 /// Checks that `value` is finite and > 0.
 pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, PlanError> {
     if !value.is_finite() {
@@ -217,4 +263,21 @@ pub(crate) fn fraction(name: &'static str, value: f64) -> Result<f64, PlanError>
         return Err(PlanError::FractionOutOfRange { name, value });
     }
     Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Num;
+
+    #[test]
+    fn numbers_in_messages_are_compact() {
+        assert_eq!(format!("{}", Num(1e308)), "1e308");
+        assert_eq!(format!("{}", Num(-2.5e-300)), "-2.5e-300");
+        assert_eq!(format!("{:.3}", Num(1e308)), "1.000e308");
+        assert_eq!(format!("{}", Num(5.9)), "5.9");
+        assert_eq!(format!("{:.3}", Num(0.5)), "0.500");
+        assert_eq!(format!("{}", Num(0.0)), "0");
+        assert_eq!(format!("{}", Num(f64::INFINITY)), "inf");
+        assert_eq!(format!("{}", Num(123456789012345.0)), "123456789012345");
+    }
 }

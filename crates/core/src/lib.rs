@@ -56,7 +56,7 @@ pub mod tdm;
 pub mod track;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
-pub use error::PlanError;
+pub use error::{Num, PlanError};
 pub use moves::{
     Family, LimitsMove, Move, Order, PhaseMove, Segment, DEFAULT_PHI, DEFAULT_PSI, DEFAULT_RHO,
     MAX_PIECES, MAX_STEPS,

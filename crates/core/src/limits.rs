@@ -158,6 +158,18 @@ fn bisect(mut lo: f64, mut hi: f64, below: impl Fn(f64) -> bool) -> f64 {
     lo
 }
 
+/// The largest `x / 2^k` (k ≥ 1) with `below`, or 0 if none is above f64's smallest.
+fn halve_until(x: f64, below: impl Fn(f64) -> bool) -> f64 {
+    let mut v = x;
+    while v > 0.0 {
+        v *= 0.5;
+        if below(v) {
+            return v;
+        }
+    }
+    0.0
+}
+
 /// Grid points tried when looking for a dip below both end speeds.
 const DIP_GRID: usize = 256;
 
@@ -184,7 +196,13 @@ fn peak_speed(l: &Limits, n: f64, vs: f64, ve: f64, vmax: f64) -> Result<f64, f6
             let vp = fm::sqrt((2.0 * l.amax * n + vs * vs + ve * ve) / 2.0);
             return Ok(vp.clamp(vlo, vmax));
         }
-        return Ok(bisect(vlo, vmax, |v| dist(v) <= n));
+        if vlo > 0.0 {
+            return Ok(bisect(vlo, vmax, |v| dist(v) <= n));
+        }
+        // From rest, a tiny jerk or snap puts the peak far below vmax: 200 halvings of
+        // [0, vmax] would end at 0 (no move), so bracket it by powers of two first.
+        let lo = halve_until(vmax, |v| dist(v) <= n);
+        return Ok(bisect(lo, (2.0 * lo).min(vmax), |v| dist(v) <= n));
     }
     // A constant-acceleration change covers (v0² − v1²)/2a whatever the path: no dip helps.
     let vmin = vs.min(ve);
@@ -304,8 +322,40 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
         end_speed: ve,
         needed,
     })?;
+    let too_small = PlanError::LimitsTooSmall {
+        steps: m.steps,
+        seconds: SLOWEST_CHANGE_S,
+    };
+    if vp == 0.0 && vs == 0.0 && ve == 0.0 {
+        // no speed above f64's smallest fits the steps within the limits
+        return Err(too_small);
+    }
     let up = change(&l, vs, vp);
     let down = change(&l, vp, ve);
+    build(order, n, vs, vp, &up, &down, m.steps).map_err(|e| {
+        // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
+        if up.time + down.time < SLOWEST_CHANGE_S {
+            e
+        } else {
+            too_small
+        }
+    })
+}
+
+/// A speed change longer than this (s) is no move: it exceeds 2^50 ticks of any clock
+/// above 10⁻¹⁵ Hz, and its pieces' positions may overflow f64.
+const SLOWEST_CHANGE_S: f64 = 1e30;
+
+/// The pieces of `vs → vp → (cruise) → ve`.
+fn build(
+    order: u8,
+    n: f64,
+    vs: f64,
+    vp: f64,
+    up: &Change,
+    down: &Change,
+    steps: u64,
+) -> Result<Profile, PlanError> {
     // the cruise covers what the changes' pieces leave (as summed in f64, so the move
     // ends on N to the rounding of its pieces, not of the closed-form distances)
     let mut b = Builder::new();
@@ -319,7 +369,7 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
     };
     b.cruise(vp, cruise)?;
     b.push_schedule(order, vp, &down.entries[..down.len])?;
-    b.finish(m.steps)
+    b.finish(steps)
 }
 
 /// The smallest whole number `t ≥ 0` with `ok(t)`, searched from an estimate (`ok` is
@@ -392,9 +442,14 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
             x * x >= f2vp2
         })
     };
+    // the ramps' squares overflow only for a peak far beyond any clock: say so
+    let unreachable = || match vp.min(vmax) {
+        peak if peak > f => PlanError::FasterThanClock { peak, clock_hz: f },
+        _ => too_long.clone(),
+    };
     let (ta, tc) = match (ramp(vs), ramp(ve)) {
         (Some(a), Some(c)) => (a, c),
-        _ => return Err(too_long),
+        _ => return Err(unreachable()),
     };
     // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·f − vs·Ta − ve·Tc
     let k = Dd::mul_f64(2.0 * n, f) - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc);
@@ -406,7 +461,7 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
             let w = Dd::new(2.0 * tb + ta + tc);
             vp2 * w * w >= k2
         })
-        .ok_or(too_long)?
+        .ok_or_else(unreachable)?
     };
     Ok((ta, tb, tc))
 }
@@ -450,5 +505,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Huge or tiny limits give the error that names the real problem.
+    #[test]
+    fn extreme_limits_name_what_is_wrong() {
+        let e =
+            Profile::limits_on_clock(&LimitsMove::trapezoid(1000, 1e308, 1e308), 50e6).unwrap_err();
+        assert!(matches!(e, PlanError::FasterThanClock { .. }), "{e}");
+        assert!(e.to_string().contains("1.000e308 steps/s"), "{e}");
+        // a tiny jerk from rest: a long move, not "zero time"
+        let mut m = LimitsMove::trapezoid(10, 100.0, 100.0);
+        m.order = Order::SCurve;
+        m.jmax = Some(1e-300);
+        let p = plan(&m).unwrap();
+        assert!(p.duration() > 1e90 && p.duration().is_finite());
+        let p = Profile::plan_on_clock(&crate::Move::Limits(m), 50e6).unwrap();
+        let e = crate::EdgeGenerator::new(p, 50e6).unwrap_err();
+        assert!(e.to_string().contains("lasts 3.420e108 ticks"), "{e}");
+        // a snap so small no speed fits in f64
+        m.order = Order::SCurve4;
+        m.jmax = Some(1.0);
+        m.smax = Some(1e-300);
+        let e = plan(&m).unwrap_err();
+        assert!(
+            matches!(e, PlanError::LimitsTooSmall { steps: 10, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("more than 1e30 s"), "{e}");
     }
 }

@@ -1,6 +1,6 @@
 //! One entry point per mode, as methods of [`Profile`].
 
-use crate::error::PlanError;
+use crate::error::{positive, PlanError};
 use crate::limits;
 use crate::moves::{LimitsMove, Move, PhaseMove, Segment};
 use crate::phase;
@@ -30,12 +30,20 @@ impl Profile {
     }
 
     /// Any mode, with limits-mode trapezoids on whole ticks ([`Profile::limits_on_clock`]):
-    /// what a move plays as on a clock of `clock_hz`.
+    /// what a move plays as on a clock of `clock_hz`. A move faster than one step per tick
+    /// is refused: at peak speed ≤ clock rate consecutive step times are at least a tick
+    /// apart, so their nearest ticks are distinct; above it, steps would share a tick.
     pub fn plan_on_clock(m: &Move<'_>, clock_hz: f64) -> Result<Profile, PlanError> {
-        match m {
-            Move::Limits(l) => Profile::limits_on_clock(l, clock_hz),
-            other => Profile::plan(other),
+        let clock_hz = positive("clock", clock_hz)?;
+        let p = match m {
+            Move::Limits(l) => Profile::limits_on_clock(l, clock_hz)?,
+            other => Profile::plan(other)?,
+        };
+        let peak = p.peaks().0;
+        if !(peak <= clock_hz) {
+            return Err(PlanError::FasterThanClock { peak, clock_hz });
         }
+        Ok(p)
     }
 
     /// Phase mode: `vm` follows from N = vs·Ta + (vm−vs)·Ta·G1 + vm·Tb + ve·Tc + (vm−ve)·Tc·G1.
@@ -46,5 +54,42 @@ impl Profile {
     /// Segment mode (seed 000): each segment `(v0, T, n)` has `a = 2(n − v0·T)/T²`.
     pub fn segments(segs: &[Segment]) -> Result<Profile, PlanError> {
         phase::plan_segments(segs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::edges::EdgeGenerator;
+    use crate::moves::LimitsMove;
+
+    #[test]
+    fn a_move_faster_than_its_clock_is_refused_and_one_at_it_is_not() {
+        let m = Move::Limits(LimitsMove::trapezoid(1000, 1000.0, 10_000.0));
+        for clock in [1.0, 0.5, 999.0] {
+            match Profile::plan_on_clock(&m, clock) {
+                Err(PlanError::FasterThanClock { peak, clock_hz }) => {
+                    assert!(peak > clock_hz && clock_hz == clock)
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        let p = Profile::plan_on_clock(&m, 1000.0).unwrap();
+        let edges: Vec<u64> = EdgeGenerator::new(p, 1000.0).unwrap().collect();
+        assert_eq!(edges.len(), 1000);
+        assert!(edges.windows(2).all(|w| w[1] > w[0]), "steps share a tick");
+        // phase mode too: 5 steps in 2e-300 s
+        let fast = Move::Phase(PhaseMove {
+            steps: 5,
+            accel_time: 1e-300,
+            cruise_time: 0.0,
+            decel_time: 1e-300,
+            start_speed: 0.0,
+            end_speed: 0.0,
+            family: crate::moves::Family::Trapezoid,
+        });
+        let e = Profile::plan_on_clock(&fast, 50e6).unwrap_err();
+        assert!(matches!(e, PlanError::FasterThanClock { .. }), "{e}");
+        assert!(Profile::plan_on_clock(&m, 0.0).is_err());
     }
 }

@@ -3,6 +3,7 @@
 //! clamped to the supply (`rl` mode) — or currents that follow the references (`ideal`).
 
 use crate::error::SimError;
+use crate::motor::MAX_SUPPLY_VOLTAGE;
 use serde::Serialize;
 
 /// How phase currents are produced.
@@ -33,7 +34,7 @@ pub const DEFAULT_BANDWIDTH_HZ: f64 = 5_000.0;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct DriverConfig {
     pub mode: DriverMode,
-    /// Supply voltage, the clamp of each phase voltage (V).
+    /// Supply voltage, the clamp of each phase voltage (V), up to [`MAX_SUPPLY_VOLTAGE`].
     pub supply_voltage: f64,
     /// Current amplitude I of the references (A).
     pub current: f64,
@@ -55,10 +56,24 @@ impl DriverConfig {
         }
     }
 
+    /// Every setting in its range; the error names the setting.
     pub fn validate(&self) -> Result<(), SimError> {
-        let bad = |field, value, why| Err(SimError::BadSetting { field, value, why });
+        let bad = |field, value, why: &str| {
+            Err(SimError::BadSetting {
+                field,
+                value,
+                why: why.to_string(),
+            })
+        };
         if !(self.supply_voltage.is_finite() && self.supply_voltage > 0.0) {
             return bad("supply", self.supply_voltage, "must be > 0");
+        }
+        if self.supply_voltage > MAX_SUPPLY_VOLTAGE {
+            return bad(
+                "supply",
+                self.supply_voltage,
+                &format!("must be at most {MAX_SUPPLY_VOLTAGE} V"),
+            );
         }
         if !(self.current.is_finite() && self.current > 0.0) {
             return bad("current", self.current, "must be > 0");

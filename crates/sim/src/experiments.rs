@@ -194,7 +194,8 @@ impl CurveLimitsSetup {
             return Err(SimError::BadSetting {
                 field: "calibration_angle",
                 value: self.calibration_angle_deg,
-                why: "the unloaded motor already loses steps there: no load inertia can match it",
+                why: "the unloaded motor already loses steps there: no load inertia can match it"
+                    .into(),
             });
         }
         let (mut lo, mut hi) = (0.0, self.motor.rotor_inertia);
@@ -257,7 +258,8 @@ pub struct CurveLimits {
     pub simulations: u64,
 }
 
-fn progress(len: u64) -> ProgressBar {
+/// A progress bar on stderr when it is a terminal (hidden otherwise, so logs stay clean).
+pub(crate) fn progress(len: u64) -> ProgressBar {
     let target = if std::io::stderr().is_terminal() {
         ProgressDrawTarget::stderr()
     } else {

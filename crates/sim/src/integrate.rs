@@ -11,10 +11,28 @@ use crate::model::{
 };
 use crate::motor::Motor;
 use crate::{DriverMode, SimConfig, SimResult, TraceRow};
+use indicatif::ProgressBar;
+use multistep_core::Num;
 
 /// RK4's stability boundary is about 2.79 on the negative real axis and 2.83 on the imaginary
 /// axis; we keep a margin.
 pub const STABILITY_LIMIT: f64 = 2.5;
+
+/// RK4's stability boundary on the imaginary axis, 2√2 (Hairer & Wanner, *Solving Ordinary
+/// Differential Equations II*, §IV.2): an electrical angle that turns faster than this per
+/// step is not followed, only amplified.
+const RK4_IMAGINARY_BOUND: f64 = 2.0 * std::f64::consts::SQRT_2;
+
+/// Shortest RK4 step (s). Shorter steps only add work: the fastest mode of the shipped
+/// motors needs about 10 µs.
+pub const MIN_DT: f64 = 1e-9;
+
+/// The most RK4 steps one simulation may take: about a minute at ~0.1 µs per step (grid
+/// steps plus one per edge). 500 s simulated at the default dt of 1 µs.
+pub const MAX_RK4_STEPS: f64 = 5e8;
+
+/// Runs expected to take longer than this many RK4 steps (a few seconds) show progress.
+const PROGRESS_STEPS: f64 = 3e7;
 
 /// The fastest rate of the linearised system, with its name, for the stability check.
 pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
@@ -51,14 +69,17 @@ pub fn fastest_mode(m: &Motor, cfg: &SimConfig) -> (&'static str, f64) {
         .fold(("", 0.0), |a, b| if b.1 > a.1 { b } else { a })
 }
 
-/// Refuses a dt outside RK4's stability region for this motor and driver.
+/// Refuses a dt below [`MIN_DT`] or outside RK4's stability region for this motor and
+/// driver.
 pub fn check_step(m: &Motor, cfg: &SimConfig) -> Result<(), SimError> {
     let dt = cfg.dt;
-    if !(dt.is_finite() && dt > 0.0) {
+    if !(dt.is_finite() && dt >= MIN_DT) {
         return Err(SimError::BadSetting {
             field: "dt",
             value: dt,
-            why: "must be > 0",
+            why: format!(
+                "must be at least {MIN_DT:e} s (and small enough to be stable for the motor)"
+            ),
         });
     }
     let (mode, rate) = fastest_mode(m, cfg);
@@ -100,8 +121,52 @@ fn rk4<const IDEAL: bool>(p: &Plant, x: &mut State, u: &Command, h: f64) {
     }
 }
 
+/// Checks the motor, driver, clock and dt: what every run needs.
+fn check_inputs(m: &Motor, cfg: &SimConfig, clock_hz: f64) -> Result<(), SimError> {
+    cfg.driver.validate()?;
+    m.validate()?;
+    if !(clock_hz.is_finite() && clock_hz > 0.0) {
+        return Err(SimError::BadSetting {
+            field: "clock",
+            value: clock_hz,
+            why: "must be > 0".into(),
+        });
+    }
+    check_step(m, cfg)
+}
+
+/// Longest settling after the last edge (s): `cfg.settle_max`, or 8/(ζ·ω_n) within 5 ms…0.5 s.
+pub fn settle_max(m: &Motor, cfg: &SimConfig) -> f64 {
+    let wn = m.natural_frequency(cfg.driver.current);
+    let zeta = m.effective_damping_ratio(cfg.driver.current);
+    cfg.settle_max
+        .unwrap_or_else(|| (8.0 / (zeta.max(1e-3) * wn)).clamp(5e-3, 0.5))
+}
+
+/// The RK4 steps a move of `duration_s` and `edges` edges takes at most: the grid up to the
+/// longest settling, plus a split step per edge. Refuses more than [`MAX_RK4_STEPS`].
+pub fn check_work(
+    m: &Motor,
+    cfg: &SimConfig,
+    duration_s: f64,
+    edges: u64,
+) -> Result<f64, SimError> {
+    let simulated_s = duration_s + settle_max(m, cfg);
+    let steps = (simulated_s / cfg.dt).ceil() + edges as f64;
+    if steps.is_nan() || steps > MAX_RK4_STEPS {
+        return Err(SimError::TooMuchWork {
+            steps,
+            simulated_s,
+            dt: cfg.dt,
+            max: MAX_RK4_STEPS,
+        });
+    }
+    Ok(steps)
+}
+
 /// Runs one move: `edges` are the step edges in ticks of `clock_hz`; the move goes in the
-/// negative direction when `direction` < 0, else in the positive one.
+/// negative direction when `direction` < 0, else in the positive one. An edge stream whose
+/// run would pass [`MAX_RK4_STEPS`] stops there with an error.
 pub fn run<I: Iterator<Item = u64>>(
     m: &Motor,
     cfg: &SimConfig,
@@ -109,22 +174,74 @@ pub fn run<I: Iterator<Item = u64>>(
     clock_hz: f64,
     direction: f64,
 ) -> Result<SimResult, SimError> {
-    cfg.driver.validate()?;
-    m.validate()?;
-    if !(clock_hz.is_finite() && clock_hz > 0.0) {
-        return Err(SimError::BadSetting {
-            field: "clock",
-            value: clock_hz,
-            why: "must be > 0",
+    check_inputs(m, cfg, clock_hz)?;
+    run_checked(m, cfg, edges, clock_hz, direction, None)
+}
+
+/// [`run`] for a move known in advance to last `duration_s` with `steps` edges: its work
+/// is checked before it starts, and a long run shows progress when `cfg.progress` is set.
+pub fn run_planned<I: Iterator<Item = u64>>(
+    m: &Motor,
+    cfg: &SimConfig,
+    edges: I,
+    clock_hz: f64,
+    direction: f64,
+    (duration_s, steps): (f64, u64),
+) -> Result<SimResult, SimError> {
+    check_inputs(m, cfg, clock_hz)?;
+    let work = check_work(m, cfg, duration_s, steps)?;
+    run_checked(m, cfg, edges, clock_hz, direction, Some(work))
+}
+
+fn run_checked<I: Iterator<Item = u64>>(
+    m: &Motor,
+    cfg: &SimConfig,
+    edges: I,
+    clock_hz: f64,
+    direction: f64,
+    work: Option<f64>,
+) -> Result<SimResult, SimError> {
+    let bar = work
+        .filter(|&w| cfg.progress && w > PROGRESS_STEPS)
+        .map(|w| {
+            let b = crate::experiments::progress(w as u64);
+            b.set_message("simulating");
+            b
         });
-    }
-    check_step(m, cfg)?;
     let dir = if direction < 0.0 { -1.0 } else { 1.0 };
     let p = Plant::new(m, &cfg.driver, dir);
-    match cfg.driver.mode {
-        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, dir),
-        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, dir),
+    let r = match cfg.driver.mode {
+        DriverMode::Rl => run_mode::<false, I>(&p, m, cfg, edges, clock_hz, dir, bar.as_ref()),
+        DriverMode::Ideal => run_mode::<true, I>(&p, m, cfg, edges, clock_hz, dir, bar.as_ref()),
+    };
+    if let Some(b) = bar {
+        b.finish_and_clear();
     }
+    r
+}
+
+/// Why the state at a grid point is no result: not finite, or the electrical angle turning
+/// faster per step than RK4 can follow. `None` while the integration holds.
+fn divergence(nr: f64, x: &State, dt: f64) -> Option<String> {
+    if !x.iter().all(|v| v.is_finite()) {
+        return Some(format!(
+            "the state is no longer finite (θ = {} rad, ω = {} rad/s, i_A = {} A, i_B = {} A)",
+            Num(x[TH]),
+            Num(x[OM]),
+            Num(x[IA]),
+            Num(x[IB])
+        ));
+    }
+    let turn = nr * x[OM].abs() * dt;
+    if turn > RK4_IMAGINARY_BOUND {
+        return Some(format!(
+            "the rotor reached {:.1} rad/s, where the electrical angle turns N_r·|ω|·dt = {:.3} rad \
+             per step, past RK4's stability bound 2√2 (a smaller dt follows faster motion)",
+            Num(x[OM].abs()),
+            turn
+        ));
+    }
+    None
 }
 
 fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
@@ -134,15 +251,14 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
     mut edges: I,
     clock: f64,
     dir: f64,
+    bar: Option<&ProgressBar>,
 ) -> Result<SimResult, SimError> {
     let dt = cfg.dt;
     let micro = m.microstep_angle(cfg.driver.microsteps);
     let full_step = micro * cfg.driver.microsteps as f64;
     let wn = m.natural_frequency(cfg.driver.current);
     let zeta = m.effective_damping_ratio(cfg.driver.current);
-    let settle_max = cfg
-        .settle_max
-        .unwrap_or_else(|| (8.0 / (zeta.max(1e-3) * wn)).clamp(5e-3, 0.5));
+    let settle_max = settle_max(m, cfg);
     // ω* over [e_prev, e_next): one microstep per period, as the field moves (0 after the end).
     let omega_ref = |from: u64, to: Option<u64>| match to {
         Some(e) => dir * micro * clock / (e.saturating_sub(from).max(1)) as f64,
@@ -205,6 +321,21 @@ fn run_mode<const IDEAL: bool, I: Iterator<Item = u64>>(
         rk4::<IDEAL>(p, &mut x, &u, t_grid - t);
         t = t_grid;
         k += 1;
+        if let Some(what) = divergence(p.nr, &x, dt) {
+            return Err(SimError::Diverged { t, what });
+        }
+        if k.is_multiple_of(1 << 16) {
+            if (k + count) as f64 > MAX_RK4_STEPS {
+                return Err(SimError::WorkLimit {
+                    t,
+                    dt,
+                    max: MAX_RK4_STEPS,
+                });
+            }
+            if let Some(b) = bar {
+                b.set_position(k + count);
+            }
+        }
         let err = err_of(count, &x);
         meas.observe(t, err, x[OM]);
         if let Some(n) = trace_every {
@@ -321,16 +452,7 @@ impl Incremental {
 
     /// A rotor at rest at position 0, energized, at tick 0 of a `clock_hz` clock.
     pub fn new(m: &Motor, cfg: &SimConfig, clock_hz: f64) -> Result<Incremental, SimError> {
-        cfg.driver.validate()?;
-        m.validate()?;
-        if !(clock_hz.is_finite() && clock_hz > 0.0) {
-            return Err(SimError::BadSetting {
-                field: "clock",
-                value: clock_hz,
-                why: "must be > 0",
-            });
-        }
-        check_step(m, cfg)?;
+        check_inputs(m, cfg, clock_hz)?;
         let plants = [
             Plant::new(m, &cfg.driver, 1.0),
             Plant::new(m, &cfg.driver, -1.0),
@@ -516,5 +638,32 @@ impl Incremental {
     /// The latest time integrated (s).
     pub fn time(&self) -> f64 {
         self.latest().t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_state_that_is_not_finite_or_too_fast_is_a_divergence() {
+        let mut x: State = [0.0; NSTATE];
+        x[OM] = 100.0;
+        assert_eq!(divergence(50.0, &x, 1e-6), None);
+        x[E_IN] = f64::NAN;
+        assert!(divergence(50.0, &x, 1e-6)
+            .unwrap()
+            .contains("no longer finite"));
+        x[E_IN] = 0.0;
+        x[IA] = f64::INFINITY;
+        assert!(divergence(50.0, &x, 1e-6).unwrap().contains("i_A = inf"));
+        x[IA] = 0.0;
+        // N_r·|ω|·dt = 50 · 6e4 · 1e-6 = 3 > 2√2, in either direction
+        x[OM] = -6e4;
+        let why = divergence(50.0, &x, 1e-6).unwrap();
+        assert!(
+            why.contains("60000.0 rad/s") && why.contains("3.000 rad"),
+            "{why}"
+        );
     }
 }

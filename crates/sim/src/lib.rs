@@ -43,7 +43,8 @@ pub const DEFAULT_DT: f64 = 1e-6;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SimConfig {
     pub driver: DriverConfig,
-    /// RK4 step (s).
+    /// RK4 step (s): at least [`integrate::MIN_DT`], and small enough for RK4 to be stable
+    /// on the motor and driver ([`integrate::check_step`] names the largest).
     pub dt: f64,
     /// Longest settling after the last edge (s); default 8/(ζ·ω_n) within 5 ms…0.5 s. The run
     /// ends earlier once the rotor rests within `settle_tolerance` of an equilibrium.
@@ -56,6 +57,9 @@ pub struct SimConfig {
     pub trace_interval: Option<f64>,
     /// Peak shaft speed (rad/s) if known, so the dt check also covers the electrical frequency.
     pub peak_speed_hint: Option<f64>,
+    /// Show a progress bar on stderr (when it is a terminal) for a planned run long enough
+    /// to take more than a few seconds.
+    pub progress: bool,
 }
 
 impl SimConfig {
@@ -68,6 +72,7 @@ impl SimConfig {
             stop_at_first_loss: false,
             trace_interval: None,
             peak_speed_hint: None,
+            progress: false,
         }
     }
 }
@@ -131,7 +136,9 @@ pub fn simulate_edges(
     integrate::run(motor, cfg, edges, clock_hz, direction)
 }
 
-/// Simulates a planned move: its exact edges from [`EdgeGenerator`] at `clock_hz`.
+/// Simulates a planned move: its exact edges from [`EdgeGenerator`] at `clock_hz`. The
+/// work is checked first: a run of more than [`integrate::MAX_RK4_STEPS`] RK4 steps is
+/// refused before it starts.
 pub fn simulate_profile(
     motor: &Motor,
     cfg: &SimConfig,
@@ -144,6 +151,7 @@ pub fn simulate_profile(
         let micro = motor.microstep_angle(cfg.driver.microsteps);
         cfg.peak_speed_hint = Some(profile.peaks().0 * micro);
     }
+    let work = (profile.duration(), profile.steps());
     let gen = EdgeGenerator::new(profile, clock_hz)?;
-    simulate_edges(motor, &cfg, gen, clock_hz, direction)
+    integrate::run_planned(motor, &cfg, gen, clock_hz, direction, work)
 }

@@ -5,6 +5,15 @@ use crate::error::SimError;
 use serde::Deserialize;
 use std::f64::consts::SQRT_2;
 
+/// Highest supply voltage (V): stepper drivers run from 5 V to a few hundred volts of
+/// rectified mains, so more than this can only be a mistake.
+pub const MAX_SUPPLY_VOLTAGE: f64 = 1000.0;
+
+/// Highest load torque, as a multiple of the holding torque. A load above the holding
+/// torque already drags the rotor backwards (a stall to study); ten times it is not a
+/// motor sized for its load.
+pub const MAX_LOAD_TORQUE_RATIO: f64 = 10.0;
+
 /// One two-phase hybrid stepper motor with its load, SI units throughout.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -46,10 +55,11 @@ pub struct Motor {
     /// Load inertia on the shaft (kg·m²).
     #[serde(default)]
     pub load_inertia: f64,
-    /// Constant load torque T_L opposing positive motion (N·m).
+    /// Constant load torque T_L opposing the move (N·m), 0 to [`MAX_LOAD_TORQUE_RATIO`] ×
+    /// `holding_torque`.
     #[serde(default)]
     pub load_torque: f64,
-    /// Default driver supply (V).
+    /// Default driver supply (V), up to [`MAX_SUPPLY_VOLTAGE`].
     #[serde(default = "default_supply")]
     pub supply_voltage: f64,
     /// Default driver microsteps per full step.
@@ -105,11 +115,11 @@ impl Motor {
 
     /// Every value in its physical range; the error names the field.
     pub fn validate(&self) -> Result<(), SimError> {
-        let bad = |field, value: f64, why| SimError::BadField {
+        let bad = |field, value: f64, why: &str| SimError::BadField {
             motor: self.name.clone(),
             field,
             value,
-            why,
+            why: why.to_string(),
         };
         let positive = [
             ("holding_torque", self.holding_torque),
@@ -138,6 +148,24 @@ impl Motor {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(f, v, "must be a finite number ≥ 0"));
             }
+        }
+        if self.supply_voltage > MAX_SUPPLY_VOLTAGE {
+            return Err(bad(
+                "supply_voltage",
+                self.supply_voltage,
+                &format!("must be at most {MAX_SUPPLY_VOLTAGE} V"),
+            ));
+        }
+        let max_load = MAX_LOAD_TORQUE_RATIO * self.holding_torque;
+        if self.load_torque > max_load {
+            return Err(bad(
+                "load_torque",
+                self.load_torque,
+                &format!(
+                    "must be at most {MAX_LOAD_TORQUE_RATIO} × holding_torque = {:.4} N·m",
+                    multistep_core::Num(max_load)
+                ),
+            ));
         }
         if self.rotor_teeth == 0 {
             return Err(bad("rotor_teeth", 0.0, "must be ≥ 1"));

@@ -5,7 +5,7 @@
 use anyhow::{bail, Context};
 use multistep_core::tdm::{Latencies, Policy, PulseShape, TdmConfig};
 use multistep_core::{
-    MoveParams, MoveSpec, Param, Profile, Segment, StepDirTiming, DEFAULT_CLOCK_HZ, PARAMS,
+    MoveParams, MoveSpec, Num, Param, Profile, Segment, StepDirTiming, DEFAULT_CLOCK_HZ, PARAMS,
 };
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
@@ -15,22 +15,26 @@ use std::path::Path;
 #[derive(Deserialize, Debug, Default)]
 #[serde(deny_unknown_fields)]
 pub struct ConfigFile {
-    /// Clock (Hz) of calculator, pulse units and edge ticks (default 50 MHz).
+    /// Clock (Hz) of calculator, pulse units and edge ticks (default 50 MHz), > 0 and at
+    /// least every axis's peak speed (steps/s).
     pub clock: Option<f64>,
-    /// Periods each axis's FIFO holds (default 1).
+    /// Periods each axis's FIFO holds, 1 to 128 (default 1).
     pub fifo_depth: Option<usize>,
     /// round-robin (default) or earliest-deadline; `--policy` overrides it.
     pub policy: Option<String>,
-    /// Calculator latencies in cycles (defaults: the radix-4 datapath of the Verilog core, 50 cycles/period).
+    /// Calculator latencies in cycles, 0 to 2³² − 1 each, not all 0 (defaults: the radix-4
+    /// datapath of the Verilog core, 50 cycles/period).
     pub mul_cycles: Option<u32>,
     pub div_cycles: Option<u32>,
     pub sqrt_cycles: Option<u32>,
     pub overhead_cycles: Option<u32>,
     /// Overlap periods of different axes across the units (default false).
     pub pipelined: Option<bool>,
-    /// Least ticks from DIR set (tick 0) to the group's start (default 0).
+    /// Least ticks from DIR set (tick 0) to the group's start (default 0), at most one
+    /// second of the clock.
     pub dir_setup_ticks: Option<u64>,
-    /// Fixed STEP high time in ticks; absent: half of the interval to the next edge.
+    /// Fixed STEP high time in ticks, 1 to one second of the clock; absent: half of the
+    /// interval to the next edge.
     pub pulse_width_ticks: Option<u64>,
     #[serde(default)]
     pub axis: Vec<AxisEntry>,
@@ -159,6 +163,27 @@ impl ConfigFile {
     /// The board settings; `policy` (from the command line) wins over the file's.
     pub fn board(&self, policy: Option<Policy>) -> anyhow::Result<TdmConfig> {
         let d = Latencies::default();
+        let clock_hz = self.clock.unwrap_or(DEFAULT_CLOCK_HZ);
+        if !(clock_hz.is_finite() && clock_hz > 0.0) {
+            bail!(
+                "clock = {} must be a finite number of Hz > 0",
+                Num(clock_hz)
+            );
+        }
+        // STEP pulses and DIR setup times are microseconds: a second of them is a mistake
+        let second = (clock_hz as u64).max(1);
+        for (key, ticks) in [
+            ("pulse_width_ticks", self.pulse_width_ticks),
+            ("dir_setup_ticks", self.dir_setup_ticks),
+        ] {
+            if let Some(t) = ticks.filter(|&t| t > second) {
+                bail!(
+                    "{key} = {t} is more than one second of the {} Hz clock: it must be at \
+                     most {second} ticks",
+                    Num(clock_hz)
+                );
+            }
+        }
         let policy = match (policy, &self.policy) {
             (Some(p), _) => p,
             (None, Some(name)) => {
@@ -167,7 +192,7 @@ impl ConfigFile {
             (None, None) => Policy::RoundRobin,
         };
         Ok(TdmConfig {
-            clock_hz: self.clock.unwrap_or(DEFAULT_CLOCK_HZ),
+            clock_hz,
             fifo_depth: self.fifo_depth.unwrap_or(1),
             latencies: Latencies {
                 mul: self.mul_cycles.unwrap_or(d.mul),
@@ -187,7 +212,6 @@ impl ConfigFile {
         })
     }
 
-    /// Every axis's profile, errors named by axis.
     /// Each axis's label: its `name`, or its index.
     pub fn axis_names(&self) -> Vec<String> {
         self.axis
@@ -197,6 +221,7 @@ impl ConfigFile {
             .collect()
     }
 
+    /// Every axis's profile, errors named by axis.
     pub fn profiles(&self) -> anyhow::Result<Vec<Profile>> {
         if self.axis.is_empty() {
             bail!("the config has no [[axis]] table");

@@ -98,6 +98,30 @@ struct RunSummary {
     axes: Vec<AxisSummary>,
 }
 
+/// The most step edges one `tdm` command may compute: about a minute at the engine's
+/// ~7 ns per edge (1e8 edges take 0.74 s).
+pub(crate) const MAX_EDGES: u128 = 5_000_000_000;
+
+/// Refuses a command that would compute more than [`MAX_EDGES`] edges; `reduce` says how
+/// to ask for less.
+pub(crate) fn check_edges(edges: u128, reduce: &str) -> anyhow::Result<()> {
+    if edges > MAX_EDGES {
+        bail!(
+            "this would compute up to {edges} step edges, more than the {MAX_EDGES} allowed \
+             (about a minute of work): {reduce}"
+        );
+    }
+    Ok(())
+}
+
+/// Edges of a `--k-max` search at most: it runs 1, 2, … `n` axes (axis i runs move i mod
+/// the number of moves), so axis i runs in `n − i` of them.
+pub(crate) fn k_max_edges(steps: &[u64], n: usize) -> u128 {
+    (0..n)
+        .map(|i| steps[i % steps.len()] as u128 * (n - i) as u128)
+        .sum()
+}
+
 pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     check_mode(args)?;
     if args.sweep {
@@ -112,8 +136,12 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     if args.k_max {
         return print_k_max(args, &cfg, &file.profiles()?);
     }
-    let mut axes = file
-        .profiles()?
+    let profiles = file.profiles()?;
+    check_edges(
+        profiles.iter().map(|p| p.steps() as u128).sum(),
+        "give the axes fewer steps",
+    )?;
+    let mut axes = profiles
         .into_iter()
         .map(|p| Axis::new(p, cfg.clock_hz))
         .collect::<Result<Vec<_>, _>>()?;
@@ -312,6 +340,11 @@ fn print_k_max(
     if n == 0 || n > multistep_core::tdm::MAX_AXES {
         bail!("--max-axes must be 1 to {}", multistep_core::tdm::MAX_AXES);
     }
+    let steps: Vec<u64> = moves.iter().map(|p| p.steps()).collect();
+    check_edges(
+        k_max_edges(&steps, n),
+        "give the axes fewer steps or lower --max-axes",
+    )?;
     let mut storage = (0..n)
         .map(|i| Axis::new(moves[i % moves.len()].clone(), cfg.clock_hz))
         .collect::<Result<Vec<_>, _>>()?;

@@ -14,9 +14,12 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
 
+/// The most rates one sweep takes (a plot has no use for more points).
+const MAX_POINTS: usize = 1000;
+
 #[derive(Args, Debug)]
 pub struct SweepArgs {
-    /// Sweep: maximum step rates MIN:MAX:POINTS (steps/s)
+    /// Sweep: maximum step rates MIN:MAX:POINTS (steps/s; 1 to 1000 points)
     #[arg(long, value_name = "MIN:MAX:N", default_value = "10000:200000:20")]
     pub rates: String,
     /// Sweep and --k-max: most axes to try (up to 64)
@@ -78,8 +81,8 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
     let sa = &args.sweep_args;
     let [lo, hi, n] = numbers::<3>(&sa.rates, "--rates")?;
     let times = numbers::<3>(&sa.move_times, "--move-times")?;
-    if !(lo > 0.0 && hi >= lo && n >= 1.0 && n.fract() == 0.0) {
-        bail!("--rates MIN:MAX:N needs 0 < MIN <= MAX and a whole N >= 1");
+    if !(lo > 0.0 && hi >= lo && (1.0..=MAX_POINTS as f64).contains(&n) && n.fract() == 0.0) {
+        bail!("--rates MIN:MAX:N needs 0 < MIN <= MAX and a whole N from 1 to {MAX_POINTS}");
     }
     if sa.max_axes == 0 || sa.max_axes > MAX_AXES {
         bail!("--max-axes must be 1 to {MAX_AXES}");
@@ -97,13 +100,27 @@ pub fn run(args: &TdmArgs) -> anyhow::Result<()> {
         ],
     };
     let n = n as usize;
-    let mut rows = Vec::with_capacity(n);
-    for i in 0..n {
-        let rate = if n == 1 {
+    let rate = |i: usize| {
+        if n == 1 {
             lo
         } else {
             lo + (hi - lo) * i as f64 / (n - 1) as f64
-        };
+        }
+    };
+    // every rate's k_max search, once per FIFO depth and policy
+    let runs = (sa.fifo_depths.len() * policies.len()) as u128;
+    let mut edges: u128 = 0;
+    for i in 0..n {
+        let steps = rate_move(rate(i), times[0], times[1], times[2])?.steps();
+        edges += runs * super::k_max_edges(&[steps], sa.max_axes);
+        super::check_edges(
+            edges,
+            "lower the rates, shorten --move-times, or give fewer points, --fifo-depths or --max-axes",
+        )?;
+    }
+    let mut rows = Vec::with_capacity(n);
+    for i in 0..n {
+        let rate = rate(i);
         let mv = rate_move(rate, times[0], times[1], times[2])?;
         let mut storage: Vec<Axis> = (0..sa.max_axes)
             .map(|_| Axis::new(mv.clone(), base.clock_hz))
