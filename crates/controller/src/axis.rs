@@ -335,7 +335,9 @@ impl AxisSettings {
                 return bad(format!("soft_min {lo} is above soft_max {hi}"));
             }
         }
-        multistep_core::Family::parse(&self.profile, None, None, None)?;
+        // a bad value of a setting, not a move that cannot be planned
+        multistep_core::Family::parse(&self.profile, None, None, None)
+            .map_err(|e| CtlError::Setting(format!("profile: {e}")))?;
         Ok(())
     }
 

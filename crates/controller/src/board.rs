@@ -449,16 +449,7 @@ impl Board {
         let ax = &mut self.axes[i];
         ax.move_end = Some(end);
         ax.driver.idle_since = end;
-        if let Some(p) = ax.period() {
-            let shift = ax.count.rem_euclid(p) - ax.count;
-            if shift != 0 {
-                if let Err(e) = self.pins.rebase(i, shift, true) {
-                    self.warnings
-                        .push(format!("axis {}: {e}", self.axes[i].name));
-                }
-                self.axes[i].count = self.pins.count(i);
-            }
-        }
+        self.wrap_into_period(i);
         let ax = &mut self.axes[i];
         ax.state = AxisState::Idle;
         let result = match m.purpose {
@@ -474,6 +465,20 @@ impl Board {
         if let Some(t) = m.track {
             self.track_ended(i, t, m.dir, end);
         }
+    }
+
+    /// A periodic axis's count into `[0, period)`: the same place, renamed.
+    pub(super) fn wrap_into_period(&mut self, i: usize) {
+        let ax = &self.axes[i];
+        let Some(p) = ax.period() else { return };
+        let shift = ax.count.rem_euclid(p) - ax.count;
+        if shift == 0 {
+            return;
+        }
+        if let Err(e) = self.pins.rebase(i, shift, true) {
+            self.warnings.push(format!("axis {}: {e}", ax.name));
+        }
+        self.axes[i].count = self.pins.count(i);
     }
 
     /// Writes the axis record. While a sequence of moves runs (homing phases, the park
@@ -1104,6 +1109,11 @@ impl Board {
         self.store.put_settings(&name, &s)?;
         self.pins.configure(i, &s);
         self.axes[i].settings = s;
+        // a new period applies at once: the position is read in [0, period) from now on
+        if key == "period" && self.axes[i].period().is_some() {
+            self.wrap_into_period(i);
+            self.persist(i);
+        }
         Ok(())
     }
 

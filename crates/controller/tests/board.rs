@@ -155,6 +155,33 @@ fn periodic_axes_take_the_shortest_way() {
     assert_eq!(st(&mut b, "W").position, 100);
 }
 
+/// A period set on an idle axis applies at once: its position is read in `[0, period)`,
+/// the mechanics stay where they are, and the wrapped position is what a restart finds.
+#[test]
+fn a_period_set_on_an_idle_axis_wraps_its_position_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = config(vec![("W", AxisSettings::default())]);
+    let mut b = open(dir.path(), &c);
+    b.move_axis("W", Amount::Steps(5300), false, &MoveOpts::default(), 0)
+        .unwrap();
+    let t = run_idle(&mut b);
+    let before = st(&mut b, "W");
+    assert_eq!(before.position, 5300);
+    b.set("W", "period", "1000", t).unwrap();
+    let s = st(&mut b, "W");
+    assert_eq!(s.position, 300);
+    assert_eq!(
+        s.sim_position,
+        before.sim_position - 5000,
+        "the same place, renamed"
+    );
+    // a bad family is a bad setting value (error:9), not an unplannable move
+    let e = b.set("W", "profile", "bogus", t).unwrap_err();
+    assert_eq!(e.code(), 9, "{e}");
+    drop(b);
+    assert_eq!(st(&mut open(dir.path(), &c), "W").position, 300);
+}
+
 #[test]
 fn group_moves_start_on_one_tick_and_sync_finishes_on_one_tick() {
     let dir = tempfile::tempdir().unwrap();

@@ -293,16 +293,13 @@ impl Board {
 
     /// A tracking periodic axis's count wraps into `[0, period)` (the same place, renamed).
     pub(super) fn track_wrap(&mut self, i: usize) {
-        let ax = &self.axes[i];
-        let Some(p) = ax.period() else { return };
-        if ax.motion.as_ref().is_none_or(|m| m.track.is_none()) || (0..p).contains(&ax.count) {
-            return;
+        if self.axes[i]
+            .motion
+            .as_ref()
+            .is_some_and(|m| m.track.is_some())
+        {
+            self.wrap_into_period(i);
         }
-        let shift = ax.count.rem_euclid(p) - ax.count;
-        if let Err(e) = self.pins.rebase(i, shift, true) {
-            self.warnings.push(format!("axis {}: {e}", ax.name));
-        }
-        self.axes[i].count = self.pins.count(i);
     }
 
     /// The earliest tick at which a running jog lease lapses.
