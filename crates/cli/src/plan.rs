@@ -6,6 +6,11 @@ use clap::Args;
 use multistep_core::{EdgeGenerator, MoveName, PlanSummary, DEFAULT_CLOCK_HZ};
 use std::io::Write;
 
+/// Moves of more steps than this show the summary's progress (about a second of ramp steps).
+const PROGRESS_STEPS: u64 = 10_000_000;
+/// Steps per part of a summary with progress: a part's overhead is lost among them.
+const PROGRESS_PART: u64 = 1 << 20;
+
 #[derive(Args, Debug)]
 pub struct PlanArgs {
     #[command(flatten)]
@@ -42,7 +47,26 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
         w.flush()?;
         return Ok(());
     }
-    let s = PlanSummary::run(MoveName::of(&mv), &mut gen);
+    // a summary of many ramp steps takes seconds or more (cruise runs are O(1)): in parts,
+    // with a bar on stderr when it is a terminal (hidden otherwise)
+    let bar = (gen.remaining() > PROGRESS_STEPS).then(|| {
+        let b = multistep_sim::experiments::progress(gen.remaining());
+        b.set_message("summarising");
+        b
+    });
+    let part = if bar.is_some() {
+        PROGRESS_PART
+    } else {
+        u64::MAX
+    };
+    let s = PlanSummary::run_in_parts(MoveName::of(&mv), &mut gen, part, |done| {
+        if let Some(b) = &bar {
+            b.set_position(done)
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     let mut out = stdout.lock();
     match args.format {
         Format::Json => writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?,

@@ -389,8 +389,30 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     /// The least and greatest period between the remaining edges (the first measured
     /// from tick `last`) and the last edge, as folding them one by one finds them, but
     /// each constant-speed run in O(1) from its accumulator. `None` when no step remains.
+    // out of line, as period_extremes_for: the ramp loop keeps its registers
+    #[inline(never)]
     pub fn period_extremes(&mut self, last: u64) -> Option<(u64, u64, u64)> {
+        self.extremes::<false>(last, u64::MAX)
+    }
+
+    /// [`period_extremes`](Self::period_extremes) over the next `edges` edges or more (a
+    /// constant-speed run counts whole), so a long move can be summarised in parts with
+    /// progress shown between them. `None` when no step remains.
+    // out of line: inlined into its caller's loop, the ramp loop ran 4 instructions per
+    // edge more (registers the caller's state took)
+    #[inline(never)]
+    pub fn period_extremes_for(&mut self, last: u64, edges: u64) -> Option<(u64, u64, u64)> {
+        self.extremes::<true>(last, edges)
+    }
+
+    /// `PARTS`: stop after `edges`; without, the part's tests are compiled out (they cost
+    /// the whole run 4–6 instructions per edge).
+    #[inline(always)]
+    fn extremes<const PARTS: bool>(&mut self, last: u64, edges: u64) -> Option<(u64, u64, u64)> {
         let (mut lo, mut hi, mut last, mut any) = (u64::MAX, 0u64, last, false);
+        // with no run pending, the part ends when `next` reaches this step
+        let stop =
+            (self.profile().steps() + 1).saturating_sub(self.remaining().saturating_sub(edges));
         loop {
             if self.run_left > 0 {
                 let (acc, n) = (self.acc, self.run_left);
@@ -403,10 +425,20 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 self.run_left = 0;
             }
             if self.next_f <= self.ramp_hi {
-                (lo, hi, last) = self.ramp_run((lo, hi, last), &mut |(lo, hi, last), e| {
+                let f = |(lo, hi, last): (u64, u64, u64), e: u64| {
                     (lo.min(e - last), hi.max(e - last), e)
-                });
+                };
+                (lo, hi, last) = if PARTS {
+                    let n = ((self.ramp_hi - self.next_f + 1.0) as u64)
+                        .min(stop.saturating_sub(self.next).max(1));
+                    self.ramp_steps(n, (lo, hi, last), f)
+                } else {
+                    self.ramp_run((lo, hi, last), &mut { f })
+                };
                 any = true;
+            }
+            if PARTS && self.next >= stop {
+                return any.then_some((lo, hi, last));
             }
             match self.step_general() {
                 Some(e) => {

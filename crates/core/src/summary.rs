@@ -82,9 +82,32 @@ impl PlanSummary {
     /// instructions per edge on top of the generator's, each constant-speed run in O(1)
     /// ([`EdgeGenerator::period_extremes`]).
     pub fn run<P: Borrow<Profile>>(mode: MoveName, gen: &mut EdgeGenerator<P>) -> PlanSummary {
+        PlanSummary::run_in_parts(mode, gen, u64::MAX, |_| {})
+    }
+
+    /// [`run`](Self::run) in parts of at least `part` edges, calling `progress` with the
+    /// steps done after each (a long move's summary can show how far it is).
+    pub fn run_in_parts<P: Borrow<Profile>>(
+        mode: MoveName,
+        gen: &mut EdgeGenerator<P>,
+        part: u64,
+        mut progress: impl FnMut(u64),
+    ) -> PlanSummary {
         let (vpk, apk) = gen.profile().peaks();
         let (steps, duration) = (gen.profile().steps(), gen.profile().duration());
-        let (min_p, max_p, last) = gen.period_extremes(0).unwrap_or((u64::MAX, 0, 0));
+        let (mut min_p, mut max_p, mut last) = (u64::MAX, 0, 0);
+        if part == u64::MAX {
+            // one pass, no loop around it (the ramp loop keeps its registers)
+            if let Some(x) = gen.period_extremes(0) {
+                (min_p, max_p, last) = x;
+                progress(steps);
+            }
+        } else {
+            while let Some((lo, hi, l)) = gen.period_extremes_for(last, part.max(1)) {
+                (min_p, max_p, last) = (min_p.min(lo), max_p.max(hi), l);
+                progress(steps - gen.remaining());
+            }
+        }
         PlanSummary {
             mode,
             steps,
@@ -185,5 +208,60 @@ mod tests {
         assert_eq!(s.min_period_ticks, *periods.iter().min().unwrap());
         assert_eq!(s.max_period_ticks, *periods.iter().max().unwrap());
         assert_eq!(gen.next(), None);
+    }
+
+    /// In parts of any size the summary is the whole run's, and progress ends at every step.
+    #[test]
+    fn a_summary_in_parts_is_the_whole_runs() {
+        let segs = [
+            Segment {
+                v0: 0.0,
+                duration: 0.01,
+                steps: 50,
+            },
+            Segment {
+                v0: 10000.0,
+                duration: 0.02,
+                steps: 200,
+            },
+        ];
+        let p = |family, a, b, c| {
+            Move::Phase(crate::moves::PhaseMove {
+                steps: 3000,
+                accel_time: a,
+                cruise_time: b,
+                decel_time: c,
+                start_speed: 0.0,
+                end_speed: 0.0,
+                family: crate::Family::parse(family, None, None, None).unwrap(),
+            })
+        };
+        let moves = [
+            p("trapezoid", 0.1, 0.2, 0.1),
+            p("exponential", 0.1, 0.0, 0.2),
+            p("sine", 0.05, 0.1, 0.05),
+            p("scurve4", 0.1, 0.1, 0.1),
+            Move::Segments(&segs),
+        ];
+        for m in moves {
+            let gen = EdgeGenerator::new(Profile::plan(&m).unwrap(), 50e6).unwrap();
+            let whole = PlanSummary::run(MoveName::of(&m), &mut gen.clone());
+            for part in [0, 1, 7, 1000, u64::MAX] {
+                let mut seen = std::vec::Vec::new();
+                let s = PlanSummary::run_in_parts(MoveName::of(&m), &mut gen.clone(), part, |d| {
+                    seen.push(d)
+                });
+                assert_eq!(s, whole, "{m:?}, parts of {part}");
+                assert_eq!(seen.last(), Some(&whole.steps), "{m:?}, parts of {part}");
+                assert!(
+                    seen.windows(2).all(|w| w[0] < w[1]),
+                    "progress goes forward"
+                );
+                // a ramp goes in parts; a constant-speed run counts whole
+                if part == 7 && whole.steps == 3000 {
+                    assert!(seen.len() > 100, "{m:?}: {} parts", seen.len());
+                }
+            }
+        }
     }
 }

@@ -259,7 +259,7 @@ pub struct CurveLimits {
 }
 
 /// A progress bar on stderr when it is a terminal (hidden otherwise, so logs stay clean).
-pub(crate) fn progress(len: u64) -> ProgressBar {
+pub fn progress(len: u64) -> ProgressBar {
     let target = if std::io::stderr().is_terminal() {
         ProgressDrawTarget::stderr()
     } else {
