@@ -321,9 +321,10 @@ impl AxisSettings {
             let r = range_of(key);
             if !r.contains(v) {
                 return bad(format!(
-                    "{key} must be in [{}, {}] (got {v})",
+                    "{key} must be in [{}, {}] (got {})",
                     show_bound(r.min),
-                    show_bound(r.max)
+                    show_bound(r.max),
+                    multistep_core::Num(v)
                 ));
             }
         }

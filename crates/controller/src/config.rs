@@ -119,7 +119,7 @@ impl BoardConfig {
         if !(self.board.clock_hz.is_finite() && (1e3..=1e9).contains(&self.board.clock_hz)) {
             return Err(CtlError::Setting(format!(
                 "board.clock_hz must be in [1000, 1e9] (got {})",
-                self.board.clock_hz
+                multistep_core::Num(self.board.clock_hz)
             )));
         }
         if let Some(l) = &self.board.link {

@@ -149,7 +149,8 @@ impl MoveOpts {
         }
         for p in PARAMS {
             if let Some(x) = p.get(&self.params) {
-                w.push(format!("{}={x}", word_of_param(p)));
+                // shortest exact form, in e-notation when huge or tiny (1e300, not 301 digits)
+                w.push(format!("{}={}", word_of_param(p), multistep_core::Num(x)));
             }
         }
         w

@@ -228,3 +228,22 @@ fn the_sim_group_is_refused_as_one_key_and_its_keys_are_kept() {
     assert_eq!(answer("get X sim.sensor_at"), "sim.sensor_at=1\nok\n");
     assert_eq!(answer("get X sim.seed"), "sim.seed=7\nok\n");
 }
+
+/// A move's words (presets, the host client) give each value in its shortest exact form:
+/// huge and tiny ones in e-notation, never hundreds of digits, and they parse back to the
+/// same values.
+#[test]
+fn move_words_are_short_and_exact() {
+    let line = "preset p vmax=1e300 amax=0.5 vs=1.25e-5 jmax=123456.789";
+    let Command::Preset { opts, .. } = protocol::parse(line).unwrap() else {
+        panic!("not a preset")
+    };
+    let words = opts.words().join(" ");
+    assert_eq!(words, "vmax=1e300 amax=0.5 jmax=123456.789 vs=1.25e-5");
+    let Command::Preset { opts: again, .. } =
+        protocol::parse(&format!("preset p {words}")).unwrap()
+    else {
+        panic!("not a preset")
+    };
+    assert_eq!(again, opts);
+}
