@@ -50,7 +50,7 @@ pub fn run(args: &PlanArgs) -> anyhow::Result<()> {
     // a summary of many ramp steps takes seconds or more (cruise runs are O(1)): in parts,
     // with a bar on stderr when it is a terminal (hidden otherwise)
     let bar = (gen.remaining() > PROGRESS_STEPS).then(|| {
-        let b = multistep_sim::experiments::progress(gen.remaining());
+        let b = multistep_sim::progress::progress(gen.remaining());
         b.set_message("summarising");
         b
     });

@@ -2,12 +2,10 @@
 //! time for 360°) and seed 000's two-axis hardware run.
 
 use crate::{simulate_profile, Motor, SimConfig, SimError, SimResult};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use multistep_core::{MoveParams, MoveSpec, PlanError, Profile, DEFAULT_CLOCK_HZ};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -258,20 +256,6 @@ pub struct CurveLimits {
     pub simulations: u64,
 }
 
-/// A progress bar on stderr when it is a terminal (hidden otherwise, so logs stay clean).
-pub fn progress(len: u64) -> ProgressBar {
-    let target = if std::io::stderr().is_terminal() {
-        ProgressDrawTarget::stderr()
-    } else {
-        ProgressDrawTarget::hidden()
-    };
-    let bar = ProgressBar::with_draw_target(Some(len), target);
-    if let Ok(style) = ProgressStyle::with_template("{msg:>26} [{bar:30}] {pos}/{len} {elapsed}") {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
 #[derive(Clone, Copy, PartialEq)]
 enum Table {
     MaxAngle,
@@ -326,7 +310,7 @@ pub fn curve_limits(setup: &CurveLimitsSetup) -> Result<CurveLimits, SimError> {
         .iter()
         .flat_map(|f| [(f.clone(), Table::MaxAngle), (f.clone(), Table::MinTime)])
         .collect();
-    let bar = progress(cells.len() as u64 + 1);
+    let bar = crate::progress::progress(cells.len() as u64 + 1);
     bar.set_message("calibrating load inertia");
     let jl = setup.calibrate_load_inertia()?;
     bar.inc(1);

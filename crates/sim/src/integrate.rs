@@ -204,7 +204,7 @@ fn run_checked<I: Iterator<Item = u64>>(
     let bar = work
         .filter(|&w| cfg.progress && w > PROGRESS_STEPS)
         .map(|w| {
-            let b = crate::experiments::progress(w as u64);
+            let b = crate::progress::progress(w as u64);
             b.set_message("simulating");
             b
         });

@@ -26,6 +26,7 @@ pub mod measures;
 pub mod model;
 pub mod motor;
 pub mod plot;
+pub mod progress;
 pub mod trace;
 
 pub use driver::{DriverConfig, DriverMode};
