@@ -7,6 +7,7 @@ use crate::tdm::config::ConfigFile;
 use anyhow::Context;
 use clap::Args;
 use multistep_core::tdm::{Axis, Board, StepPulse};
+use multistep_sim::plot::{plot_trace, ErrorUnit};
 use multistep_sim::{simulate_edges, Motor, SimConfig};
 use serde::Serialize;
 use std::io::Write;
@@ -77,7 +78,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     sim_cfg.trace_interval = Some(50e-6);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let per_step_deg = 1.8 / sim_cfg.driver.microsteps as f64;
+    // the table and the plots give the following error in the driver's microsteps
+    let per_step_deg = motor
+        .microstep_angle(sim_cfg.driver.microsteps)
+        .to_degrees();
     let mut out_axes = Vec::new();
     let mut plots = Vec::new();
     for (k, edges) in rises.iter().enumerate() {
@@ -144,8 +148,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     o.flush()?;
     drop(o);
     // The table comes first: a plot that cannot be drawn does not hide the results.
+    let unit = ErrorUnit::Microsteps { deg: per_step_deg };
     for (plot, title, trace) in &plots {
-        multistep_sim::plot::plot_trace(&plot.to_string_lossy(), title, trace)?;
+        plot_trace(&plot.to_string_lossy(), title, trace, unit)?;
     }
     Ok(())
 }

@@ -85,13 +85,13 @@ pub fn run(a: &SimulateArgs) -> anyhow::Result<()> {
     }
     if let Some(path) = &a.plot {
         let title = format!(
-            "{} on {}, {} microsteps, {:?} driver",
+            "{} on {}, {} microsteps, {} driver",
             a.mv.describe(),
             motor.name,
             r.microsteps,
-            r.mode
+            a.mode_name()
         );
-        plot::plot_trace(path, &title, &r.trace)?;
+        plot::plot_trace(path, &title, &r.trace, plot::ErrorUnit::Degrees)?;
     }
     let mut out = std::io::stdout().lock();
     match a.format {

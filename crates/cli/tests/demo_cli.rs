@@ -30,6 +30,50 @@ fn demo_runs_seed000_without_faults_and_writes_plots() {
         assert!(e > 0.5 && e <= 8.0, "{e}");
         let plot = std::fs::read_to_string(a["plot"].as_str().unwrap()).unwrap();
         assert!(plot.starts_with("<svg"));
+        plot_speaks_microsteps(&plot, e);
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The text elements of an SVG, trimmed, each with whether it is a y-axis tick label (the
+/// only right-aligned text).
+fn svg_texts(svg: &str) -> Vec<(bool, String)> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let open = t.find('>')?;
+            let y_tick = t[..open].contains("text-anchor=\"end\"");
+            Some((y_tick, t[open + 1..t.find("</text>")?].trim().to_string()))
+        })
+        .collect()
+}
+
+/// The plot gives the following error in microsteps, as the table does: its axis says so and
+/// its ticks reach the table's peak; tick labels are "9000", not "9000.0", and never "-0".
+fn plot_speaks_microsteps(svg: &str, peak_steps: f64) {
+    let texts = svg_texts(svg);
+    let label = texts
+        .iter()
+        .position(|(_, t)| t == "following error θ* − θ (microsteps)")
+        .unwrap_or_else(|| panic!("{texts:?}"));
+    assert!(!texts
+        .iter()
+        .any(|(_, t)| t.contains("(°)") && t.contains("error")));
+    for (_, t) in &texts {
+        assert!(!t.ends_with(".0"), "tick {t:?} in {texts:?}");
+        if t.parse::<f64>() == Ok(0.0) {
+            assert_eq!(t, "0", "{texts:?}");
+        }
+    }
+    // the error panel's ticks reach the table's peak (in degrees they would stay below 1)
+    let error_ticks: Vec<f64> = texts[label..]
+        .iter()
+        .filter(|(y_tick, _)| *y_tick)
+        .map(|(_, t)| t.parse().unwrap())
+        .collect();
+    let top = error_ticks.iter().cloned().fold(f64::MIN, f64::max);
+    assert!(
+        error_ticks.len() >= 3 && top >= 0.8 * peak_steps && top <= 1.5 * peak_steps + 1.0,
+        "{error_ticks:?}, peak {peak_steps}"
+    );
 }

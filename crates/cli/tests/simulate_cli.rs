@@ -66,12 +66,35 @@ fn simulate_writes_trace_and_plots() {
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("t_s,commanded_deg,actual_deg"));
     assert!(text.lines().count() > 1000);
-    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg"));
+    // the title names the driver as --mode and the table do
+    assert!(plot.contains("20mm, 16 microsteps, ideal driver"), "{plot}");
     args[11] = png.to_str().unwrap();
     let (code, _, err) = multistep(&args);
     assert_eq!(code, 0, "{err}");
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn simulate_plot_title_names_the_rl_driver() {
+    let svg = std::env::temp_dir().join(format!("multistep-sim-rl-{}.svg", std::process::id()));
+    let mut args = vec![
+        "simulate",
+        "--motor",
+        "42mm",
+        "--plot",
+        svg.to_str().unwrap(),
+    ];
+    args.extend(MOVE);
+    let (code, out, err) = multistep(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("(rl driver,"), "{out}");
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    std::fs::remove_file(&svg).ok();
+    assert!(plot.contains("on 42mm, 16 microsteps, rl driver"), "{plot}");
+    assert!(!plot.contains("Rl driver"));
 }
 
 #[test]
