@@ -51,9 +51,42 @@ pub enum LinkError {
     Axis { axis: u32, axes: u32 },
     #[error("{0}")]
     Move(String),
-    /// The byte stream failed (closed, timed out: the port's own read timeout).
+    /// The byte stream failed (closed, or an error other than a timeout).
     #[error("link I/O: {0}")]
     Io(String),
+    /// No reply within the port's own read timeout.
+    #[error("link I/O: no reply in time: {0}")]
+    Timeout(String),
+}
+
+/// A port's timeout is a late reply (sent again); any other I/O error ends the exchange.
+fn io_err(e: std::io::Error) -> LinkError {
+    match e.kind() {
+        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock => {
+            LinkError::Timeout(e.to_string())
+        }
+        _ => LinkError::Io(e.to_string()),
+    }
+}
+
+impl LinkError {
+    /// Whether the request may or may not have been executed: its reply was damaged or
+    /// did not come (a refusal as a bad CRC executed nothing, but is sent again too).
+    pub fn in_doubt(&self) -> bool {
+        matches!(
+            self,
+            LinkError::Length { .. }
+                | LinkError::Sync { .. }
+                | LinkError::Crc { .. }
+                | LinkError::StatusCode(_)
+                | LinkError::Sequence { .. }
+                | LinkError::Timeout(_)
+                | LinkError::Refused {
+                    status: Status::BadCrc,
+                    ..
+                }
+        )
+    }
 }
 
 impl From<HdlError> for LinkError {
@@ -120,7 +153,9 @@ pub enum BoardReg {
     ClockHz = 0x03,
     /// R: UART baud.
     Baud = 0x04,
-    /// R: the session value: the clock count at the first start bit after a reset.
+    /// R/W: the host's session token: written (nonzero) by the host after it connects,
+    /// 0 after configuration and every reset; any other readback than the token written
+    /// means the board lost its state ([`HostLink::claim`]).
     Session = 0x05,
     /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 3 the pending group
     /// is armed (waits for SYNC), 4 the SYNC edge came before the armed group was ready,
@@ -926,14 +961,41 @@ pub fn int_profile(
     }
 }
 
+/// How often [`HostLink`] sends a frame again whose reply was damaged or did not come.
+pub const RETRANSMITS: u32 = 2;
+
+/// A random nonzero session token for [`HostLink::claim`].
+pub fn session_token() -> u32 {
+    use std::hash::{BuildHasher, Hasher};
+    // the standard library seeds `RandomState` from the OS's randomness
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u128(
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos()),
+    );
+    h.write_u32(std::process::id());
+    let v = h.finish();
+    ((v ^ (v >> 32)) as u32).max(1)
+}
+
 /// The host's side of the link over any byte stream (a serial port, a socket): one
 /// request at a time, each answered before the next; sequence numbers are checked. Read
 /// timeouts are the stream's own (e.g. `serialport`'s timeout).
+///
+/// Exactly once: a request whose reply is damaged, refused as a bad CRC or does not come
+/// in time is sent again as the same frame (same seq), up to [`RETRANSMITS`] times. The
+/// board answers a retransmission of the frame it executed last from that frame's reply
+/// (`ms_link.v`), so a write whose reply was lost is never executed twice, and its answer
+/// is the one the board gave. An error after the retransmissions leaves the request's
+/// outcome unknown ([`LinkError::in_doubt`]).
 #[derive(Debug)]
 pub struct HostLink<T> {
     io: T,
     seq: u8,
     decoder: ReplyDecoder,
+    /// Frames sent again.
+    pub retransmitted: u64,
 }
 
 impl<T: std::io::Read + std::io::Write> HostLink<T> {
@@ -942,7 +1004,17 @@ impl<T: std::io::Read + std::io::Write> HostLink<T> {
             io,
             seq: 0,
             decoder: ReplyDecoder::new(),
+            retransmitted: 0,
         }
+    }
+
+    /// Reads the board's session register and writes `token` (nonzero) to it. Returns
+    /// what was read: a board that kept its state since this host last claimed it with
+    /// token T reads T; 0 after configuration or a reset.
+    pub fn claim(&mut self, token: u32) -> Result<u32, LinkError> {
+        let before = self.read(Reg::Board(BoardReg::Session))?;
+        self.write(Reg::Board(BoardReg::Session), token)?;
+        Ok(before)
     }
 
     /// The stream back.
@@ -972,24 +1044,43 @@ impl<T: std::io::Read + std::io::Write> HostLink<T> {
         self.exchange(&frame, Request::write(b.seq, reg, 0))
     }
 
-    /// Sends `frame` and waits for the reply to `req` (its seq).
+    /// Sends `frame` and waits for the reply to `req` (its seq), sending the same frame
+    /// again while the reply is damaged or late.
     fn exchange(&mut self, frame: &[u8], req: Request) -> Result<u32, LinkError> {
-        let io = |e: std::io::Error| LinkError::Io(e.to_string());
-        self.io.write_all(frame).map_err(io)?;
-        self.io.flush().map_err(io)?;
+        let mut tries = 0;
+        loop {
+            match self.exchange_once(frame, req) {
+                Err(e) if e.in_doubt() && tries < RETRANSMITS => {
+                    tries += 1;
+                    self.retransmitted += 1;
+                }
+                r => return r,
+            }
+        }
+    }
+
+    fn exchange_once(&mut self, frame: &[u8], req: Request) -> Result<u32, LinkError> {
+        self.io.write_all(frame).map_err(io_err)?;
+        self.io.flush().map_err(io_err)?;
         let mut buf = [0u8; REPLY_LEN];
         loop {
-            let n = self.io.read(&mut buf).map_err(io)?;
+            let n = self.io.read(&mut buf).map_err(io_err)?;
             if n == 0 {
                 return Err(LinkError::Io("the stream closed".into()));
             }
             // A reply with another seq answers an earlier request whose reply never came
-            // in time (a host killed mid-request, a timeout): skipped.
-            let found = self
+            // in time (a host killed mid-request, a timeout, a retransmission): skipped.
+            let got: Vec<_> = self
                 .decoder
                 .push(&buf[..n])
                 .into_iter()
-                .find(|r| !matches!(r, Ok(y) if y.seq != req.seq));
+                .filter(|r| !matches!(r, Ok(y) if y.seq != req.seq))
+                .collect();
+            // our reply, even behind the remains of a damaged one
+            let found = match got.iter().position(|r| r.is_ok()) {
+                Some(i) => got.into_iter().nth(i),
+                None => got.into_iter().next(),
+            };
             if let Some(r) = found {
                 // what is left of a bad frame must not be taken for the next reply
                 self.decoder = ReplyDecoder::new();
@@ -1072,33 +1163,55 @@ mod tests {
     }
 
     /// A register file behind the framing, answering like the board (unknown registers
-    /// refused), optionally corrupting its replies.
+    /// refused), optionally corrupting its replies. As `ms_link.v`, it answers the same
+    /// frame as the one it executed last from that frame's reply.
     struct FakeBoard {
         regs: std::collections::HashMap<u16, u32>,
         out: Vec<u8>,
         corrupt: bool,
+        /// Replies so far; the one of this index is damaged, of `lose` never sent.
+        replies: usize,
+        damage: Option<usize>,
+        lose: Option<usize>,
+        /// The last executed frame and its reply.
+        last: Option<(Vec<u8>, Reply)>,
+        /// Every write executed.
+        executed: Vec<(u16, u32)>,
     }
 
     impl std::io::Write for FakeBoard {
         fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
             let req = Request::decode(b).expect("the host sends whole frames");
-            let (status, data) = match (req.command, self.regs.get(&req.addr)) {
-                (_, None) => (Status::BadAddress, 0),
-                (Command::Read, Some(&v)) => (Status::Ok, v),
-                (Command::Write, Some(_)) => {
-                    self.regs.insert(req.addr, req.data);
-                    (Status::Ok, 0)
+            let reply = match &self.last {
+                Some((f, r)) if f == b => *r,
+                _ => {
+                    let (status, data) = match (req.command, self.regs.get(&req.addr)) {
+                        (_, None) => (Status::BadAddress, 0),
+                        (Command::Read, Some(&v)) => (Status::Ok, v),
+                        (Command::Write, Some(_)) => {
+                            self.regs.insert(req.addr, req.data);
+                            self.executed.push((req.addr, req.data));
+                            (Status::Ok, 0)
+                        }
+                        (Command::Bulk, Some(_)) => (Status::BadCommand, 0),
+                    };
+                    let r = Reply {
+                        seq: req.seq,
+                        status,
+                        data,
+                    };
+                    self.last = Some((b.to_vec(), r));
+                    r
                 }
-                (Command::Bulk, Some(_)) => (Status::BadCommand, 0),
             };
-            let mut f = Reply {
-                seq: req.seq,
-                status,
-                data,
-            }
-            .encode();
-            if self.corrupt {
+            let mut f = reply.encode();
+            let n = self.replies;
+            self.replies += 1;
+            if self.corrupt || self.damage == Some(n) {
                 f[4] ^= 1;
+            }
+            if self.lose == Some(n) {
+                return Ok(b.len());
             }
             self.out.extend_from_slice(&[0x00, 0x13]); // noise before the reply
             self.out.extend_from_slice(&f);
@@ -1111,6 +1224,10 @@ mod tests {
 
     impl std::io::Read for FakeBoard {
         fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            if self.out.is_empty() {
+                // a serial port's read timeout
+                return Err(std::io::ErrorKind::TimedOut.into());
+            }
             // a few bytes at a time, as a serial port delivers them
             let n = self.out.len().min(b.len()).min(4);
             b[..n].copy_from_slice(&self.out[..n]);
@@ -1135,7 +1252,50 @@ mod tests {
             regs,
             out: Vec::new(),
             corrupt,
+            replies: 0,
+            damage: None,
+            lose: None,
+            last: None,
+            executed: Vec::new(),
         })
+    }
+
+    #[test]
+    fn a_write_whose_reply_is_damaged_or_lost_is_executed_once() {
+        let start = Reg::Board(BoardReg::Start);
+        for (damage, lose) in [(Some(0), None), (None, Some(0)), (Some(0), Some(1))] {
+            let mut l = fake(false);
+            l.io.regs.insert(start.addr(), 0);
+            l.io.damage = damage;
+            l.io.lose = lose;
+            assert_eq!(l.write(start, 1), Ok(()), "{damage:?} {lose:?}");
+            assert_eq!(
+                l.io.executed,
+                vec![(start.addr(), 1)],
+                "{damage:?} {lose:?}"
+            );
+            // the next write of the same value is a new request: executed
+            l.write(start, 1).unwrap();
+            assert_eq!(l.io.executed.len(), 2);
+        }
+        // every reply damaged: an error after the retransmissions, executed once
+        let mut l = fake(true);
+        l.io.regs.insert(start.addr(), 0);
+        let e = l.write(start, 1).unwrap_err();
+        assert!(e.in_doubt(), "{e}");
+        assert_eq!(
+            (l.io.executed.len(), l.retransmitted),
+            (1, u64::from(RETRANSMITS))
+        );
+    }
+
+    #[test]
+    fn a_claim_reads_the_session_and_writes_the_token() {
+        let mut l = fake(false);
+        l.io.regs.insert(0x05, 0);
+        assert_eq!(l.claim(0xABCD), Ok(0));
+        assert_eq!(l.claim(0x1234), Ok(0xABCD));
+        assert_ne!(session_token(), 0);
     }
 
     #[test]
@@ -1200,6 +1360,7 @@ mod tests {
             bad.read(Reg::Board(BoardReg::Id)),
             Err(LinkError::Crc { .. })
         ));
+        assert_eq!(bad.retransmitted, u64::from(RETRANSMITS));
         let mut closed = HostLink::new(std::io::Cursor::new(Vec::<u8>::new()));
         assert!(matches!(
             closed.read(Reg::Board(BoardReg::Id)),

@@ -310,9 +310,14 @@ fn estop_reset_and_a_cut_link() {
     let sim = start(2, Vec::new(), Some(log.clone()));
     let p = sim.board.core.clone();
     let mut l = link(&sim, 1000);
-    // the session value changes on a reset; the registers return to their defaults
-    let s1 = l.read(Reg::Board(BoardReg::Session)).unwrap();
-    assert_eq!(l.read(Reg::Board(BoardReg::Session)).unwrap(), s1);
+    // the host's session token is kept until a reset clears it; the registers return
+    // to their defaults
+    assert_eq!(
+        l.claim(0x5EED_0001).unwrap(),
+        0,
+        "a fresh board has no session"
+    );
+    assert_eq!(l.claim(0x5EED_0002).unwrap(), 0x5EED_0001);
     l.write(Reg::Board(BoardReg::Enable), 0b11).unwrap();
     sim.reset().unwrap();
     // controls are taken in order: once state answers, the reset pulse has begun (bytes
@@ -320,13 +325,14 @@ fn estop_reset_and_a_cut_link() {
     sim.state().unwrap();
     std::thread::sleep(Duration::from_millis(50));
     let s2 = l.read(Reg::Board(BoardReg::Session)).unwrap();
-    assert_ne!(s1, s2, "a new session after the reset");
+    assert_eq!(s2, 0, "the reset cleared the session");
     assert_eq!(l.read(Reg::Board(BoardReg::Enable)).unwrap(), 0);
-    // a cut link: reads time out; restored, they answer again
+    // a cut link: reads time out (each sent again, then given up); restored, they
+    // answer again
     sim.cut().unwrap();
     assert!(matches!(
         l.read(Reg::Board(BoardReg::Id)),
-        Err(LinkError::Io(_))
+        Err(LinkError::Timeout(_))
     ));
     sim.restore().unwrap();
     std::thread::sleep(Duration::from_millis(20));

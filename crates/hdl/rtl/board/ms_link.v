@@ -11,6 +11,11 @@
 // between bytes is dropped without a reply (so a host resynchronizes by pausing). A frame
 // with a bad CRC or command gets a reply with that status and is not executed. Replies
 // are shorter than requests, so a host may send requests back to back.
+// Exactly once: the last executed frame (seq, command, its first six body bytes and its
+// CRC) and its reply are kept; the same frame again is a host's retransmission after a
+// reply it lost, answered from the kept reply and not executed again. A host's next
+// request has another seq, so only a retransmission matches. Kept over a reset (a start
+// executed before it is still answered as done); cleared at configuration.
 module ms_link #(
     parameter GAP  = 1024,
     parameter BULK = 1      // 0: no replay units; a bulk frame is framed, then answered
@@ -59,6 +64,16 @@ module ms_link #(
     reg         reply;    // load a reply {seq, status, data}
     reg  [7:0]  r_seq, r_st;
     reg  [31:0] r_data;
+    // the last executed frame and its reply
+    reg         k_valid;
+    reg  [7:0]  k_seq, k_cmd, k_st;
+    reg  [47:0] k_body;
+    reg  [15:0] k_crc;
+    reg  [31:0] k_data;
+    reg  [7:0]  crc_hi;   // the frame's CRC field, first byte
+    wire [15:0] f_crc = {crc_hi, rx_byte};
+    wire        again = k_valid && seq == k_seq && cmd == k_cmd && body[63:16] == k_body &&
+                        f_crc == k_crc;
     initial begin
         idx = 9'd0;
         req = 1'b0;
@@ -70,6 +85,7 @@ module ms_link #(
         exec = 1'b0;
         reply = 1'b0;
         bad_frame = 1'b0;
+        k_valid = 1'b0;
     end
     always @(posedge clk) begin
         req       <= 1'b0;
@@ -93,6 +109,7 @@ module ms_link #(
                 if (idx >= 9'd3 && idx <= 9'd8) body <= {rx_byte, body[63:8]};
                 if (idx == 9'd3) bulk_addr[7:0] <= rx_byte;
                 if (idx == 9'd4) bulk_addr[15:8] <= rx_byte;
+                if (idx == last - 9'd1) crc_hi <= rx_byte;
                 if (bulk && idx == 9'd5) begin
                     bulk_len  <= rx_byte;
                     bulk_open <= 1'b1;
@@ -113,7 +130,16 @@ module ms_link #(
                         reply     <= 1'b1;
                         r_st      <= ST_FULL;
                         r_data    <= 32'd0;
+                    end else if (again) begin
+                        reply     <= 1'b1;
+                        r_st      <= k_st;
+                        r_data    <= k_data;
                     end else begin
+                        k_valid  <= 1'b0;
+                        k_seq    <= seq;
+                        k_cmd    <= cmd;
+                        k_body   <= body[63:16];
+                        k_crc    <= f_crc;
                         req      <= 1'b1;
                         req_wr   <= (cmd == 8'h02) || bulk_req;
                         req_bulk <= bulk_req;
@@ -127,9 +153,12 @@ module ms_link #(
             else gap <= gap + 1'b1;
         end
         if (exec) begin
-            reply  <= 1'b1;
-            r_st   <= rsp_status;
-            r_data <= rsp_data;
+            reply   <= 1'b1;
+            r_st    <= rsp_status;
+            r_data  <= rsp_data;
+            k_st    <= rsp_status;
+            k_data  <= rsp_data;
+            k_valid <= 1'b1;
         end
     end
 

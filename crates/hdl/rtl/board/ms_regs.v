@@ -10,6 +10,9 @@
 // A bulk write (req_bulk, req_data = its length) goes only to an axis's StreamData (r = 7):
 // its bytes went to the axis's replay unit (ms_stream) as they arrived; here it is
 // committed if it fit, and the reply's data is the free bytes left.
+// Session (0x05) is the host's: it writes a nonzero token after connecting; configuration
+// and every reset clear it, so a readback other than the token means the board lost its
+// state, whatever the timing.
 // Status: 0 ok, 3 unknown register (or the wrong direction), 4 busy (the write would
 // change a running move), 5 e-stop latched, 6 bad value, 7 the stream buffer has no room
 // for the bulk write. (1 and 2 are ms_link's.)
@@ -77,7 +80,9 @@ module ms_regs #(
     // board
     input  wire          estop_in,   // the e-stop input, synchronized, active high
     output reg           estop,      // latched
-    input  wire          rx_line,    // the UART input, synchronized (session capture)
+    /* verilator lint_off UNUSED */
+    input  wire          rx_line,    // the UART input, synchronized (not used)
+    /* verilator lint_on UNUSED */
     input  wire          bad_frame,
     input  wire          sync_line,  // the SYNC line, synchronized (idle high)
     output wire          sync_oe,    // pull the SYNC line low
@@ -103,8 +108,7 @@ module ms_regs #(
     reg [K-1:0]  hall_stop, limit_stop, stopped, estopped, stop_req;
     reg [LS-1:0] slot [0:K-1];
     reg [31:0]   free;         // free-running clock count (never reset)
-    reg [31:0]   session;
-    reg          have_session;
+    reg [31:0]   session;      // the host's token; 0 after configuration and every reset
     reg [15:0]   bad_frames;
     reg [31:0]   setup_cnt;    // clocks since the last start write
     reg [31:0]   setup_need;   // the go may come this many clocks after it
@@ -124,7 +128,6 @@ module ms_regs #(
         fire_cnt = 8'd0;
         sync_tick = 32'd0;
         free = 32'd0;
-        have_session = 1'b0;
         session = 32'd0;
         estop = 1'b0;
         core_wr = 1'b0;
@@ -238,6 +241,7 @@ module ms_regs #(
         wst = E_ADDR;
         if (is_board && req_addr[11:8] == 4'h0) begin
             case (breg)
+                8'h05: wst = OK;
                 8'h08: wst = (req_data[0] == 1'b0 && estop_in) ? E_ESTOP : OK;
                 8'h09: wst = start_st;
                 8'h13: wst = sync_en ? start_st : E_ADDR;
@@ -299,7 +303,7 @@ module ms_regs #(
         end
         if (rst) begin
             estop        <= 1'b0;
-            have_session <= 1'b0;
+            session      <= 32'd0;
             bad_frames   <= 16'd0;
             pulse_width  <= {WD{1'b0}};
             dir_setup    <= 32'd0;
@@ -318,11 +322,6 @@ module ms_regs #(
             fire_cnt     <= 8'd0;
             for (i = 0; i < K; i = i + 1) slot[i] <= {LS{1'b0}};
         end else begin
-            // the session: the clock count at the first start bit after a reset
-            if (!have_session && !rx_line) begin
-                have_session <= 1'b1;
-                session      <= free;
-            end
             if (bad_frame && bad_frames != 16'hFFFF) bad_frames <= bad_frames + 1'b1;
             if (estop_in || (w_board && breg == 8'h08 && req_data[0])) estop <= 1'b1;
             else if (w_board && breg == 8'h08) estop <= 1'b0;
@@ -349,6 +348,7 @@ module ms_regs #(
                         stop_req <= mask;
                         stopped  <= stopped | (mask & core_busy);
                     end
+                    8'h05: session     <= req_data;
                     8'h0B: pulse_width <= req_data[WD-1:0];
                     8'h0C: dir_setup   <= req_data;
                     8'h0D: debounce    <= req_data[WD-1:0];

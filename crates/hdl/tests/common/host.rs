@@ -66,6 +66,14 @@ impl Host {
         self.sent_one(w.seq)
     }
 
+    /// Sends `r` again, as it was (a host that lost its reply); returns the index of the
+    /// reply to this copy.
+    pub fn again(&mut self, r: &Request) -> usize {
+        self.s.send(r);
+        self.seqs.push(r.seq);
+        self.seqs.len() - 1
+    }
+
     /// Sends raw frame bytes that expect one reply (e.g. a corrupted frame).
     pub fn frame(&mut self, bytes: &[u8]) -> usize {
         self.s.bytes(bytes).expect_reply();
