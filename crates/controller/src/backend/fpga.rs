@@ -1,8 +1,14 @@
 //! The FPGA board (`ms_board`, docs/HDL.md "The board top level") over its serial host
 //! link. Moves run on the board's datapath (`multistep_core::int`), loaded with
 //! `link::move_writes` and started together by one `Start` write; counts, busy flags, the
-//! Hall latch, the e-stop and the session value are read back from the board's registers.
+//! Hall latch, the e-stop and the session token are read back from the board's registers.
 //! A link that stops answering faults the board's axes until it answers again.
+//!
+//! The host writes a random token to the board's `Session` register when it connects; a
+//! reset or power cycle clears it, so any other readback means the board lost its state:
+//! every axis is then untrusted until homed. A request whose reply is lost is sent again
+//! and answered once (`HostLink`); a start whose outcome stays unknown (the link failed)
+//! untrusts its axes.
 //!
 //! On a board with replay units (`ms_stream`) every other move — any family, non-whole
 //! speeds, pieces longer than the tick width — and tracking run streamed: the host codes
@@ -150,7 +156,10 @@ pub struct FpgaBackend {
     down: Option<String>,
     last_try: Instant,
     params: CoreParams,
+    /// The token this host wrote to the board's `Session` register.
     session: u32,
+    /// Axes of a start whose outcome is unknown: its write failed with the link.
+    doubt: u32,
     axes: Vec<FpgaAxis>,
     events: VecDeque<(usize, PinEvent)>,
     now: u64,
@@ -204,7 +213,8 @@ impl FpgaBackend {
                 id.axes
             )));
         }
-        let session = l.read(Reg::Board(BoardReg::Session)).map_err(link_err)?;
+        let session = link::session_token();
+        l.claim(session).map_err(link_err)?;
         let mut b = FpgaBackend {
             name,
             open,
@@ -213,6 +223,7 @@ impl FpgaBackend {
             last_try: Instant::now(),
             params,
             session,
+            doubt: 0,
             axes: (0..axes)
                 .map(|_| FpgaAxis {
                     count: 0,
@@ -340,12 +351,10 @@ impl FpgaBackend {
         }
     }
 
-    /// An error of the link: an I/O failure takes the link down (retried later).
+    /// An error of the link: an I/O failure, or a reply still lost or damaged after the
+    /// link's retransmissions, takes the link down (retried later).
     fn failed(&mut self, e: LinkError) -> CtlError {
-        if matches!(
-            e,
-            LinkError::Io(_) | LinkError::Sequence { .. } | LinkError::Crc { .. }
-        ) {
+        if matches!(e, LinkError::Io(_)) || e.in_doubt() {
             if self.down.is_none() {
                 eprintln!(
                     "warning: board link {}: {e}; its axes are faulted",
@@ -368,6 +377,9 @@ impl FpgaBackend {
         self.estop_input = status & 2 != 0;
         if session != self.session {
             return self.session_changed(session);
+        }
+        if self.doubt != 0 {
+            self.start_in_doubt();
         }
         if status & 1 != 0 && !self.estopped {
             self.estopped = true;
@@ -488,10 +500,15 @@ impl FpgaBackend {
         Ok(())
     }
 
-    /// The board was reset or lost power: every axis that moved, or whose count now
-    /// differs from what the host saw, lost its count.
+    /// The board was reset or lost power (its session register no longer holds this
+    /// host's token): every axis lost its count, whatever the timing, and the board is
+    /// claimed with a new token.
     fn session_changed(&mut self, session: u32) -> Result<(), LinkError> {
-        self.session = session;
+        let token = link::session_token();
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        l.write(Reg::Board(BoardReg::Session), token)?;
+        self.session = token;
+        self.doubt = 0;
         self.estopped = false;
         self.setup()?;
         for i in 0..self.axes.len() {
@@ -501,18 +518,45 @@ impl FpgaBackend {
             ax.feed = None;
             ax.offset = 0;
             let moved = ax.running.take().is_some();
-            if moved || count != ax.count {
-                let why = format!(
-                    "the board was reset (session {session:#010x}); its count {} was lost{}; untrusted until homed",
-                    ax.count,
-                    if moved { " mid-move" } else { "" }
-                );
-                self.events.push_back((i, PinEvent::Lost { why }));
-            }
+            let why = format!(
+                "the board was reset or lost power (its session register reads {session:#010x}, \
+                 not this host's token); its count {} was lost{}; untrusted until homed",
+                ax.count,
+                if moved { " mid-move" } else { "" }
+            );
+            self.events.push_back((i, PinEvent::Lost { why }));
             ax.count = count;
             ax.speed = 0.0;
         }
         Ok(())
+    }
+
+    /// Logs the requests the link sent again since the last time.
+    fn tell_retransmits(&mut self) {
+        if let Some(l) = self.link.as_mut().filter(|l| l.retransmitted > 0) {
+            eprintln!(
+                "note: board link {}: {} request(s) sent again (a reply damaged or late); \
+                 each executed once",
+                self.name, l.retransmitted
+            );
+            l.retransmitted = 0;
+        }
+    }
+
+    /// The link failed at a start, so whether the board started it is unknown: its axes'
+    /// counts cannot be trusted.
+    fn start_in_doubt(&mut self) {
+        for (i, ax) in self.axes.iter_mut().enumerate() {
+            if self.doubt >> i & 1 == 1 {
+                ax.running = None;
+                ax.feed = None;
+                let why = "the link failed at its start, so the board may or may not have run \
+                           the move; untrusted until homed"
+                    .to_string();
+                self.events.push_back((i, PinEvent::Lost { why }));
+            }
+        }
+        self.doubt = 0;
     }
 
     fn reconnect(&mut self) {
@@ -707,8 +751,14 @@ impl FpgaBackend {
             .and_then(|_| self.preload(feeds))
             .and_then(|_| {
                 let l = self.link.as_mut().ok_or_else(no_link)?;
-                l.write(go.reg, go.data)
+                // a go whose reply stays lost after the retransmissions may have started
+                l.write(go.reg, go.data).inspect_err(|e| {
+                    if e.in_doubt() || matches!(e, LinkError::Io(_)) {
+                        self.doubt |= mask;
+                    }
+                })
             });
+        self.tell_retransmits();
         r.map_err(|e| match e {
             LinkError::Refused {
                 status: Status::Busy,
@@ -1060,6 +1110,7 @@ impl BoardBackend for FpgaBackend {
                 if let Err(e) = self.feed_streams().and_then(|_| self.read_board()) {
                     self.failed(e);
                 }
+                self.tell_retransmits();
             }
         }
         self.events.pop_front()
@@ -1339,5 +1390,260 @@ mod tests {
         }
         let open: Opener = Box::new(|| Ok(Box::new(Noise(1)) as Box<dyn Port>));
         assert!(FpgaBackend::with_opener("noise".into(), open, 1).is_err());
+    }
+}
+
+/// The board's registers as far as the backend uses them, behind the link's framing:
+/// a start makes its axes busy until [`Model::finish`] runs the moves; the last executed
+/// frame's reply answers a retransmission of it (as `ms_link.v`); a chosen reply is
+/// damaged or lost.
+#[cfg(test)]
+mod model {
+    use super::*;
+    use multistep_hdl::link::{Reply, Request, REPLY_LEN};
+    use std::sync::{Arc, Mutex};
+
+    #[derive(Default)]
+    pub struct Model {
+        pub session: u32,
+        pub enable: u32,
+        pub busy: u32,
+        pub position: [i64; 2],
+        /// Steps each start runs (signed).
+        pub steps: i64,
+        pub starts: usize,
+        /// Damage the next reply to a write of this address; lose every reply to writes
+        /// of `mute`.
+        pub damage: Option<u16>,
+        pub mute: Option<u16>,
+        last: Option<(Vec<u8>, Reply)>,
+        out: Vec<u8>,
+    }
+
+    impl Model {
+        /// The moves under way end.
+        pub fn finish(&mut self) {
+            for a in 0..2 {
+                if self.busy >> a & 1 == 1 {
+                    self.position[a] += self.steps;
+                }
+            }
+            self.busy = 0;
+        }
+
+        /// Power off and on: every register at its power-up value.
+        pub fn power_cycle(&mut self) {
+            *self = Model {
+                steps: self.steps,
+                ..Model::default()
+            };
+        }
+
+        fn execute(&mut self, r: &Request) -> (Status, u32) {
+            let write = r.command == link::Command::Write;
+            let (a, ar) = ((r.addr >> 4 & 0xF) as usize, r.addr & 0xF);
+            match (r.addr, write) {
+                (0x00, false) => (Status::Ok, 0x4D53_0010),
+                (0x01, false) => (Status::Ok, 0x0204_0201),
+                (0x02, false) => (Status::Ok, 0x1418_8044),
+                (0x03, false) => (Status::Ok, 50_000_000),
+                (0x04, false) => (Status::Ok, 3_000_000),
+                (0x05, false) => (Status::Ok, self.session),
+                (0x05, true) => {
+                    self.session = r.data;
+                    (Status::Ok, 0)
+                }
+                (0x06, false) => (Status::Ok, 0),
+                (0x07, false) => (Status::Ok, self.busy),
+                (0x09, true) if self.busy & r.data != 0 => (Status::Busy, 0),
+                (0x09, true) => {
+                    self.busy |= r.data;
+                    self.starts += 1;
+                    (Status::Ok, 0)
+                }
+                (0x0A, true) => {
+                    self.busy &= !r.data;
+                    (Status::Ok, 0)
+                }
+                (0x0E, true) => {
+                    self.enable = r.data;
+                    (Status::Ok, 0)
+                }
+                (0x08 | 0x0D | 0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
+                (0x1000..=0x1FFF, true) => (Status::Ok, 0),
+                (0x2000..=0x201F, false) if ar == 0 => {
+                    let busy = self.busy >> a & 1;
+                    (Status::Ok, busy << 3 | busy)
+                }
+                (0x2000..=0x201F, false) if ar == 1 => (Status::Ok, self.position[a] as u32),
+                (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),
+                (0x2000..=0x201F, true) if ar == 1 || ar == 5 => {
+                    if ar == 1 {
+                        self.position[a] = r.data as i32 as i64;
+                    }
+                    (Status::Ok, 0)
+                }
+                _ => (Status::BadAddress, 0),
+            }
+        }
+    }
+
+    pub struct ModelPort(pub Arc<Mutex<Model>>);
+
+    impl Write for ModelPort {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            let mut m = self.0.lock().unwrap();
+            let req = Request::decode(b).expect("the backend sends whole requests");
+            let reply = match &m.last {
+                Some((f, r)) if f == b => *r,
+                _ => {
+                    let (status, data) = m.execute(&req);
+                    let r = Reply {
+                        seq: req.seq,
+                        status,
+                        data,
+                    };
+                    m.last = Some((b.to_vec(), r));
+                    r
+                }
+            };
+            let mut f = reply.encode();
+            if m.damage == Some(req.addr) && req.command == link::Command::Write {
+                m.damage = None;
+                f[REPLY_LEN - 1] ^= 0x10;
+            }
+            if m.mute != Some(req.addr) {
+                m.out.extend_from_slice(&f);
+            }
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Read for ModelPort {
+        fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            let mut m = self.0.lock().unwrap();
+            if m.out.is_empty() {
+                return Err(std::io::ErrorKind::TimedOut.into());
+            }
+            let n = m.out.len().min(b.len());
+            b[..n].copy_from_slice(&m.out[..n]);
+            m.out.drain(..n);
+            Ok(n)
+        }
+    }
+
+    /// A backend on the model, and the model.
+    pub fn connect() -> (FpgaBackend, Arc<Mutex<Model>>) {
+        let m = Arc::new(Mutex::new(Model::default()));
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let b = FpgaBackend::with_opener("model".into(), open, 2).expect("the model answers");
+        (b, m)
+    }
+}
+
+#[cfg(test)]
+mod exactly_once {
+    use super::model::connect;
+    use super::*;
+    use multistep_core::MoveParams;
+
+    fn launch(b: &FpgaBackend, axis: usize, steps: u64) -> Launch {
+        let spec = MoveSpec {
+            steps: Some(steps),
+            params: MoveParams {
+                vmax: Some(4000.0),
+                amax: Some(40_000.0),
+                ..MoveParams::default()
+            },
+            ..MoveSpec::default()
+        };
+        let datapath = b.plan_datapath(&spec).unwrap();
+        assert!(datapath.is_some(), "computed on the board");
+        Launch {
+            axis,
+            profile: spec.plan().unwrap(),
+            datapath,
+            dir: 1,
+            stop_on_sensor: None,
+            resync_sensor: true,
+        }
+    }
+
+    fn events(b: &mut FpgaBackend, now: u64) -> Vec<(usize, PinEvent)> {
+        b.begin_advance();
+        std::iter::from_fn(|| b.poll(now)).collect()
+    }
+
+    fn start(b: &mut FpgaBackend, l: Launch) -> Result<(u64, Vec<u64>), CtlError> {
+        b.start(vec![l], None, &multistep_core::tdm::TdmConfig::default(), 0)
+    }
+
+    #[test]
+    fn a_start_whose_reply_is_damaged_runs_once_and_is_tracked() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 800;
+        let l = launch(&b, 0, 800);
+        m.lock().unwrap().damage = Some(Reg::Board(BoardReg::Start).addr());
+        let r = start(&mut b, l);
+        assert!(r.is_ok(), "the board started it: {r:?}");
+        assert_eq!(m.lock().unwrap().starts, 1);
+        assert!(b.end_tick(0).is_some(), "tracked as moving");
+        assert!(events(&mut b, 1).is_empty(), "still moving");
+        m.lock().unwrap().finish();
+        let ev = events(&mut b, 2);
+        assert!(matches!(ev[..], [(0, PinEvent::End { .. })]), "{ev:?}");
+        assert_eq!((b.count(0), b.end_tick(0)), (800, None));
+        // the next move is a new start
+        let l = launch(&b, 0, 800);
+        start(&mut b, l).unwrap();
+        m.lock().unwrap().finish();
+        events(&mut b, 3);
+        assert_eq!((m.lock().unwrap().starts, b.count(0)), (2, 1600));
+    }
+
+    #[test]
+    fn a_power_cycle_untrusts_every_axis_whatever_the_timing() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        let l = launch(&b, 0, 300);
+        start(&mut b, l).unwrap();
+        assert!(events(&mut b, 1).is_empty());
+        // off and on mid-move: every register as at power-up, Session 0 as before
+        m.lock().unwrap().power_cycle();
+        let ev = events(&mut b, 2);
+        let lost: Vec<usize> = ev
+            .iter()
+            .filter_map(|(i, e)| match e {
+                PinEvent::Lost { why } if why.contains("reset or lost power") => Some(*i),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(lost, vec![0, 1], "{ev:?}");
+        assert!(events(&mut b, 3).is_empty(), "told once");
+        let m = m.lock().unwrap();
+        assert_ne!(m.session, 0, "claimed again");
+        assert_eq!(m.enable, 0b11, "set up again");
+    }
+
+    #[test]
+    fn a_start_whose_outcome_stays_unknown_untrusts_its_axes() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        let l = launch(&b, 1, 300);
+        m.lock().unwrap().mute = Some(Reg::Board(BoardReg::Start).addr());
+        let outcome = m.lock().unwrap().starts;
+        assert!(start(&mut b, l).is_err());
+        assert_eq!(m.lock().unwrap().starts, outcome + 1, "it did start");
+        m.lock().unwrap().mute = None;
+        std::thread::sleep(RECONNECT_PERIOD);
+        let ev = events(&mut b, 1);
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::Lost { why })] if why.contains("may or may not")),
+            "{ev:?}"
+        );
     }
 }
