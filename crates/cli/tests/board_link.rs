@@ -1233,3 +1233,97 @@ fn simulated_boards_refuse_a_group_across_boards() {
         "{st:?}"
     );
 }
+
+/// The lines of the rig's service log (`serve.log`) that contain `what`.
+fn log_lines(r: &Rig, what: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(r.dir.path().join("serve.log")).unwrap();
+    text.lines()
+        .filter(|l| l.contains(what))
+        .map(str::to_string)
+        .collect()
+}
+
+/// A board that loses its state mid-move (`control` on board-sim's stdin) untrusts every
+/// axis, the idle one whose count reads the same too; status, `info` and the log say why.
+fn lost_state_untrusts_every_axis(control: &str) {
+    let mut r = Rig::on_board_logged(Pins::Hil, &config(), "ulx3s-25f", 3_000_000, true);
+    // Y homed, then at 0: the count a fresh board reads
+    r.home("Y");
+    r.req("move Y -500");
+    let y = r.wait_idle("Y");
+    assert!(y.trusted && y.position == 0, "{y:?}");
+    r.req("move X 1200");
+    std::thread::sleep(Duration::from_millis(150));
+    r.board.as_mut().unwrap().send(control);
+    let x = r.wait_reachable("X");
+    let t0 = Instant::now();
+    let y = loop {
+        let y = r.status("Y");
+        if !y.trusted || t0.elapsed() > Duration::from_secs(30) {
+            break y;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let why = "reset or lost power";
+    assert!(!x.trusted && !x.homed, "{x:?}");
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    assert!(x.fault.as_deref().unwrap_or("").contains(why), "{x:?}");
+    assert!(!y.trusted && !y.homed && y.position == 0, "{y:?}");
+    let info = r.req("info");
+    for axis in ["X", "Y"] {
+        let said = |l: &String| l.contains(&format!("axis {axis}")) && l.contains(why);
+        assert!(info.iter().any(said), "info: {info:?}");
+        assert!(log_lines(&r, why).iter().any(said), "log");
+    }
+    // claimed again: the board keeps its state from here
+    r.req("move Y 50");
+    assert_eq!(r.wait_idle("Y").position, 50);
+}
+
+#[test]
+fn a_board_reset_mid_move_untrusts_every_axis() {
+    lost_state_untrusts_every_axis("reset");
+}
+
+/// Off and on: the board's clock count starts again and the host's bytes come as they
+/// did after the first power-up, so nothing on the board tells the sessions apart but the
+/// host's token.
+#[test]
+fn a_board_power_cycle_mid_move_is_seen_whatever_the_timing() {
+    lost_state_untrusts_every_axis("power-cycle");
+}
+
+/// The reply to `Start` damaged on its way (board-sim flips a bit of it): the host sends
+/// the frame again, the board answers from the reply it kept, the move runs once and is
+/// tracked; the answer is ok and the position right.
+#[test]
+fn a_damaged_reply_to_start_runs_the_move_once() {
+    let mut r = Rig::on_board_logged(Pins::Hil, &config(), "ulx3s-25f", 3_000_000, true);
+    let p0 = r.home("X").position;
+    let rises0 = r.board.as_mut().unwrap().state()["axes"][0]["step_rises"].clone();
+    let start = format!(
+        "{:#x}",
+        Reg::Board(multistep_hdl::link::BoardReg::Start).addr()
+    );
+    r.board
+        .as_mut()
+        .unwrap()
+        .send(&format!("corrupt-reply 4 {start}"));
+    r.req("move X 800");
+    let x = r.wait_idle("X");
+    assert_eq!(
+        (x.position, x.state, x.trusted),
+        (p0 + 800, AxisState::Idle, true),
+        "{x:?}"
+    );
+    let rises = &r.board.as_mut().unwrap().state()["axes"][0]["step_rises"];
+    assert_eq!(
+        rises.as_u64(),
+        rises0.as_u64().map(|n| n + 800),
+        "one move of 800"
+    );
+    assert!(
+        !log_lines(&r, "sent again").is_empty(),
+        "the reply was damaged"
+    );
+}

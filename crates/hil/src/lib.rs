@@ -10,12 +10,14 @@
 //! something: the board cannot tell, since nothing in it changes while it waits.
 
 pub mod axis;
+pub mod fault;
 pub mod multi;
 pub mod pty;
 pub mod uart;
 
 pub use axis::PinLevels;
 use axis::{AxisReport, SimAxis};
+pub use fault::CorruptReply;
 use multistep_hdl::boards::Board;
 use multistep_hdl::verilator::{default_cache_dir, watch, Inputs, VerilatedBoard};
 use multistep_hdl::{BoardTop, HdlError};
@@ -159,6 +161,8 @@ enum Control {
     Cut(bool),
     Slip(usize, i64),
     Glitch(usize),
+    Corrupt(CorruptReply),
+    PowerCycle,
     State(mpsc::Sender<SimState>),
     Quit,
 }
@@ -237,6 +241,15 @@ impl BoardSim {
         self.check_axis(axis)?;
         self.send(Control::Glitch(axis))
     }
+    /// Switches the board off and on: a fresh model, every register at its power-up
+    /// value (the motors keep their positions).
+    pub fn power_cycle(&self) -> Result<(), HilError> {
+        self.send(Control::PowerCycle)
+    }
+    /// Damages the reply to the next request (or the next write to `c.addr`).
+    pub fn corrupt_reply(&self, c: CorruptReply) -> Result<(), HilError> {
+        self.send(Control::Corrupt(c))
+    }
     pub fn state(&self) -> Result<SimState, HilError> {
         let (tx, rx) = mpsc::channel();
         self.send(Control::State(tx))?;
@@ -267,8 +280,8 @@ impl BoardSim {
     }
 
     /// Runs one control line (`estop on|off`, `reset`, `cut`, `restore`, `slip AXIS
-    /// STEPS`, `glitch AXIS`, `state`, `quit`); returns what to print (state: one JSON
-    /// line) and whether to stop.
+    /// STEPS`, `glitch AXIS`, `corrupt-reply BYTE [ADDR]`, `power-cycle`, `state`, `quit`); returns what
+    /// to print (state: one JSON line) and whether to stop.
     pub fn command(&self, line: &str) -> Result<(Option<String>, bool), HilError> {
         match parse_command(line, self.board.core.axes as usize)? {
             Cmd::None => {}
@@ -314,15 +327,31 @@ fn parse_command(line: &str, axes: usize) -> Result<Cmd, HilError> {
         ["estop", "on"] => Cmd::Control(Control::Estop(true)),
         ["estop", "off"] => Cmd::Control(Control::Estop(false)),
         ["reset"] => Cmd::Control(Control::Reset),
+        ["power-cycle"] => Cmd::Control(Control::PowerCycle),
         ["cut"] => Cmd::Control(Control::Cut(true)),
         ["restore"] => Cmd::Control(Control::Cut(false)),
         ["slip", _, _] => Cmd::Control(Control::Slip(axis(1)?, num(2)?)),
         ["glitch", _] => Cmd::Control(Control::Glitch(axis(1)?)),
+        ["corrupt-reply", byte, rest @ ..] if rest.len() <= 1 => {
+            let byte = byte
+                .parse::<usize>()
+                .ok()
+                .filter(|&b| b < multistep_hdl::link::REPLY_LEN)
+                .ok_or_else(|| HilError::Setting(format!("{line:?}: BYTE must be 0 to 8")))?;
+            let addr = match rest.first() {
+                None => None,
+                Some(a) => Some(
+                    u16::from_str_radix(a.trim_start_matches("0x"), 16)
+                        .map_err(|_| HilError::Setting(format!("{line:?}: ADDR is hex")))?,
+                ),
+            };
+            Cmd::Control(Control::Corrupt(CorruptReply { byte, addr }))
+        }
         ["state"] => Cmd::State,
         ["quit"] => Cmd::Quit,
         _ => {
             return Err(HilError::Setting(format!(
-                "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, state, quit)"
+                "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, corrupt-reply BYTE [ADDR], power-cycle, state, quit)"
             )))
         }
     })
@@ -337,6 +366,11 @@ impl Drop for BoardSim {
 /// The simulation thread's state: the model and everything around it.
 struct World {
     model: VerilatedBoard,
+    /// Cycles of the models before the present one (a power cycle starts a new model).
+    base: u64,
+    /// Where the model came from (a power cycle loads it again).
+    top: BoardTop,
+    cache: PathBuf,
     /// The inputs last set on the model.
     inputs: Inputs,
     /// The e-stop input (active).
@@ -345,6 +379,7 @@ struct World {
     tx_dec: uart::TxDecoder,
     /// Bytes taken from the host (the link's load).
     host_bytes: u64,
+    faults: fault::LinkFaults,
     pty: pty::Pty,
     axes: Vec<SimAxis>,
     edges: Option<std::io::BufWriter<std::fs::File>>,
@@ -410,6 +445,7 @@ impl World {
         };
         let cache = opts.cache_dir.clone().unwrap_or_else(default_cache_dir);
         let model = VerilatedBoard::new(&top, &cache)?;
+        let (model_top, model_cache) = (top.clone(), cache.clone());
         let pty = pty::Pty::open().map_err(|e| HilError::Io {
             what: "pseudo-terminal".into(),
             source: e,
@@ -420,7 +456,11 @@ impl World {
             rx_line: uart::RxLine::new(clock_hz, f64::from(top.baud)),
             tx_dec: uart::TxDecoder::new(top.div()),
             host_bytes: 0,
+            faults: fault::LinkFaults::default(),
             model,
+            base: 0,
+            top: model_top,
+            cache: model_cache,
             pty,
             axes,
             edges,
@@ -438,7 +478,24 @@ impl World {
     }
 
     fn cycle(&self) -> u64 {
-        self.model.outputs().cycle
+        self.base + self.model.outputs().cycle
+    }
+
+    /// Off and on: a fresh model (configuration: every register at its power-up value),
+    /// its own power-on reset; a reply being sent is lost.
+    fn power_cycle(&mut self) {
+        let fresh = match VerilatedBoard::new(&self.top, &self.cache) {
+            Ok(m) => m,
+            Err(e) => {
+                eprintln!("error: power-cycle: {e}");
+                return;
+            }
+        };
+        self.base = self.cycle();
+        self.model = fresh;
+        self.tx_dec = uart::TxDecoder::new(self.top.div());
+        self.faults.resync();
+        self.power_on();
     }
 
     fn power_on(&mut self) {
@@ -464,6 +521,7 @@ impl World {
                 self.settle_until = cycle + 16;
             }
             Control::Reset => {
+                self.faults.resync();
                 self.reset_until = cycle + RESET_CYCLES;
                 // run on past the release: the board's own reset counts 16 more clocks
                 self.settle_until = self.reset_until + 32;
@@ -473,8 +531,11 @@ impl World {
                 if on {
                     self.host.clear();
                     self.rx_line.clear_queue();
+                    self.faults.resync();
                 }
             }
+            Control::Corrupt(c) => self.faults.corrupt(c),
+            Control::PowerCycle => self.power_cycle(),
             Control::Slip(a, s) => {
                 if let Some(ax) = self.axes.get_mut(a) {
                     ax.slip(cycle, s);
@@ -512,6 +573,7 @@ impl World {
             self.host.clear();
         } else if !self.host.is_empty() {
             self.host_bytes += self.host.len() as u64;
+            self.faults.from_host(&self.host);
             self.rx_line.push(&self.host);
             self.host.clear();
         }
@@ -611,7 +673,7 @@ impl World {
             watch::STEP | watch::DIR | watch::ENABLE | watch::UART_TX | watch::GO | watch::SYNC_OE;
         self.model.run(until - cycle, mask);
         let out = self.model.outputs();
-        let now = out.cycle;
+        let now = self.base + out.cycle;
         let changed = out.word ^ self.last;
         self.last = out.word;
         if changed & watch::UART_TX != 0 {
@@ -642,6 +704,7 @@ impl World {
     }
 
     fn send_to_host(&mut self, b: u8) {
+        let b = self.faults.to_host(b);
         if !self.cut {
             self.pty.write(&[b]);
         }
