@@ -18,6 +18,12 @@ __version__: str
 DEFAULT_CLOCK_HZ: float
 #: Motor names of the simulator's library ("57mm", "42mm", "20mm").
 MOTORS: List[str]
+#: Most edges one array holds (10⁸, 800 MB of uint64): ``Plan.edges``, ``Plan.periods``,
+#: a chunk and ``track`` give no more and raise ``ValueError`` before making any beyond it;
+#: longer moves stream through ``Plan.chunks``.
+MAX_EDGES: int
+#: How long a ``Board`` call waits for the board's reply unless told otherwise: 10 s.
+DEFAULT_TIMEOUT: float
 #: Velocity-curve families: trapezoid, parabolic, exponential, sine, scurve, scurve4.
 PROFILES: List[str]
 #: A move's numeric keywords (times, speeds, limits, shape fractions), the same for
@@ -47,6 +53,10 @@ class ProtocolError(BoardError):
 
 class BoardConnectionError(BoardError, ConnectionError):
     """The connection to the board failed or was closed."""
+
+class BoardTimeoutError(BoardError, TimeoutError):
+    """The board did not answer within the Board's ``timeout``, or the axes were not idle
+    within ``wait``'s."""
 
 # Typing only (not names of the module at run time): a segment, the summary dict and the
 # trace dict.
@@ -112,12 +122,15 @@ class Plan:
 
     @property
     def edges(self) -> npt.NDArray[np.uint64]:
-        """Edge tick of every step, ``floor(clock·t_i + ½)`` (uint64, read-only, cached)."""
+        """Edge tick of every step, ``floor(clock·t_i + ½)`` (uint64, read-only, cached).
+        A move of more than ``MAX_EDGES`` steps raises ``ValueError``: use ``chunks``."""
     @property
     def periods(self) -> npt.NDArray[np.uint64]:
-        """Ticks between consecutive edges; the first is the first edge (uint64, read-only)."""
+        """Ticks between consecutive edges; the first is the first edge (uint64, read-only).
+        A move of more than ``MAX_EDGES`` steps raises ``ValueError``: use ``chunks``."""
     def chunks(self, size: int = 1 << 20, periods: bool = False) -> Chunks:
-        """Edges (or periods) in arrays of at most ``size``; memory stays at one chunk."""
+        """Edges (or periods) in arrays of at most ``size`` (1 to ``MAX_EDGES``); memory
+        stays at one chunk."""
     @property
     def summary(self) -> PlanSummary:
         """The fields of ``multistep plan --format json`` (runs the whole move once)."""
@@ -228,10 +241,12 @@ def track(
     A ramp from ``start_speed`` to ``rate`` within ``amax`` (steps/s², needed unless the
     start speed is the rate; an S-curve with ``jmax``), then a cruise at exactly ``rate``:
     every edge (ticks at ``clock`` Hz) up to ``duration`` s. ``integer=True`` runs the
-    integer tracker (trapezoid ramps only), which gives the same edges.
+    integer tracker (trapezoid and S-curve ramps), which gives the same edges.
 
     Raises ``PlanError`` (a ``ValueError``) with the command line's message for a rate or
-    limit it refuses, ``TypeError`` for a value of the wrong type.
+    limit it refuses, ``ValueError`` before making any edge when the run could give more
+    than ``MAX_EDGES`` (the ramp's steps within ``duration``, then ``rate`` steps/s for the
+    rest), ``TypeError`` for a value of the wrong type.
     """
 
 @final
@@ -244,12 +259,22 @@ class Board:
     (steps/s⁴), ``accel_time``, ``cruise_time``, ``decel_time`` (s), ``start_speed``,
     ``end_speed`` (steps/s), ``rho``, ``phi``, ``psi``; unset ones come from the preset,
     then the axis settings. A refusal raises ``ProtocolError`` with its ``code``.
+
+    Every call waits at most ``timeout`` s for the board's reply, then raises
+    ``BoardTimeoutError``; the reply still owed is read past by the next call. Calls
+    release the GIL and let Ctrl-C in within 50 ms.
     """
 
-    def __new__(cls, endpoint: str) -> Board:
-        """Connects to ``"tcp://HOST:PORT"`` or ``"serial:DEVICE"`` (115200 8N1)."""
+    def __new__(cls, endpoint: str, timeout: float = 10.0) -> Board:
+        """Connects to ``"tcp://HOST:PORT"`` or ``"serial:DEVICE"`` (115200 8N1) within
+        ``timeout`` s (0.001 to 3600; it also bounds each call's wait for a reply)."""
     @property
     def endpoint(self) -> str: ...
+    @property
+    def timeout(self) -> float:
+        """Longest wait for the reply to one call (s, 0.001 to 3600; default 10)."""
+    @timeout.setter
+    def timeout(self, value: float) -> None: ...
     def move(self, axis: str, distance: Union[int, str], **opts: Any) -> List[str]:
         """Relative move; returns the board's data lines (``"X target=…"``)."""
     def moveto(self, axis: str, position: Union[int, str], **opts: Any) -> List[str]:
@@ -272,8 +297,9 @@ class Board:
     def reset(self) -> None:
         """Clears an emergency stop and faults."""
     def wait(self, *axes: str, timeout: float = 600.0) -> None:
-        """Waits until the axes (every axis without any) are idle; ``timeout`` in s.
-        Raises ``BoardError`` on a fault or the timeout."""
+        """Waits until the axes (every axis without any) are idle; ``timeout`` in s (≥ 0,
+        ``inf`` for none). Raises ``BoardError`` on a fault, ``BoardTimeoutError`` when the
+        axes are not idle in time."""
     def status(self, *axes: str) -> List[Dict[str, Any]]:
         """``status json``: axis, position (microsteps), units, state, homed, trusted,
         target, speed (steps/s), sensor, drift, move_start/move_end (ticks), fault, …"""
@@ -304,8 +330,9 @@ class Board:
     ) -> List[str]:
         """Ramps ``axis`` to ``rate`` (steps/s; a str may be ``"0.5u"`` in user units/s or
         a stored rate's name; negative runs backwards) and runs at exactly that rate until
-        ``stop`` or a new ``track`` (0 stops). ``amax`` (steps/s²) for the ramps, ``lease``
-        (s, at most 60) stops the axis unless the command comes again."""
+        ``stop`` or a new ``track`` (0 stops). ``amax`` (steps/s², > 0 and finite) for the
+        ramps, ``lease`` (s, > 0 and at most 60) stops the axis unless the command comes
+        again."""
     def rate(self, name: str, rate: Rate) -> None:
         """Stores the named rate ``name`` on the board, for ``track(axis, name)``."""
     def rates(self) -> List[str]:

@@ -4,6 +4,7 @@
 
 use crate::errors::{type_err, value_err};
 use multistep_core::{MoveParams, MoveSpec, Param, Segment};
+use pyo3::exceptions::{PyOverflowError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyInt, PyString};
 
@@ -83,6 +84,7 @@ pub fn type_name(v: &Bound<'_, PyAny>) -> String {
 }
 
 /// A real number (int or float); NaN and infinities pass through to the library's checks.
+/// An int beyond a float's range is a `ValueError`.
 pub fn number(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
     if v.is_instance_of::<PyString>() || v.is_instance_of::<PyBool>() {
         return Err(type_err(format!(
@@ -90,8 +92,16 @@ pub fn number(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
             type_name(v)
         )));
     }
-    v.extract::<f64>()
-        .map_err(|_| type_err(format!("{name} must be a number, not {}", type_name(v))))
+    v.extract::<f64>().map_err(|e| {
+        if e.is_instance_of::<PyOverflowError>(v.py()) {
+            value_err(format!(
+                "{name} must be a number within ±{:e} (got an int too large for a float)",
+                f64::MAX
+            ))
+        } else {
+            type_err(format!("{name} must be a number, not {}", type_name(v)))
+        }
+    })
 }
 
 /// A whole number ≥ 0 that fits in 64 bits.
@@ -114,7 +124,23 @@ pub fn whole(name: &str, v: &Bound<'_, PyAny>) -> PyResult<u64> {
     }
 }
 
-/// A signed whole number that fits in 64 bits.
+/// A whole number from `lo` to `hi`; any other int is a `ValueError` that says so.
+pub fn whole_in(name: &str, v: &Bound<'_, PyAny>, lo: u64, hi: u64) -> PyResult<u64> {
+    let range = || {
+        let got = v.str().map(|s| s.to_string()).unwrap_or_default();
+        value_err(format!(
+            "{name} must be a whole number from {lo} to {hi} (got {got})"
+        ))
+    };
+    match whole(name, v) {
+        Ok(n) if (lo..=hi).contains(&n) => Ok(n),
+        Ok(_) => Err(range()),
+        Err(e) if e.is_instance_of::<PyValueError>(v.py()) => Err(range()),
+        Err(e) => Err(e),
+    }
+}
+
+/// A whole number from −2^63 to 2^63 − 1.
 pub fn signed(name: &str, v: &Bound<'_, PyAny>) -> PyResult<i64> {
     if v.is_instance_of::<PyBool>() {
         return Err(type_err(format!("{name} must be an int, not bool")));
@@ -122,7 +148,7 @@ pub fn signed(name: &str, v: &Bound<'_, PyAny>) -> PyResult<i64> {
     match v.extract::<i64>() {
         Ok(n) => Ok(n),
         Err(_) if v.is_instance_of::<PyInt>() => Err(value_err(format!(
-            "{name} does not fit in 64 bits (got {})",
+            "{name} must be a whole number from −2^63 to 2^63 − 1 (got {})",
             v.str().map(|s| s.to_string()).unwrap_or_default()
         ))),
         Err(_) => Err(type_err(format!(

@@ -1,17 +1,31 @@
-//! `multistep.Board`: a session with one controller board through the controller crate's
-//! client. Each method builds a protocol `Command` and the client writes and sends it, so
-//! the words on the line are the protocol's own.
+//! `multistep.Board`: a session with one controller board. Each method builds a protocol
+//! `Command`, written as the protocol writes it, so the words on the line are the
+//! protocol's own; the link sends it with a deadline and lets Ctrl-C in.
 
 use crate::args::{each_kw, number, signed, string};
-use crate::errors::{client_err, type_err, value_err};
-use multistep_controller::client::{Client, Endpoint};
-use multistep_controller::protocol::{parse_amount, Amount, RateArg, SignedRate, TrackOpts};
-use multistep_controller::{Command, MoveOpts};
+use crate::errors::{board_err, closed_err, refused_err, timeout_err, type_err, value_err};
+use crate::link::Link;
+use multistep_controller::client::Endpoint;
+use multistep_controller::protocol::{
+    parse_amount, Amount, RateArg, SignedRate, TrackOpts, MAX_LEASE,
+};
+use multistep_controller::{AxisState, AxisStatus, Command, MoveOpts};
 use multistep_core::Param;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyInt, PyList, PyString};
-use std::sync::Mutex;
-use std::time::Duration;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::time::{Duration, Instant};
+
+/// How long one call may wait for the board's reply unless the Board is given another
+/// timeout (s), and the range it may be given.
+pub const DEFAULT_TIMEOUT: f64 = 10.0;
+pub const MIN_TIMEOUT: f64 = 0.001;
+pub const MAX_TIMEOUT: f64 = 3600.0;
+
+/// How often `wait` asks the board for its axes' states (shorter than the link's slice, so
+/// Ctrl-C is seen as soon).
+const POLL: Duration = Duration::from_millis(20);
 
 /// Move keywords to the protocol's move options.
 fn move_opts(func: &str, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<MoveOpts> {
@@ -83,35 +97,90 @@ fn pairs(py: Python<'_>, data: &[String]) -> PyResult<Py<PyAny>> {
     Ok(d.into_any().unbind())
 }
 
+/// A Board's timeout from Python: seconds from `MIN_TIMEOUT` to `MAX_TIMEOUT`.
+fn timeout_arg(v: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let t = number("timeout", v)?;
+    if !(MIN_TIMEOUT..=MAX_TIMEOUT).contains(&t) {
+        return Err(value_err(format!(
+            "timeout must be a number of seconds from {MIN_TIMEOUT} to {MAX_TIMEOUT} (got {t})"
+        )));
+    }
+    Ok(t)
+}
+
+/// A positive, finite number of `unit`, at most `max`.
+fn positive(
+    name: &str,
+    unit: &str,
+    v: Option<&Bound<'_, PyAny>>,
+    max: f64,
+) -> PyResult<Option<f64>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(None);
+    };
+    let x = number(name, v)?;
+    if !(x > 0.0 && x.is_finite() && x <= max) {
+        let range = if max.is_finite() {
+            format!("> 0 and at most {max}")
+        } else {
+            "> 0 and finite".to_string()
+        };
+        return Err(value_err(format!(
+            "{name} must be a number of {unit} {range} (got {x})"
+        )));
+    }
+    Ok(Some(x))
+}
+
 /// A connection to one board (`multistep serve`, or a real one) over TCP or a serial line.
 #[pyclass(module = "multistep")]
 pub struct Board {
-    client: Mutex<Option<Client>>,
+    link: Mutex<Option<Link>>,
     endpoint: String,
+    /// Seconds, as f64 bits: set from any thread while another waits in a call.
+    timeout: AtomicU64,
 }
 
 impl Board {
-    /// Runs `f` on the client without the GIL (a move or a wait can take a while).
-    fn with<T: Send>(
-        &self,
-        py: Python<'_>,
-        f: impl FnOnce(&mut Client) -> Result<T, multistep_controller::client::ClientError> + Send,
-    ) -> PyResult<T> {
-        let r = py.detach(|| {
-            let mut guard = self.client.lock().map_err(|_| None)?;
-            match guard.as_mut() {
-                Some(c) => f(c).map_err(Some),
-                None => Err(None),
+    fn timeout(&self) -> Duration {
+        Duration::from_secs_f64(f64::from_bits(self.timeout.load(Ordering::Relaxed)))
+    }
+
+    /// The link, once no other thread's call holds it; the GIL is released meanwhile (the
+    /// holder needs it between its slices) and Ctrl-C ends the wait.
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Link>>> {
+        loop {
+            match self.link.try_lock() {
+                Ok(g) => return Ok(g),
+                Err(TryLockError::Poisoned(p)) => return Ok(p.into_inner()),
+                Err(TryLockError::WouldBlock) => {
+                    py.detach(|| std::thread::sleep(Duration::from_millis(1)));
+                    py.check_signals()?;
+                }
             }
-        });
-        r.map_err(|e| match e {
-            Some(e) => client_err(py, e),
-            None => crate::errors::closed_err(py),
-        })
+        }
     }
 
     fn send(&self, py: Python<'_>, cmd: Command) -> PyResult<Vec<String>> {
-        self.with(py, move |c| c.send(&cmd))
+        let mut g = self.lock(py)?;
+        let link = g.as_mut().ok_or_else(|| closed_err(py))?;
+        link.send(py, &cmd, self.timeout())?
+            .map_err(|r| refused_err(py, r))
+    }
+
+    /// `status json AXIS…` (every axis when `axes` is empty), parsed.
+    fn status_of(&self, py: Python<'_>, axes: &[String]) -> PyResult<Vec<AxisStatus>> {
+        let data = self.send(
+            py,
+            Command::Status {
+                axes: axes.to_vec(),
+                json: true,
+            },
+        )?;
+        let line = data
+            .first()
+            .ok_or_else(|| board_err(py, "status json gave no data".into()))?;
+        serde_json::from_str(line).map_err(|e| board_err(py, format!("bad status json: {e}")))
     }
 
     fn axes(names: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<Vec<String>> {
@@ -125,18 +194,38 @@ impl Board {
 #[pymethods]
 impl Board {
     /// Connects to `endpoint`: `"tcp://HOST:PORT"` or `"serial:DEVICE"` (115200 8N1).
+    /// `timeout` (s, 0.001 to 3600, default 10) bounds the connection and each call's
+    /// wait for the board's reply; past it a call raises `BoardTimeoutError`.
     #[new]
-    fn new(py: Python<'_>, endpoint: &str) -> PyResult<Board> {
+    #[pyo3(signature = (endpoint, timeout = None))]
+    #[pyo3(text_signature = "(endpoint, timeout=10.0)")]
+    fn new(py: Python<'_>, endpoint: &str, timeout: Option<&Bound<'_, PyAny>>) -> PyResult<Board> {
+        let t = match timeout.filter(|v| !v.is_none()) {
+            Some(v) => timeout_arg(v)?,
+            None => DEFAULT_TIMEOUT,
+        };
         let ep: Endpoint = endpoint
             .parse()
             .map_err(|e: multistep_controller::CtlError| value_err(e.to_string()))?;
-        let c = py
-            .detach(|| Client::connect(&ep))
-            .map_err(|e| client_err(py, e))?;
+        let link = Link::connect(py, &ep, Duration::from_secs_f64(t))?;
         Ok(Board {
-            client: Mutex::new(Some(c)),
+            link: Mutex::new(Some(link)),
             endpoint: endpoint.to_string(),
+            timeout: AtomicU64::new(t.to_bits()),
         })
+    }
+
+    /// Longest wait for the board's reply to one call (s, 0.001 to 3600).
+    #[getter(timeout)]
+    fn get_timeout(&self) -> f64 {
+        f64::from_bits(self.timeout.load(Ordering::Relaxed))
+    }
+
+    #[setter(timeout)]
+    fn set_timeout(&self, v: &Bound<'_, PyAny>) -> PyResult<()> {
+        let t = timeout_arg(v)?;
+        self.timeout.store(t.to_bits(), Ordering::Relaxed);
+        Ok(())
     }
 
     /// Relative move of `axis` by `distance`: microsteps (int) or user units (`"12.5u"`).
@@ -235,24 +324,59 @@ impl Board {
         self.send(py, Command::Reset).map(drop)
     }
 
-    /// Waits until the axes (every axis without any) are idle; an axis in fault or the
-    /// `timeout` (s) raises `BoardError`.
-    #[pyo3(signature = (*axes, timeout = 600.0))]
+    /// Waits until the axes (every axis without any) are idle; an axis in fault raises
+    /// `BoardError`, the `timeout` (s, ≥ 0; inf: none) `BoardTimeoutError`.
+    #[pyo3(signature = (*axes, timeout = None))]
+    #[pyo3(text_signature = "($self, *axes, timeout=600.0)")]
     fn wait(
         &self,
         py: Python<'_>,
         axes: &Bound<'_, pyo3::types::PyTuple>,
-        timeout: f64,
+        timeout: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let axes = Self::axes(axes)?;
+        let timeout = match timeout.filter(|v| !v.is_none()) {
+            Some(v) => number("timeout", v)?,
+            None => 600.0,
+        };
         if timeout.is_nan() || timeout < 0.0 {
             return Err(value_err(format!(
                 "timeout must be a number of seconds ≥ 0 (got {timeout})"
             )));
         }
-        // beyond what a Duration holds (inf included): no deadline
-        let t = Duration::try_from_secs_f64(timeout).unwrap_or(Duration::MAX);
-        self.with(py, move |c| c.wait(&axes, t))
+        // beyond what the clock can add (inf included): no deadline
+        let deadline = Duration::try_from_secs_f64(timeout)
+            .ok()
+            .and_then(|t| Instant::now().checked_add(t));
+        loop {
+            let st = self.status_of(py, &axes)?;
+            if let Some(s) = st.iter().find(|s| s.state == AxisState::Fault) {
+                return Err(board_err(
+                    py,
+                    format!(
+                        "axis {} is in fault: {}",
+                        s.axis,
+                        s.fault.as_deref().unwrap_or("?")
+                    ),
+                ));
+            }
+            if st.iter().all(|s| s.state == AxisState::Idle) {
+                return Ok(());
+            }
+            if deadline.is_some_and(|d| Instant::now() > d) {
+                let busy: Vec<&str> = st
+                    .iter()
+                    .filter(|s| s.state != AxisState::Idle)
+                    .map(|s| s.axis.as_str())
+                    .collect();
+                return Err(timeout_err(
+                    py,
+                    format!("timed out waiting for {}", busy.join(", ")),
+                ));
+            }
+            py.detach(|| std::thread::sleep(POLL));
+            py.check_signals()?;
+        }
     }
 
     /// Status of the axes (every axis without any): a list of dicts with the fields of
@@ -264,7 +388,7 @@ impl Board {
         axes: &Bound<'_, pyo3::types::PyTuple>,
     ) -> PyResult<Py<PyAny>> {
         let axes = Self::axes(axes)?;
-        let st = self.with(py, move |c| c.status_of(&axes))?;
+        let st = self.status_of(py, &axes)?;
         let text = serde_json::to_string(&st).map_err(|e| value_err(e.to_string()))?;
         Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
     }
@@ -419,13 +543,17 @@ impl Board {
         py: Python<'_>,
         axis: &str,
         rate: &Bound<'_, PyAny>,
-        amax: Option<f64>,
-        lease: Option<f64>,
+        amax: Option<&Bound<'_, PyAny>>,
+        lease: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
+        let opts = TrackOpts {
+            amax: positive("amax", "steps/s²", amax, f64::INFINITY)?,
+            lease: positive("lease", "seconds", lease, MAX_LEASE)?,
+        };
         let cmd = Command::Track {
             axis: axis.to_string(),
             rate: rate_arg(py, rate)?,
-            opts: TrackOpts { amax, lease },
+            opts,
         };
         lines(py, self.send(py, cmd)?)
     }
@@ -462,16 +590,19 @@ impl Board {
 
     /// Sends one raw protocol line; returns its data lines.
     fn raw(&self, py: Python<'_>, line: &str) -> PyResult<Py<PyAny>> {
-        let line = line.to_string();
-        let data = self.with(py, move |c| c.request(&line))?;
+        let mut g = self.lock(py)?;
+        let link = g.as_mut().ok_or_else(|| closed_err(py))?;
+        let data = link
+            .request(py, line, self.timeout())?
+            .map_err(|r| refused_err(py, r))?;
+        drop(g);
         lines(py, data)
     }
 
     /// Closes the connection (further calls raise `BoardConnectionError`).
-    fn close(&self) {
-        if let Ok(mut g) = self.client.lock() {
-            g.take();
-        }
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        self.lock(py)?.take();
+        Ok(())
     }
 
     fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
@@ -479,9 +610,9 @@ impl Board {
     }
 
     #[pyo3(signature = (*_exc))]
-    fn __exit__(&self, _exc: &Bound<'_, pyo3::types::PyTuple>) -> bool {
-        self.close();
-        false
+    fn __exit__(&self, py: Python<'_>, _exc: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
     }
 
     /// The endpoint given to the constructor.

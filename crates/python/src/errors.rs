@@ -1,10 +1,10 @@
 //! The exception classes and how each Rust error becomes one. Messages are the library
 //! errors' own text, the same the command line prints after `error: `.
 
-use multistep_controller::client::ClientError;
+use multistep_controller::client::Refused;
 use multistep_core::{PlanError, TrackError};
 use multistep_sim::SimError;
-use pyo3::exceptions::{PyConnectionError, PyException, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyConnectionError, PyException, PyTimeoutError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
@@ -48,7 +48,8 @@ static SIMULATION_ERROR: Class = Class::new(
 );
 static BOARD_ERROR: Class = Class::new(
     "BoardError",
-    "A board session failed: base of ProtocolError and BoardConnectionError.",
+    "A board session failed: base of ProtocolError, BoardConnectionError and \
+     BoardTimeoutError.",
 );
 static PROTOCOL_ERROR: Class = Class::new(
     "ProtocolError",
@@ -60,6 +61,12 @@ static CONNECTION_ERROR: Class = Class::new(
     "The connection to the board failed or closed (also a ConnectionError).",
 );
 
+static TIMEOUT_ERROR: Class = Class::new(
+    "BoardTimeoutError",
+    "The board did not answer within the Board's timeout, or an axis was not idle within \
+     wait's (also a TimeoutError).",
+);
+
 /// Makes the classes with `type(name, bases, ns)` (several bases, which
 /// `create_exception!` cannot give) and adds them to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -67,12 +74,14 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let exception = py.get_type::<PyException>().into_any();
     let value = py.get_type::<PyValueError>().into_any();
     let connection = py.get_type::<PyConnectionError>().into_any();
+    let timeout = py.get_type::<PyTimeoutError>().into_any();
     let base = make(m, &MULTISTEP_ERROR, vec![exception])?;
     make(m, &PLAN_ERROR, vec![base.clone(), value.clone()])?;
     make(m, &SIMULATION_ERROR, vec![base.clone(), value])?;
     let board = make(m, &BOARD_ERROR, vec![base])?;
     make(m, &PROTOCOL_ERROR, vec![board.clone()])?;
-    make(m, &CONNECTION_ERROR, vec![board, connection])?;
+    make(m, &CONNECTION_ERROR, vec![board.clone(), connection])?;
+    make(m, &TIMEOUT_ERROR, vec![board, timeout])?;
     Ok(())
 }
 
@@ -120,30 +129,33 @@ pub fn sim_err(py: Python<'_>, e: SimError) -> PyErr {
     }
 }
 
-/// A refusal keeps its code; a broken connection is a `BoardConnectionError`.
-pub fn client_err(py: Python<'_>, e: ClientError) -> PyErr {
-    match e {
-        ClientError::Refused(r) => {
-            let text = format!("error:{} {}", r.code, r.message);
-            match PROTOCOL_ERROR.get(py).call1((text,)) {
-                Ok(err) => {
-                    let set = err
-                        .setattr("code", r.code)
-                        .and_then(|_| err.setattr("message", r.message));
-                    match set {
-                        Ok(()) => PyErr::from_value(err),
-                        Err(e) => e,
-                    }
-                }
+/// A refusal keeps its code.
+pub fn refused_err(py: Python<'_>, r: Refused) -> PyErr {
+    let text = format!("error:{} {}", r.code, r.message);
+    match PROTOCOL_ERROR.get(py).call1((text,)) {
+        Ok(err) => {
+            let set = err
+                .setattr("code", r.code)
+                .and_then(|_| err.setattr("message", r.message));
+            match set {
+                Ok(()) => PyErr::from_value(err),
                 Err(e) => e,
             }
         }
-        ClientError::Io(io) => new_err(py, &CONNECTION_ERROR, format!("connection: {io}")),
-        ClientError::Other(m) if m.contains("closed the connection") => {
-            new_err(py, &CONNECTION_ERROR, m)
-        }
-        ClientError::Other(m) => new_err(py, &BOARD_ERROR, m),
+        Err(e) => e,
     }
+}
+
+pub fn board_err(py: Python<'_>, msg: String) -> PyErr {
+    new_err(py, &BOARD_ERROR, msg)
+}
+
+pub fn connection_err(py: Python<'_>, msg: String) -> PyErr {
+    new_err(py, &CONNECTION_ERROR, msg)
+}
+
+pub fn timeout_err(py: Python<'_>, msg: String) -> PyErr {
+    new_err(py, &TIMEOUT_ERROR, msg)
 }
 
 pub fn value_err(msg: impl Into<String>) -> PyErr {
@@ -156,9 +168,5 @@ pub fn type_err(msg: impl Into<String>) -> PyErr {
 
 /// A call on a closed `Board`.
 pub fn closed_err(py: Python<'_>) -> PyErr {
-    new_err(
-        py,
-        &CONNECTION_ERROR,
-        "the board connection is closed".into(),
-    )
+    connection_err(py, "the board connection is closed".into())
 }

@@ -6,6 +6,7 @@
 mod args;
 mod board;
 mod errors;
+mod link;
 mod plan;
 mod simulate;
 mod track;
@@ -23,6 +24,8 @@ fn multistep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<board::Board>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("DEFAULT_CLOCK_HZ", multistep_core::DEFAULT_CLOCK_HZ)?;
+    m.add("MAX_EDGES", plan::MAX_EDGES)?;
+    m.add("DEFAULT_TIMEOUT", board::DEFAULT_TIMEOUT)?;
     m.add(
         "MOTORS",
         multistep_sim::motor::LIBRARY

@@ -1,7 +1,7 @@
 //! `multistep.plan(...)` and the `Plan` it returns: the core's edge generator writing
 //! straight into numpy arrays, whole or in chunks.
 
-use crate::args::{each_kw, number, MoveKw};
+use crate::args::{each_kw, number, whole_in, MoveKw};
 use crate::errors::{plan_err, value_err};
 use multistep_core::{EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
 use numpy::{PyArray1, PyArrayMethods};
@@ -69,9 +69,20 @@ pub struct Plan {
     summary: PyOnceLock<Py<PyAny>>,
 }
 
-/// A new uint64 array of `n` elements from numpy itself, so that running out of memory is
-/// numpy's `MemoryError`, not a failed allocation in Rust.
+/// Most edges one array holds (800 MB of uint64): `Plan.edges`, `Plan.periods`, a chunk
+/// and `track` give no more, so no call fills memory until the process is killed; longer
+/// moves stream through `Plan.chunks`.
+pub const MAX_EDGES: u64 = 100_000_000;
+
+/// A new uint64 array of `n` elements (at most `MAX_EDGES`) from numpy itself, so that
+/// running out of memory is numpy's `MemoryError`, not a failed allocation in Rust.
 fn empty_u64(py: Python<'_>, n: u64) -> PyResult<Bound<'_, PyArray1<u64>>> {
+    if n > MAX_EDGES {
+        return Err(value_err(format!(
+            "the move has {n} steps; one array holds at most {MAX_EDGES} edges \
+             (multistep.MAX_EDGES): read them with chunks()"
+        )));
+    }
     let n = usize::try_from(n).map_err(|_| value_err("the move has too many steps to hold"))?;
     let np = py.import("numpy")?;
     Ok(np
@@ -152,13 +163,16 @@ impl Plan {
             .map(|a| a.clone_ref(py))
     }
 
-    /// Edges (or periods) in arrays of at most `size` elements, for moves too large to
-    /// hold: memory stays at one chunk however long the move.
-    #[pyo3(signature = (size = 1 << 20, periods = false))]
-    fn chunks(&self, size: usize, periods: bool) -> PyResult<Chunks> {
-        if size == 0 {
-            return Err(value_err("chunk size must be at least 1"));
-        }
+    /// Edges (or periods) in arrays of at most `size` elements (1 to `MAX_EDGES`), for
+    /// moves too large to hold: memory stays at one chunk however long the move.
+    #[pyo3(signature = (size = None, periods = false))]
+    #[pyo3(text_signature = "($self, size=1048576, periods=False)")]
+    fn chunks(&self, size: Option<&Bound<'_, PyAny>>, periods: bool) -> PyResult<Chunks> {
+        let size = match size {
+            Some(v) => whole_in("chunk size", v, 1, MAX_EDGES)?,
+            None => 1 << 20,
+        };
+        let size = size as usize;
         Ok(Chunks {
             state: Mutex::new((self.gen.clone(), 0)),
             size,
@@ -213,13 +227,13 @@ impl Plan {
     }
 
     /// Commanded speed at time `t` (steps/s; 0 outside the move).
-    fn velocity(&self, t: f64) -> f64 {
-        self.gen.profile().velocity(t)
+    fn velocity(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.gen.profile().velocity(number("t", t)?))
     }
 
     /// Commanded position at time `t` (steps; 0 before the move, `steps` after it).
-    fn position(&self, t: f64) -> f64 {
-        self.gen.profile().position(t)
+    fn position(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.gen.profile().position(number("t", t)?))
     }
 
     fn __len__(&self) -> usize {

@@ -1,7 +1,7 @@
 //! `multistep.simulate(...)`: one move on a simulated motor and driver, as
 //! `multistep simulate` runs it; the result has the fields of `--format json`.
 
-use crate::args::{boolean, each_kw, number, string, whole, MoveKw};
+use crate::args::{boolean, each_kw, number, string, whole_in, MoveKw};
 use crate::errors::{plan_err, sim_err, value_err};
 use multistep_core::{Profile, DEFAULT_CLOCK_HZ};
 use multistep_sim::{simulate_profile, DriverMode, Motor, SimConfig, DEFAULT_DT};
@@ -50,10 +50,7 @@ impl Overrides {
             "clock" => self.clock = Some(number(k, v)?),
             "reverse" => self.reverse = boolean(k, v)?,
             "microsteps" => {
-                let m = whole(k, v)?;
-                self.microsteps = Some(u32::try_from(m).map_err(|_| {
-                    value_err(format!("microsteps must be at most {} (got {m})", u32::MAX))
-                })?)
+                self.microsteps = Some(whole_in(k, v, 0, u32::MAX.into())? as u32);
             }
             "supply" => self.supply = Some(number(k, v)?),
             "mode" => self.mode = Some(string(k, v)?),

@@ -2,9 +2,10 @@
 //! prints them, from the core's tracker (float ramps, or integer ones with `integer=True`).
 
 use crate::args::{boolean, number, type_name};
-use crate::errors::{track_err, type_err};
+use crate::errors::{track_err, type_err, value_err};
+use crate::plan::MAX_EDGES;
 use multistep_core::int::IntRamp;
-use multistep_core::track::RampEdges;
+use multistep_core::track::{RampEdges, TrackerOf};
 use multistep_core::{EdgeGenerator, Rate, TrackError, TrackRun, DEFAULT_CLOCK_HZ};
 use numpy::PyArray1;
 use pyo3::prelude::*;
@@ -47,10 +48,37 @@ pub fn rate(py: Python<'_>, v: &Bound<'_, PyAny>) -> PyResult<Rate> {
     r.map_err(|e| track_err(py, e))
 }
 
-/// Every edge of `run` up to its last tick, from a tracker whose ramps `R` runs.
-fn edges<R: RampEdges>(run: &TrackRun, clock: f64) -> Result<Vec<u64>, TrackError> {
-    let (tr, end) = run.start::<R>(clock)?;
-    Ok(tr.take_while(|&e| e <= end).collect())
+/// Most edges `run` can give: the ramp's position at the end of the run (or of the ramp),
+/// then at most `rate·t + 1` in the `t` seconds of cruise after it, and two for rounding.
+fn most_edges<R: RampEdges>(tr: &TrackerOf<R>, run: &TrackRun) -> f64 {
+    let (ramp, ramp_s) = tr.ramp_profile().map_or((0.0, 0.0), |p| {
+        let t = run.duration.min(p.duration());
+        (p.position(t).ceil(), t)
+    });
+    ramp + (run.rate.to_f64() * (run.duration - ramp_s)).ceil() + 3.0
+}
+
+/// Every edge of `run` up to its last tick, from a tracker whose ramps `R` runs; a run
+/// that could give more than `MAX_EDGES` is refused before any is made.
+fn edges<R: RampEdges + Send>(py: Python<'_>, run: &TrackRun, clock: f64) -> PyResult<Vec<u64>> {
+    let (tr, end) = run.start::<R>(clock).map_err(|e| track_err(py, e))?;
+    let most = most_edges(&tr, run);
+    if most > MAX_EDGES as f64 {
+        return Err(value_err(format!(
+            "track returns at most {MAX_EDGES} edges (multistep.MAX_EDGES); this run \
+             could give {most:.0} (up to {} steps/s for {} s): ask for a shorter duration",
+            run.rate.to_f64().max(run.start_speed),
+            run.duration
+        )));
+    }
+    let mut out = Vec::with_capacity(most as usize);
+    py.detach(|| out.extend(tr.take_while(|&e| e <= end).take(MAX_EDGES as usize + 1)));
+    if out.len() as u64 > MAX_EDGES {
+        return Err(value_err(format!(
+            "track returns at most {MAX_EDGES} edges (multistep.MAX_EDGES)"
+        )));
+    }
+    Ok(out)
 }
 
 /// The edges of open-ended motion, exactly as `multistep plan --track RATE --duration S`
@@ -95,10 +123,9 @@ pub fn track<'py>(
     let clock = opt("clock", clock)?.unwrap_or(DEFAULT_CLOCK_HZ);
     let integer = integer.filter(|v| !v.is_none());
     let edges = if integer.map(|v| boolean("integer", v)).transpose()? == Some(true) {
-        py.detach(|| edges::<IntRamp>(&run, clock))
+        edges::<IntRamp>(py, &run, clock)?
     } else {
-        py.detach(|| edges::<EdgeGenerator>(&run, clock))
-    }
-    .map_err(|e| track_err(py, e))?;
+        edges::<EdgeGenerator>(py, &run, clock)?
+    };
     Ok(PyArray1::from_vec(py, edges))
 }

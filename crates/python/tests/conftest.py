@@ -4,9 +4,14 @@ checked against) and a real `multistep serve` board on 127.0.0.1."""
 import os
 import pathlib
 import shutil
+import socket
 import subprocess
+import threading
+import time
 
 import pytest
+
+import multistep
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 
@@ -73,3 +78,74 @@ def serve(cli, tmp_path):
     s = Serve(cli.exe, tmp_path / "board", "--time-scale", "20")
     yield s
     s.stop()
+
+
+class Peer:
+    """A TCP server on 127.0.0.1 that accepts every connection and answers each line it
+    reads with `answer` (nothing: it never answers). It closes its connections after
+    `life` seconds at most, so a client without a timeout fails instead of hanging."""
+
+    def __init__(self, answer=b"", life=15.0):
+        self.answer = answer
+        self.life = life
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.sock.settimeout(0.1)
+        self.endpoint = "tcp://127.0.0.1:%d" % self.sock.getsockname()[1]
+        self.running = True
+        self.conns = []
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self):
+        end = time.monotonic() + self.life
+        while self.running and time.monotonic() < end:
+            try:
+                c, _ = self.sock.accept()
+                c.settimeout(0.05)
+                self.conns.append(c)
+            except socket.timeout:
+                pass
+            for c in list(self.conns):
+                try:
+                    data = c.recv(4096)
+                except socket.timeout:
+                    continue
+                except OSError:
+                    self.conns.remove(c)
+                    continue
+                if not data:
+                    self.conns.remove(c)
+                    continue
+                if self.answer:
+                    c.sendall(self.answer * data.count(b"\n"))
+        self.close_conns()
+
+    def close_conns(self):
+        for c in self.conns:
+            c.close()
+        self.conns = []
+
+    def stop(self):
+        self.running = False
+        self.thread.join(timeout=5)
+        self.sock.close()
+
+
+@pytest.fixture
+def silent():
+    p = Peer()
+    yield p
+    p.stop()
+
+
+@pytest.fixture
+def silent_board(silent):
+    """A Board connected to a server that never answers (short timeout)."""
+    try:
+        b = multistep.Board(silent.endpoint, timeout=0.3)
+    except TypeError:  # a Board without a timeout: connect without one
+        b = multistep.Board(silent.endpoint)
+    yield b
+    b.close()
