@@ -543,6 +543,14 @@ pub struct AxisStatus {
     /// Level of the ENABLE line (`enabled`, flipped unless `enable_active_high`).
     #[serde(default)]
     pub enable_level: bool,
+    /// The board's store: `ok`, `failing` (writes fail) or `gone` (its file was deleted or
+    /// replaced); the same on every axis.
+    #[serde(default = "store_ok")]
+    pub store: String,
+}
+
+fn store_ok() -> String {
+    "ok".into()
 }
 
 fn energized() -> bool {
@@ -554,7 +562,7 @@ impl AxisStatus {
     pub fn line(&self) -> String {
         let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
         format!(
-            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} rate={} en={} num={}",
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} store={} rate={} en={} num={}",
             self.axis,
             self.position,
             self.units,
@@ -566,6 +574,7 @@ impl AxisStatus {
             self.sensor as u8,
             opt(self.drift),
             self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
+            self.store,
             self.rate.map_or("none".to_string(), |r| r.to_string()),
             self.enabled as u8,
             self.number,

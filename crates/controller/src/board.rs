@@ -402,16 +402,7 @@ impl Board {
                 self.persist(i);
             }
             PinEvent::Late { why } => {
-                let ax = &mut self.axes[i];
-                eprintln!("warning: board {}: axis {}: {why}", self.name, ax.name);
-                if self.warnings.len() < 100 {
-                    self.warnings.push(format!("axis {}: {why}", ax.name));
-                }
-                // Reported after the motion's end: the axis shows it until its next motion.
-                if ax.motion.is_none() {
-                    ax.state = AxisState::Fault;
-                }
-                ax.fault = Some(why);
+                self.axis_fault(i, why);
                 self.persist(i);
             }
             PinEvent::Estop => self.estop_now(),
@@ -496,8 +487,23 @@ impl Board {
         ax.marker = marker.as_ref().map(|m| (m.from, m.target));
         let rec = ax.record(marker, self.pins.sim_position(i));
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
-            self.warnings.push(format!("axis {}: {e}", ax.name));
+            // The disk holds an older record (the store writes this one once it can).
+            self.axis_fault(i, format!("position not stored: {e}"));
         }
+    }
+
+    /// A fault of axis `i`, said on stderr and in `info`. Reported after the motion's end,
+    /// the axis shows it until its next motion.
+    fn axis_fault(&mut self, i: usize, why: String) {
+        let ax = &mut self.axes[i];
+        eprintln!("warning: board {}: axis {}: {why}", self.name, ax.name);
+        if self.warnings.len() < 100 {
+            self.warnings.push(format!("axis {}: {why}", ax.name));
+        }
+        if ax.motion.is_none() {
+            ax.state = AxisState::Fault;
+        }
+        ax.fault = Some(why);
     }
 
     // ---- starting motion -----------------------------------------------------------------
@@ -1037,6 +1043,7 @@ impl Board {
     pub fn status(&mut self, axes: &[String], now: u64) -> Result<Vec<AxisStatus>, CtlError> {
         self.advance(now);
         let idx = self.indices(axes)?;
+        let store = self.store.check().word();
         Ok(idx
             .into_iter()
             .map(|i| {
@@ -1082,6 +1089,7 @@ impl Board {
                     rate: track.map(|t| t.signed_rate()),
                     enabled: ax.driver.enabled,
                     enable_level: ax.driver.enabled == ax.settings.enable_active_high,
+                    store: store.into(),
                 }
             })
             .collect())
@@ -1223,6 +1231,11 @@ impl Board {
 
     pub fn warnings(&self) -> &[String] {
         &self.warnings
+    }
+
+    /// Whether the store's writes reach the disk (checked now, see [`Store::check`]).
+    pub fn store_health(&self) -> crate::store::StoreHealth {
+        self.store.check()
     }
 }
 

@@ -258,6 +258,7 @@ impl Controller {
                     format!("estop={}", b.is_estopped() as u8),
                     format!("estop_input={}", b.estop_input() as u8),
                     format!("backend={}", b.backend()),
+                    format!("store={}", b.store_health()),
                 ];
                 v.extend(b.warnings().iter().map(|w| format!("warning={w}")));
                 v

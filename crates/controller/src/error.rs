@@ -48,6 +48,10 @@ pub enum CtlError {
     /// A command this board's backend cannot carry out yet.
     #[error("{0}")]
     Unsupported(String),
+    /// The database file was deleted or replaced while the board ran: nothing more is
+    /// stored until the board is restarted on the data directory as it is now.
+    #[error("storage: {0}")]
+    StoreGone(String),
 }
 
 impl CtlError {
@@ -73,6 +77,7 @@ impl CtlError {
             CtlError::Connection(_) => 17,
             CtlError::NotSimulated => 18,
             CtlError::Unsupported(_) => 19,
+            CtlError::StoreGone(_) => 20,
         }
     }
 

@@ -3,21 +3,42 @@
 //!
 //! Records are JSON values keyed by name. Every write is its own durable transaction, so a
 //! kill at any point leaves either the old or the new record.
+//!
+//! Reads come from a copy of every committed record kept in memory, so they keep working
+//! while the disk does not. A write that fails (a full disk, an I/O error) leaves the store
+//! failing: the database is closed, and opened again before the next write and at most once
+//! a second from [`Store::check`]; axis records whose writes failed are written then. Every
+//! write first checks that `DIR/board.redb` is still the file opened (device and inode), and
+//! again before it is acknowledged: a deleted or replaced database refuses writes
+//! ([`CtlError::StoreGone`]) and is never recreated in place.
 
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::protocol::MoveOpts;
-use redb::{Database, DatabaseError, ReadableTable, StorageError, TableDefinition};
+use redb::{
+    Database, DatabaseError, ReadableTable, StorageBackend, StorageError, TableDefinition,
+    TableHandle,
+};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
+use std::cell::Cell;
 use std::collections::BTreeMap;
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, Once};
+use std::time::{Duration, Instant};
 
-const SETTINGS: TableDefinition<&str, &str> = TableDefinition::new("settings");
-const AXES: TableDefinition<&str, &str> = TableDefinition::new("axes");
-const PRESETS: TableDefinition<&str, &str> = TableDefinition::new("presets");
-const NAMED: TableDefinition<&str, &str> = TableDefinition::new("named_positions");
+type Table = TableDefinition<'static, &'static str, &'static str>;
+
+const SETTINGS: Table = TableDefinition::new("settings");
+const AXES: Table = TableDefinition::new("axes");
+const PRESETS: Table = TableDefinition::new("presets");
+const NAMED: Table = TableDefinition::new("named_positions");
 /// Named tracking rates (seed 002's constant, fast and slow motion), as the rate's text.
-const RATES: TableDefinition<&str, &str> = TableDefinition::new("rates");
+const RATES: Table = TableDefinition::new("rates");
+const TABLES: [Table; 5] = [SETTINGS, AXES, PRESETS, NAMED, RATES];
+
+/// How often [`Store::check`] opens a failing database again.
+pub const RETRY_PERIOD: Duration = Duration::from_secs(1);
 
 /// What survives a power cycle of one axis.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -41,9 +62,72 @@ pub struct MovingMarker {
 /// A named set of axis positions (seed 002: stored line-centre positions).
 pub type NamedPosition = BTreeMap<String, i64>;
 
+/// Whether writes reach the disk.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum StoreHealth {
+    Ok,
+    /// The last write failed (why); the store tries again.
+    Failing(String),
+    /// The database file was deleted or replaced under the running board (what was found).
+    Gone(String),
+}
+
+impl StoreHealth {
+    /// `ok`, `failing` or `gone`: the `store` field of `status`.
+    pub fn word(&self) -> &'static str {
+        match self {
+            StoreHealth::Ok => "ok",
+            StoreHealth::Failing(_) => "failing",
+            StoreHealth::Gone(_) => "gone",
+        }
+    }
+}
+
+impl std::fmt::Display for StoreHealth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StoreHealth::Ok => f.write_str("ok"),
+            StoreHealth::Failing(why) | StoreHealth::Gone(why) => {
+                write!(f, "{}: {why}", self.word())
+            }
+        }
+    }
+}
+
+/// Opens the database at a path: `true` creates it if missing (only at start-up).
+type Opener = Box<dyn Fn(&Path, bool) -> Result<Database, DatabaseError> + Send + Sync>;
+
+/// Every record of every table, as its JSON text.
+type Mirror = BTreeMap<String, BTreeMap<String, String>>;
+
 pub struct Store {
-    db: Database,
     dir: PathBuf,
+    path: PathBuf,
+    open: Opener,
+    state: Mutex<State>,
+}
+
+struct State {
+    /// `None` after a failed write: opened again before the next one.
+    db: Option<Database>,
+    /// Device and inode of the file opened.
+    id: (u64, u64),
+    mirror: Mirror,
+    /// Axis records whose write failed: the board's latest word, written on recovery.
+    unsaved: BTreeMap<String, String>,
+    failing: Option<String>,
+    gone: Option<String>,
+    tried: Instant,
+}
+
+impl State {
+    fn health(&self) -> StoreHealth {
+        match (&self.gone, &self.failing) {
+            (Some(why), _) => StoreHealth::Gone(why.clone()),
+            (None, Some(why)) => StoreHealth::Failing(why.clone()),
+            (None, None) => StoreHealth::Ok,
+        }
+    }
 }
 
 /// Where the simulated mechanics of a moving axis were lately (a file beside the database,
@@ -59,16 +143,37 @@ pub struct SimMechanics {
 /// The file of [`SimMechanics`] records.
 pub const SIM_FILE: &str = "sim-mechanics.json";
 
+thread_local! {
+    /// Set while this thread opens a database: redb's panics there are reported as damage.
+    static QUIET: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f`, catching a panic; its message is not printed. The process's panic hook is
+/// wrapped once (the hook before keeps every other panic), never swapped per call.
+fn quietly<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
+    static WRAP: Once = Once::new();
+    WRAP.call_once(|| {
+        let before = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.try_with(Cell::get).unwrap_or(false) {
+                before(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(false));
+    r
+}
+
 /// Opens the file and reads every record once, so damage shows now and not mid-run.
 /// redb may panic on some damaged files; that is caught and reported as damage too.
-fn try_open(path: &Path) -> Result<Store, Failure> {
+fn try_open(path: &Path, open: &Opener, create: bool) -> Result<(Database, Mirror), Failure> {
     if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
         return Err(Failure::Damaged("the file is empty (0 bytes)".into()));
     }
-    let quiet = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let r = std::panic::catch_unwind(|| -> Result<Store, Failure> {
-        let db = match Database::create(path) {
+    let r = quietly(|| -> Result<(Database, Mirror), Failure> {
+        let db = match open(path, create) {
             Ok(db) => db,
             Err(DatabaseError::DatabaseAlreadyOpen) => {
                 return Err(Failure::Other(CtlError::Store(format!(
@@ -96,19 +201,26 @@ fn try_open(path: &Path) -> Result<Store, Failure> {
             }
             Err(e) => return Err(Failure::Damaged(e.to_string())),
         };
+        // Writing the tables proves the file writable; reading them all shows damage now.
         let tx = db.begin_write().map_err(CtlError::from)?;
-        for t in [SETTINGS, AXES, PRESETS, NAMED, RATES] {
+        for t in TABLES {
             tx.open_table(t).map_err(CtlError::from)?;
         }
         tx.commit().map_err(CtlError::from)?;
-        let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-        let store = Store { db, dir };
-        for t in [SETTINGS, AXES, PRESETS, NAMED, RATES] {
-            store.all::<serde_json::Value>(t)?;
+        let mut mirror = Mirror::new();
+        let tx = db.begin_read().map_err(CtlError::from)?;
+        for t in TABLES {
+            let table = tx.open_table(t).map_err(CtlError::from)?;
+            let rows = mirror.entry(t.name().to_string()).or_default();
+            for row in table.iter().map_err(CtlError::from)? {
+                let (k, v) = row.map_err(CtlError::from)?;
+                serde_json::from_str::<serde_json::Value>(v.value()).map_err(CtlError::from)?;
+                rows.insert(k.value().to_string(), v.value().to_string());
+            }
         }
-        Ok(store)
+        drop(tx);
+        Ok((db, mirror))
     });
-    std::panic::set_hook(quiet);
     match r {
         Ok(r) => r,
         Err(p) => {
@@ -120,6 +232,11 @@ fn try_open(path: &Path) -> Result<Store, Failure> {
             Err(Failure::Damaged(msg))
         }
     }
+}
+
+/// Device and inode of the file at `path` now.
+fn identity(path: &Path) -> std::io::Result<(u64, u64)> {
+    std::fs::metadata(path).map(|m| (m.dev(), m.ino()))
 }
 
 /// The database file inside a board's data directory.
@@ -137,11 +254,50 @@ impl From<CtlError> for Failure {
     }
 }
 
+impl Failure {
+    fn reason(self) -> String {
+        match self {
+            Failure::Damaged(why) => why,
+            Failure::Other(e) => e.to_string(),
+        }
+    }
+}
+
+/// One write: a record put (`Some`) or removed (`None`).
+type Op<'a> = (Table, &'a str, Option<&'a str>);
+
+/// Commits `ops` in one transaction; for each, whether its key was there before.
+fn commit(db: &Database, ops: &[Op]) -> Result<Vec<bool>, String> {
+    let tx = db.begin_write().map_err(|e| e.to_string())?;
+    let mut found = Vec::with_capacity(ops.len());
+    for &(t, key, value) in ops {
+        let mut table = tx.open_table(t).map_err(|e| e.to_string())?;
+        let old = match value {
+            Some(v) => table.insert(key, v),
+            None => table.remove(key),
+        };
+        found.push(old.map_err(|e| e.to_string())?.is_some());
+    }
+    tx.commit().map_err(|e| e.to_string())?;
+    Ok(found)
+}
+
 impl Store {
     /// Opens (or creates) the board's database in `dir`. A damaged file is refused with
     /// one clear error, never opened as a new board.
     pub fn open(dir: &Path) -> Result<Store, CtlError> {
         Store::open_or_reset(dir, false).map(|(s, _)| s)
+    }
+
+    /// As [`Store::open`], the database file (`DIR/board.redb`, still the file checked
+    /// for deletion) accessed through the backend `make` returns for its path; `make` is
+    /// called again each time the store opens the database after a failure.
+    pub fn open_with_backend<B: StorageBackend>(
+        dir: &Path,
+        make: impl Fn(&Path) -> std::io::Result<B> + Send + Sync + 'static,
+    ) -> Result<Store, CtlError> {
+        let open: Opener = Box::new(move |p, _| redb::Builder::new().create_with_backend(make(p)?));
+        Store::open_with(dir, false, open).map(|(s, _)| s)
     }
 
     /// The board's data directory (the database's).
@@ -152,17 +308,34 @@ impl Store {
     /// As [`Store::open`]; with `reset`, a damaged file is renamed aside (the new name is
     /// returned) and a new, empty board database takes its place.
     pub fn open_or_reset(dir: &Path, reset: bool) -> Result<(Store, Option<PathBuf>), CtlError> {
+        let open: Opener = Box::new(|p, create| {
+            if create {
+                Database::create(p)
+            } else {
+                Database::open(p)
+            }
+        });
+        Store::open_with(dir, reset, open)
+    }
+
+    fn open_with(
+        dir: &Path,
+        reset: bool,
+        open: Opener,
+    ) -> Result<(Store, Option<PathBuf>), CtlError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CtlError::Store(format!("cannot create {}: {e}", dir.display())))?;
         let path = dir.join(DB_FILE);
-        match try_open(&path) {
-            Ok(s) => Ok((s, None)),
-            Err(Failure::Other(e)) => Err(e),
-            Err(Failure::Damaged(why)) if !reset => Err(CtlError::Store(format!(
+        let (opened, aside) = match try_open(&path, &open, true) {
+            Ok(o) => (o, None),
+            Err(Failure::Other(e)) => return Err(e),
+            Err(Failure::Damaged(why)) if !reset => {
+                return Err(CtlError::Store(format!(
                 "the board database {} is damaged ({why}); nothing was changed. Restore it from a \
                  backup, or start with --reset-damaged-data to move it aside and begin a new board",
                 path.display()
-            ))),
+            )))
+            }
             Err(Failure::Damaged(_)) => {
                 let stamp = std::time::SystemTime::now()
                     .duration_since(std::time::UNIX_EPOCH)
@@ -171,69 +344,203 @@ impl Store {
                 std::fs::rename(&path, &aside).map_err(|e| {
                     CtlError::Store(format!("cannot move {} aside: {e}", path.display()))
                 })?;
-                match try_open(&path) {
-                    Ok(s) => Ok((s, Some(aside))),
-                    Err(Failure::Other(e)) => Err(e),
-                    Err(Failure::Damaged(why)) => Err(CtlError::Store(format!(
-                        "a new database at {} failed: {why}",
-                        path.display()
-                    ))),
+                match try_open(&path, &open, true) {
+                    Ok(o) => (o, Some(aside)),
+                    Err(Failure::Other(e)) => return Err(e),
+                    Err(Failure::Damaged(why)) => {
+                        return Err(CtlError::Store(format!(
+                            "a new database at {} failed: {why}",
+                            path.display()
+                        )))
+                    }
                 }
+            }
+        };
+        let (db, mirror) = opened;
+        let id = identity(&path)
+            .map_err(|e| CtlError::Store(format!("cannot open {}: {e}", path.display())))?;
+        let state = State {
+            db: Some(db),
+            id,
+            mirror,
+            unsaved: BTreeMap::new(),
+            failing: None,
+            gone: None,
+            tried: Instant::now(),
+        };
+        let store = Store {
+            dir: dir.to_path_buf(),
+            path,
+            open,
+            state: Mutex::new(state),
+        };
+        Ok((store, aside))
+    }
+
+    fn state(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Whether writes reach the disk, as last found.
+    pub fn health(&self) -> StoreHealth {
+        self.state().health()
+    }
+
+    /// Checks that the database file is still there, and opens a failing database again
+    /// (at most once per [`RETRY_PERIOD`]); the health then.
+    pub fn check(&self) -> StoreHealth {
+        let mut st = self.state();
+        if self.check_file(&mut st).is_ok() && st.db.is_none() && st.tried.elapsed() >= RETRY_PERIOD
+        {
+            let _ = self.reopen(&mut st);
+        }
+        st.health()
+    }
+
+    /// Refuses when the file at the database's path is not the one opened.
+    fn check_file(&self, st: &mut State) -> Result<(), CtlError> {
+        let path = self.path.display();
+        let why = match identity(&self.path) {
+            Ok(id) if id == st.id => {
+                if st.gone.take().is_some() {
+                    eprintln!("warning: storage: {path} is back; writes go to it again");
+                }
+                return Ok(());
+            }
+            Ok(_) => format!("{path} was replaced by another file"),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                format!("{path} was deleted")
+            }
+            Err(e) => return Err(CtlError::Store(format!("cannot check {path}: {e}"))),
+        };
+        if st.gone.is_none() {
+            eprintln!(
+                "error: storage: {why} while the board ran; every write is refused until \
+                 the board is restarted"
+            );
+        }
+        st.gone = Some(why.clone());
+        Err(CtlError::StoreGone(format!(
+            "{why} (deleted or replaced while the board ran): nothing was stored. Restart \
+             the board to go on from what the data directory holds now"
+        )))
+    }
+
+    /// Opens a failing database again and writes the axis records that failed.
+    fn reopen(&self, st: &mut State) -> Result<(), CtlError> {
+        if st.db.is_some() {
+            return Ok(());
+        }
+        st.tried = Instant::now();
+        let db = match try_open(&self.path, &self.open, false) {
+            Ok((db, _)) => db,
+            Err(f) => {
+                let why = f.reason();
+                st.failing = Some(why.clone());
+                return Err(CtlError::Store(format!(
+                    "{} still cannot be written ({why}); nothing was stored",
+                    self.path.display()
+                )));
+            }
+        };
+        let unsaved: Vec<(String, String)> = st.unsaved.clone().into_iter().collect();
+        let ops: Vec<Op> = unsaved
+            .iter()
+            .map(|(k, v)| (AXES, k.as_str(), Some(v.as_str())))
+            .collect();
+        st.db = Some(db);
+        self.write_ops(st, &ops).map(|_| ())
+    }
+
+    /// Commits `ops` on the open database; the copy in memory follows what was committed.
+    fn write_ops(&self, st: &mut State, ops: &[Op]) -> Result<Vec<bool>, CtlError> {
+        let Some(db) = st.db.as_ref() else {
+            return Err(CtlError::Store("the database is closed".into()));
+        };
+        match commit(db, ops) {
+            Ok(found) => {
+                for &(t, key, value) in ops {
+                    let rows = st.mirror.entry(t.name().to_string()).or_default();
+                    match value {
+                        Some(v) => rows.insert(key.to_string(), v.to_string()),
+                        None => rows.remove(key),
+                    };
+                    if t.name() == AXES.name() {
+                        st.unsaved.remove(key);
+                    }
+                }
+                if let Some(why) = st.failing.take() {
+                    eprintln!(
+                        "warning: storage: {} is written again (it failed: {why})",
+                        self.path.display()
+                    );
+                }
+                Ok(found)
+            }
+            Err(e) => {
+                // redb refuses every write after an I/O error until the file is opened
+                // again: closed now, opened before the next write.
+                st.db = None;
+                st.tried = Instant::now();
+                if st.failing.is_none() {
+                    eprintln!(
+                        "error: storage: writing to {} failed ({e}); the store tries again \
+                         before each write",
+                        self.path.display()
+                    );
+                }
+                st.failing = Some(e.to_string());
+                Err(CtlError::Store(format!(
+                    "writing to {} failed ({e}); nothing was stored",
+                    self.path.display()
+                )))
             }
         }
     }
 
-    fn get<T: DeserializeOwned>(
-        &self,
-        t: TableDefinition<&str, &str>,
-        key: &str,
-    ) -> Result<Option<T>, CtlError> {
-        let tx = self.db.begin_read()?;
-        let table = tx.open_table(t)?;
-        let v = table.get(key)?;
-        Ok(match v {
-            Some(s) => Some(serde_json::from_str(s.value())?),
-            None => None,
-        })
+    /// One write, checked before (and, for a file deleted meanwhile, after) it commits.
+    fn write(&self, t: Table, key: &str, value: Option<&str>) -> Result<bool, CtlError> {
+        let mut st = self.state();
+        if let (Some(v), true) = (value, t.name() == AXES.name()) {
+            st.unsaved.insert(key.to_string(), v.to_string());
+        }
+        self.check_file(&mut st)?;
+        self.reopen(&mut st)?;
+        let found = self.write_ops(&mut st, &[(t, key, value)])?;
+        self.check_file(&mut st)?;
+        Ok(found[0])
     }
 
-    fn all<T: DeserializeOwned>(
-        &self,
-        t: TableDefinition<&str, &str>,
-    ) -> Result<BTreeMap<String, T>, CtlError> {
-        let tx = self.db.begin_read()?;
-        let table = tx.open_table(t)?;
+    fn get<T: DeserializeOwned>(&self, t: Table, key: &str) -> Result<Option<T>, CtlError> {
+        let st = self.state();
+        match st.mirror.get(t.name()).and_then(|rows| rows.get(key)) {
+            Some(s) => Ok(Some(serde_json::from_str(s)?)),
+            None => Ok(None),
+        }
+    }
+
+    fn all<T: DeserializeOwned>(&self, t: Table) -> Result<BTreeMap<String, T>, CtlError> {
+        let st = self.state();
         let mut out = BTreeMap::new();
-        for row in table.iter()? {
-            let (k, v) = row?;
-            out.insert(k.value().to_string(), serde_json::from_str(v.value())?);
+        for (k, v) in st.mirror.get(t.name()).into_iter().flatten() {
+            out.insert(k.clone(), serde_json::from_str(v)?);
         }
         Ok(out)
     }
 
-    fn put<T: Serialize>(
-        &self,
-        t: TableDefinition<&str, &str>,
-        key: &str,
-        v: &T,
-    ) -> Result<(), CtlError> {
+    fn put<T: Serialize>(&self, t: Table, key: &str, v: &T) -> Result<(), CtlError> {
         let json = serde_json::to_string(v)?;
-        let tx = self.db.begin_write()?;
-        tx.open_table(t)?.insert(key, json.as_str())?;
-        tx.commit()?;
-        Ok(())
+        self.write(t, key, Some(&json)).map(|_| ())
     }
 
-    fn remove(&self, t: TableDefinition<&str, &str>, key: &str) -> Result<bool, CtlError> {
-        let tx = self.db.begin_write()?;
-        let found = tx.open_table(t)?.remove(key)?.is_some();
-        tx.commit()?;
-        Ok(found)
+    fn remove(&self, t: Table, key: &str) -> Result<bool, CtlError> {
+        self.write(t, key, None)
     }
 
     /// Replaces the simulated mechanics file (write, then rename: never half written).
     /// Not synced to disk: it only has to survive the process, not the machine.
     pub fn put_sim(&self, m: &BTreeMap<String, SimMechanics>) -> Result<(), CtlError> {
+        self.check_file(&mut self.state())?;
         let tmp = self.dir.join(format!("{SIM_FILE}.tmp"));
         let json = serde_json::to_string(m)?;
         std::fs::write(&tmp, json)
