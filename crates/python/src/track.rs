@@ -3,7 +3,7 @@
 
 use crate::args::{boolean, number, type_name};
 use crate::errors::{track_err, type_err, value_err};
-use crate::plan::MAX_EDGES;
+use crate::plan::{MAX_EDGES, SLICE_EDGES};
 use multistep_core::int::IntRamp;
 use multistep_core::track::{RampEdges, TrackerOf};
 use multistep_core::{EdgeGenerator, Rate, TrackError, TrackRun, DEFAULT_CLOCK_HZ};
@@ -72,13 +72,21 @@ fn edges<R: RampEdges + Send>(py: Python<'_>, run: &TrackRun, clock: f64) -> PyR
         )));
     }
     let mut out = Vec::with_capacity(most as usize);
-    py.detach(|| out.extend(tr.take_while(|&e| e <= end).take(MAX_EDGES as usize + 1)));
-    if out.len() as u64 > MAX_EDGES {
-        return Err(value_err(format!(
-            "track returns at most {MAX_EDGES} edges (multistep.MAX_EDGES)"
-        )));
+    let mut tr = tr;
+    // a slice at a time without the GIL, letting Ctrl-C in between
+    loop {
+        let before = out.len();
+        py.detach(|| out.extend(tr.by_ref().take_while(|&e| e <= end).take(SLICE_EDGES)));
+        if out.len() - before < SLICE_EDGES {
+            return Ok(out);
+        }
+        if out.len() as u64 > MAX_EDGES {
+            return Err(value_err(format!(
+                "track returns at most {MAX_EDGES} edges (multistep.MAX_EDGES)"
+            )));
+        }
+        py.check_signals()?;
     }
-    Ok(out)
 }
 
 /// The edges of open-ended motion, exactly as `multistep plan --track RATE --duration S`

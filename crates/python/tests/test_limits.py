@@ -126,3 +126,55 @@ def test_out_of_range_arguments_raise_value_error_with_the_range(silent_board, c
     assert words in str(e.value)
     # refused before anything is sent (the server never answers)
     assert time.monotonic() - t < 1.0
+
+
+# a child that starts a long computation and is sent SIGINT half a second later
+LONG = textwrap.dedent(
+    r"""
+    import sys, time
+    import multistep
+    print("started", flush=True)
+    try:
+        exec(sys.argv[1])
+        print("finished", flush=True)
+    except KeyboardInterrupt:
+        print("interrupted", time.monotonic(), flush=True)
+        raise
+    """
+)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        "multistep.plan(profile='exponential', steps=10**8, accel_time=100.0, cruise_time=100.0,"
+        " decel_time=100.0).edges",
+        "next(multistep.plan(profile='sine', steps=10**8, accel_time=100.0, cruise_time=100.0,"
+        " decel_time=100.0).chunks(10**8, periods=True))",
+        "multistep.track(10**6, 99.9, amax=1e7)",
+    ],
+    ids=["edges", "a chunk", "track"],
+)
+def test_ctrl_c_ends_a_long_computation(call):
+    import signal
+
+    child = subprocess.Popen(
+        [sys.executable, "-c", LONG, call], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(0.5)
+    sent = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    try:
+        out, err = child.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.communicate()
+        raise AssertionError("Ctrl-C did not end the call within 20 s")
+    first = (out.splitlines() or [""])[0]
+    if first == "finished":
+        pytest.skip("the call finished within half a second (a fast build)")
+    assert first.startswith("interrupted"), (out, err)
+    assert float(first.split()[1]) - sent < 1.0
+    assert "KeyboardInterrupt" in err
