@@ -125,8 +125,19 @@ fn sweep_prints_k_max_and_writes_an_svg() {
     }
     assert_eq!(rows[1]["k_eq12"], 500 / 50);
     let text = std::fs::read_to_string(&svg).unwrap();
-    assert!(text.starts_with("<svg") && text.contains("eq. (12)"));
     std::fs::remove_file(&svg).ok();
+    assert!(text.starts_with("<svg") && text.contains("seed 000 eq. (12)"));
+    // both policies draw the same line as eq. (12): the legend says so
+    for name in ["round-robin D=1", "earliest-deadline D=1"] {
+        assert!(
+            text.contains(&format!("{name} (same as eq. (12))")),
+            "{name}: {text}"
+        );
+    }
+    assert!(
+        !text.contains(".0\n</text>"),
+        "a tick label with \".0\": {text}"
+    );
 }
 
 #[test]
