@@ -80,6 +80,29 @@ def serve(cli, tmp_path):
     s.stop()
 
 
+def interrupt(script, *args, ready, timeout=10.0):
+    """Runs `python -c script args…`, waits for its first line `ready`, sends SIGINT half a
+    second later; returns (stdout lines after `ready`, stderr, the time SIGINT was sent)."""
+    import signal
+    import sys
+
+    child = subprocess.Popen(
+        [sys.executable, "-c", script, *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    assert child.stdout.readline().strip() == ready
+    time.sleep(0.5)
+    sent = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    try:
+        out, err = child.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.communicate()
+        raise AssertionError(f"Ctrl-C did not end the child within {timeout} s")
+    return out.splitlines() or [""], err, sent
+
+
 class Peer:
     """A TCP server on 127.0.0.1 that accepts every connection and answers each line it
     reads with `answer` (nothing: it never answers). It closes its connections after

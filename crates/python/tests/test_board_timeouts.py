@@ -2,17 +2,14 @@
 the call with BoardTimeoutError after the Board's timeout, and Ctrl-C ends a long wait at
 once. The peers are sockets on 127.0.0.1 in this process."""
 
-import signal
 import socket
-import subprocess
-import sys
 import textwrap
 import time
 
 import pytest
 
 import multistep
-from conftest import Peer
+from conftest import Peer, interrupt
 
 
 def test_the_default_timeout_and_its_setter(silent):
@@ -128,27 +125,13 @@ def test_ctrl_c_ends_a_long_wait_at_once(serve, peer):
     silent = Peer() if peer == "silent" else None
     endpoint = silent.endpoint if silent else serve.endpoint
     try:
-        child = subprocess.Popen(
-            [sys.executable, "-c", WAIT, endpoint, peer],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        )
-        assert child.stdout.readline().strip() == "waiting"
-        time.sleep(0.5)
-        sent = time.monotonic()
-        child.send_signal(signal.SIGINT)
-        try:
-            out, err = child.communicate(timeout=10)
-        except subprocess.TimeoutExpired:
-            child.kill()
-            child.communicate()
-            raise AssertionError("Ctrl-C did not end Board.wait within 10 s")
-        lines = out.splitlines()
-        assert lines[0].startswith("interrupted"), (out, err)
+        lines, err, sent = interrupt(WAIT, endpoint, peer, ready="waiting")
+        assert lines[0].startswith("interrupted"), (lines, err)
         delay = float(lines[0].split()[1]) - sent
         assert delay < 1.0, delay
-        assert "KeyboardInterrupt" in err and child.returncode != 0
+        assert "KeyboardInterrupt" in err
         if peer == "moving":
-            assert lines[1].startswith("stopped"), out
+            assert lines[1].startswith("stopped"), lines
         print(f"interrupt after {delay * 1000:.0f} ms")
     finally:
         if silent:

@@ -9,6 +9,7 @@ import time
 import pytest
 
 import multistep
+from conftest import interrupt
 
 HUGE = 10**400  # an int beyond a float's range
 
@@ -156,25 +157,9 @@ LONG = textwrap.dedent(
     ids=["edges", "a chunk", "track"],
 )
 def test_ctrl_c_ends_a_long_computation(call):
-    import signal
-
-    child = subprocess.Popen(
-        [sys.executable, "-c", LONG, call], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert child.stdout.readline().strip() == "started"
-    time.sleep(0.5)
-    sent = time.monotonic()
-    child.send_signal(signal.SIGINT)
-    try:
-        out, err = child.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        child.kill()
-        child.communicate()
-        raise AssertionError("Ctrl-C did not end the call within 20 s")
-    first = (out.splitlines() or [""])[0]
-    if first == "finished":
+    lines, err, sent = interrupt(LONG, call, ready="started", timeout=20.0)
+    if lines[0] == "finished":
         pytest.skip("the call finished within half a second (a fast build)")
-    assert first.startswith("interrupted"), (out, err)
-    assert float(first.split()[1]) - sent < 1.0
+    assert lines[0].startswith("interrupted"), (lines, err)
+    assert float(lines[0].split()[1]) - sent < 1.0
     assert "KeyboardInterrupt" in err
