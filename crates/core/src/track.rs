@@ -517,6 +517,12 @@ impl<R: RampEdges> TrackerOf<R> {
     /// starts at once from the speed at the last step (acceleration may jump, and stays
     /// within amax); during an S-curve ramp the change waits for the ramp's end, so jerk
     /// stays within jmax (the latest such change wins).
+    ///
+    /// So after any sequence of changes the rate asked for last (or rest) is reached within
+    /// the rest of an S-curve ramp under way plus the new ramp: each ramp takes its speed
+    /// change over amax (plus amax/jmax for an S-curve) and at most one step period at the
+    /// faster of its start speed and rate, a speed that is zero, a rate asked for or at least
+    /// √(2·amax).
     pub fn set_rate(&mut self, rate: Rate) -> Result<(), TrackError> {
         // plan it now so a bad rate is refused at once
         let _ = self.plan_ramp(self.speed, rate)?;
@@ -527,9 +533,10 @@ impl<R: RampEdges> TrackerOf<R> {
             target,
         } = &self.stage
         {
-            // already ramping there: keep the ramp (near the end of a ramp to a stop the
-            // speed at the last step is tiny, and a ramp planned from it would crawl)
-            if *target == rate && self.pending.is_none() {
+            // already ramping there: keep the ramp (and its exact end); a change asked for
+            // during it is dropped, the latest wins
+            if *target == rate {
+                self.pending = None;
                 return Ok(());
             }
             if self.limits.jmax.is_some() {
@@ -537,12 +544,23 @@ impl<R: RampEdges> TrackerOf<R> {
                 return Ok(());
             }
             let p = gen.profile();
-            let tau = if self.steps > *base {
-                (self.last_edge - start) as f64 / self.clock as f64
+            let done = self.steps - *base;
+            // The speed at the last step. Before the ramp's first step it is the speed the
+            // ramp starts from, at its last step the speed it ends at, exactly: the profile
+            // at that step's tick (up to half a tick early) is still amax·½ tick above a
+            // stop's zero, and a ramp from such a speed would crawl over its one step for
+            // hours. A step inside the ramp is on its fraction of a step at the faster end
+            // speed or a whole step of amax from both ends, at √(2·amax) or faster. So every
+            // ramp starts from rest, a rate asked for or √(2·amax) and up, and its fraction
+            // of a step at constant speed takes at most one step period at one of those.
+            let v = if done == 0 {
+                self.speed
+            } else if done >= p.steps() {
+                target.to_f64()
             } else {
-                0.0
+                let tau = (self.last_edge - start) as f64 / self.clock as f64;
+                p.velocity(tau.min(p.duration())).max(0.0)
             };
-            let v = p.velocity(tau.min(p.duration())).max(0.0);
             let _ = self.plan_ramp(v, rate)?;
             self.speed = v;
         }

@@ -581,3 +581,252 @@ fn changes_during_a_trapezoid_ramp_start_at_once() {
     );
     assert!(tr.next().is_none());
 }
+
+/// A signed tracking command as the board gives it: a rate of the other sign is a stop,
+/// then a new stream from rest the other way once the stop ends.
+#[derive(Clone, Copy, Debug)]
+struct Cmd {
+    negative: bool,
+    rate: Rate,
+}
+
+/// How far the stream runs before the next command.
+#[derive(Clone, Copy, Debug)]
+enum Gap {
+    /// This many edges.
+    Steps(u64),
+    /// Up to `k` steps before the end of the ramp under way (0: its last step), so a
+    /// command lands where a ramp's speed is near its end speed.
+    RampEnd(u64),
+}
+
+/// One axis driven by signed commands as the controller drives it (`board/tracking.rs`):
+/// each stream checked edge by edge against the exact references, the streams' ticks
+/// joined on one time line.
+struct Axis<R: RampEdges> {
+    limits: TrackLimits,
+    /// The stream now, its first tick, its checker.
+    tr: Option<(TrackerOf<R>, u64, Checker)>,
+    negative: bool,
+    /// A reversal: once the stop under way ends, this rate the other way.
+    then: Option<Rate>,
+    /// The last edge on the common time line.
+    last: u64,
+}
+
+impl<R: RampEdges> Axis<R> {
+    fn new(limits: TrackLimits) -> Self {
+        Axis {
+            limits,
+            tr: None,
+            negative: false,
+            then: None,
+            last: 0,
+        }
+    }
+
+    fn start(&mut self, negative: bool, rate: Rate) {
+        let tr = TrackerOf::<R>::new(F as f64, self.limits, 0.0, rate).unwrap();
+        self.tr = Some((tr, self.last, Checker::new(self.limits.amax)));
+        self.negative = negative;
+        self.then = None;
+    }
+
+    /// Changes the rate of the stream under way; the checker forgets a ramp replaced.
+    fn set_rate(&mut self, rate: Rate) {
+        let (tr, _, ck) = self.tr.as_mut().unwrap();
+        let before = (tr.segment(), tr.ramp_profile().cloned());
+        tr.set_rate(rate).unwrap();
+        if (tr.segment(), tr.ramp_profile().cloned()) != before {
+            ck.ramp = None;
+        }
+    }
+
+    fn command(&mut self, c: Cmd) {
+        let zero = c.rate.is_zero();
+        if self.tr.is_none() {
+            if !zero {
+                self.start(c.negative, c.rate);
+            }
+            return;
+        }
+        if zero || c.negative == self.negative {
+            self.then = None;
+            self.set_rate(c.rate);
+        } else {
+            self.then = Some(c.rate);
+            self.set_rate(Rate::ZERO);
+        }
+    }
+
+    /// The next edge on the common time line; a stream that ends starts the reversal's.
+    fn step(&mut self) -> Option<u64> {
+        loop {
+            let (tr, origin, ck) = self.tr.as_mut()?;
+            if let Some(e) = tr.next() {
+                ck.check(tr, e);
+                let e = *origin + e;
+                assert!(e > self.last || self.last == 0, "edges go forward");
+                self.last = e;
+                return Some(e);
+            }
+            self.tr = None;
+            let rate = self.then.take()?;
+            self.start(!self.negative, rate);
+        }
+    }
+
+    fn run(&mut self, gap: Gap) {
+        let n = match (gap, &self.tr) {
+            (Gap::Steps(n), _) => n,
+            (Gap::RampEnd(k), Some((tr, _, _))) => match (tr.segment(), tr.ramp_profile()) {
+                (TrackSegment::Ramp { start_step, .. }, Some(p)) => {
+                    (start_step + p.steps()).saturating_sub(tr.steps() + k)
+                }
+                _ => 0,
+            },
+            _ => 0,
+        };
+        for _ in 0..n {
+            if self.step().is_none() {
+                return;
+            }
+        }
+    }
+
+    /// Runs until the stream cruises at `want` the right way, or rests when `want` is
+    /// zero; the tick it got there (a cruise's exact origin, rounded up).
+    fn settle(&mut self, want: Cmd) -> u64 {
+        loop {
+            if let Some((tr, origin, _)) = &self.tr {
+                if let TrackSegment::Cruise {
+                    rate, origin_tick, ..
+                } = tr.segment()
+                {
+                    if !want.rate.is_zero() && self.then.is_none() {
+                        assert_eq!((rate, self.negative), (want.rate, want.negative));
+                        return origin + origin_tick + 1;
+                    }
+                }
+            }
+            if self.step().is_none() {
+                assert!(want.rate.is_zero(), "the stream ended before {want:?}");
+                return self.last;
+            }
+        }
+    }
+}
+
+/// Drives `cmds` (each after its gap) and checks that the last is reached within the
+/// ramps the limits allow; returns the seconds it took and the bound.
+fn settles<R: RampEdges>(limits: TrackLimits, cmds: &[(Gap, Cmd)]) -> (f64, f64) {
+    let mut ax = Axis::<R>::new(limits);
+    let mut at = 0;
+    for &(gap, c) in cmds {
+        ax.run(gap);
+        // a change starts from the last step made
+        at = ax.last;
+        ax.command(c);
+    }
+    let done = ax.settle(cmds.last().unwrap().1);
+    let took = done.saturating_sub(at) as f64 / F as f64;
+    // Every ramp is planned from 0, from a rate asked for, or from the speed at one of a
+    // trapezoid ramp's steps (at least √(2·amax) short of its last); it takes the speed
+    // change over amax (plus amax/jmax for an S-curve) and less than one step at its
+    // faster end. After the last command at most three ramps run: the rest of an S-curve
+    // ramp under way, a stop (a reversal) and the ramp to the rate.
+    let a = limits.amax;
+    let fastest = cmds.iter().map(|c| c.1.rate.to_f64()).fold(0.0, f64::max);
+    let slowest = cmds
+        .iter()
+        .map(|c| c.1.rate.to_f64())
+        .filter(|&v| v > 0.0)
+        .fold(a.sqrt(), f64::min);
+    let ramp = fastest / a + limits.jmax.map_or(0.0, |j| a / j) + 1.0 / slowest;
+    let bound = 3.0 * ramp + 1e-3;
+    (took, bound)
+}
+
+/// `track Z 2763; track Z -2667; track Z 0; track Z -1832; track Z 1188; stop Z`, with the
+/// new rate landing on one of the last steps of the stop: the stop from the last step of a
+/// ramp to rest took one step at the speed left over there (0.000169 steps/s, ~1.6 h).
+#[test]
+fn a_stop_just_after_a_stop_ends_does_not_crawl() {
+    let limits = TrackLimits {
+        amax: 20_000.0,
+        jmax: None,
+    };
+    let cmd = |r: i64| Cmd {
+        negative: r < 0,
+        rate: Rate::new(r.unsigned_abs() as u128, 1).unwrap(),
+    };
+    for k in 0..3 {
+        for first in (1..160).step_by(3).map(Gap::Steps).chain([Gap::RampEnd(0)]) {
+            let cmds = [
+                (Gap::Steps(0), cmd(2763)),
+                (first, cmd(-2667)),
+                (Gap::Steps(5), cmd(0)),
+                (Gap::Steps(3), cmd(-1832)),
+                (Gap::RampEnd(k), cmd(1188)),
+                (Gap::Steps(0), cmd(0)),
+            ];
+            let (took, bound) = settles::<EdgeGenerator>(limits, &cmds);
+            assert!(took <= bound, "{k} {first:?}: {took} s > {bound} s");
+            let (took, bound) = settles::<multistep_core::int::IntRamp>(limits, &cmds);
+            assert!(took <= bound, "int, {k} {first:?}: {took} s > {bound} s");
+        }
+    }
+}
+
+fn any_cmd() -> impl Strategy<Value = Cmd> {
+    (
+        any::<bool>(),
+        prop_oneof![1 => Just(0.0), 3 => -1.0f64..3.7],
+        1u128..1000,
+    )
+        .prop_map(|(negative, lg, den)| {
+            let rate = if lg == 0.0 {
+                Rate::ZERO
+            } else {
+                // 0.1 to 5000 steps/s, log-uniform
+                Rate::new(((10f64.powf(lg) * den as f64) as u128).max(1), den).unwrap()
+            };
+            Cmd {
+                negative: negative && !rate.is_zero(),
+                rate,
+            }
+        })
+}
+
+fn any_gap() -> impl Strategy<Value = Gap> {
+    prop_oneof![
+        2 => Just(Gap::Steps(0)),
+        1 => (1u64..4).prop_map(Gap::Steps),
+        2 => (4u64..3000).prop_map(Gap::Steps),
+        3 => (0u64..3).prop_map(Gap::RampEnd),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    /// Random signed rates, stops and reversals at random steps (many at or next to a
+    /// ramp's end), trapezoid or S-curve ramps, float or integer tracker: every edge is
+    /// exact and goes forward, and the last command's rate (or rest) is reached within the
+    /// ramps the limits allow.
+    #[test]
+    fn any_commands_settle_within_the_ramps(
+        cmds in proptest::collection::vec((any_gap(), any_cmd()), 1..10),
+        amax_exp in 2.0f64..5.0, jerk in prop::option::of(1.0f64..100.0),
+        int in any::<bool>(),
+    ) {
+        let amax = 10f64.powf(amax_exp);
+        let limits = TrackLimits { amax, jmax: jerk.map(|k| k * amax) };
+        let (took, bound) = if int {
+            settles::<multistep_core::int::IntRamp>(limits, &cmds)
+        } else {
+            settles::<EdgeGenerator>(limits, &cmds)
+        };
+        prop_assert!(took <= bound, "{took} s > {bound} s");
+    }
+}
