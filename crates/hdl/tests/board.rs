@@ -708,7 +708,8 @@ fn the_session_is_the_hosts_token_until_a_reset() {
 /// A frame sent again as it was (a host that lost its reply) is answered from the reply
 /// the board kept and not executed again: the retransmitted `Start` answers ok (executed
 /// again it would be refused busy) and the group starts once; the same write under the
-/// next seq is a new request (refused busy). A retransmitted read answers what was read.
+/// next seq is a new request (refused busy). A damaged copy in between (bad CRC) leaves
+/// the kept reply. A retransmitted read answers what was read.
 #[test]
 fn a_retransmitted_frame_is_answered_and_not_executed_again() {
     let name = "board-again";
@@ -720,6 +721,10 @@ fn a_retransmitted_frame_is_answered_and_not_executed_again() {
     let start = Request::write(h.seq(), Reg::Board(BoardReg::Start), 1);
     let first = h.push(start);
     let again = h.again(&start);
+    // a damaged copy between: refused, and the kept reply stays
+    let mut bad = start.encode();
+    bad[10] ^= 0x40;
+    let damaged = h.again_bytes(&bad, start.seq);
     let twice = h.again(&start);
     let new = h.write(Reg::Board(BoardReg::Start), 1);
     h.s.sync().steps(0, 10);
@@ -733,6 +738,11 @@ fn a_retransmitted_frame_is_answered_and_not_executed_again() {
     for i in [first, again, twice] {
         assert_eq!(rep[i].status, Status::Ok, "{name}: request {i}");
     }
+    assert_eq!(
+        rep[damaged].status,
+        Status::BadCrc,
+        "{name}: a damaged copy"
+    );
     assert_eq!(rep[new].status, Status::Busy, "{name}: a new start");
     assert_eq!(log.go.len(), 1, "{name}: one group start");
     assert_eq!(rep[pos_again].data, rep[pos].data, "{name}: the kept reply");

@@ -62,14 +62,18 @@ module ms_link #(
     wire [8:0]  last = bulk ? 9'd7 + {1'b0, bulk_len} : 9'd10;
     reg         exec;     // the clock after req: build the reply
     reg         reply;    // load a reply {seq, status, data}
-    reg  [7:0]  r_seq, r_st;
+    reg  [7:0]  r_seq;
+    // the last executed frame's reply; a refused frame's reply (bad CRC or command, or a
+    // bulk write without replay units) is r_bad with no data, so this one is kept
+    reg  [7:0]  r_st;
     reg  [31:0] r_data;
-    // the last executed frame and its reply
+    reg         r_refused;
+    reg  [2:0]  r_bad;
+    // the last executed frame
     reg         k_valid;
-    reg  [7:0]  k_seq, k_cmd, k_st;
+    reg  [7:0]  k_seq, k_cmd;
     reg  [47:0] k_body;
     reg  [15:0] k_crc;
-    reg  [31:0] k_data;
     reg  [7:0]  crc_hi;   // the frame's CRC field, first byte
     wire [15:0] f_crc = {crc_hi, rx_byte};
     wire        again = k_valid && seq == k_seq && cmd == k_cmd && body[63:16] == k_body &&
@@ -86,6 +90,7 @@ module ms_link #(
         reply = 1'b0;
         bad_frame = 1'b0;
         k_valid = 1'b0;
+        r_refused = 1'b0;
     end
     always @(posedge clk) begin
         req       <= 1'b0;
@@ -124,16 +129,15 @@ module ms_link #(
                     if (crc_rx != 16'd0 || (cmd != 8'h01 && cmd != 8'h02 && !bulk)) begin
                         reply     <= 1'b1;
                         bad_frame <= 1'b1;
-                        r_st      <= (crc_rx != 16'd0) ? ST_CRC : ST_CMD;
-                        r_data    <= 32'd0;
+                        r_refused <= 1'b1;
+                        r_bad     <= (crc_rx != 16'd0) ? ST_CRC[2:0] : ST_CMD[2:0];
                     end else if (bulk && BULK == 0) begin
                         reply     <= 1'b1;
-                        r_st      <= ST_FULL;
-                        r_data    <= 32'd0;
+                        r_refused <= 1'b1;
+                        r_bad     <= ST_FULL[2:0];
                     end else if (again) begin
                         reply     <= 1'b1;
-                        r_st      <= k_st;
-                        r_data    <= k_data;
+                        r_refused <= 1'b0;
                     end else begin
                         k_valid  <= 1'b0;
                         k_seq    <= seq;
@@ -153,12 +157,11 @@ module ms_link #(
             else gap <= gap + 1'b1;
         end
         if (exec) begin
-            reply   <= 1'b1;
-            r_st    <= rsp_status;
-            r_data  <= rsp_data;
-            k_st    <= rsp_status;
-            k_data  <= rsp_data;
-            k_valid <= 1'b1;
+            reply     <= 1'b1;
+            r_refused <= 1'b0;
+            r_st      <= rsp_status;
+            r_data    <= rsp_data;
+            k_valid   <= 1'b1;
         end
     end
 
@@ -175,7 +178,8 @@ module ms_link #(
         if (rst) begin
             tidx <= 4'd9;
         end else if (reply) begin
-            tbuf <= {r_data, r_st, r_seq, SYNC_RSP};
+            tbuf <= r_refused ? {32'd0, 5'd0, r_bad, r_seq, SYNC_RSP}
+                              : {r_data, r_st, r_seq, SYNC_RSP};
             tidx <= 4'd0;
         end else if (tx_start) begin
             tidx <= tidx + 1'b1;

@@ -69,8 +69,14 @@ impl Host {
     /// Sends `r` again, as it was (a host that lost its reply); returns the index of the
     /// reply to this copy.
     pub fn again(&mut self, r: &Request) -> usize {
-        self.s.send(r);
-        self.seqs.push(r.seq);
+        self.again_bytes(&r.encode(), r.seq)
+    }
+
+    /// Sends raw frame bytes under an earlier request's `seq` (e.g. a damaged copy of
+    /// it); returns the index of its reply.
+    pub fn again_bytes(&mut self, bytes: &[u8], seq: u8) -> usize {
+        self.s.bytes(bytes).expect_reply();
+        self.seqs.push(seq);
         self.seqs.len() - 1
     }
 
