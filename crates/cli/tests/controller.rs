@@ -1259,3 +1259,36 @@ fn a_time_scale_outside_its_range_is_refused_and_the_slowest_still_ticks() {
     std::thread::sleep(Duration::from_millis(200));
     assert!(tick(&mut c) > t0);
 }
+
+#[test]
+fn a_data_directory_deleted_under_serve_refuses_every_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("board");
+    let log = dir.path().join("stderr.txt");
+    let stderr = Stdio::from(std::fs::File::create(&log).unwrap());
+    let s = Server::start_with(&data, None, 10.0, &[], "127.0.0.1:0", stderr);
+    let mut c = s.client();
+    c.request("preset fast vmax=1000").unwrap();
+    c.request("save p0").unwrap();
+    std::fs::remove_dir_all(&data).unwrap();
+    for line in [
+        "save p1",
+        "move X 100",
+        "preset slow vmax=10",
+        "rate sidereal 15",
+        "set X vmax 2000",
+    ] {
+        let (code, msg) = refused(c.request(line));
+        assert_eq!(code, 20, "{line}: {msg}");
+    }
+    let st = c.request("status X").unwrap();
+    assert!(st[0].contains(" store=gone "), "{st:?}");
+    let info = c.request("info").unwrap();
+    assert!(
+        info.iter().any(|l| l.starts_with("store=gone: ")),
+        "{info:?}"
+    );
+    assert!(!data.exists(), "the data directory was recreated");
+    let err = std::fs::read_to_string(&log).unwrap();
+    assert!(err.contains("was deleted"), "{err}");
+}
