@@ -22,6 +22,9 @@ MOTORS: List[str]
 #: a chunk and ``track`` give no more and raise ``ValueError`` before making any beyond it;
 #: longer moves stream through ``Plan.chunks``.
 MAX_EDGES: int
+#: Most trace rows one ``simulate(trace=True)`` returns (10⁷: eight float64 columns,
+#: 640 MB); a longer trace raises ``ValueError`` before the run.
+MAX_TRACE_ROWS: int
 #: How long a ``Board`` call waits for the board's reply unless told otherwise: 10 s.
 DEFAULT_TIMEOUT: float
 #: Velocity-curve families: trapezoid, parabolic, exponential, sine, scurve, scurve4.
@@ -219,7 +222,9 @@ def simulate(
     lost, first_loss_s (s or None), peak/min/max/final following error (°),
     peak_following_error_steps, move_time_s, simulated_s, dt_s (s), damping_ratio,
     natural_frequency_hz, peak_speed_deg_s, energy; with ``trace=True`` also ``"trace"``,
-    a dict of numpy arrays sampled every ``trace_interval`` (s) (see ``SimTrace``).
+    a dict of numpy arrays sampled every ``trace_interval`` (s) (see ``SimTrace``), at
+    most ``MAX_TRACE_ROWS`` rows (a longer trace raises ``ValueError`` before the run).
+    Ctrl-C ends a long simulation.
     """
 
 #: A tracking rate in steps/s: a str read exactly (``"46.4228"``, ``"15041/324"``), an

@@ -25,6 +25,7 @@ fn multistep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("DEFAULT_CLOCK_HZ", multistep_core::DEFAULT_CLOCK_HZ)?;
     m.add("MAX_EDGES", plan::MAX_EDGES)?;
+    m.add("MAX_TRACE_ROWS", simulate::MAX_TRACE_ROWS)?;
     m.add("DEFAULT_TIMEOUT", board::DEFAULT_TIMEOUT)?;
     m.add(
         "MOTORS",

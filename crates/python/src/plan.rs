@@ -126,6 +126,31 @@ fn fill(
     Ok(written)
 }
 
+/// `PlanSummary::run`'s summary, its edges a slice at a time without the GIL and Python's
+/// signal handlers between slices (a summary of 10¹² steps takes minutes).
+fn summarise(py: Python<'_>, mode: MoveName, mut gen: EdgeGenerator) -> PyResult<PlanSummary> {
+    let (mut min_p, mut max_p, mut last) = (u64::MAX, 0, 0);
+    let part = SLICE_EDGES as u64;
+    while let Some((lo, hi, l)) = py.detach(|| gen.period_extremes_for(last, part)) {
+        (min_p, max_p, last) = (min_p.min(lo), max_p.max(hi), l);
+        py.check_signals()?;
+    }
+    let p = gen.profile();
+    let (vpk, apk) = p.peaks();
+    Ok(PlanSummary {
+        mode,
+        steps: p.steps(),
+        clock_hz: gen.clock(),
+        duration_s: p.duration(),
+        last_edge_tick: last,
+        peak_speed_steps_per_s: vpk,
+        peak_accel_steps_per_s2: apk,
+        min_period_ticks: min_p,
+        max_period_ticks: max_p,
+        settled_edges: gen.settled_count(),
+    })
+}
+
 fn read_only(a: &Bound<'_, PyArray1<u64>>) -> PyResult<()> {
     a.call_method(
         "setflags",
@@ -201,9 +226,7 @@ impl Plan {
         let s = self
             .summary
             .get_or_try_init(py, || -> PyResult<Py<PyAny>> {
-                let mut gen = self.gen.clone();
-                let mode = self.mode;
-                let s = py.detach(|| PlanSummary::run(mode, &mut gen));
+                let s = summarise(py, self.mode, self.gen.clone())?;
                 let text = serde_json::to_string(&s).map_err(|e| value_err(e.to_string()))?;
                 Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
             })?;

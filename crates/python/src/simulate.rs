@@ -3,12 +3,16 @@
 
 use crate::args::{boolean, each_kw, number, string, whole_in, MoveKw};
 use crate::errors::{plan_err, sim_err, value_err};
-use multistep_core::{Profile, DEFAULT_CLOCK_HZ};
-use multistep_sim::{simulate_profile, DriverMode, Motor, SimConfig, DEFAULT_DT};
+use crate::link::SLICE;
+use multistep_core::{EdgeGenerator, Profile, DEFAULT_CLOCK_HZ};
+use multistep_sim::integrate::{check_work, run_planned};
+use multistep_sim::{DriverMode, Motor, SimConfig, DEFAULT_DT};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
 
 /// The trace interval of `multistep simulate --trace` (s).
 const TRACE_INTERVAL: f64 = 10e-6;
@@ -64,6 +68,64 @@ impl Overrides {
         }
         Ok(true)
     }
+}
+
+/// Most trace rows one simulation returns (eight float64 columns: 640 MB).
+pub const MAX_TRACE_ROWS: u64 = 10_000_000;
+
+/// Refuses a trace of more than `MAX_TRACE_ROWS` rows before the run: one row every
+/// `trace_interval` (at least every RK4 step) up to the end of the longest settling.
+fn check_trace(motor: &Motor, cfg: &SimConfig, profile: &Profile) -> PyResult<()> {
+    let edges = profile.steps();
+    // a run the simulator refuses is left to say so itself
+    let Ok(work) = check_work(motor, cfg, profile.duration(), edges) else {
+        return Ok(());
+    };
+    let every = cfg
+        .trace_interval
+        .map_or(1.0, |ti| (ti / cfg.dt).round().max(1.0));
+    let rows = ((work - edges as f64) / every).ceil() + 1.0;
+    if rows > MAX_TRACE_ROWS as f64 {
+        return Err(value_err(format!(
+            "the trace would have up to {rows:.0} rows; a simulation returns at most \
+             {MAX_TRACE_ROWS} (multistep.MAX_TRACE_ROWS): give a longer trace_interval"
+        )));
+    }
+    Ok(())
+}
+
+/// Runs `f` on a thread of its own while this one, without the GIL, runs Python's signal
+/// handlers every `SLICE`; on Ctrl-C, `f`'s `stop` is set and its result dropped.
+fn interruptible<T: Send>(py: Python<'_>, f: impl FnOnce(&AtomicBool) -> T + Send) -> PyResult<T> {
+    let stop = AtomicBool::new(false);
+    std::thread::scope(|s| {
+        let (tx, mut rx) = mpsc::channel();
+        let stop = &stop;
+        s.spawn(move || tx.send(f(stop)));
+        let mut interrupted = None;
+        loop {
+            let (back, r) = py.detach(move || {
+                let r = rx.recv_timeout(SLICE);
+                (rx, r)
+            });
+            rx = back;
+            match r {
+                Ok(t) => return interrupted.map_or(Ok(t), Err),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if interrupted.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            stop.store(true, Ordering::Relaxed);
+                            interrupted = Some(e);
+                        }
+                    }
+                }
+                // the thread panicked: the scope passes its panic on
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(value_err("the simulation stopped"))
+                }
+            }
+        }
+    })
 }
 
 /// Simulates one move on a motor and driver, as `multistep simulate` does.
@@ -139,9 +201,21 @@ pub fn simulate(
     let profile = Profile::plan_on_clock(&mv.spec().resolve().map_err(|e| plan_err(py, e))?, clock)
         .map_err(|e| plan_err(py, e))?;
     let dir = if o.reverse { -1.0 } else { 1.0 };
-    let r = py
-        .detach(|| simulate_profile(&motor, &cfg, profile, clock, dir))
-        .map_err(|e| sim_err(py, e))?;
+    if o.trace {
+        check_trace(&motor, &cfg, &profile)?;
+    }
+    // as `simulate_profile`, with an edge stream that Ctrl-C can end
+    if cfg.peak_speed_hint.is_none() {
+        let micro = motor.microstep_angle(cfg.driver.microsteps);
+        cfg.peak_speed_hint = Some(profile.peaks().0 * micro);
+    }
+    let work = (profile.duration(), profile.steps());
+    let gen = EdgeGenerator::new(profile, clock).map_err(|e| plan_err(py, e))?;
+    let r = interruptible(py, |stop| {
+        let edges = gen.take_while(|_| !stop.load(Ordering::Relaxed));
+        run_planned(&motor, &cfg, edges, clock, dir, work)
+    })?
+    .map_err(|e| sim_err(py, e))?;
     let text = serde_json::to_string(&r).map_err(|e| value_err(e.to_string()))?;
     let out = py.import("json")?.call_method1("loads", (text,))?;
     if o.trace {

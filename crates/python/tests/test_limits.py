@@ -14,8 +14,9 @@ from conftest import interrupt
 HUGE = 10**400  # an int beyond a float's range
 
 
-def test_the_limit_is_a_module_constant():
+def test_the_limits_are_module_constants():
     assert multistep.MAX_EDGES == 100_000_000
+    assert multistep.MAX_TRACE_ROWS == 10_000_000
 
 
 # the child reports its peak resident memory before and after the call
@@ -47,6 +48,8 @@ RSS = textwrap.dedent(
         "multistep.plan(steps=2**40, accel_time=1e6, cruise_time=1e6, decel_time=1e6).edges",
         "multistep.plan(steps=10**8 + 1, accel_time=10.0, cruise_time=10.0, decel_time=10.0).periods",
         "multistep.plan(steps=10**10, accel_time=1e3, cruise_time=1e3, decel_time=1e3).chunks(10**10)",
+        "multistep.simulate('42mm', steps=1000, accel_time=10.0, cruise_time=80.0, decel_time=10.0,"
+        " trace=True, trace_interval=1e-6)",
     ],
 )
 def test_too_many_edges_are_refused_before_any_is_made(call):
@@ -56,7 +59,7 @@ def test_too_many_edges_are_refused_before_any_is_made(call):
     assert r.returncode == 0, r.stderr[-2000:]
     out = dict(l.split(" ", 1) for l in r.stdout.strip().splitlines())
     assert out.get("ValueError", "").split(" ", 1)[0] == "ValueError", r.stdout
-    assert "MAX_EDGES" in out["ValueError"] or "from 1 to" in out["ValueError"]
+    assert any(w in out["ValueError"] for w in ("MAX_EDGES", "MAX_TRACE_ROWS", "from 1 to"))
     assert float(out["seconds"]) < 2.0
     assert int(out["grew_kib"]) < 64 * 1024
 
@@ -153,8 +156,11 @@ LONG = textwrap.dedent(
         "next(multistep.plan(profile='sine', steps=10**8, accel_time=100.0, cruise_time=100.0,"
         " decel_time=100.0).chunks(10**8, periods=True))",
         "multistep.track(10**6, 99.9, amax=1e7)",
+        "multistep.plan(steps=10**11, accel_time=1e4, cruise_time=1e2, decel_time=1e4).summary",
+        "multistep.simulate('42mm', steps=10000, accel_time=10.0, cruise_time=80.0,"
+        " decel_time=10.0)",
     ],
-    ids=["edges", "a chunk", "track"],
+    ids=["edges", "a chunk", "track", "summary", "simulate"],
 )
 def test_ctrl_c_ends_a_long_computation(call):
     lines, err, sent = interrupt(LONG, call, ready="started", timeout=20.0)
