@@ -314,6 +314,11 @@ pub fn build(b: &BoardTop, cache: &Path) -> Result<PathBuf, HdlError> {
     if lib.is_file() {
         return Ok(lib);
     }
+    // a build takes half a minute or more: say so, rather than be silent that long
+    eprintln!(
+        "building the board's Verilator model (once per RTL change; about 30 s), cached in {}",
+        dir.display()
+    );
     // built aside and renamed into place: another process never sees a half-built model
     let work = cache.join(format!("{key}.tmp{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&work);
