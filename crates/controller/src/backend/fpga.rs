@@ -372,15 +372,18 @@ impl FpgaBackend {
     fn read_board(&mut self) -> Result<(), LinkError> {
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         let status = l.read(Reg::Board(BoardReg::Status))?;
-        let session = l.read(Reg::Board(BoardReg::Session))?;
         let busy = l.read(Reg::Board(BoardReg::Busy))?;
         self.estop_input = status & 2 != 0;
-        if session != self.session {
-            return self.session_changed(session);
-        }
-        if self.doubt != 0 {
-            self.start_in_doubt();
-        }
+        // What this poll reads is believed once the session, read last, still holds: a
+        // reset between two reads would show a moving axis come to rest.
+        let told = self.events.len();
+        let running = self
+            .axes
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| a.running.is_some())
+            .map(|(i, _)| 1u32 << i)
+            .sum();
         if status & 1 != 0 && !self.estopped {
             self.estopped = true;
             self.events.push_back((0, PinEvent::Estop));
@@ -497,13 +500,22 @@ impl FpgaBackend {
                 self.events.push_back((i, PinEvent::Step));
             }
         }
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let session = l.read(Reg::Board(BoardReg::Session))?;
+        if session != self.session {
+            self.events.truncate(told);
+            return self.session_changed(session, running);
+        }
+        if self.doubt != 0 {
+            self.start_in_doubt();
+        }
         Ok(())
     }
 
     /// The board was reset or lost power (its session register no longer holds this
     /// host's token): every axis lost its count, whatever the timing, and the board is
-    /// claimed with a new token.
-    fn session_changed(&mut self, session: u32) -> Result<(), LinkError> {
+    /// claimed with a new token. `running`: the axes moving before the poll that saw it.
+    fn session_changed(&mut self, session: u32, running: u32) -> Result<(), LinkError> {
         let token = link::session_token();
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         l.write(Reg::Board(BoardReg::Session), token)?;
@@ -517,7 +529,7 @@ impl FpgaBackend {
             let ax = &mut self.axes[i];
             ax.feed = None;
             ax.offset = 0;
-            let moved = ax.running.take().is_some();
+            let moved = ax.running.take().is_some() || running >> i & 1 == 1;
             let why = format!(
                 "the board was reset or lost power (its session register reads {session:#010x}, \
                  not this host's token); its count {} was lost{}; untrusted until homed",
@@ -1416,6 +1428,8 @@ mod model {
         /// of `mute`.
         pub damage: Option<u16>,
         pub mute: Option<u16>,
+        /// Power off and on before the request after this many more.
+        pub cycle_in: Option<usize>,
         last: Option<(Vec<u8>, Reply)>,
         out: Vec<u8>,
     }
@@ -1493,6 +1507,11 @@ mod model {
     impl Write for ModelPort {
         fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
             let mut m = self.0.lock().unwrap();
+            match m.cycle_in {
+                Some(0) => m.power_cycle(),
+                Some(n) => m.cycle_in = Some(n - 1),
+                None => {}
+            }
             let req = Request::decode(b).expect("the backend sends whole requests");
             let reply = match &m.last {
                 Some((f, r)) if f == b => *r,
@@ -1627,6 +1646,22 @@ mod exactly_once {
         let m = m.lock().unwrap();
         assert_ne!(m.session, 0, "claimed again");
         assert_eq!(m.enable, 0b11, "set up again");
+    }
+
+    #[test]
+    fn a_power_cycle_between_a_polls_reads_is_not_taken_for_the_end_of_the_move() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        let l = launch(&b, 0, 300);
+        start(&mut b, l).unwrap();
+        // off and on after the poll read Status and Busy: axis 0 then reads idle at 0
+        m.lock().unwrap().cycle_in = Some(2);
+        let ev = events(&mut b, 1);
+        assert!(
+            matches!(&ev[..], [(0, PinEvent::Lost { why }), (1, PinEvent::Lost { .. })]
+                if why.contains("mid-move")),
+            "{ev:?}"
+        );
     }
 
     #[test]
