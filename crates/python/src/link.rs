@@ -7,9 +7,12 @@ use crate::errors::{board_err, connection_err, timeout_err};
 use multistep_controller::client::{Endpoint, Refused};
 use multistep_controller::protocol::parse_status_line;
 use multistep_controller::Command;
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// Longest wait without running Python's signal handlers.
@@ -52,6 +55,72 @@ impl Stream {
     }
 }
 
+/// A TCP connection to `addr` (its addresses tried in turn) by `deadline`.
+fn open_tcp(addr: &str, deadline: Instant) -> std::io::Result<TcpStream> {
+    let mut last = None;
+    for a in addr.to_socket_addrs()? {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(ErrorKind::TimedOut.into());
+        }
+        match TcpStream::connect_timeout(&a, left) {
+            Ok(s) => {
+                s.set_nodelay(true)?;
+                return Ok(s);
+            }
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| {
+        std::io::Error::new(ErrorKind::NotFound, format!("no address for {addr}"))
+    }))
+}
+
+/// Waits for what `rx` brings, without the GIL, running Python's signal handlers every
+/// `SLICE`; `None` once `deadline` passes. On Ctrl-C, with `stop` it sets `stop` and still
+/// waits (the sender then ends soon) before raising; without, it raises at once.
+pub fn wait_for<T: Send>(
+    py: Python<'_>,
+    mut rx: mpsc::Receiver<T>,
+    stop: Option<&AtomicBool>,
+    deadline: Option<Instant>,
+) -> PyResult<Option<T>> {
+    let mut interrupted = None;
+    loop {
+        let slice = deadline.map_or(SLICE, |d| {
+            d.saturating_duration_since(Instant::now()).min(SLICE)
+        });
+        let (back, r) = py.detach(move || {
+            let r = rx.recv_timeout(slice);
+            (rx, r)
+        });
+        rx = back;
+        match r {
+            Ok(t) => return interrupted.map_or(Ok(Some(t)), Err),
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(PyRuntimeError::new_err(
+                    "the worker thread ended without a result",
+                ))
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+        }
+        if interrupted.is_none() {
+            if let Err(e) = py.check_signals() {
+                match stop {
+                    Some(flag) => {
+                        flag.store(true, Ordering::Relaxed);
+                        interrupted = Some(e);
+                    }
+                    None => return Err(e),
+                }
+            }
+        }
+        if interrupted.is_none() && deadline.is_some_and(|d| Instant::now() >= d) {
+            return Ok(None);
+        }
+    }
+}
+
 /// A read or write that ran out of its slice, or was cut short by a signal: try again.
 fn again(e: &std::io::Error) -> bool {
     matches!(
@@ -76,33 +145,22 @@ impl Link {
     pub fn connect(py: Python<'_>, ep: &Endpoint, timeout: Duration) -> PyResult<Link> {
         let stream = match ep {
             Endpoint::Tcp(addr) => {
-                let s = py
-                    .detach(|| -> std::io::Result<TcpStream> {
-                        let deadline = Instant::now() + timeout;
-                        let mut last = None;
-                        for a in addr.to_socket_addrs()? {
-                            let left = deadline.saturating_duration_since(Instant::now());
-                            if left.is_zero() {
-                                break;
-                            }
-                            match TcpStream::connect_timeout(&a, left) {
-                                Ok(s) => return Ok(s),
-                                Err(e) => last = Some(e),
-                            }
-                        }
-                        Err(last.unwrap_or_else(|| {
-                            std::io::Error::new(ErrorKind::TimedOut, "no address to connect to")
-                        }))
-                    })
+                let deadline = Instant::now() + timeout;
+                let late = || {
+                    let t = timeout.as_secs_f64();
+                    timeout_err(py, format!("could not connect to {addr} within {t} s"))
+                };
+                // on a thread of its own (the name lookup has no timeout); if Ctrl-C or the
+                // deadline comes first, it is left to end by itself
+                let (tx, rx) = mpsc::channel();
+                let a = addr.clone();
+                std::thread::spawn(move || tx.send(open_tcp(&a, deadline)));
+                let s = wait_for(py, rx, None, Some(deadline))?
+                    .ok_or_else(late)?
                     .map_err(|e| match e.kind() {
-                        ErrorKind::TimedOut | ErrorKind::WouldBlock => timeout_err(
-                            py,
-                            format!("could not connect to {addr} within {timeout:?}"),
-                        ),
+                        ErrorKind::TimedOut | ErrorKind::WouldBlock => late(),
                         _ => connection_err(py, format!("connection: {e}")),
                     })?;
-                s.set_nodelay(true)
-                    .map_err(|e| connection_err(py, format!("connection: {e}")))?;
                 Stream::Tcp(s)
             }
             Endpoint::Serial(dev) => {

@@ -3,7 +3,7 @@
 
 use crate::args::{boolean, each_kw, number, string, whole_in, MoveKw};
 use crate::errors::{plan_err, sim_err, value_err};
-use crate::link::SLICE;
+use crate::link::wait_for;
 use multistep_core::{EdgeGenerator, Profile, DEFAULT_CLOCK_HZ};
 use multistep_sim::integrate::{check_work, run_planned};
 use multistep_sim::{DriverMode, Motor, SimConfig, DEFAULT_DT};
@@ -95,36 +95,15 @@ fn check_trace(motor: &Motor, cfg: &SimConfig, profile: &Profile) -> PyResult<()
 }
 
 /// Runs `f` on a thread of its own while this one, without the GIL, runs Python's signal
-/// handlers every `SLICE`; on Ctrl-C, `f`'s `stop` is set and its result dropped.
+/// handlers; on Ctrl-C, `f`'s `stop` is set and, once `f` returns, the interrupt raised.
 fn interruptible<T: Send>(py: Python<'_>, f: impl FnOnce(&AtomicBool) -> T + Send) -> PyResult<T> {
     let stop = AtomicBool::new(false);
     std::thread::scope(|s| {
-        let (tx, mut rx) = mpsc::channel();
+        let (tx, rx) = mpsc::channel();
         let stop = &stop;
         s.spawn(move || tx.send(f(stop)));
-        let mut interrupted = None;
-        loop {
-            let (back, r) = py.detach(move || {
-                let r = rx.recv_timeout(SLICE);
-                (rx, r)
-            });
-            rx = back;
-            match r {
-                Ok(t) => return interrupted.map_or(Ok(t), Err),
-                Err(mpsc::RecvTimeoutError::Timeout) => {
-                    if interrupted.is_none() {
-                        if let Err(e) = py.check_signals() {
-                            stop.store(true, Ordering::Relaxed);
-                            interrupted = Some(e);
-                        }
-                    }
-                }
-                // the thread panicked: the scope passes its panic on
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    return Err(value_err("the simulation stopped"))
-                }
-            }
-        }
+        // no deadline: always a value (or the thread's panic, which the scope passes on)
+        wait_for(py, rx, Some(stop), None)?.ok_or_else(|| value_err("no simulation result"))
     })
 }
 

@@ -69,29 +69,50 @@ def test_a_late_reply_is_not_taken_for_the_next_one(serve):
     assert b.get("X", "profile") == "trapezoid"
 
 
-def test_connecting_to_a_peer_that_never_accepts_times_out():
+CONNECT = textwrap.dedent(
+    r"""
+    import sys, time
+    import multistep
+    print("connecting", flush=True)
+    try:
+        multistep.Board(sys.argv[1], timeout=60)
+    except KeyboardInterrupt:
+        print("interrupted", time.monotonic(), flush=True)
+        raise
+    except multistep.BoardError as e:
+        print(type(e).__name__, e, flush=True)
+    """
+)
+
+
+def test_connecting_to_a_peer_that_never_accepts_times_out_or_is_interrupted():
     # a listening socket whose backlog is full: further connections are never accepted
-    # (on Linux they hang in SYN-sent); if the kernel refuses them instead, skip
+    # (on Linux they hang in SYN-sent); if the kernel answers them instead, skip
     s = socket.socket()
     s.bind(("127.0.0.1", 0))
     s.listen(0)
-    port = s.getsockname()[1]
+    endpoint = "tcp://127.0.0.1:%d" % s.getsockname()[1]
     fillers = []
     try:
         for _ in range(8):
             f = socket.socket()
             f.setblocking(False)
-            f.connect_ex(("127.0.0.1", port))
+            f.connect_ex(s.getsockname())
             fillers.append(f)
         t = time.monotonic()
         try:
-            multistep.Board("tcp://127.0.0.1:%d" % port, timeout=0.5)
-        except multistep.BoardTimeoutError:
+            multistep.Board(endpoint, timeout=0.5)
+        except multistep.BoardTimeoutError as e:
             assert time.monotonic() - t < 3.0
+            assert "within 0.5 s" in str(e)
         except multistep.BoardConnectionError:
             pytest.skip("the kernel answered the connection at once")
         else:
             pytest.skip("the kernel accepted the connection")
+        # Ctrl-C while connecting with a long timeout
+        lines, err, sent = interrupt(CONNECT, endpoint, ready="connecting")
+        assert lines[0].startswith("interrupted"), (lines, err)
+        assert float(lines[0].split()[1]) - sent < 1.0
     finally:
         for f in fillers:
             f.close()
