@@ -32,6 +32,9 @@ pub struct AlpacaArgs {
     /// Do not answer Alpaca discovery
     #[arg(long, requires = "alpaca", conflicts_with = "alpaca_discovery_port")]
     pub alpaca_no_discovery: bool,
+    /// Most Alpaca HTTP connections at once (1 to 1024); one more is answered 503
+    #[arg(long, value_name = "N", default_value_t = multistep_web::server::DEFAULT_MAX_CLIENTS, requires = "alpaca")]
+    pub alpaca_max_clients: usize,
 }
 
 impl AlpacaArgs {
@@ -51,6 +54,7 @@ impl AlpacaArgs {
             allow_remote: self.alpaca_allow_remote,
             token: self.alpaca_token.clone(),
             discovery_port: (!self.alpaca_no_discovery).then_some(self.alpaca_discovery_port),
+            max_clients: self.alpaca_max_clients,
         };
         let server = start(ctl, &section, &opts)?;
         match server.discovery_addr() {

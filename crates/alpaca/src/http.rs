@@ -7,14 +7,10 @@ use crate::params::Params;
 use base64::Engine;
 use multistep_controller::Controller;
 use multistep_web::access::Access;
+use multistep_web::server::{Request, Response};
 use serde_json::{json, Map, Value};
-use std::io::Read;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
-use tiny_http::{Header, Method, Request, Response};
-
-/// Largest form body accepted.
-const MAX_BODY: u64 = 16 * 1024;
 
 pub struct Ctx {
     pub ctl: Arc<Controller>,
@@ -43,30 +39,11 @@ impl Ctx {
     }
 }
 
-type Resp = Response<std::io::Cursor<Vec<u8>>>;
-
-fn header(k: &str, v: &str) -> Header {
-    Header::from_bytes(k.as_bytes(), v.as_bytes()).expect("static header")
-}
-
-fn text(status: u16, msg: &str) -> Resp {
-    Response::from_string(msg)
-        .with_status_code(status)
-        .with_header(header("Content-Type", "text/plain; charset=utf-8"))
-}
-
-fn header_value<'r>(req: &'r Request, name: &str) -> Option<&'r str> {
-    req.headers()
-        .iter()
-        .find(|h| h.field.as_str().as_str().eq_ignore_ascii_case(name))
-        .map(|h| h.value.as_str())
-}
-
 /// The token a request carries: `Authorization: Bearer T`, HTTP Basic with T as the
 /// password (`http://user:T@host/` in a client's address), or `?token=T`.
 fn request_token(req: &Request, query: &Params) -> Option<String> {
     // The scheme name is case-insensitive (RFC 9110 §11.1).
-    let auth = header_value(req, "Authorization").map(str::trim);
+    let auth = req.header("Authorization").map(str::trim);
     let scheme = |name: &str| {
         auth.and_then(|a| a.split_once(' '))
             .filter(|(s, _)| s.eq_ignore_ascii_case(name))
@@ -83,46 +60,33 @@ fn request_token(req: &Request, query: &Params) -> Option<String> {
     query.get("token").map(str::to_string)
 }
 
-pub fn handle(mut req: Request, ctx: &Ctx) {
-    let url = req.url().to_string();
-    let (path, query) = url.split_once('?').unwrap_or((&url, ""));
+pub fn handle(req: &Request, ctx: &Ctx) -> Response {
+    let url = req.url();
+    let (path, query) = url.split_once('?').unwrap_or((url, ""));
     let query = Params::parse(query.as_bytes());
-    let token = request_token(&req, &query);
-    if !ctx
-        .access
-        .allows(header_value(&req, "Host"), token.as_deref())
-    {
-        let _ = req.respond(text(
+    let token = request_token(req, &query);
+    if !ctx.access.allows(req.header("Host"), token.as_deref()) {
+        return Response::text(
             403,
             "forbidden: wrong or missing access token, or a Host that is not loopback",
-        ));
-        return;
+        );
     }
     let put = match req.method() {
-        Method::Get => false,
-        Method::Put => true,
-        _ => {
-            let _ = req.respond(text(405, "Alpaca takes GET and PUT only"));
-            return;
-        }
+        "GET" => false,
+        "PUT" => true,
+        _ => return Response::text(405, "Alpaca takes GET and PUT only"),
     };
-    // GET parameters are in the query string, PUT parameters in the form body.
+    // GET parameters are in the query string, PUT parameters in the form body (the server
+    // has refused bodies over 16 KiB).
     let params = if put {
-        let mut body = Vec::new();
-        let read = req.as_reader().take(MAX_BODY + 1).read_to_end(&mut body);
-        if read.is_err() || body.len() as u64 > MAX_BODY {
-            let _ = req.respond(text(400, "request body unreadable or too long"));
-            return;
-        }
-        Params::parse(&body)
+        Params::parse(req.body())
     } else {
         query
     };
-    let resp = route(ctx, path, put, &params);
-    let _ = req.respond(resp);
+    route(ctx, path, put, &params)
 }
 
-fn route(ctx: &Ctx, path: &str, put: bool, p: &Params) -> Resp {
+fn route(ctx: &Ctx, path: &str, put: bool, p: &Params) -> Response {
     let parts: Vec<&str> = path.trim_matches('/').split('/').collect();
     match parts.as_slice() {
         ["api", "v1", ty, n, method] => device_call(ctx, ty, n, method, put, p),
@@ -132,19 +96,19 @@ fn route(ctx: &Ctx, path: &str, put: bool, p: &Params) -> Resp {
             reply(ctx, p, Ok(Some(configured(ctx))))
         }
         ["setup"] | ["setup", "v1", _, _, "setup"] if !put => setup_page(ctx),
-        ["management", ..] | ["setup", ..] if put => text(405, "use GET"),
-        _ => text(404, &format!("no Alpaca endpoint at {path}")),
+        ["management", ..] | ["setup", ..] if put => Response::text(405, "use GET"),
+        _ => Response::text(404, &format!("no Alpaca endpoint at {path}")),
     }
 }
 
-fn device_call(ctx: &Ctx, ty: &str, n: &str, method: &str, put: bool, p: &Params) -> Resp {
+fn device_call(ctx: &Ctx, ty: &str, n: &str, method: &str, put: bool, p: &Params) -> Response {
     let number: Option<usize> = n.parse().ok();
     let dev = ctx
         .devices
         .iter()
         .find(|d| d.ty.path().eq_ignore_ascii_case(ty) && Some(d.number) == number);
     let Some(dev) = dev else {
-        return text(400, &format!("no device {ty}/{n} on this server"));
+        return Response::text(400, &format!("no device {ty}/{n} on this server"));
     };
     let method = method.to_ascii_lowercase();
     reply(ctx, p, dev.call(&ctx.ctl, &method, put, p))
@@ -152,7 +116,7 @@ fn device_call(ctx: &Ctx, ty: &str, n: &str, method: &str, put: bool, p: &Params
 
 /// The Alpaca reply: HTTP 200 with the transaction numbers, the value and the error
 /// number, or HTTP 400 with the reason for a malformed request.
-fn reply(ctx: &Ctx, p: &Params, answer: Answer) -> Resp {
+fn reply(ctx: &Ctx, p: &Params, answer: Answer) -> Response {
     let mut m = Map::new();
     let (number, message) = match answer {
         Ok(Some(v)) => {
@@ -161,7 +125,7 @@ fn reply(ctx: &Ctx, p: &Params, answer: Answer) -> Resp {
         }
         Ok(None) => (0, String::new()),
         Err(Fault::Device { number, message }) => (number, message),
-        Err(Fault::BadRequest(why)) => return text(400, &why),
+        Err(Fault::BadRequest(why)) => return Response::text(400, &why),
     };
     m.insert(
         "ClientTransactionID".into(),
@@ -170,8 +134,7 @@ fn reply(ctx: &Ctx, p: &Params, answer: Answer) -> Resp {
     m.insert("ServerTransactionID".into(), json!(ctx.next_tx()));
     m.insert("ErrorNumber".into(), json!(number));
     m.insert("ErrorMessage".into(), json!(message));
-    Response::from_string(Value::Object(m).to_string())
-        .with_header(header("Content-Type", "application/json"))
+    Response::new(200, "application/json", Value::Object(m).to_string())
 }
 
 fn description(ctx: &Ctx) -> Value {
@@ -200,7 +163,7 @@ fn configured(ctx: &Ctx) -> Value {
 }
 
 /// The setup pages Alpaca asks for; devices are set up in the board configuration.
-fn setup_page(ctx: &Ctx) -> Resp {
+fn setup_page(ctx: &Ctx) -> Response {
     let mut rows = String::new();
     for d in &ctx.devices {
         rows.push_str(&format!(
@@ -217,7 +180,7 @@ fn setup_page(ctx: &Ctx) -> Resp {
          <p>Devices are set up in the board configuration's [alpaca] section.</p>",
         escape(&ctx.board)
     );
-    Response::from_string(page).with_header(header("Content-Type", "text/html; charset=utf-8"))
+    Response::new(200, "text/html; charset=utf-8", page)
 }
 
 fn escape(s: &str) -> String {

@@ -24,10 +24,9 @@ pub use args::AlpacaArgs;
 pub use config::AlpacaSection;
 
 use multistep_controller::Controller;
-use multistep_web::{HttpOptions, WebError};
+use multistep_web::{server, HttpOptions, WebError};
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::thread::JoinHandle;
 
 /// Where and how the Alpaca side listens.
 #[derive(Clone, Debug)]
@@ -39,6 +38,9 @@ pub struct AlpacaOptions {
     pub token: Option<String>,
     /// UDP port for discovery (0: any free port); `None`: no discovery.
     pub discovery_port: Option<u16>,
+    /// Most HTTP connections at once (`multistep_web::server::MAX_CLIENTS_RANGE`); one
+    /// more is answered 503.
+    pub max_clients: usize,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -66,16 +68,14 @@ pub enum AlpacaError {
 
 /// The Alpaca side of a running service; stops serving when dropped.
 pub struct AlpacaServer {
-    addr: SocketAddr,
-    server: Arc<tiny_http::Server>,
-    _thread: JoinHandle<()>,
+    server: server::Server,
     discovery: Option<discovery::Discovery>,
 }
 
 impl AlpacaServer {
     /// The HTTP address actually bound.
     pub fn addr(&self) -> SocketAddr {
-        self.addr
+        self.server.addr()
     }
     /// Where discovery datagrams are received, if discovery runs.
     pub fn discovery_addr(&self) -> Option<SocketAddr> {
@@ -83,14 +83,9 @@ impl AlpacaServer {
     }
 }
 
-impl Drop for AlpacaServer {
-    fn drop(&mut self) {
-        self.server.unblock();
-    }
-}
-
 /// Checks `opts` (the web page's rule: loopback, or an explicit opt-in with a token),
-/// binds, and serves the devices of `section` on a background thread, one per request.
+/// binds, and serves the devices of `section` on background threads, one per connection
+/// up to `opts.max_clients`.
 pub fn start(
     ctl: Arc<Controller>,
     section: &AlpacaSection,
@@ -103,6 +98,7 @@ pub fn start(
         addr: opts.addr.clone(),
         allow_remote: opts.allow_remote,
         token: opts.token.clone(),
+        max_clients: opts.max_clients,
     }
     .check()
     .map_err(|e| match e {
@@ -111,15 +107,19 @@ pub fn start(
         WebError::Bind { addr, why } => AlpacaError::Bind { addr, why },
         other => AlpacaError::Access(other.to_string().replace("--http", "--alpaca")),
     })?;
+    let limits = server::limits(opts.max_clients)
+        .map_err(|why| AlpacaError::Access(format!("--alpaca-max-clients {why}")))?;
     let bind_err = |why: String| AlpacaError::Bind {
         addr: opts.addr.clone(),
         why,
     };
-    let server = tiny_http::Server::http(&opts.addr).map_err(|e| bind_err(e.to_string()))?;
-    let addr = server
-        .server_addr()
-        .to_ip()
-        .ok_or_else(|| bind_err("not an IP address".into()))?;
+    let board = ctl.with_board(|b, _| b.name().to_string());
+    let devices = devices::build(section, &board);
+    let ctx = http::Ctx::new(ctl, devices, access, board);
+    let handler: server::Handler = Arc::new(move |req| http::handle(&req, &ctx));
+    let server = server::Server::start(&opts.addr, limits, "alpaca", handler)
+        .map_err(|e| bind_err(e.to_string()))?;
+    let addr = server.addr();
     let discovery =
         match opts.discovery_port {
             None => None,
@@ -130,28 +130,5 @@ pub fn start(
                 }
             })?),
         };
-    let board = ctl.with_board(|b, _| b.name().to_string());
-    let devices = devices::build(section, &board);
-    let ctx = Arc::new(http::Ctx::new(ctl, devices, access, board));
-    let server = Arc::new(server);
-    let thread = {
-        let server = server.clone();
-        std::thread::Builder::new()
-            .name("alpaca".into())
-            .spawn(move || {
-                for req in server.incoming_requests() {
-                    let ctx = ctx.clone();
-                    let _ = std::thread::Builder::new()
-                        .name("alpaca-req".into())
-                        .spawn(move || http::handle(req, &ctx));
-                }
-            })
-            .map_err(|e| bind_err(e.to_string()))?
-    };
-    Ok(AlpacaServer {
-        addr,
-        server,
-        _thread: thread,
-        discovery,
-    })
+    Ok(AlpacaServer { server, discovery })
 }

@@ -75,6 +75,7 @@ fn rig_at_scale(
         allow_remote,
         token: token.map(String::from),
         discovery_port: Some(0),
+        max_clients: multistep_web::server::DEFAULT_MAX_CLIENTS,
     };
     let server = start(ctl.clone(), &section, &opts)?;
     Ok(Rig {

@@ -22,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             addr,
             allow_remote: false,
             token: None,
+            max_clients: multistep_web::server::DEFAULT_MAX_CLIENTS,
         },
     )?;
     eprintln!("web page on http://{}/", web.addr());

@@ -12,6 +12,8 @@ pub struct HttpOptions {
     pub allow_remote: bool,
     /// Access token; required with `allow_remote`, optional on loopback.
     pub token: Option<String>,
+    /// Most connections at once (`server::MAX_CLIENTS_RANGE`); one more is answered 503.
+    pub max_clients: usize,
 }
 
 pub use multistep_controller::access::MIN_TOKEN_LEN;
@@ -31,6 +33,8 @@ pub enum WebError {
     BadToken,
     #[error("no board to serve")]
     NoBoards,
+    #[error("{0}")]
+    MaxClients(String),
 }
 
 /// What every request is checked against.
@@ -126,6 +130,7 @@ mod tests {
             addr: addr.into(),
             allow_remote,
             token: token.map(String::from),
+            max_clients: 64,
         }
     }
     const TOKEN: &str = "0123456789abcdef";

@@ -3,40 +3,28 @@
 
 use crate::access::Access;
 use crate::boards::{error_json, BoardLink};
+use crate::server::{Request, Response};
+use crate::streams::Streams;
 use crate::{assets, events, preview};
 use multistep_controller::protocol::{self, Command};
 use multistep_controller::{Controller, CtlError};
 use serde::Deserialize;
 use serde_json::{json, Value};
-use std::collections::HashMap;
-use std::io::Read;
-use std::net::IpAddr;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-use tiny_http::{Header, Method, Request, Response};
-
-/// Largest request body accepted (a protocol line is at most 4 KiB).
-const MAX_BODY: u64 = 16 * 1024;
-/// Most event streams open at once (each holds a thread).
-const MAX_STREAMS: usize = 32;
-/// Most event streams from one client address: one client cannot take every slot, so the
-/// operator's page finds one free.
-const MAX_STREAMS_PER_CLIENT: usize = 4;
+use std::sync::Arc;
 
 pub struct Ctx {
     boards: Vec<BoardLink>,
     access: Access,
-    streams: AtomicUsize,
-    per_client: Mutex<HashMap<IpAddr, usize>>,
+    streams: Arc<Streams>,
 }
 
 impl Ctx {
-    pub fn new(boards: Vec<BoardLink>, access: Access) -> Ctx {
+    /// `max_streams`: most event streams at once.
+    pub fn new(boards: Vec<BoardLink>, access: Access, max_streams: usize) -> Ctx {
         Ctx {
             boards,
             access,
-            streams: AtomicUsize::new(0),
-            per_client: Mutex::new(HashMap::new()),
+            streams: Streams::new(max_streams),
         }
     }
 }
@@ -50,27 +38,17 @@ struct LineRequest {
     line: String,
 }
 
-type Resp = Response<std::io::Cursor<Vec<u8>>>;
-
-fn header(k: &str, v: &str) -> Header {
-    Header::from_bytes(k.as_bytes(), v.as_bytes()).expect("static header")
+fn with_common(r: Response) -> Response {
+    r.with_header("Cache-Control", "no-store")
+        .with_header("X-Content-Type-Options", "nosniff")
+        .with_header("X-Frame-Options", "DENY")
 }
 
-fn with_common(r: Resp) -> Resp {
-    r.with_header(header("Cache-Control", "no-store"))
-        .with_header(header("X-Content-Type-Options", "nosniff"))
-        .with_header(header("X-Frame-Options", "DENY"))
+fn json_resp(status: u16, v: &Value) -> Response {
+    with_common(Response::new(status, "application/json", v.to_string()))
 }
 
-fn json_resp(status: u16, v: &Value) -> Resp {
-    with_common(
-        Response::from_string(v.to_string())
-            .with_status_code(status)
-            .with_header(header("Content-Type", "application/json")),
-    )
-}
-
-fn fail(status: u16, msg: &str) -> Resp {
+fn fail(status: u16, msg: &str) -> Response {
     json_resp(
         status,
         &json!({ "ok": false, "error": { "code": 0, "message": msg } }),
@@ -116,39 +94,28 @@ fn bearer_token(v: &str) -> Option<&str> {
     scheme.eq_ignore_ascii_case("bearer").then(|| token.trim())
 }
 
-fn header_value<'r>(req: &'r Request, name: &str) -> Option<&'r str> {
-    req.headers()
-        .iter()
-        .find(|h| h.field.as_str().as_str().eq_ignore_ascii_case(name))
-        .map(|h| h.value.as_str())
-}
-
-pub fn handle(mut req: Request, ctx: &Ctx) {
+pub fn handle(req: &Request, ctx: &Arc<Ctx>) -> Response {
     let (path, query) = split_url(req.url());
-    let (path, query) = (path.to_string(), query.to_string());
-    let token = header_value(&req, "Authorization")
+    let token = req
+        .header("Authorization")
         .and_then(bearer_token)
         .map(str::to_string)
-        .or_else(|| query_param(&query, "token"));
-    if !ctx
-        .access
-        .allows(header_value(&req, "Host"), token.as_deref())
-    {
-        let _ = req.respond(fail(403, "forbidden: wrong or missing access token (add ?token=… to the address), or a Host that is not loopback"));
-        return;
+        .or_else(|| query_param(query, "token"));
+    if !ctx.access.allows(req.header("Host"), token.as_deref()) {
+        return fail(403, "forbidden: wrong or missing access token (add ?token=… to the address), or a Host that is not loopback");
     }
-    let resp = match (req.method(), path.as_str()) {
-        (Method::Get, "/api/events") => return stream_events(req, ctx),
-        (Method::Get, "/api/boards") => json_resp(200, &boards(ctx)),
-        (Method::Get, "/api/status") => json_resp(
+    match (req.method(), path) {
+        ("GET", "/api/events") => stream_events(req, ctx),
+        ("GET", "/api/boards") => json_resp(200, &boards(ctx)),
+        ("GET", "/api/status") => json_resp(
             200,
             &serde_json::to_value(events::snapshot(&ctx.boards)).unwrap_or_default(),
         ),
-        (Method::Post, "/api/cmd") => match read_line_request(&mut req, ctx) {
+        ("POST", "/api/cmd") => match read_line_request(req, ctx) {
             Ok((b, line)) => json_resp(200, &b.run(&line)),
             Err(r) => r,
         },
-        (Method::Post, "/api/preview") => match read_line_request(&mut req, ctx) {
+        ("POST", "/api/preview") => match read_line_request(req, ctx) {
             Ok((BoardLink::Local(c), line)) => json_resp(200, &preview_json(c, &line)),
             Ok((BoardLink::Remote(_), _)) => json_resp(
                 200,
@@ -158,20 +125,15 @@ pub fn handle(mut req: Request, ctx: &Ctx) {
             ),
             Err(r) => r,
         },
-        (Method::Get, p) => match assets::find(p) {
-            Some((ctype, body)) => with_common(
-                Response::from_string(body)
-                    .with_header(header("Content-Type", ctype))
-                    .with_header(header(
-                        "Content-Security-Policy",
-                        "default-src 'self'; frame-ancestors 'none'",
-                    )),
-            ),
+        ("GET", p) => match assets::find(p) {
+            Some((ctype, body)) => with_common(Response::new(200, ctype, body).with_header(
+                "Content-Security-Policy",
+                "default-src 'self'; frame-ancestors 'none'",
+            )),
             None => fail(404, "not found"),
         },
         _ => fail(405, "method not allowed"),
-    };
-    let _ = req.respond(resp);
+    }
 }
 
 fn boards(ctx: &Ctx) -> Value {
@@ -186,19 +148,18 @@ fn boards(ctx: &Ctx) -> Value {
 
 /// The body of a POST: JSON only, so a foreign page cannot post a plain form to
 /// 127.0.0.1 without the browser's CORS preflight stopping it.
-fn read_line_request<'c>(req: &mut Request, ctx: &'c Ctx) -> Result<(&'c BoardLink, String), Resp> {
-    let is_json = header_value(req, "Content-Type")
+fn read_line_request<'c>(req: &Request, ctx: &'c Ctx) -> Result<(&'c BoardLink, String), Response> {
+    let is_json = req
+        .header("Content-Type")
         .is_some_and(|v| v.trim_start().starts_with("application/json"));
     if !is_json {
         return Err(fail(415, "send the request as application/json"));
     }
-    let mut body = String::new();
-    let n = req.as_reader().take(MAX_BODY + 1).read_to_string(&mut body);
-    if n.is_err() || body.len() as u64 > MAX_BODY {
-        return Err(fail(400, "request body is not UTF-8 or too long"));
-    }
+    // The server has refused bodies over its limit (16 KiB).
+    let body =
+        std::str::from_utf8(req.body()).map_err(|_| fail(400, "request body is not UTF-8"))?;
     let r: LineRequest =
-        serde_json::from_str(&body).map_err(|e| fail(400, &format!("bad request: {e}")))?;
+        serde_json::from_str(body).map_err(|e| fail(400, &format!("bad request: {e}")))?;
     if r.line.contains(['\n', '\r']) {
         return Err(fail(400, "one protocol line per request"));
     }
@@ -231,10 +192,9 @@ fn preview_json(c: &Controller, line: &str) -> Value {
             ))
         }
     };
-    let planned = c.with_board(|b, _| {
-        b.preview(&targets, absolute, sync, &opts)
-            .map(|p| (p, b.clock_hz()))
-    });
+    let planned = c
+        .preview(&targets, absolute, sync, &opts)
+        .map(|p| (p, c.clock_hz()));
     match planned {
         Err(e) => err(e),
         Ok((axes, clock)) => {
@@ -250,64 +210,17 @@ fn preview_json(c: &Controller, line: &str) -> Value {
     }
 }
 
-fn stream_events(req: Request, ctx: &Ctx) {
-    let peer = req.remote_addr().map(|a| a.ip());
-    let Some(_slot) = StreamSlot::take(ctx, peer) else {
-        let _ = req.respond(fail(503, "too many open event streams"));
-        return;
+fn stream_events(req: &Request, ctx: &Arc<Ctx>) -> Response {
+    let Some(slot) = ctx.streams.take(Some(req.peer().ip())) else {
+        return fail(503, "too many open event streams");
     };
-    let mut out = req.into_writer();
-    let _ = events::stream(&ctx.boards, &mut *out);
-}
-
-/// One open event stream, counted in total and per client address until dropped.
-struct StreamSlot<'c> {
-    ctx: &'c Ctx,
-    peer: Option<IpAddr>,
-}
-
-impl<'c> StreamSlot<'c> {
-    fn take(ctx: &'c Ctx, peer: Option<IpAddr>) -> Option<StreamSlot<'c>> {
-        let mut per = ctx.per_client.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(ip) = peer {
-            let n = per.entry(ip).or_insert(0);
-            if *n >= MAX_STREAMS_PER_CLIENT {
-                return None;
-            }
-            *n += 1;
-        }
-        if ctx.streams.fetch_add(1, Ordering::SeqCst) >= MAX_STREAMS {
-            ctx.streams.fetch_sub(1, Ordering::SeqCst);
-            if let Some(ip) = peer {
-                release(&mut per, ip);
-            }
-            return None;
-        }
-        Some(StreamSlot { ctx, peer })
-    }
-}
-
-fn release(per: &mut HashMap<IpAddr, usize>, ip: IpAddr) {
-    if let Some(n) = per.get_mut(&ip) {
-        *n -= 1;
-        if *n == 0 {
-            per.remove(&ip);
-        }
-    }
-}
-
-impl Drop for StreamSlot<'_> {
-    fn drop(&mut self) {
-        self.ctx.streams.fetch_sub(1, Ordering::SeqCst);
-        if let Some(ip) = self.peer {
-            let mut per = self
-                .ctx
-                .per_client
-                .lock()
-                .unwrap_or_else(|p| p.into_inner());
-            release(&mut per, ip);
-        }
-    }
+    let ctx = ctx.clone();
+    Response::stream(
+        "text/event-stream",
+        Box::new(move |out| events::stream(&ctx.boards, &slot, out)),
+    )
+    .with_header("Cache-Control", "no-store")
+    .with_header("X-Content-Type-Options", "nosniff")
 }
 
 #[cfg(test)]
@@ -321,29 +234,6 @@ mod tests {
         assert_eq!(bearer_token("BEARER  abc "), Some("abc"));
         assert_eq!(bearer_token("Basic abc"), None);
         assert_eq!(bearer_token("Bearerabc"), None);
-    }
-
-    #[test]
-    fn one_client_cannot_take_every_event_stream() {
-        let ctx = Ctx::new(
-            Vec::new(),
-            Access {
-                token: None,
-                loopback: true,
-            },
-        );
-        let greedy: IpAddr = "10.0.0.7".parse().unwrap();
-        let operator: IpAddr = "10.0.0.8".parse().unwrap();
-        let held: Vec<_> = (0..40)
-            .filter_map(|_| StreamSlot::take(&ctx, Some(greedy)))
-            .collect();
-        assert_eq!(held.len(), MAX_STREAMS_PER_CLIENT);
-        let page = StreamSlot::take(&ctx, Some(operator));
-        assert!(page.is_some(), "the operator's page still gets a stream");
-        drop(held);
-        drop(page);
-        assert_eq!(ctx.streams.load(Ordering::SeqCst), 0);
-        assert!(ctx.per_client.lock().unwrap().is_empty());
     }
 
     #[test]

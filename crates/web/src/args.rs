@@ -29,6 +29,10 @@ pub struct HttpArgs {
     /// (repeat for more boards)
     #[arg(long, value_name = "HOST:PORT", requires = "http")]
     pub http_board: Vec<String>,
+    /// Most HTTP connections at once (1 to 1024); one more is answered 503. Event streams
+    /// (one per open page) take at most half of them, and at most 32
+    #[arg(long, value_name = "N", default_value_t = crate::server::DEFAULT_MAX_CLIENTS, requires = "http")]
+    pub http_max_clients: usize,
 }
 
 impl HttpArgs {
@@ -41,6 +45,7 @@ impl HttpArgs {
             addr: with_host(addr),
             allow_remote: self.http_allow_remote,
             token: self.http_token.clone(),
+            max_clients: self.http_max_clients,
         };
         let links = boards
             .into_iter()

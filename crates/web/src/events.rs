@@ -2,6 +2,7 @@
 
 use crate::boards::BoardLink;
 use crate::snapshot::{BoardSnapshot, IDLE_PERIOD, MOVING_PERIOD};
+use crate::streams::StreamSlot;
 use multistep_controller::AxisState;
 use serde::Serialize;
 use std::io::Write;
@@ -29,17 +30,16 @@ pub fn snapshot(boards: &[BoardLink]) -> Snapshot {
     Snapshot { boards, busy }
 }
 
-/// Writes snapshots as SSE until the client goes away.
-pub fn stream(boards: &[BoardLink], out: &mut dyn Write) -> std::io::Result<()> {
-    out.write_all(
-        b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
-          Connection: close\r\nX-Content-Type-Options: nosniff\r\n\r\nretry: 1000\n\n",
-    )?;
-    loop {
+/// Writes snapshots as SSE (the body; the server sent the head) until the client goes
+/// away or `slot` is given to another stream.
+pub fn stream(boards: &[BoardLink], slot: &StreamSlot, out: &mut dyn Write) -> std::io::Result<()> {
+    out.write_all(b"retry: 1000\n\n")?;
+    while !slot.is_closed() {
         let s = snapshot(boards);
         let json = serde_json::to_string(&s).map_err(std::io::Error::other)?;
         out.write_all(format!("data: {json}\n\n").as_bytes())?;
         out.flush()?;
         std::thread::sleep(if s.busy { MOVING_PERIOD } else { IDLE_PERIOD });
     }
+    Ok(())
 }

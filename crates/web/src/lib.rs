@@ -13,6 +13,9 @@
 //! | `GET /api/events` | the same snapshot as SSE, 20 Hz while an axis moves, 4 Hz at rest |
 //! | `POST /api/cmd` `{"board":0,"line":"move X 100"}` | runs one protocol line |
 //! | `POST /api/preview` `{"board":0,"line":"move X 100"}` | plans a move without running it |
+//!
+//! Served by [`server`] (shared with the Alpaca devices): one thread per connection up to
+//! `--http-max-clients`, event streams capped and shared fairly (`streams.rs`).
 
 pub mod access;
 mod api;
@@ -21,7 +24,9 @@ mod assets;
 pub mod boards;
 mod events;
 pub mod preview;
+pub mod server;
 mod snapshot;
+mod streams;
 
 pub use access::{HttpOptions, WebError};
 pub use args::HttpArgs;
@@ -30,32 +35,21 @@ pub use boards::BoardLink;
 use multistep_controller::Controller;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::thread::JoinHandle;
 
-/// The HTTP side of a running service.
+/// The HTTP side of a running service; stops accepting when dropped.
 pub struct WebServer {
-    addr: SocketAddr,
-    server: Arc<tiny_http::Server>,
-    thread: Option<JoinHandle<()>>,
+    server: server::Server,
 }
 
 impl WebServer {
     /// The address actually bound (port 0 picks a free port).
     pub fn addr(&self) -> SocketAddr {
-        self.addr
+        self.server.addr()
     }
 
     /// Serves until the process ends.
-    pub fn join(mut self) {
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-impl Drop for WebServer {
-    fn drop(&mut self) {
-        self.server.unblock();
+    pub fn join(self) {
+        self.server.join()
     }
 }
 
@@ -64,43 +58,23 @@ pub fn start(boards: Vec<Arc<Controller>>, opts: &HttpOptions) -> Result<WebServ
     start_links(boards.into_iter().map(BoardLink::Local).collect(), opts)
 }
 
-/// Checks `opts` (loopback unless remote access is allowed with a token), binds, and
-/// serves `boards` on a background thread, one thread per request.
+/// Checks `opts` (loopback unless remote access is allowed with a token, a connection cap
+/// in range), binds, and serves `boards` on background threads, one per connection.
 pub fn start_links(boards: Vec<BoardLink>, opts: &HttpOptions) -> Result<WebServer, WebError> {
     if boards.is_empty() {
         return Err(WebError::NoBoards);
     }
     let access = opts.check()?;
-    let server = tiny_http::Server::http(&opts.addr).map_err(|e| WebError::Bind {
-        addr: opts.addr.clone(),
-        why: e.to_string(),
-    })?;
-    let addr = server.server_addr().to_ip().ok_or_else(|| WebError::Bind {
-        addr: opts.addr.clone(),
-        why: "not an IP address".into(),
-    })?;
-    let server = Arc::new(server);
-    let ctx = Arc::new(api::Ctx::new(boards, access));
-    let thread = {
-        let server = server.clone();
-        std::thread::Builder::new()
-            .name("http".into())
-            .spawn(move || {
-                for req in server.incoming_requests() {
-                    let ctx = ctx.clone();
-                    let _ = std::thread::Builder::new()
-                        .name("http-req".into())
-                        .spawn(move || api::handle(req, &ctx));
-                }
-            })
-            .map_err(|e| WebError::Bind {
-                addr: opts.addr.clone(),
-                why: e.to_string(),
-            })?
-    };
-    Ok(WebServer {
-        addr,
-        server,
-        thread: Some(thread),
-    })
+    let limits = server::limits(opts.max_clients)
+        .map_err(|why| WebError::MaxClients(format!("--http-max-clients {why}")))?;
+    // Event streams never take more than half the connections: the page and its commands
+    // always find one.
+    let ctx = Arc::new(api::Ctx::new(boards, access, opts.max_clients / 2));
+    let handler: server::Handler = Arc::new(move |req| api::handle(&req, &ctx));
+    let server =
+        server::Server::start(&opts.addr, limits, "http", handler).map_err(|e| WebError::Bind {
+            addr: opts.addr.clone(),
+            why: e.to_string(),
+        })?;
+    Ok(WebServer { server })
 }
