@@ -1253,7 +1253,12 @@ fn lost_state_untrusts_every_axis(control: &str) {
     let y = r.wait_idle("Y");
     assert!(y.trusted && y.position == 0, "{y:?}");
     r.req("move X 1200");
-    std::thread::sleep(Duration::from_millis(150));
+    // under way (a fixed wall-clock wait is no time at all for a busy machine's board)
+    let t0 = Instant::now();
+    while r.status("X").position <= 100 {
+        assert!(t0.elapsed() < Duration::from_secs(60), "X never moved");
+        std::thread::sleep(Duration::from_millis(5));
+    }
     r.board.as_mut().unwrap().send(control);
     let x = r.wait_reachable("X");
     let t0 = Instant::now();
