@@ -224,33 +224,35 @@ impl Link {
         timeout: Duration,
     ) -> PyResult<()> {
         let whole = data.len();
+        // Ctrl-C and the deadline are let in only while nothing is written, so a line sent
+        // whole is always counted as owed a reply
+        let cut = |link: &mut Link, e: PyErr, left: usize| {
+            if left != whole && link.broken.is_none() {
+                // half a line on the wire: what follows would be read with it
+                link.broken = Some("a command was cut short halfway; reconnect".into());
+            }
+            e
+        };
         while !data.is_empty() {
-            let r = self
-                .left(py, deadline, timeout, "take the command")
-                .and_then(|left| {
-                    let stream = &mut self.stream;
-                    let r = py.detach(|| {
-                        stream
-                            .slice(left.min(SLICE))
-                            .and_then(|_| stream.write(data))
-                    });
-                    match r {
-                        Ok(0) => Err(self.fail(py, "the board closed the connection".into())),
-                        Ok(n) => Ok(n),
-                        Err(e) if again(&e) => Ok(0),
-                        Err(e) => Err(self.fail(py, format!("connection: {e}"))),
-                    }
-                })
-                .and_then(|n| py.check_signals().map(|_| n));
+            let left = match self.left(py, deadline, timeout, "take the command") {
+                Ok(l) => l,
+                Err(e) => return Err(cut(self, e, data.len())),
+            };
+            let stream = &mut self.stream;
+            let r = py.detach(|| {
+                stream
+                    .slice(left.min(SLICE))
+                    .and_then(|_| stream.write(data))
+            });
             match r {
+                Ok(0) => return Err(self.fail(py, "the board closed the connection".into())),
                 Ok(n) => data = &data[n..],
-                Err(e) => {
-                    if data.len() != whole && self.broken.is_none() {
-                        // half a line on the wire: what follows would be read with it
-                        self.broken = Some("a command was cut short halfway; reconnect".into());
+                Err(e) if again(&e) => {
+                    if let Err(e) = py.check_signals() {
+                        return Err(cut(self, e, data.len()));
                     }
-                    return Err(e);
                 }
+                Err(e) => return Err(self.fail(py, format!("connection: {e}"))),
             }
         }
         Ok(())
