@@ -157,3 +157,25 @@ def test_ctrl_c_ends_a_long_wait_at_once(serve, peer):
     finally:
         if silent:
             silent.stop()
+
+
+def test_threads_share_one_board(serve):
+    # one thread waits on a long move while another asks for status and then stops it:
+    # each call takes the line in turn, and each gets its own reply
+    import threading
+
+    b = multistep.Board(serve.endpoint, timeout=10)
+    b.move("Y", 4_000_000, vmax=1000.0)
+    done = []
+    waiter = threading.Thread(target=lambda: done.append(b.wait("Y", timeout=120) or "idle"))
+    waiter.start()
+    for _ in range(20):
+        assert b.status("X")[0]["axis"] == "X"
+        assert b.get("X", "profile") == "trapezoid"
+    assert waiter.is_alive()
+    b.stop("Y")
+    waiter.join(timeout=60)
+    assert done == ["idle"]
+    b.timeout = 5
+    assert b.timeout == 5
+    b.close()
