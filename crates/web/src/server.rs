@@ -20,7 +20,8 @@ pub use multistep_controller::service::MAX_CLIENTS_RANGE;
 
 /// Most connections at once unless told (the line port's default).
 pub const DEFAULT_MAX_CLIENTS: usize = 64;
-/// A keep-alive connection with no new request for this long is closed.
+/// A keep-alive connection with no new request for this long is closed (a new
+/// connection waits `REQUEST_TIMEOUT` for its first byte).
 pub const IDLE_TIMEOUT: Duration = Duration::from_secs(30);
 /// A request's head and body must arrive within this from its first byte.
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(10);
@@ -324,10 +325,12 @@ impl ErrorLog {
             self.held += 1;
             return;
         }
-        match std::mem::take(&mut self.held) {
-            0 => eprintln!("{msg}"),
-            n => eprintln!("{msg} (and {n} more like it)"),
-        }
+        // Not eprintln!: it panics when stderr is gone, and this is the accept thread.
+        let mut err = io::stderr().lock();
+        let _ = match std::mem::take(&mut self.held) {
+            0 => writeln!(err, "{msg}"),
+            n => writeln!(err, "{msg} (and {n} more like it)"),
+        };
         self.last = Some(Instant::now());
     }
 }
@@ -366,8 +369,11 @@ fn serve_connection(
         },
     );
     let mut out = stream;
+    // A connection that never sends a byte holds its slot no longer than a slow request.
+    let mut wait = limits.line_timeout;
     loop {
-        input.get_mut().deadline = Instant::now() + limits.idle_timeout;
+        input.get_mut().deadline = Instant::now() + wait;
+        wait = limits.idle_timeout;
         match input.fill_buf() {
             Ok([]) | Err(_) => return,
             Ok(_) => {}
