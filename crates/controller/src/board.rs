@@ -22,7 +22,7 @@ mod preview;
 mod sync;
 mod tracking;
 use homing::HomePhase;
-pub use preview::PlannedAxis;
+pub use preview::{PlannedAxis, PreviewPlan};
 
 /// Most steps (summed over its axes) of one move or group: the TDM engine times every
 /// edge before the move starts (about 40 ns each), so this bounds the time a move takes
@@ -1151,6 +1151,12 @@ impl Board {
 
     /// Moves to a named position (a group move: same start tick).
     pub fn goto(&mut self, name: &str, opts: &MoveOpts, now: u64) -> Result<Vec<i64>, CtlError> {
+        let targets = self.goto_targets(name)?;
+        self.group_move(&targets, true, false, opts, now)
+    }
+
+    /// A named position as the absolute targets of a group move.
+    pub fn goto_targets(&self, name: &str) -> Result<Vec<(String, Amount)>, CtlError> {
         let pos = self
             .store
             .named_position(name)?
@@ -1158,11 +1164,10 @@ impl Board {
                 what: "position",
                 name: name.to_string(),
             })?;
-        let targets: Vec<(String, Amount)> = pos
+        Ok(pos
             .into_iter()
             .map(|(a, p)| (a, Amount::Steps(p)))
-            .collect();
-        self.group_move(&targets, true, false, opts, now)
+            .collect())
     }
 
     pub fn named_positions(&self) -> Result<BTreeMap<String, NamedPosition>, CtlError> {

@@ -4,14 +4,15 @@
 
 use crate::axis::AxisStatus;
 use crate::backend::{BoardBackend, SimBackend};
-use crate::board::Board;
+use crate::board::{Board, PlannedAxis};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
 use crate::store::Store;
+use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -52,9 +53,122 @@ pub fn check_time_scale(time_scale: f64) -> Result<(), CtlError> {
     }
 }
 
+/// A halt asked for: `estop`, or `stop` of one axis (`Some`) or all.
+enum HaltKind {
+    EStop,
+    Stop(Option<String>),
+}
+
+/// Halts asked for and not yet applied. Asking takes no board lock: whoever holds the
+/// board next (a command, the ticker, the asker itself) applies them before anything else,
+/// at the tick they were asked at, so an e-stop never queues behind other work.
+#[derive(Default)]
+struct Halts {
+    /// Something is queued: checked on every board lock without taking `queue`.
+    pending: AtomicBool,
+    queue: Mutex<HaltQueue>,
+    applied: Condvar,
+}
+
+#[derive(Default)]
+struct HaltQueue {
+    next_ticket: u64,
+    asked: Vec<(u64, HaltKind, u64)>,
+    /// Outcomes by ticket, until their askers take them.
+    done: HashMap<u64, Result<(), CtlError>>,
+}
+
+impl Halts {
+    fn queue(&self) -> MutexGuard<'_, HaltQueue> {
+        self.queue.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Queues a halt asked for at tick `at`; returns its ticket.
+    fn ask(&self, kind: HaltKind, at: u64) -> u64 {
+        let mut q = self.queue();
+        let ticket = q.next_ticket;
+        q.next_ticket += 1;
+        q.asked.push((ticket, kind, at));
+        self.pending.store(true, Ordering::SeqCst);
+        ticket
+    }
+
+    /// Applies every queued halt to the board, in the order asked.
+    fn apply(&self, b: &mut Board) {
+        if !self.pending.swap(false, Ordering::SeqCst) {
+            return;
+        }
+        let asked = std::mem::take(&mut self.queue().asked);
+        let mut done = Vec::with_capacity(asked.len());
+        for (ticket, kind, at) in asked {
+            let r = match kind {
+                HaltKind::EStop => {
+                    b.estop(at);
+                    Ok(())
+                }
+                HaltKind::Stop(axis) => b.stop(axis.as_deref(), at),
+            };
+            done.push((ticket, r));
+        }
+        self.queue().done.extend(done);
+        self.applied.notify_all();
+    }
+}
+
+/// The board and what is asked of it without its lock.
+struct Shared {
+    board: Mutex<Board>,
+    halts: Halts,
+}
+
+impl Shared {
+    /// The board, with every halt asked for so far applied.
+    fn lock(&self) -> MutexGuard<'_, Board> {
+        let mut b = lock(&self.board);
+        self.halts.apply(&mut b);
+        b
+    }
+
+    /// Asks for a halt at tick `at` and waits until it is applied: by this thread as soon
+    /// as the board is free, or by whichever thread holds it, when that one lets go.
+    fn halt(&self, kind: HaltKind, at: u64) -> Result<(), CtlError> {
+        let ticket = self.halts.ask(kind, at);
+        loop {
+            let mut q = self.halts.queue();
+            if let Some(r) = q.done.remove(&ticket) {
+                return r;
+            }
+            let board = match self.board.try_lock() {
+                Ok(b) => Some(b),
+                Err(TryLockError::Poisoned(p)) => Some(p.into_inner()),
+                Err(TryLockError::WouldBlock) => None,
+            };
+            match board {
+                Some(mut b) => {
+                    drop(q);
+                    self.halts.apply(&mut b);
+                }
+                // Woken when a holder applies it; the timeout retries the lock in case
+                // the holder let go without locking again.
+                None => drop(
+                    self.halts
+                        .applied
+                        .wait_timeout(q, HALT_RETRY)
+                        .unwrap_or_else(|p| p.into_inner()),
+                ),
+            }
+        }
+    }
+}
+
+/// How often a waiting halt tries the board lock again.
+const HALT_RETRY: Duration = Duration::from_micros(200);
+
 pub struct Controller {
-    board: Arc<Mutex<Board>>,
+    shared: Arc<Shared>,
     clock: SimClock,
+    /// The board's clock (ticks per board second).
+    clock_hz: f64,
     time_scale: f64,
     quit: Arc<AtomicBool>,
     ticker: Option<JoinHandle<()>>,
@@ -108,17 +222,21 @@ impl Controller {
             t0: Instant::now(),
             ticks_per_s: board.clock_hz() * time_scale,
         };
-        let board = Arc::new(Mutex::new(board));
+        let clock_hz = board.clock_hz();
+        let shared = Arc::new(Shared {
+            board: Mutex::new(board),
+            halts: Halts::default(),
+        });
         let quit = Arc::new(AtomicBool::new(false));
         let ticker = {
-            let (board, quit) = (board.clone(), quit.clone());
+            let (shared, quit) = (shared.clone(), quit.clone());
             std::thread::Builder::new()
                 .name("board-ticker".into())
                 .spawn(move || {
                     let mut saved = Instant::now();
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
-                        let mut b = lock(&board);
+                        let mut b = shared.lock();
                         if b.needs_polling() {
                             b.advance(clock.now());
                             if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {
@@ -131,8 +249,9 @@ impl Controller {
                 .map_err(|e| CtlError::Io(e.to_string()))?
         };
         Ok(Controller {
-            board,
+            shared,
             clock,
+            clock_hz,
             time_scale,
             quit,
             ticker: Some(ticker),
@@ -144,11 +263,31 @@ impl Controller {
         self.clock.now()
     }
 
-    /// Runs `f` on the board at the current tick.
+    /// The board's clock rate (Hz).
+    pub fn clock_hz(&self) -> f64 {
+        self.clock_hz
+    }
+
+    /// Runs `f` on the board at the current tick. The board is locked meanwhile: `f`
+    /// should be quick (a `stop` or `estop` asked for meanwhile waits for it to return).
     pub fn with_board<R>(&self, f: impl FnOnce(&mut Board, u64) -> R) -> R {
-        let mut b = lock(&self.board);
+        let mut b = self.shared.lock();
         let now = self.clock.now();
         f(&mut b, now)
+    }
+
+    /// What `group_move(targets, absolute, sync, opts)` would run from the counted
+    /// positions now, without starting anything (see [`Board::preview`]). Only the
+    /// planning holds the board; the TDM timing runs with the board free.
+    pub fn preview(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<Vec<PlannedAxis>, CtlError> {
+        self.with_board(|b, _| b.plan_preview(targets, absolute, sync, opts))?
+            .time()
     }
 
     pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
@@ -210,11 +349,16 @@ impl Controller {
     pub fn home(&self, axis: &str) -> Result<(), CtlError> {
         self.with_board(|b, now| b.home(axis, now))
     }
+    /// Controlled stop of one axis or all, from the tick it is asked at; it does not wait
+    /// behind other clients' work on the board.
     pub fn stop(&self, axis: Option<&str>) -> Result<(), CtlError> {
-        self.with_board(|b, now| b.stop(axis, now))
+        let kind = HaltKind::Stop(axis.map(str::to_string));
+        self.shared.halt(kind, self.clock.now())
     }
+    /// Emergency stop at the tick it is asked at: applied by whoever holds the board
+    /// next, before anything else.
     pub fn estop(&self) {
-        self.with_board(|b, now| b.estop(now))
+        let _ = self.shared.halt(HaltKind::EStop, self.clock.now());
     }
     pub fn reset(&self) {
         self.with_board(|b, now| b.reset(now))
@@ -342,7 +486,8 @@ impl Controller {
                 vec![named_line(name, &p)]
             }
             Command::Goto { name, opts } => {
-                self.with_board(|b, now| b.goto(name, opts, now))?;
+                let targets = self.with_board(|b, _| b.goto_targets(name))?;
+                self.group_move(&targets, true, false, opts)?;
                 vec![]
             }
             Command::Positions => {

@@ -4,6 +4,7 @@
 use super::{Board, Profile};
 use crate::error::CtlError;
 use crate::protocol::{Amount, MoveOpts};
+use multistep_core::tdm::TdmConfig;
 
 /// One axis of a previewed move.
 #[derive(Clone, Debug)]
@@ -73,14 +74,20 @@ impl Board {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<Vec<PlannedAxis>, CtlError> {
+        self.plan_preview(targets, absolute, sync, opts)?.time()
+    }
+
+    /// The planning half of [`Board::preview`]; its TDM timing ([`PreviewPlan::time`])
+    /// needs no board, so a service runs it with the board free.
+    pub fn plan_preview(
+        &self,
+        targets: &[(String, Amount)],
+        absolute: bool,
+        sync: bool,
+        opts: &MoveOpts,
+    ) -> Result<PreviewPlan, CtlError> {
         let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
-        // The same timing check as a run: a group the TDM calculator cannot keep up with
-        // is refused here too.
-        let moving: Vec<Profile> = profiles.iter().flatten().cloned().collect();
-        if !moving.is_empty() {
-            crate::motion::start_group(&moving, &self.tdm, 0)?;
-        }
-        Ok(plan
+        let axes = plan
             .iter()
             .zip(profiles)
             .map(|(&(i, delta), profile)| {
@@ -93,6 +100,28 @@ impl Board {
                     profile,
                 }
             })
-            .collect())
+            .collect();
+        Ok(PreviewPlan {
+            axes,
+            tdm: self.tdm,
+        })
+    }
+}
+
+/// A previewed group, planned but not yet checked against the TDM calculator.
+pub struct PreviewPlan {
+    axes: Vec<PlannedAxis>,
+    tdm: TdmConfig,
+}
+
+impl PreviewPlan {
+    /// The same timing check as a run: a group the TDM calculator cannot keep up with is
+    /// refused here too. Takes as long as timing the move (up to seconds).
+    pub fn time(self) -> Result<Vec<PlannedAxis>, CtlError> {
+        let moving: Vec<Profile> = self.axes.iter().filter_map(|a| a.profile.clone()).collect();
+        if !moving.is_empty() {
+            crate::motion::start_group(&moving, &self.tdm, 0)?;
+        }
+        Ok(self.axes)
     }
 }

@@ -1,0 +1,116 @@
+//! `estop` and `stop` do not queue behind slow work on the board: asked for while a dozen
+//! previews of a long group are being timed, they are applied before any preview is done.
+//! The order is checked with events, not clocks.
+
+use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
+use multistep_controller::protocol::{Amount, MoveOpts};
+use multistep_controller::{AxisSettings, AxisState, Controller};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Barrier};
+
+const PREVIEWS: usize = 12;
+
+fn config() -> BoardConfig {
+    let axis = |name: &str| AxisConfig {
+        name: name.into(),
+        settings: AxisSettings {
+            vmax: 20_000.0,
+            amax: 100_000.0,
+            ..AxisSettings::default()
+        },
+    };
+    BoardConfig {
+        board: BoardSection {
+            name: "h".into(),
+            clock_hz: 50e6,
+            fifo_depth: 4,
+            link: None,
+            sync_line: None,
+        },
+        axes: vec![axis("X"), axis("Y"), axis("Z")],
+        alpaca: None,
+    }
+}
+
+/// A group whose TDM timing takes a while (a second or so unoptimized).
+fn long_group() -> Vec<(String, Amount)> {
+    vec![
+        ("X".to_string(), Amount::Steps(4_000_000)),
+        ("Y".to_string(), Amount::Steps(3_000_000)),
+    ]
+}
+
+/// Starts `PREVIEWS` previews of a long group, runs `halt` once every preview thread has
+/// started, and returns how many previews had finished when `halt` returned.
+fn previews_done_when(ctl: &Arc<Controller>, halt: impl FnOnce()) -> usize {
+    let go = Arc::new(Barrier::new(PREVIEWS + 1));
+    let (started, done) = (Arc::new(AtomicUsize::new(0)), Arc::new(AtomicUsize::new(0)));
+    let threads: Vec<_> = (0..PREVIEWS)
+        .map(|_| {
+            let (ctl, go) = (ctl.clone(), go.clone());
+            let (started, done) = (started.clone(), done.clone());
+            std::thread::spawn(move || {
+                go.wait();
+                started.fetch_add(1, Ordering::SeqCst);
+                let p = ctl.preview(&long_group(), false, false, &MoveOpts::default());
+                done.fetch_add(1, Ordering::SeqCst);
+                p.map(|axes| axes.len())
+            })
+        })
+        .collect();
+    go.wait();
+    while started.load(Ordering::SeqCst) < PREVIEWS {
+        std::thread::yield_now();
+    }
+    halt();
+    let when = done.load(Ordering::SeqCst);
+    for t in threads {
+        assert_eq!(
+            t.join().unwrap().unwrap(),
+            2,
+            "the previews themselves still work"
+        );
+    }
+    when
+}
+
+/// A board whose axis Z tracks at 5000 steps/s.
+fn open_tracking(dir: &std::path::Path) -> Arc<Controller> {
+    let ctl = Arc::new(Controller::open(&config(), dir, 1.0).unwrap());
+    let r = ctl.execute_bytes(b"track Z 5000");
+    assert!(r.result.is_ok(), "{}", r.to_text());
+    ctl
+}
+
+fn state(ctl: &Controller, axis: &str) -> AxisState {
+    ctl.status(&[axis.to_string()]).unwrap()[0].state
+}
+
+#[test]
+fn an_estop_is_applied_before_any_preview_finishes() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = open_tracking(dir.path());
+    let done = previews_done_when(&ctl, || ctl.estop());
+    assert_eq!(done, 0, "the estop waited for {done} previews");
+    assert!(ctl.with_board(|b, _| b.is_estopped()));
+    assert_eq!(state(&ctl, "Z"), AxisState::Fault);
+}
+
+#[test]
+fn a_stop_is_applied_before_any_preview_finishes() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = open_tracking(dir.path());
+    let done = previews_done_when(&ctl, || ctl.stop(Some("Z")).unwrap());
+    assert_eq!(done, 0, "the stop waited for {done} previews");
+    // Stopping, or already at rest: the ramp from 5000 steps/s takes 12.5 ms.
+    let s = &ctl.status(&["Z".to_string()]).unwrap()[0];
+    assert!(s.rate.is_none_or(|r| r == 0.0), "{s:?}");
+}
+
+#[test]
+fn a_stop_of_an_unknown_axis_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = open_tracking(dir.path());
+    assert!(ctl.stop(Some("Q")).is_err());
+    assert_eq!(state(&ctl, "Z"), AxisState::Tracking);
+}
