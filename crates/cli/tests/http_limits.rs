@@ -173,9 +173,8 @@ fn running_out_of_file_descriptors_stops_no_port_for_good() {
         }
     }
     assert!(held.len() > 64, "only {} connections opened", held.len());
+    // Checked once the ports are back: that is the point, the log line only a witness.
     let said = eventually(|| svc.said().contains("accept: Too many open files"));
-    assert!(said, "no accept error logged; stderr:\n{}", svc.said());
-    assert!(svc.alive(), "serve died; stderr:\n{}", svc.said());
     drop(held);
     let (mut page, mut alpaca, mut tcp) = (false, false, false);
     eventually(|| {
@@ -192,6 +191,7 @@ fn running_out_of_file_descriptors_stops_no_port_for_good() {
         svc.said()
     );
     assert!(svc.alive(), "serve died; stderr:\n{}", svc.said());
+    assert!(said, "no accept error logged; stderr:\n{}", svc.said());
 }
 
 #[test]
