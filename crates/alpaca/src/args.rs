@@ -38,6 +38,29 @@ pub struct AlpacaArgs {
 }
 
 impl AlpacaArgs {
+    fn options(&self) -> Option<AlpacaOptions> {
+        Some(AlpacaOptions {
+            addr: with_host(self.alpaca.as_ref()?),
+            allow_remote: self.alpaca_allow_remote,
+            token: self.alpaca_token.clone(),
+            discovery_port: (!self.alpaca_no_discovery).then_some(self.alpaca_discovery_port),
+            max_clients: self.alpaca_max_clients,
+        })
+    }
+
+    /// Checks the config's [alpaca] section and the flags without binding anything, so a
+    /// refused start changes nothing.
+    pub fn check(&self, config: &BoardConfig) -> Result<(), AlpacaError> {
+        let section = AlpacaSection::from_board(config)?;
+        if let Some(opts) = self.options() {
+            if section.is_empty() {
+                return Err(AlpacaError::NoDevices);
+            }
+            opts.check()?;
+        }
+        Ok(())
+    }
+
     /// Checks the config's [alpaca] section (always), starts the Alpaca side if --alpaca
     /// was given, and says where it listens on stderr.
     pub fn start(
@@ -46,15 +69,8 @@ impl AlpacaArgs {
         ctl: Arc<Controller>,
     ) -> Result<Option<AlpacaServer>, AlpacaError> {
         let section = AlpacaSection::from_board(config)?;
-        let Some(addr) = &self.alpaca else {
+        let Some(opts) = self.options() else {
             return Ok(None);
-        };
-        let opts = AlpacaOptions {
-            addr: with_host(addr),
-            allow_remote: self.alpaca_allow_remote,
-            token: self.alpaca_token.clone(),
-            discovery_port: (!self.alpaca_no_discovery).then_some(self.alpaca_discovery_port),
-            max_clients: self.alpaca_max_clients,
         };
         let server = start(ctl, &section, &opts)?;
         match server.discovery_addr() {

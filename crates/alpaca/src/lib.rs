@@ -23,7 +23,9 @@ pub mod params;
 pub use args::AlpacaArgs;
 pub use config::AlpacaSection;
 
+use multistep_controller::service::Limits;
 use multistep_controller::Controller;
+use multistep_web::access::Access;
 use multistep_web::{server, HttpOptions, WebError};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -83,6 +85,26 @@ impl AlpacaServer {
     }
 }
 
+impl AlpacaOptions {
+    /// The web page's rules for the address, the token and the connection cap, with the
+    /// Alpaca flags' names.
+    pub fn check(&self) -> Result<(Access, Limits), AlpacaError> {
+        let web = HttpOptions {
+            addr: self.addr.clone(),
+            allow_remote: self.allow_remote,
+            token: self.token.clone(),
+            max_clients: self.max_clients,
+        };
+        let alpaca = |e| match e {
+            WebError::RemoteNotAllowed(a) => AlpacaError::RemoteNotAllowed(a),
+            WebError::TokenRequired => AlpacaError::TokenRequired,
+            WebError::Bind { addr, why } => AlpacaError::Bind { addr, why },
+            other => AlpacaError::Access(other.to_string().replace("--http", "--alpaca")),
+        };
+        Ok((web.check().map_err(alpaca)?, web.limits().map_err(alpaca)?))
+    }
+}
+
 /// Checks `opts` (the web page's rule: loopback, or an explicit opt-in with a token),
 /// binds, and serves the devices of `section` on background threads, one per connection
 /// up to `opts.max_clients`.
@@ -94,21 +116,7 @@ pub fn start(
     if section.is_empty() {
         return Err(AlpacaError::NoDevices);
     }
-    let access = HttpOptions {
-        addr: opts.addr.clone(),
-        allow_remote: opts.allow_remote,
-        token: opts.token.clone(),
-        max_clients: opts.max_clients,
-    }
-    .check()
-    .map_err(|e| match e {
-        WebError::RemoteNotAllowed(a) => AlpacaError::RemoteNotAllowed(a),
-        WebError::TokenRequired => AlpacaError::TokenRequired,
-        WebError::Bind { addr, why } => AlpacaError::Bind { addr, why },
-        other => AlpacaError::Access(other.to_string().replace("--http", "--alpaca")),
-    })?;
-    let limits = server::limits(opts.max_clients)
-        .map_err(|why| AlpacaError::Access(format!("--alpaca-max-clients {why}")))?;
+    let (access, limits) = opts.check()?;
     let bind_err = |why: String| AlpacaError::Bind {
         addr: opts.addr.clone(),
         why,

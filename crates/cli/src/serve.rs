@@ -83,6 +83,8 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let l = &a.line;
     service::check_listen(&a.listen, l.listen_allow_remote, l.listen_token.as_deref())?;
     let limits = service::Limits::new(l.max_clients, l.idle_timeout, l.line_timeout)?;
+    a.http.check()?;
+    a.alpaca.check(&config)?;
     if let Some(dev) = &a.serial {
         // A missing device is a mistake to stop on, not a warning behind a running board.
         std::fs::metadata(dev).with_context(|| format!("serial device {dev}"))?;

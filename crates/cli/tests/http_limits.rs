@@ -291,3 +291,33 @@ fn streams_from_other_loopback_addresses_leave_the_operator_page_its_stream() {
     );
     drop(held);
 }
+
+#[test]
+fn a_connection_cap_out_of_range_is_refused_before_the_database_is_made() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = tmp.path().join("board.toml");
+    std::fs::write(&cfg, CONFIG).unwrap();
+    for (args, says) in [
+        (
+            ["--http", "0", "--http-max-clients", "0"],
+            "--http-max-clients must be in [1, 1024] (got 0)",
+        ),
+        (
+            ["--alpaca", "0", "--alpaca-max-clients", "1025"],
+            "--alpaca-max-clients must be in [1, 1024] (got 1025)",
+        ),
+    ] {
+        let out = Command::new(BIN)
+            .args(["serve", "--listen", "127.0.0.1:0", "--data"])
+            .arg(tmp.path().join("d"))
+            .arg("--board-config")
+            .arg(&cfg)
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!tmp.path().join("d").exists(), "{args:?} made the database");
+    }
+}

@@ -1,6 +1,7 @@
 //! Who may use the page: loopback by default; another address only with an explicit
 //! opt-in and an access token, which every request must then carry.
 
+use multistep_controller::service::Limits;
 use std::net::{SocketAddr, ToSocketAddrs};
 
 /// Where and how the HTTP side listens.
@@ -46,6 +47,12 @@ pub struct Access {
 }
 
 impl HttpOptions {
+    /// The connection limits, `max_clients` checked against its range.
+    pub fn limits(&self) -> Result<Limits, WebError> {
+        crate::server::limits(self.max_clients)
+            .map_err(|why| WebError::MaxClients(format!("--http-max-clients {why}")))
+    }
+
     pub fn check(&self) -> Result<Access, WebError> {
         let addrs: Vec<SocketAddr> = self
             .addr

@@ -36,16 +36,28 @@ pub struct HttpArgs {
 }
 
 impl HttpArgs {
-    /// Starts the web side if `--http` was given, and says where it listens on stderr.
-    pub fn start(&self, boards: Vec<Arc<Controller>>) -> Result<Option<WebServer>, WebError> {
-        let Some(addr) = &self.http else {
-            return Ok(None);
-        };
-        let opts = HttpOptions {
-            addr: with_host(addr),
+    fn options(&self) -> Option<HttpOptions> {
+        Some(HttpOptions {
+            addr: with_host(self.http.as_ref()?),
             allow_remote: self.http_allow_remote,
             token: self.http_token.clone(),
             max_clients: self.http_max_clients,
+        })
+    }
+
+    /// Checks the flags without binding anything, so a refused start changes nothing.
+    pub fn check(&self) -> Result<(), WebError> {
+        if let Some(opts) = self.options() {
+            opts.check()?;
+            opts.limits()?;
+        }
+        Ok(())
+    }
+
+    /// Starts the web side if `--http` was given, and says where it listens on stderr.
+    pub fn start(&self, boards: Vec<Arc<Controller>>) -> Result<Option<WebServer>, WebError> {
+        let Some(opts) = self.options() else {
+            return Ok(None);
         };
         let links = boards
             .into_iter()

@@ -65,8 +65,7 @@ pub fn start_links(boards: Vec<BoardLink>, opts: &HttpOptions) -> Result<WebServ
         return Err(WebError::NoBoards);
     }
     let access = opts.check()?;
-    let limits = server::limits(opts.max_clients)
-        .map_err(|why| WebError::MaxClients(format!("--http-max-clients {why}")))?;
+    let limits = opts.limits()?;
     // Event streams never take more than half the connections: the page and its commands
     // always find one.
     let ctx = Arc::new(api::Ctx::new(boards, access, opts.max_clients / 2));
