@@ -52,6 +52,12 @@ pub enum CtlError {
     /// stored until the board is restarted on the data directory as it is now.
     #[error("storage: {0}")]
     StoreGone(String),
+    /// The FPGA board's link is down or a request got no intact reply after its retries.
+    #[error("{0}")]
+    Link(String),
+    /// The FPGA board refused a request, or cannot carry out what it asks for.
+    #[error("{0}")]
+    LinkRefused(String),
 }
 
 impl CtlError {
@@ -78,6 +84,8 @@ impl CtlError {
             CtlError::NotSimulated => 18,
             CtlError::Unsupported(_) => 19,
             CtlError::StoreGone(_) => 20,
+            CtlError::Link(_) => 21,
+            CtlError::LinkRefused(_) => 22,
         }
     }
 

@@ -6,7 +6,7 @@ use crate::error::CtlError;
 use crate::motion::StepSource;
 use crate::protocol::SignedRate;
 use multistep_core::track::TrackSegment;
-use multistep_core::{Rate, TrackError, TrackLimits, Tracker};
+use multistep_core::{EdgeGenerator, Num, Profile, Rate, TrackError, TrackLimits, Tracker};
 
 /// The edges of a tracking axis: the core tracker's, shifted to the start tick.
 pub struct TrackSource {
@@ -14,6 +14,8 @@ pub struct TrackSource {
     start: u64,
     next: Option<u64>,
     limits: TrackLimits,
+    /// The longest step period the backend plays (ticks), where it has one.
+    max_period: Option<u64>,
 }
 
 impl TrackSource {
@@ -30,12 +32,83 @@ impl TrackSource {
             start,
             next: None,
             limits,
+            max_period: None,
         })
     }
 
-    /// Changes the rate from the last edge produced (a stop when `rate` is zero).
+    /// Changes the rate from the last edge produced (a stop when `rate` is zero, always
+    /// taken).
     pub fn set_rate(&mut self, rate: Rate) -> Result<(), CtlError> {
+        self.check_rate(rate)?;
         self.tracker.set_rate(rate).map_err(track_error)
+    }
+
+    /// Limits the step periods to what the backend plays (a replay unit's tick width):
+    /// from now on a rate with a longer step is refused, this one included.
+    pub fn limit_periods(&mut self, max_ticks: u64) -> Result<(), CtlError> {
+        self.max_period = Some(max_ticks);
+        self.check_rate(self.tracker.rate())
+    }
+
+    /// Refuses a rate with a step longer than the backend plays. The longest steps of
+    /// tracking at `rate` are its cruise's (⌈f/R⌉ ticks), the first from rest (a ramp's
+    /// speed only rises) and the last of its stop (only falls); a stop from any other
+    /// speed ends in a step no longer than the first from rest at the highest speed (a
+    /// ramp is its mirror) and a ramp between two rates runs no slower than the slower.
+    pub fn check_rate(&self, rate: Rate) -> Result<(), CtlError> {
+        let Some(max) = self.max_period else {
+            return Ok(());
+        };
+        if rate.is_zero() {
+            return Ok(());
+        }
+        let f = self.tracker.clock_hz();
+        let (longest, which) = self.longest_steps(rate)?;
+        if longest <= max {
+            return Ok(());
+        }
+        // to four decimals, up
+        let slowest = (f as f64 / max as f64 * 1e4).ceil() / 1e4;
+        Err(CtlError::Unsupported(format!(
+            "the board's replay unit takes steps of at most {max} ticks ({}), and tracking at \
+             {} steps/s has a step of {longest} ticks ({}, {which}): a rate of at least {} \
+             steps/s{}",
+            Secs(max as f64 / f as f64),
+            Num(rate.to_f64()),
+            Secs(longest as f64 / f as f64),
+            Num(slowest),
+            if which == "the cruise" {
+                ""
+            } else {
+                " and an amax that leaves rest within that step"
+            }
+        )))
+    }
+
+    /// The longest step period (ticks) of tracking at `rate` and which step it is.
+    fn longest_steps(&self, rate: Rate) -> Result<(u64, &'static str), CtlError> {
+        let f = self.tracker.clock_hz();
+        let cruise = (f as u128 * rate.den()).div_ceil(rate.num().max(1));
+        let cruise = u64::try_from(cruise).unwrap_or(u64::MAX);
+        let limits = self.limits;
+        let from_rest = Tracker::new(f as f64, limits, 0.0, rate)
+            .map_err(track_error)?
+            .next()
+            .unwrap_or(0);
+        let mut stop = Tracker::new(f as f64, limits, rate.to_f64(), rate).map_err(track_error)?;
+        stop.stop().map_err(track_error)?;
+        let last_of_stop = match stop.ramp_profile() {
+            Some(p) => last_period(p.clone(), f)?,
+            None => 0,
+        };
+        Ok([
+            (cruise, "the cruise"),
+            (from_rest, "the first from rest"),
+            (last_of_stop, "the last of its stop"),
+        ]
+        .into_iter()
+        .max_by_key(|x| x.0)
+        .unwrap_or((cruise, "the cruise")))
     }
 
     /// The rate cruised at or ramped towards (zero while stopping).
@@ -55,6 +128,7 @@ impl TrackSource {
             start: self.start,
             next: None,
             limits: self.limits,
+            max_period: self.max_period,
         };
         probe.set_rate(rate)?;
         Ok(probe.stop_steps_bound())
@@ -120,6 +194,27 @@ impl StepSource for TrackSource {
     }
     fn as_track(&mut self) -> Option<&mut TrackSource> {
         Some(self)
+    }
+}
+
+/// The period of a profile's last step (ticks), in O(pieces).
+fn last_period(p: Profile, clock_hz: u64) -> Result<u64, CtlError> {
+    let n = p.steps();
+    let mut gen = EdgeGenerator::new(p, clock_hz as f64)?;
+    if n < 2 {
+        return Ok(gen.next().unwrap_or(0));
+    }
+    gen.seek(n - 1);
+    let before = gen.next().unwrap_or(0);
+    Ok(gen.next().unwrap_or(before).saturating_sub(before))
+}
+
+/// Seconds, as a reply shows a time.
+struct Secs(f64);
+
+impl std::fmt::Display for Secs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} s", Num(self.0))
     }
 }
 
@@ -210,6 +305,7 @@ mod tests {
                     start: 0,
                     next: None,
                     limits,
+                    max_period: None,
                 };
                 let bound = probe.stop_steps_bound();
                 let mut s = src.tracker.clone();

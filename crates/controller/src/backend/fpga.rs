@@ -187,7 +187,10 @@ fn link_err(e: LinkError) -> CtlError {
             status: Status::Estop,
             ..
         } => CtlError::EStopped,
-        e => CtlError::Connection(format!("board link: {e}")),
+        e if matches!(e, LinkError::Io(_)) || e.in_doubt() => {
+            CtlError::Link(format!("board link: {e}"))
+        }
+        e => CtlError::LinkRefused(format!("board link: {e}")),
     }
 }
 
@@ -203,7 +206,7 @@ impl FpgaBackend {
         mut open: Opener,
         axes: usize,
     ) -> Result<FpgaBackend, CtlError> {
-        let port = open().map_err(CtlError::Connection)?;
+        let port = open().map_err(CtlError::Link)?;
         let mut l = HostLink::new(port);
         let id = l.build_id().map_err(link_err)?;
         let params = params_of(&id);
@@ -302,7 +305,21 @@ impl FpgaBackend {
                 continue;
             };
             let done = (ax.count - f.count0).unsigned_abs();
-            pump(l, f, i as u32, done)?;
+            if let Err(e) = pump(l, f, i as u32, done) {
+                if matches!(e, LinkError::Io(_)) || e.in_doubt() {
+                    return Err(e);
+                }
+                // this axis's stream alone failed (a step its replay unit cannot time, a
+                // refused write): the axis halts, its count exact, and the board is read on
+                eprintln!(
+                    "warning: board link {}: axis {i}: {e}; the axis is halted",
+                    self.name
+                );
+                l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
+                ax.feed = None;
+                let why = format!("the board could not be fed its steps ({e}), so it was halted");
+                self.events.push_back((i, PinEvent::Late { why }));
+            }
         }
         Ok(())
     }
@@ -343,7 +360,7 @@ impl FpgaBackend {
     fn link(&mut self) -> Result<&mut HostLink<Box<dyn Port>>, CtlError> {
         match (&mut self.link, &self.down) {
             (Some(l), _) => Ok(l),
-            (None, why) => Err(CtlError::Connection(format!(
+            (None, why) => Err(CtlError::Link(format!(
                 "board link {} is down: {}",
                 self.name,
                 why.as_deref().unwrap_or("not connected")
@@ -364,6 +381,8 @@ impl FpgaBackend {
             self.link = None;
             self.down = Some(e.to_string());
             self.last_try = Instant::now();
+        } else {
+            eprintln!("warning: board link {}: {e}", self.name);
         }
         link_err(e)
     }
@@ -1047,7 +1066,7 @@ impl BoardBackend for FpgaBackend {
     fn start_source(
         &mut self,
         axis: usize,
-        src: Box<dyn StepSource>,
+        mut src: Box<dyn StepSource>,
         dir: i64,
         start: u64,
     ) -> Result<u64, CtlError> {
@@ -1058,6 +1077,10 @@ impl BoardBackend for FpgaBackend {
             )));
         }
         self.link()?;
+        if let Some(t) = src.as_track() {
+            // a rate whose steps the replay unit cannot time is refused now, not mid-stream
+            t.limit_periods((1u64 << self.params.tick_bits.min(63)) - 1)?;
+        }
         let end_tick = src.end_tick();
         let mut feed = Feed::new(src, start, self.params.tick_bits, true);
         feed.dir = dir;
@@ -1119,8 +1142,14 @@ impl BoardBackend for FpgaBackend {
             }
             if due && self.link.is_some() {
                 self.last_poll = Some(Instant::now());
-                if let Err(e) = self.feed_streams().and_then(|_| self.read_board()) {
+                // the board is read even when feeding a stream failed, unless the link did
+                if let Err(e) = self.feed_streams() {
                     self.failed(e);
+                }
+                if self.link.is_some() {
+                    if let Err(e) = self.read_board() {
+                        self.failed(e);
+                    }
                 }
                 self.tell_retransmits();
             }
@@ -1682,3 +1711,6 @@ mod exactly_once {
         );
     }
 }
+
+#[cfg(test)]
+mod track_feed;

@@ -208,6 +208,8 @@ impl Board {
         }
         let forward = (dir < 0) == negative || rate.is_zero();
         let step_rate = if forward { rate } else { Rate::ZERO };
+        // a reversal's rate is checked now, not when the stop ends
+        src.check_rate(rate)?;
         // one step may be taken already (the board looks one edge ahead)
         let bound = (src.stop_bound_after(step_rate)? + 1).saturating_add(ahead);
         self.check_room(i, dir, bound)?;
