@@ -932,6 +932,33 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
     assert_eq!(r.check_counters()[0], 120, "the board's Position register");
 }
 
+/// `track X 1000` then `track X 2`: a step of 0.5 s is longer than the 2^24 − 1 ticks (0.34 s
+/// at 50 MHz) the replay unit times, so the change is refused; X runs on, Y moves beside it
+/// and is seen to, and the stop completes.
+#[test]
+fn a_tracking_rate_the_replay_unit_cannot_time_is_refused_up_front() {
+    let mut r = Rig::new(Pins::Hil);
+    r.req("track X 1000");
+    let e = r.client.request("track X 2").unwrap_err().to_string();
+    assert!(
+        e.contains("error:19") && e.contains("at least 2.9803 steps/s"),
+        "{e}"
+    );
+    r.req("move Y 200");
+    let y = r.wait_idle("Y");
+    assert_eq!((y.position, y.state), (200, AxisState::Idle));
+    let x = r.status("X");
+    assert_eq!((x.state, x.rate), (AxisState::Tracking, Some(1000.0)));
+    r.req("stop X");
+    let x = r.wait_idle("X");
+    assert_eq!((x.state, x.fault), (AxisState::Idle, None));
+    assert_eq!(
+        r.check_counters()[0],
+        x.position,
+        "the board's Position register"
+    );
+}
+
 #[test]
 fn tracking_stops_before_the_soft_limit_on_both_backends() {
     // at 3000 steps/s the board holds up to 150 steps (50 ms) of code ahead of its count:

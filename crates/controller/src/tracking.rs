@@ -111,6 +111,12 @@ impl TrackSource {
         .unwrap_or((cruise, "the cruise")))
     }
 
+    /// Whether the stream came to rest: no edge is left to give (a backend may have closed
+    /// it), so a new rate needs a new stream.
+    pub fn at_rest(&self) -> bool {
+        self.next.is_none() && self.tracker.segment() == TrackSegment::Stopped
+    }
+
     /// The rate cruised at or ramped towards (zero while stopping).
     pub fn rate(&self) -> Rate {
         self.tracker.rate()
@@ -271,6 +277,26 @@ mod tests {
             src.take();
         }
         assert_eq!(src.speed_at(src.end_tick()), rate.to_f64());
+    }
+
+    #[test]
+    fn a_stream_is_at_rest_once_its_stop_is_drained() {
+        let limits = TrackLimits {
+            amax: 20_000.0,
+            jmax: None,
+        };
+        let mut src = TrackSource::new(50e6, limits, Rate::new(1000, 1).unwrap(), 0).unwrap();
+        for _ in 0..100 {
+            src.peek();
+            src.take();
+        }
+        src.set_rate(Rate::ZERO).unwrap();
+        assert!(!src.at_rest(), "stopping");
+        while src.peek().is_some() {
+            assert!(!src.at_rest(), "an edge is left");
+            src.take();
+        }
+        assert!(src.at_rest());
     }
 
     #[test]

@@ -78,3 +78,25 @@ fn rate_changes_a_few_ms_apart_come_to_rest_promptly() {
     // the stop from 2763 steps/s takes 0.14 s; a reversal's restart and stop as much again
     assert!(slowest <= 0.35, "slowest rest {slowest} s after the stop");
 }
+
+/// A rate asked for once the stream has come to rest (nothing left to give: a board's
+/// stream may be closed by then) starts a new stream the same way when this one ends.
+#[test]
+fn a_rate_asked_for_at_rest_starts_a_new_stream_the_same_way() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = board(dir.path());
+    let track = |b: &mut Board, r: &str, t: u64| {
+        let rate = RateArg::Value(SignedRate::parse(r).unwrap().unwrap());
+        b.track("Z", &rate, &TrackOpts::default(), None, t).unwrap()
+    };
+    // stopped before its first step: the tracker is at rest at once
+    track(&mut b, "-500", 1_000);
+    track(&mut b, "0", 1_000);
+    track(&mut b, "-700", 1_000);
+    b.advance(CLOCK);
+    let now = b.now();
+    let s = b.status(&["Z".to_string()], now).unwrap().remove(0);
+    assert_eq!((s.state, s.rate), (AxisState::Tracking, Some(-700.0)));
+    assert!((s.speed + 700.0).abs() < 1e-9, "{}", s.speed);
+    assert!(s.position < -600, "{}", s.position);
+}

@@ -206,7 +206,9 @@ impl Board {
             t.lease = lease;
             return Ok(());
         }
-        let forward = (dir < 0) == negative || rate.is_zero();
+        // a stream at rest may already be closed by the backend: a new rate starts a new
+        // one once this one ends, as a reversal does
+        let forward = (!src.at_rest() && (dir < 0) == negative) || rate.is_zero();
         let step_rate = if forward { rate } else { Rate::ZERO };
         // a reversal's rate is checked now, not when the stop ends
         src.check_rate(rate)?;
@@ -329,10 +331,11 @@ impl Board {
         !lapsed.is_empty()
     }
 
-    /// A tracking motion came to rest at `end`: a reversal goes on the other way.
-    pub(super) fn track_ended(&mut self, i: usize, t: TrackState, dir: i64, end: u64) {
+    /// A tracking motion came to rest at `end`: a reversal goes on the other way, a rate
+    /// asked for as it came to rest goes on the same way.
+    pub(super) fn track_ended(&mut self, i: usize, t: TrackState, _dir: i64, end: u64) {
         let Some(rate) = t.then else { return };
-        if let Err(e) = self.start_tracking(i, dir > 0, rate, t.limits, t.lease, end) {
+        if let Err(e) = self.start_tracking(i, t.negative, rate, t.limits, t.lease, end) {
             let ax = &mut self.axes[i];
             ax.state = AxisState::Fault;
             ax.fault = Some(format!("reversing: {e}"));
