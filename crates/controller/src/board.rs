@@ -15,6 +15,8 @@ use multistep_core::int::IntProfile;
 use multistep_core::tdm::TdmConfig;
 use multistep_core::{MoveSpec, Profile};
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 mod driver;
 mod homing;
@@ -28,6 +30,10 @@ pub use preview::{PlannedAxis, PreviewPlan};
 /// edge before the move starts (about 40 ns each), so this bounds the time a move takes
 /// to start (about 4 s at most, outside the board lock).
 pub const MAX_TIMED_STEPS: u64 = 100_000_000;
+
+/// Axes an e-stop halted whose records are still to be written ([`Board::record_halted`]).
+#[must_use]
+pub struct Halted(Vec<usize>);
 
 /// A group move planned and waiting for its TDM timing and start.
 pub struct PendingGroup {
@@ -133,6 +139,9 @@ pub struct Board {
     pins: Box<dyn BoardBackend>,
     /// The next group start arms it for the SYNC line instead (board/sync.rs).
     arming: bool,
+    /// The tick of a halt asked for and not yet applied (`u64::MAX`: none): time does not
+    /// advance past it meanwhile (see [`Board::set_halt_tick`]).
+    halt_tick: Arc<AtomicU64>,
 }
 
 /// The stored settings of an axis, brought into range; `None` (use the board config) if
@@ -251,12 +260,20 @@ impl Board {
             warnings,
             pins,
             arming: false,
+            halt_tick: Arc::new(AtomicU64::new(u64::MAX)),
         })
     }
 
     /// Limits the work of one `advance` (steps plus sensor events): past it the board's
     /// clock falls behind the wall clock instead of holding every command up. `None`
     /// (the default, for virtual time) advances all the way.
+    /// Shares the tick of a pending halt with whoever asks for halts without the board: an
+    /// advance under way when a halt is asked for stops there, so the halt applies at the
+    /// tick it was asked at.
+    pub fn set_halt_tick(&mut self, tick: Arc<AtomicU64>) {
+        self.halt_tick = tick;
+    }
+
     pub fn set_work_budget(&mut self, budget: Option<u64>) {
         self.pins.set_work_budget(budget);
     }
@@ -345,7 +362,7 @@ impl Board {
     /// With a work budget (see [`Board::set_work_budget`]) the backend may stop short of
     /// `now`; the board's clock then falls behind.
     pub fn advance(&mut self, now: u64) {
-        let now = now.max(self.now);
+        let now = now.min(self.halt_tick.load(Ordering::SeqCst)).max(self.now);
         self.pins.begin_advance();
         loop {
             // A jog lease lapsing first: run up to it, then stop that axis there.
@@ -1008,17 +1025,38 @@ impl Board {
 
     /// [`Board::estop`] at the board's present tick.
     fn estop_now(&mut self) {
+        let halted = self.estop_halt();
+        self.record_halted(halted);
+    }
+
+    /// The first half of [`Board::estop`]: the pins halt and the board refuses motion.
+    /// The halted axes' records are written by [`Board::record_halted`] (disk writes: a
+    /// service answers the e-stop before them).
+    pub fn estop_latch(&mut self, now: u64) -> Halted {
+        self.advance(now);
+        self.estop_halt()
+    }
+
+    fn estop_halt(&mut self) -> Halted {
         self.estopped = true;
         self.pins.estop(self.now);
-        for i in 0..self.axes.len() {
-            let ax = &mut self.axes[i];
+        let mut halted = Vec::new();
+        for (i, ax) in self.axes.iter_mut().enumerate() {
             if ax.motion.take().is_some() {
                 ax.state = AxisState::Fault;
                 ax.fault = Some("emergency stop".into());
                 ax.trusted = false;
                 ax.move_end = Some(self.now);
-                self.persist(i);
+                halted.push(i);
             }
+        }
+        Halted(halted)
+    }
+
+    /// Writes down the axes an e-stop halted (untrusted, no longer moving).
+    pub fn record_halted(&mut self, halted: Halted) {
+        for i in halted.0 {
+            self.persist(i);
         }
     }
 

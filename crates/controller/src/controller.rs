@@ -4,14 +4,14 @@
 
 use crate::axis::AxisStatus;
 use crate::backend::{BoardBackend, SimBackend};
-use crate::board::{Board, PlannedAxis};
+use crate::board::{Board, Halted, PlannedAxis};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
 use crate::store::Store;
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -62,10 +62,13 @@ enum HaltKind {
 /// Halts asked for and not yet applied. Asking takes no board lock: whoever holds the
 /// board next (a command, the ticker, the asker itself) applies them before anything else,
 /// at the tick they were asked at, so an e-stop never queues behind other work.
-#[derive(Default)]
 struct Halts {
     /// Something is queued: checked on every board lock without taking `queue`.
     pending: AtomicBool,
+    /// E-stopped axes wait to be written down.
+    unrecorded: AtomicBool,
+    /// The earliest tick of the halts queued (`u64::MAX`: none), shared with the board.
+    tick: Arc<AtomicU64>,
     queue: Mutex<HaltQueue>,
     applied: Condvar,
 }
@@ -76,6 +79,19 @@ struct HaltQueue {
     asked: Vec<(u64, HaltKind, u64)>,
     /// Outcomes by ticket, until their askers take them.
     done: HashMap<u64, Result<(), CtlError>>,
+    unrecorded: Vec<Halted>,
+}
+
+impl Default for Halts {
+    fn default() -> Self {
+        Halts {
+            pending: AtomicBool::new(false),
+            unrecorded: AtomicBool::new(false),
+            tick: Arc::new(AtomicU64::new(u64::MAX)),
+            queue: Mutex::default(),
+            applied: Condvar::new(),
+        }
+    }
 }
 
 impl Halts {
@@ -89,6 +105,7 @@ impl Halts {
         let ticket = q.next_ticket;
         q.next_ticket += 1;
         q.asked.push((ticket, kind, at));
+        self.tick.fetch_min(at, Ordering::SeqCst);
         self.pending.store(true, Ordering::SeqCst);
         ticket
     }
@@ -98,20 +115,41 @@ impl Halts {
         if !self.pending.swap(false, Ordering::SeqCst) {
             return;
         }
-        let asked = std::mem::take(&mut self.queue().asked);
+        let asked = {
+            let mut q = self.queue();
+            self.tick.store(u64::MAX, Ordering::SeqCst);
+            std::mem::take(&mut q.asked)
+        };
         let mut done = Vec::with_capacity(asked.len());
+        let mut halted = Vec::new();
         for (ticket, kind, at) in asked {
             let r = match kind {
                 HaltKind::EStop => {
-                    b.estop(at);
+                    halted.push(b.estop_latch(at));
                     Ok(())
                 }
                 HaltKind::Stop(axis) => b.stop(axis.as_deref(), at),
             };
             done.push((ticket, r));
         }
-        self.queue().done.extend(done);
+        let mut q = self.queue();
+        q.done.extend(done);
+        if !halted.is_empty() {
+            q.unrecorded.extend(halted);
+            self.unrecorded.store(true, Ordering::SeqCst);
+        }
         self.applied.notify_all();
+    }
+
+    /// Writes down the axes e-stops halted: disk writes, left to the next holder of the
+    /// board (the ticker's within a millisecond) so that no asker waits for them.
+    fn record(&self, b: &mut Board) {
+        if self.unrecorded.swap(false, Ordering::SeqCst) {
+            let halted = std::mem::take(&mut self.queue().unrecorded);
+            for h in halted {
+                b.record_halted(h);
+            }
+        }
     }
 }
 
@@ -126,6 +164,7 @@ impl Shared {
     fn lock(&self) -> MutexGuard<'_, Board> {
         let mut b = lock(&self.board);
         self.halts.apply(&mut b);
+        self.halts.record(&mut b);
         b
     }
 
@@ -223,9 +262,11 @@ impl Controller {
             ticks_per_s: board.clock_hz() * time_scale,
         };
         let clock_hz = board.clock_hz();
+        let halts = Halts::default();
+        board.set_halt_tick(halts.tick.clone());
         let shared = Arc::new(Shared {
             board: Mutex::new(board),
-            halts: Halts::default(),
+            halts,
         });
         let quit = Arc::new(AtomicBool::new(false));
         let ticker = {
