@@ -338,7 +338,7 @@ impl Board {
         if let Err(e) = self.start_tracking(i, t.negative, rate, t.limits, t.lease, end) {
             let ax = &mut self.axes[i];
             ax.state = AxisState::Fault;
-            ax.fault = Some(format!("reversing: {e}"));
+            ax.fault = Some(format!("tracking on after the stop: {e}"));
         }
     }
 
