@@ -1359,3 +1359,216 @@ fn a_damaged_reply_to_start_runs_the_move_once() {
         "the reply was damaged"
     );
 }
+
+/// Has board-sim flip one bit of byte `byte` of the next `times` bulk writes to X's
+/// stream buffer on their way to the board (`corrupt-rx BYTE ADDR TIMES`).
+fn corrupt_bulk_to_x(r: &mut Rig, byte: usize, times: u32) {
+    let addr = Reg::Axis(0, AxisReg::StreamData).addr();
+    r.board
+        .as_mut()
+        .unwrap()
+        .send(&format!("corrupt-rx {byte} {addr:#x} {times}"));
+}
+
+/// A streamed move whose first bulk write (before the start) arrives damaged — its
+/// length, or a byte of its code — is sent again and runs; damaged every time it is
+/// sent, the move is refused. Either way nothing stays armed: the computed move after it
+/// runs to its target.
+#[test]
+fn a_damaged_bulk_write_before_the_start_leaves_nothing_armed() {
+    let mut r = Rig::on_board_logged(Pins::Hil, &fast_config(), "ulx3s-25f", 3_000_000, true);
+    let mut at = 0;
+    for (byte, times) in [(5, 1), (30, 1), (30, 3)] {
+        corrupt_bulk_to_x(&mut r, byte, times);
+        let said = r
+            .client
+            .request("move X 1500 profile=sine accel=0.01 cruise=0.01 decel=0.01");
+        let x = r.wait_reachable("X");
+        if times == 1 {
+            assert!(said.is_ok(), "byte {byte}: {said:?}, {x:?}");
+            at += 1500;
+        } else {
+            assert!(said.is_err(), "byte {byte} every time: {said:?}, {x:?}");
+        }
+        assert_eq!((x.position, x.state), (at, AxisState::Idle), "byte {byte}");
+        r.req("move X 100");
+        let x = r.wait_idle("X");
+        at += 100;
+        assert_eq!(
+            (x.position, x.state, x.fault.as_deref()),
+            (at, AxisState::Idle, None),
+            "byte {byte} ×{times}: the computed move after it"
+        );
+    }
+    assert!(
+        !log_lines(&r, "sent again").is_empty(),
+        "a frame was damaged"
+    );
+    assert_eq!(r.check_counters()[0], at, "the board's Position register");
+}
+
+/// Starts a 6500-step sine move of X by `dir` from `at` and waits until it is under way,
+/// past what the buffer held at its start.
+fn streamed_move_under_way(r: &mut Rig, at: i64, dir: i64) {
+    r.req(&format!(
+        "move X {} profile=sine accel=0.1 cruise=0.2 decel=0.1",
+        dir * 6500
+    ));
+    let t0 = Instant::now();
+    while (r.status("X").position - at).abs() < 1200 {
+        assert!(t0.elapsed() < Duration::from_secs(60), "X never moved");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// A bulk write damaged mid-move is refused by the board and sent again: the move ends at
+/// its target, every STEP rise plan's. Damaged every time it is sent, what the board holds
+/// of the code is unknown: the axis is stopped once the link answers, its count exact,
+/// and says `link_fault` (not that the stream starved).
+#[test]
+fn a_damaged_bulk_write_mid_move_is_sent_again_or_the_move_stops_exact() {
+    let mut r = Rig::on_board_logged(Pins::Hil, &fast_config(), "ulx3s-25f", 3_000_000, true);
+    let at = r.home("X").position;
+    let go = edges_log(&r).0.len();
+    streamed_move_under_way(&mut r, at, 1);
+    corrupt_bulk_to_x(&mut r, 40, 1);
+    let x = r.wait_idle("X");
+    let at = at + 6500;
+    assert_eq!(
+        (x.position, x.state, x.trusted, x.fault.as_deref()),
+        (at, AxisState::Idle, true, None),
+        "{x:?}"
+    );
+    let t0 = Instant::now();
+    let ex = loop {
+        let (gos, rises) = edges_log(&r);
+        let ex: Vec<u64> = rises
+            .iter()
+            .filter(|&&(a, t)| a == 0 && gos.len() > go && t > gos[go])
+            .map(|&(_, t)| t - gos[go] - 1)
+            .collect();
+        if ex.len() >= 6500 || t0.elapsed() > Duration::from_secs(20) {
+            break ex;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    same_edges("X", &ex, &plan_edges("sine", 6500, (0.1, 0.2, 0.1)));
+    assert!(
+        !log_lines(&r, "sent again").is_empty(),
+        "a frame was damaged"
+    );
+
+    // its length damaged: the board waits for bytes that never come and drops the frame
+    // unanswered, or finds its CRC bad early; sent again either way, but perhaps only after
+    // the reply timeout, so the stream may starve: then the reason is the link's
+    let commanded =
+        |r: &mut Rig| r.board.as_mut().unwrap().state()["axes"][0]["commanded"].as_i64();
+    let c0 = commanded(&mut r).unwrap();
+    streamed_move_under_way(&mut r, at, -1);
+    corrupt_bulk_to_x(&mut r, 5, 1);
+    let x = r.wait_idle("X");
+    let why = x.fault.clone().unwrap_or_default();
+    assert!(
+        x.position == at - 6500 && x.state == AxisState::Idle
+            || x.state == AxisState::Fault && why.starts_with("link_fault:"),
+        "{x:?}"
+    );
+    assert!(x.trusted, "{x:?}");
+    assert_eq!(
+        commanded(&mut r),
+        Some(c0 + x.position - at),
+        "the motor's steps"
+    );
+    let at = x.position;
+
+    streamed_move_under_way(&mut r, at, -1);
+    corrupt_bulk_to_x(&mut r, 40, 3);
+    let t0 = Instant::now();
+    let x = loop {
+        let x = r.status("X");
+        if x.state != AxisState::Moving && !x.fault.as_deref().unwrap_or("").contains("down") {
+            break x;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "{x:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let why = x.fault.clone().unwrap_or_default();
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    assert!(why.starts_with("link_fault:"), "{x:?}");
+    assert!(x.position > at - 6500 && x.position < at, "{x:?}");
+    assert!(x.trusted, "{x:?}");
+    // the next streamed move runs from there
+    r.req("move X -500 profile=sine accel=0.01 decel=0.01");
+    let y = r.wait_idle("X");
+    assert_eq!(
+        (y.position, y.state, y.fault.as_deref()),
+        (x.position - 500, AxisState::Idle, None)
+    );
+    assert_eq!(
+        r.check_counters()[0],
+        y.position,
+        "the board's Position register"
+    );
+}
+
+/// The rig's `--edges` log so far: the go cycles, and every STEP rise as (axis, cycle).
+fn edges_log(r: &Rig) -> (Vec<u64>, Vec<(usize, u64)>) {
+    let text = std::fs::read_to_string(r.dir.path().join("edges.log")).unwrap_or_default();
+    let (mut gos, mut rises) = (Vec::new(), Vec::new());
+    // a line being written is not complete
+    let complete = text.rfind('\n').map_or("", |i| &text[..i]);
+    for line in complete.lines() {
+        if let Some(g) = line.strip_prefix("# go ") {
+            gos.push(g.parse().unwrap());
+        } else if let Some((a, t)) = line.split_once(' ') {
+            rises.push((a.parse().unwrap(), t.parse().unwrap()));
+        }
+    }
+    (gos, rises)
+}
+
+/// A board busy without stepping — an axis armed for a stream with nothing in its buffer,
+/// started: its group waits for periods that never come — answers the link within a
+/// millisecond or two of simulated time, as an idle one does (board-sim hears the
+/// host every 100 µs of simulated time however far the board runs between events).
+#[test]
+fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
+    use multistep_hdl::link::BoardReg;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board.toml");
+    std::fs::write(&path, config()).unwrap();
+    let mut b = BoardSim::start_board(
+        "ulx3s-25f",
+        3_000_000,
+        2,
+        &path,
+        &dir.path().join("edges.log"),
+    );
+    let port = serialport::new(&b.pty, b.baud)
+        .timeout(Duration::from_secs(10))
+        .open()
+        .expect("the pty opens");
+    let mut l = HostLink::new(port);
+    l.write(Reg::Axis(0, AxisReg::StreamSteps), 1).unwrap();
+    l.write(Reg::Board(BoardReg::Start), 1).unwrap();
+    let busy = |l: &mut HostLink<_>| {
+        l.read(Reg::Board(BoardReg::Busy)).unwrap()
+            | l.read(Reg::Board(BoardReg::Status)).unwrap() & 4
+    };
+    assert_ne!(busy(&mut l), 0, "waiting or busy");
+    let seconds = |b: &mut BoardSim| b.state()["seconds"].as_f64().unwrap();
+    let (s0, w0) = (seconds(&mut b), Instant::now());
+    for _ in 0..100 {
+        l.read(Reg::Board(BoardReg::Status)).unwrap();
+    }
+    let (sim, wall) = (seconds(&mut b) - s0, w0.elapsed());
+    eprintln!(
+        "100 reads, axis 0 busy without stepping: {:.3} ms simulated, {:.1} ms wall a read",
+        sim * 10.0,
+        wall.as_secs_f64() * 10.0
+    );
+    assert_ne!(busy(&mut l), 0, "still waiting or busy");
+    // the host's own turnaround is simulated time too: 2 ms a read at most
+    assert!(sim < 0.2, "{sim} s simulated for 100 reads");
+    l.write(Reg::Board(BoardReg::Stop), 1).unwrap();
+}

@@ -17,7 +17,7 @@ pub mod uart;
 
 pub use axis::PinLevels;
 use axis::{AxisReport, SimAxis};
-pub use fault::CorruptReply;
+pub use fault::{CorruptReply, CorruptRx};
 use multistep_hdl::boards::Board;
 use multistep_hdl::verilator::{default_cache_dir, watch, Inputs, VerilatedBoard};
 use multistep_hdl::{BoardTop, HdlError};
@@ -162,6 +162,7 @@ enum Control {
     Slip(usize, i64),
     Glitch(usize),
     Corrupt(CorruptReply),
+    CorruptRx(CorruptRx),
     PowerCycle,
     State(mpsc::Sender<SimState>),
     Quit,
@@ -181,6 +182,8 @@ pub struct BoardSim {
     thread: Option<std::thread::JoinHandle<Result<(), HilError>>>,
 }
 
+/// How often (simulated seconds) a busy board looks for host bytes and controls at least.
+const LISTEN_S: f64 = 100e-6;
 /// Cycles the reset pin is held low by `reset`.
 const RESET_CYCLES: u64 = 8;
 /// Cycles after power-on before the host is let in (the board's own power-on reset).
@@ -250,6 +253,10 @@ impl BoardSim {
     pub fn corrupt_reply(&self, c: CorruptReply) -> Result<(), HilError> {
         self.send(Control::Corrupt(c))
     }
+    /// Damages a byte of the host's next request (or of the next write to `c.addr`).
+    pub fn corrupt_rx(&self, c: CorruptRx) -> Result<(), HilError> {
+        self.send(Control::CorruptRx(c))
+    }
     pub fn state(&self) -> Result<SimState, HilError> {
         let (tx, rx) = mpsc::channel();
         self.send(Control::State(tx))?;
@@ -280,7 +287,8 @@ impl BoardSim {
     }
 
     /// Runs one control line (`estop on|off`, `reset`, `cut`, `restore`, `slip AXIS
-    /// STEPS`, `glitch AXIS`, `corrupt-reply BYTE [ADDR]`, `power-cycle`, `state`, `quit`); returns what
+    /// STEPS`, `glitch AXIS`, `corrupt-reply BYTE [ADDR]`, `corrupt-rx BYTE [ADDR [TIMES]]`,
+    /// `power-cycle`, `state`, `quit`); returns what
     /// to print (state: one JSON line) and whether to stop.
     pub fn command(&self, line: &str) -> Result<(Option<String>, bool), HilError> {
         match parse_command(line, self.board.core.axes as usize)? {
@@ -338,23 +346,44 @@ fn parse_command(line: &str, axes: usize) -> Result<Cmd, HilError> {
                 .ok()
                 .filter(|&b| b < multistep_hdl::link::REPLY_LEN)
                 .ok_or_else(|| HilError::Setting(format!("{line:?}: BYTE must be 0 to 8")))?;
-            let addr = match rest.first() {
-                None => None,
-                Some(a) => Some(
-                    u16::from_str_radix(a.trim_start_matches("0x"), 16)
-                        .map_err(|_| HilError::Setting(format!("{line:?}: ADDR is hex")))?,
-                ),
-            };
+            let addr = addr_arg(line, rest.first())?;
             Cmd::Control(Control::Corrupt(CorruptReply { byte, addr }))
+        }
+        ["corrupt-rx", byte, rest @ ..] if rest.len() <= 2 => {
+            let addr = addr_arg(line, rest.first())?;
+            let times = match rest.get(1) {
+                None => 1,
+                Some(t) => t.parse::<u32>().ok().filter(|t| (1..=100).contains(t)).ok_or_else(
+                    || HilError::Setting(format!("{line:?}: TIMES must be 1 to 100")),
+                )?,
+            };
+            let least = if addr.is_some() { 5 } else { 0 };
+            let byte = byte
+                .parse::<usize>()
+                .ok()
+                .filter(|&b| (least..8 + 255).contains(&b))
+                .ok_or_else(|| {
+                    HilError::Setting(format!("{line:?}: BYTE must be {least} to 262"))
+                })?;
+            Cmd::Control(Control::CorruptRx(CorruptRx { byte, addr, times }))
         }
         ["state"] => Cmd::State,
         ["quit"] => Cmd::Quit,
         _ => {
             return Err(HilError::Setting(format!(
-                "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, corrupt-reply BYTE [ADDR], power-cycle, state, quit)"
+                "unknown command {line:?} (estop on|off, reset, cut, restore, slip AXIS STEPS, glitch AXIS, corrupt-reply BYTE [ADDR], corrupt-rx BYTE [ADDR [TIMES]], power-cycle, state, quit)"
             )))
         }
     })
+}
+
+/// A control's optional register address (hex, `0x` optional).
+fn addr_arg(line: &str, a: Option<&&str>) -> Result<Option<u16>, HilError> {
+    a.map(|a| {
+        u16::from_str_radix(a.trim_start_matches("0x"), 16)
+            .map_err(|_| HilError::Setting(format!("{line:?}: ADDR is hex")))
+    })
+    .transpose()
 }
 
 impl Drop for BoardSim {
@@ -535,6 +564,7 @@ impl World {
                 }
             }
             Control::Corrupt(c) => self.faults.corrupt(c),
+            Control::CorruptRx(c) => self.faults.corrupt_rx(c),
             Control::PowerCycle => self.power_cycle(),
             Control::Slip(a, s) => {
                 if let Some(ax) = self.axes.get_mut(a) {
@@ -573,7 +603,7 @@ impl World {
             self.host.clear();
         } else if !self.host.is_empty() {
             self.host_bytes += self.host.len() as u64;
-            self.faults.from_host(&self.host);
+            self.faults.from_host(&mut self.host);
             self.rx_line.push(&self.host);
             self.host.clear();
         }
@@ -582,6 +612,11 @@ impl World {
     fn run(mut self, rx: mpsc::Receiver<Control>) -> Result<(), HilError> {
         let mut iter: u32 = 0;
         let step = world_step(self.clock_hz);
+        // a board busy without stepping runs up to 2^16 cycles an iteration: the host is
+        // heard at least every LISTEN cycles of simulated time too, so a request waits
+        // for at most that, not 64 such iterations (84 ms at 50 MHz)
+        let listen = ((self.clock_hz * LISTEN_S) as u64).max(1);
+        let mut heard = self.cycle();
         while !self.quit {
             let cycle = self.cycle();
             iter = iter.wrapping_add(1);
@@ -604,14 +639,15 @@ impl World {
                 }
                 continue;
             }
-            if iter.is_multiple_of(64) {
+            if iter.is_multiple_of(64) || cycle >= heard + listen {
+                heard = cycle;
                 while let Ok(c) = rx.try_recv() {
                     self.control(c);
                 }
                 self.take_host_bytes();
                 self.pace(cycle);
             }
-            self.step_once(cycle, step, u64::MAX);
+            self.step_once(cycle, step, heard + listen);
         }
         if let Some(f) = self.edges.as_mut() {
             let _ = f.flush();
@@ -704,6 +740,11 @@ impl World {
     }
 
     fn send_to_host(&mut self, b: u8) {
+        // every edge before a reply is in the log when the host reads that reply (a test
+        // that waits for idle then reads the file); flushing an empty buffer costs nothing
+        if let Some(f) = self.edges.as_mut() {
+            let _ = f.flush();
+        }
         let b = self.faults.to_host(b);
         if !self.cut {
             self.pty.write(&[b]);

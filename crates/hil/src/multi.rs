@@ -268,6 +268,10 @@ impl Multi {
     fn run(mut self, rx: mpsc::Receiver<MultiControl>) -> Result<(), HilError> {
         let steps: Vec<u64> = self.worlds.iter().map(|w| world_step(w.clock_hz)).collect();
         let mut iter: u32 = 0;
+        // as for one board (`World::run`): the hosts are heard every LISTEN_S of simulated
+        // time at least, however far a busy board runs without stepping
+        let listen = super::LISTEN_S * 1e12;
+        let mut heard = self.earliest_ps();
         while !self.quit {
             iter = iter.wrapping_add(1);
             if !self.busy() {
@@ -290,13 +294,15 @@ impl Multi {
                 self.take_host_bytes();
                 continue;
             }
-            if iter.is_multiple_of(64) {
+            let now = self.earliest_ps();
+            if iter.is_multiple_of(64) || now >= heard + listen {
+                heard = now;
                 while let Ok(c) = rx.try_recv() {
                     self.control(c);
                 }
                 self.take_host_bytes();
             }
-            self.step_earliest(&steps);
+            self.step_earliest(&steps, heard + listen);
         }
         for w in &mut self.worlds {
             if let Some(f) = w.edges.as_mut() {
@@ -306,8 +312,16 @@ impl Multi {
         Ok(())
     }
 
-    /// Runs the board whose next clock edge comes first, as far as the others allow.
-    fn step_earliest(&mut self, steps: &[u64]) {
+    /// The time of the board furthest behind (ps).
+    fn earliest_ps(&self) -> f64 {
+        (0..self.worlds.len())
+            .map(|i| self.now_ps(i))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Runs the board whose next clock edge comes first, as far as the others allow and
+    /// no further than `until` (ps).
+    fn step_earliest(&mut self, steps: &[u64], until: f64) {
         let n = self.worlds.len();
         let next = |m: &Multi, i: usize| m.clocks[i].time_ps(m.worlds[i].cycle() as f64 + 1.0);
         let k = (0..n)
@@ -331,6 +345,7 @@ impl Multi {
             }
         }
         let period = self.clocks[k].period_ps;
+        let bound = bound.min(until);
         let cycles = if bound.is_finite() {
             (((bound - t) / period).floor() as u64).max(1)
         } else {

@@ -304,6 +304,15 @@ impl FpgaBackend {
             let (Some(f), Some(l)) = (ax.feed.as_mut(), self.link.as_mut()) else {
                 continue;
             };
+            if f.lost.is_some() {
+                // what the board holds of the code is unknown: the axis stops, its count
+                // exact; read_board reports it
+                if !f.stopped {
+                    l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
+                    f.stopped = true;
+                }
+                continue;
+            }
             let done = (ax.count - f.count0).unsigned_abs();
             if let Err(e) = pump(l, f, i as u32, done) {
                 if matches!(e, LinkError::Io(_)) || e.in_doubt() {
@@ -416,6 +425,10 @@ impl FpgaBackend {
             ax.count = count;
             ax.sensor = st.hall;
             let Some(r) = ax.running.as_mut() else {
+                if st.stream_armed {
+                    // armed by a start that failed: the next start would replay nothing
+                    l.write(Reg::Axis(a, AxisReg::StreamSteps), 0)?;
+                }
                 continue;
             };
             if st.hall_flag {
@@ -500,7 +513,7 @@ impl FpgaBackend {
                 if let Some(f) = &feed {
                     stream_stats(i, f, count);
                 }
-                if st.underrun || st.stream_fault {
+                if st.underrun || st.stream_fault || feed.as_ref().is_some_and(|f| f.stopped) {
                     let why = late_reason(feed.as_ref(), st.stream_fault);
                     self.events.push_back((i, PinEvent::Late { why }));
                 }
@@ -790,6 +803,21 @@ impl FpgaBackend {
                 })
             });
         self.tell_retransmits();
+        if let (Err(e), Some(l)) = (&r, self.link.as_mut()) {
+            let busy = matches!(
+                e,
+                LinkError::Refused {
+                    status: Status::Busy,
+                    ..
+                }
+            );
+            if !e.in_doubt() && !busy && !matches!(e, LinkError::Io(_)) {
+                // refused: nothing started, so nothing stays armed
+                for (i, _) in feeds.iter() {
+                    let _ = l.write(Reg::Axis(*i as u32, AxisReg::StreamSteps), 0);
+                }
+            }
+        }
         r.map_err(|e| match e {
             LinkError::Refused {
                 status: Status::Busy,
@@ -821,6 +849,13 @@ impl FpgaBackend {
             reg: Reg::Board(BoardReg::Clear),
             data: 1 << a,
         }];
+        if self.streams {
+            // computed, whatever an earlier start that failed left armed
+            w.push(link::RegWrite {
+                reg: Reg::Axis(a, AxisReg::StreamSteps),
+                data: 0,
+            });
+        }
         w.extend(link::move_writes(&self.params, a, &m, 0).map_err(link_err)?);
         let mut ramp_steps = 0;
         if l.stop_on_sensor == Some(true) {
@@ -856,14 +891,29 @@ impl FpgaBackend {
 
 /// Why an axis's motion was late: the board's underrun flag (an edge came late, none
 /// early) or a bad code in its replay unit.
+/// Each starts with its fault word (docs/PROTOCOL.md).
 fn late_reason(feed: Option<&Feed>, bad_code: bool) -> String {
     match (feed, bad_code) {
-        (_, true) => "the board's replay unit met a bad code and stopped the stream".into(),
-        (Some(_), _) => "stream starved: the link fell behind the streamed move, so some \
+        (_, true) => {
+            "bad_code: the board's replay unit met a bad code and stopped the stream".into()
+        }
+        (
+            Some(Feed {
+                lost: Some(why), ..
+            }),
+            _,
+        ) => format!(
+            "link_fault: {why}; the axis was stopped short of its target (the count is exact)"
+        ),
+        (Some(f), _) if f.resent > 0 => "link_fault: a bulk write of the stream was damaged \
+             or lost on the link and sent again, so some edges came late (none early; the \
+             count is exact)"
+            .into(),
+        (Some(_), _) => "stream_starved: the link fell behind the streamed move, so some \
                          edges came late (none early; the count is exact)"
             .into(),
-        (None, _) => "the board's calculator fell behind: some edges came late (none early; \
-                      the count is exact)"
+        (None, _) => "calculator_late: the board's calculator fell behind, so some edges came \
+                      late (none early; the count is exact)"
             .into(),
     }
 }
@@ -922,10 +972,7 @@ fn pump<T: Read + Write>(
             refreshed = true;
             continue;
         };
-        let data = f.take(n);
-        f.free = l.bulk(Reg::Axis(axis, AxisReg::StreamData), &data)?;
-        f.sent += n as u64;
-        f.frames += 1;
+        stream::send_frame(l, f, axis, n)?;
     }
 }
 
@@ -1572,15 +1619,19 @@ mod model {
 
     impl Read for ModelPort {
         fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
-            let mut m = self.0.lock().unwrap();
-            if m.out.is_empty() {
-                return Err(std::io::ErrorKind::TimedOut.into());
-            }
-            let n = m.out.len().min(b.len());
-            b[..n].copy_from_slice(&m.out[..n]);
-            m.out.drain(..n);
-            Ok(n)
+            read_out(&mut self.0.lock().unwrap().out, b)
         }
+    }
+
+    /// A fake board's reply bytes read by the host: a timeout while there are none.
+    pub fn read_out(out: &mut Vec<u8>, b: &mut [u8]) -> std::io::Result<usize> {
+        if out.is_empty() {
+            return Err(std::io::ErrorKind::TimedOut.into());
+        }
+        let n = out.len().min(b.len());
+        b[..n].copy_from_slice(&out[..n]);
+        out.drain(..n);
+        Ok(n)
     }
 
     /// A backend on the model, and the model.

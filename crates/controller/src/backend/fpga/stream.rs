@@ -5,7 +5,9 @@
 use crate::motion::{stop_profile, EdgeSource, StepSource, Stopped};
 use crate::tracking::TrackSource;
 use multistep_core::stream::StreamEncoder;
+use multistep_hdl::link::{AxisReg, HostLink, LinkError, Reg, Status};
 use std::collections::VecDeque;
+use std::io::{Read, Write};
 
 /// Least bytes worth a bulk frame while more code is to come (a frame costs 8 bytes
 /// more than its data and one reply).
@@ -55,6 +57,14 @@ pub struct Feed {
     pub dir: i64,
     /// The steps of a fixed feed's bytes (chain records), which are not coded here.
     fixed_steps: u64,
+    /// Bulk writes the link had to send again (damaged or lost on the way, or their
+    /// reply): the board got them once, late.
+    pub resent: u64,
+    /// A bulk write whose outcome the link left unknown: what the board holds of the code
+    /// is unknown, so the stream cannot go on; the axis is stopped (its count stays exact).
+    pub lost: Option<String>,
+    /// The stop for a lost stream was written.
+    pub stopped: bool,
 }
 
 impl Feed {
@@ -79,6 +89,9 @@ impl Feed {
             count0: 0,
             dir: 1,
             fixed_steps: 0,
+            resent: 0,
+            lost: None,
+            stopped: false,
         }
     }
 
@@ -174,6 +187,13 @@ impl Feed {
         self.pending.drain(..n).collect()
     }
 
+    /// Puts bytes taken but not delivered back in front of the code still to send.
+    fn untake(&mut self, bytes: Vec<u8>) {
+        for b in bytes.into_iter().rev() {
+            self.pending.push_front(b);
+        }
+    }
+
     /// Ends the stream with a stop at `amax` from the speed at the last edge coded: the
     /// rest of the source is dropped and `motion::stop_profile`'s edges follow that edge,
     /// as a Hall stop's ramp follows the edge on the simulated backend. Returns the
@@ -214,6 +234,50 @@ impl Feed {
         }
         let lead = (self.speed() * TRACK_LEAD_S).ceil().min(1e9) as u64;
         done.saturating_add(lead.max(TRACK_LEAD_MIN))
+    }
+}
+
+/// Sends the next `n` bytes of `f` to `axis` in one bulk write. The link sends a damaged
+/// or unanswered frame again (the board executes it once); a refusal leaves the bytes to
+/// be sent again (a full buffer: after its free count is read again); a write whose
+/// outcome stays unknown marks the stream lost ([`Feed::lost`]), since the board's code
+/// may now lack those bytes or hold them.
+pub fn send_frame<T: Read + Write>(
+    l: &mut HostLink<T>,
+    f: &mut Feed,
+    axis: u32,
+    n: usize,
+) -> Result<(), LinkError> {
+    let data = f.take(n);
+    let again = l.retransmitted;
+    match l.bulk(Reg::Axis(axis, AxisReg::StreamData), &data) {
+        Ok(free) => {
+            f.free = free;
+            f.sent += n as u64;
+            f.frames += 1;
+            f.resent += u64::from(l.retransmitted != again);
+            Ok(())
+        }
+        Err(e) if e.in_doubt() || matches!(e, LinkError::Io(_)) => {
+            f.lost = Some(format!(
+                "a bulk write of {n} code bytes after {} was lost on the link ({e})",
+                f.sent
+            ));
+            Err(e)
+        }
+        Err(e) => {
+            if matches!(
+                e,
+                LinkError::Refused {
+                    status: Status::StreamFull,
+                    ..
+                }
+            ) {
+                f.free = 0;
+            }
+            f.untake(data);
+            Err(e)
+        }
     }
 }
 
@@ -370,5 +434,139 @@ mod tests {
         f.fill(100_000, 5000).unwrap();
         assert_eq!(f.lead_limit(1000), 2000);
         assert!(!f.ended);
+    }
+
+    /// A board's stream buffer behind the link's framing: bulk writes append to
+    /// `committed`; a chosen copy of a chosen frame arrives with a byte damaged (refused
+    /// as a bad CRC), one frame may be refused as not fitting; a retransmission of the
+    /// frame executed last is answered from its kept reply (as `ms_link.v`).
+    #[derive(Default)]
+    struct Board {
+        committed: Vec<u8>,
+        out: Vec<u8>,
+        /// Copies of bulk frames received so far.
+        copies: usize,
+        /// (copy, byte) to damage.
+        damage: Vec<(usize, usize)>,
+        /// Refuse this copy as not fitting.
+        full: Option<usize>,
+        kept: Option<(Vec<u8>, Reply)>,
+    }
+
+    use multistep_hdl::link::{BulkWrite, Reply};
+
+    impl Write for Board {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            let mut f = b.to_vec();
+            let copy = self.copies;
+            self.copies += 1;
+            for &(c, i) in &self.damage {
+                if c == copy {
+                    f[i] ^= 0x10;
+                }
+            }
+            let reply = match (BulkWrite::decode(&f), &self.kept) {
+                (Err(_), _) => Reply {
+                    seq: f[1],
+                    status: Status::BadCrc,
+                    data: 0,
+                },
+                (Ok(_), Some((k, r))) if *k == f => *r,
+                (Ok(w), _) => {
+                    let status = if self.full == Some(copy) {
+                        Status::StreamFull
+                    } else {
+                        self.committed.extend(&w.data);
+                        Status::Ok
+                    };
+                    let r = Reply {
+                        seq: w.seq,
+                        status,
+                        data: 512,
+                    };
+                    self.kept = Some((f, r));
+                    r
+                }
+            };
+            self.out.extend(reply.encode());
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Read for Board {
+        fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+            super::super::model::read_out(&mut self.out, b)
+        }
+    }
+
+    /// A 1500-step parabolic move's feed, and its edges.
+    fn feed() -> (Feed, Vec<u64>) {
+        let p = profile(1500);
+        let want = multistep_core::EdgeGenerator::new(p.clone(), 50e6)
+            .unwrap()
+            .collect();
+        let f = Feed::new(Box::new(EdgeSource::new(p, 50e6, 0).unwrap()), 0, 24, false);
+        (f, want)
+    }
+
+    /// Sends the whole feed in frames of up to 100 bytes; the first error ends it.
+    fn send_all(l: &mut HostLink<Board>, f: &mut Feed) -> Result<(), LinkError> {
+        loop {
+            f.fill(100, u64::MAX).unwrap();
+            let Some(n) = f.next_frame(100) else {
+                return Ok(());
+            };
+            send_frame(l, f, 0, n)?;
+        }
+    }
+
+    #[test]
+    fn a_damaged_bulk_write_is_sent_again_and_the_code_arrives_whole() {
+        for byte in [0, 5, 40, 107] {
+            let (mut f, want) = feed();
+            let mut l = HostLink::new(Board {
+                damage: vec![(2, byte)],
+                ..Board::default()
+            });
+            send_all(&mut l, &mut f).unwrap();
+            assert_eq!(decode(&l.into_inner().committed), want, "byte {byte}");
+            assert_eq!((f.resent, f.lost.is_none()), (1, true), "byte {byte}");
+        }
+    }
+
+    #[test]
+    fn a_refused_bulk_write_keeps_its_bytes_for_the_next_try() {
+        let (mut f, want) = feed();
+        let mut l = HostLink::new(Board {
+            full: Some(1),
+            ..Board::default()
+        });
+        let e = send_all(&mut l, &mut f).unwrap_err();
+        assert!(!e.in_doubt(), "{e}");
+        assert_eq!(f.free, 0, "the free count is read again");
+        f.free = 512;
+        send_all(&mut l, &mut f).unwrap();
+        assert_eq!(decode(&l.into_inner().committed), want);
+    }
+
+    #[test]
+    fn a_bulk_write_whose_every_copy_is_damaged_loses_the_stream() {
+        let (mut f, _) = feed();
+        let mut l = HostLink::new(Board {
+            damage: (2..5).map(|c| (c, 40)).collect(),
+            ..Board::default()
+        });
+        let e = send_all(&mut l, &mut f).unwrap_err();
+        assert!(e.in_doubt(), "{e}");
+        let why = f.lost.clone().unwrap_or_default();
+        assert!(why.contains("after 200 was lost"), "{why}");
+        assert_eq!(
+            l.into_inner().committed.len(),
+            200,
+            "two frames of 100 bytes"
+        );
     }
 }
