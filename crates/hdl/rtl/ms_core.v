@@ -81,8 +81,12 @@ module ms_core #(
     /* verilator lint_off UNUSED */  // bits of staging words beyond the field widths
     reg [17*32-1:0] stg;    // staging words 0..16
     /* verilator lint_on UNUSED */
+    // one write enable per word: a run-time part-select would synthesize as two shifters
+    // the width of the whole staging register
+    integer sw;
     always @(posedge clk) begin
-        if (wr_en && !is_cmd && word <= 5'd16) stg[32*word +: 32] <= wr_data;
+        for (sw = 0; sw <= 16; sw = sw + 1)
+            if (wr_en && !is_cmd && word == sw[4:0]) stg[32*sw +: 32] <= wr_data;
     end
     wire [WP-1:0] stg_word = {stg[16*32 +: 2], stg[15*32 +: WN], stg[14*32 +: WT],
                               stg[11*32 +: WK], stg[8*32 +: WK+1], stg[4*32 +: WY],
@@ -90,6 +94,10 @@ module ms_core #(
     wire commit   = wr_en && is_cmd && (word == 5'd0) && ax_ok;
     wire ctl_wr   = wr_en && is_cmd && (word == 5'd1) && ax_ok;
     wire start_wr = wr_en && is_cmd && (word == 5'd2);
+    // The host writes an axis's pieces only while it is idle, or slots it is not in (a
+    // divert's): a read never meets a write to its own address, so synthesis needs no
+    // bypass for that case (on iCE40 a 188-bit register and its multiplexer).
+    (* no_rw_check *)
     reg [WP-1:0] pmem [0:(1<<(LK+LS))-1];
     always @(posedge clk) begin
         if (commit) pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
