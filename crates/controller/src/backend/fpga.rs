@@ -326,7 +326,10 @@ impl FpgaBackend {
                 );
                 l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
                 ax.feed = None;
-                let why = format!("the board could not be fed its steps ({e}), so it was halted");
+                let why = format!(
+                    "bad_code: the host cannot code the axis's next step for the board's \
+                     replay unit ({e}); the axis was halted there (the count is exact)"
+                );
                 self.events.push_back((i, PinEvent::Late { why }));
             }
         }
