@@ -112,7 +112,8 @@ impl Halts {
 
     /// Applies every queued halt to the board, in the order asked.
     fn apply(&self, b: &mut Board) {
-        if !self.pending.swap(false, Ordering::SeqCst) {
+        // A load first: the common case writes nothing shared.
+        if !self.pending.load(Ordering::SeqCst) || !self.pending.swap(false, Ordering::SeqCst) {
             return;
         }
         let asked = {
@@ -144,7 +145,7 @@ impl Halts {
     /// Writes down the axes e-stops halted: disk writes, left to the next holder of the
     /// board (the ticker's within a millisecond) so that no asker waits for them.
     fn record(&self, b: &mut Board) {
-        if self.unrecorded.swap(false, Ordering::SeqCst) {
+        if self.unrecorded.load(Ordering::SeqCst) && self.unrecorded.swap(false, Ordering::SeqCst) {
             let halted = std::mem::take(&mut self.queue().unrecorded);
             for h in halted {
                 b.record_halted(h);
