@@ -4,7 +4,8 @@
 // the last pulse for half of its own interval, at least one tick). An underrun (period
 // over, FIFO empty, more steps to come) is flagged; the period is loaded as it arrives, so
 // that edge and the later ones are late by the delay, and STEP stays high until then, then
-// for what is left of half the interval from its rise to the next edge.
+// for what is left of half the interval from its rise to the next edge. The wait is
+// counted up to 2^(WP-1) ticks (0.168 s at 50 MHz, WP = 24); a longer one as that long.
 module ms_pulse #(
     parameter WP = 24
 ) (
@@ -22,6 +23,7 @@ module ms_pulse #(
     output reg           underrun
 );
     // ticks left in the current period; while waiting for a period, minus the ticks waited
+    // (at most 2^(WP-1))
     reg [WP-1:0] cnt;
     reg [WP-1:0] hcnt;   // ticks left of STEP high
     reg [WP-1:0] half;   // half of the interval in progress: the last pulse's high time
@@ -90,7 +92,11 @@ module ms_pulse #(
                     hcnt <= rest[WP:1];
                 end
             end else if (waiting) begin
-                cnt <= cnt - 1'b1;
+                // the count saturates at -2^(WP-1) rather than wrap: a longer wait is taken
+                // as 2^(WP-1) ticks for the held pulse's fall (before the next edge, later
+                // than the model's when ain > 2^(WP-1) + 1) and the half interval after it
+                // (the last pulse's width); the edges stay exact
+                if (cnt != {1'b1, {(WP-1){1'b0}}}) cnt <= cnt - 1'b1;
                 if (!more) begin
                     waiting <= 1'b0;   // cannot happen: `more` falls with the last push
                     running <= 1'b0;
