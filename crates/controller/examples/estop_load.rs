@@ -104,7 +104,11 @@ fn summary(name: &str, unit: &str, v: &mut [f64]) {
 /// Starts the trial's motion: U and V in a group (back and forth), Z tracking at RATE,
 /// and waits until Z cruises.
 fn start_motion(c: &mut Client, ctl: &Controller, k: usize) {
-    let d = if k.is_multiple_of(2) { 2_000_000 } else { -2_000_000 };
+    let d = if k.is_multiple_of(2) {
+        2_000_000
+    } else {
+        -2_000_000
+    };
     assert_eq!(c.ask(&format!("group move U={d} V={d}")), "ok");
     assert_eq!(c.ask(&format!("track Z {RATE}")), "ok");
     while z(ctl).speed < RATE * (1.0 - 1e-9) {
