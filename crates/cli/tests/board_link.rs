@@ -5,6 +5,9 @@
 //! Two boards on one SYNC line (`board-sim --boards 2`), one `serve` each: `ctl group`
 //! across both starts on one fall of the line.
 
+mod common;
+
+use common::EchoedStderr;
 use multistep_controller::client::{Client, Endpoint};
 use multistep_controller::{AxisState, AxisStatus};
 use multistep_hdl::link::{AxisReg, HostLink, Reg};
@@ -32,6 +35,7 @@ struct BoardSim {
     /// longer than a real board's 0.5 s to answer).
     link: String,
     baud: u32,
+    stderr: EchoedStderr,
 }
 
 impl BoardSim {
@@ -50,9 +54,10 @@ impl BoardSim {
             .arg(cache)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::piped())
             .spawn()
             .expect("spawn multistep board-sim");
+        let stderr = EchoedStderr::start(child.stderr.take().unwrap());
         let stdin = child.stdin.take().unwrap();
         let mut stdout = BufReader::new(child.stdout.take().unwrap());
         let mut first = String::new();
@@ -69,6 +74,7 @@ impl BoardSim {
             link: format!("serial:{pty}@{baud},timeout=3"),
             pty,
             baud,
+            stderr,
         }
     }
 
@@ -90,12 +96,15 @@ impl Drop for BoardSim {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        self.stderr.flush_if_failing();
     }
 }
 
 struct Server {
     child: Child,
     addr: String,
+    /// Its stderr, shown under a failing test (None: into a log file).
+    stderr: Option<EchoedStderr>,
 }
 
 impl Server {
@@ -111,7 +120,7 @@ impl Server {
             .arg("--board-config")
             .arg(config)
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit());
+            .stderr(Stdio::piped());
         if let Some(log) = log {
             cmd.env("MULTISTEP_LINK_STATS", "1")
                 .stderr(std::fs::File::create(log).unwrap());
@@ -120,13 +129,18 @@ impl Server {
             cmd.args(["--board-link", l]);
         }
         let mut child = cmd.spawn().expect("spawn multistep serve");
+        let stderr = child.stderr.take().map(EchoedStderr::start);
         let mut first = String::new();
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut first)
             .unwrap();
         let addr = first.trim().rsplit("tcp://").next().unwrap().to_string();
         assert!(addr.contains(':'), "serve said: {first}");
-        Server { child, addr }
+        Server {
+            child,
+            addr,
+            stderr,
+        }
     }
 
     fn kill9(&mut self) {
@@ -139,6 +153,9 @@ impl Drop for Server {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        if let Some(e) = &self.stderr {
+            e.flush_if_failing();
+        }
     }
 }
 
@@ -1159,9 +1176,10 @@ fn a_group_across_two_boards_starts_on_one_sync_fall() {
         .arg(&cache)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    let _stderr = EchoedStderr::start(sim.stderr.take().unwrap());
     let mut stdin = sim.stdin.take().unwrap();
     let mut out = BufReader::new(sim.stdout.take().unwrap());
     let mut sim = Killed(sim);

@@ -1,6 +1,9 @@
 //! The controller as a real process: `multistep serve` spawned, driven over TCP, a serial
 //! pseudo-terminal and `multistep ctl`, killed with SIGKILL and restarted.
 
+mod common;
+
+use common::EchoedStderr;
 use multistep_controller::client::{Client, ClientError, Endpoint};
 use multistep_controller::{AxisState, AxisStatus};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -13,6 +16,8 @@ const BIN: &str = env!("CARGO_BIN_EXE_multistep");
 struct Server {
     child: Child,
     addr: String,
+    /// Its stderr when piped: shown under a failing test only.
+    stderr: Option<EchoedStderr>,
 }
 
 impl Server {
@@ -23,11 +28,12 @@ impl Server {
             time_scale,
             extra,
             "127.0.0.1:0",
-            Stdio::inherit(),
+            Stdio::piped(),
         )
     }
 
-    /// With the listen address and where stderr goes given.
+    /// With the listen address and where stderr goes given (piped: echoed, see
+    /// [`EchoedStderr`]).
     fn start_with(
         data: &Path,
         config: Option<&Path>,
@@ -53,6 +59,7 @@ impl Server {
             cmd.arg("--board-config").arg(c);
         }
         let mut child = cmd.spawn().expect("spawn multistep serve");
+        let stderr = child.stderr.take().map(EchoedStderr::start);
         let mut first = String::new();
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut first)
@@ -61,7 +68,11 @@ impl Server {
         // A board listening on every interface is reached here over loopback.
         let addr = addr.replace("0.0.0.0:", "127.0.0.1:");
         assert!(addr.contains(':'), "serve said: {first}");
-        Server { child, addr }
+        Server {
+            child,
+            addr,
+            stderr,
+        }
     }
 
     fn client(&self) -> Client {
@@ -78,6 +89,9 @@ impl Drop for Server {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        if let Some(e) = &self.stderr {
+            e.flush_if_failing();
+        }
     }
 }
 
@@ -824,7 +838,7 @@ fn the_line_protocol_off_loopback_needs_the_flag_and_a_token() {
         10.0,
         &["--listen-allow-remote", "--listen-token", TOKEN],
         "0.0.0.0:0",
-        Stdio::inherit(),
+        Stdio::piped(),
     );
     // Without `auth` first: one error line, closed, nothing run.
     let mut s = std::net::TcpStream::connect(&srv.addr).unwrap();
