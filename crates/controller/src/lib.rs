@@ -17,6 +17,7 @@ pub mod controller;
 pub mod error;
 pub mod hall;
 pub mod motion;
+pub mod mount;
 pub mod protocol;
 pub mod service;
 pub mod store;

@@ -1,0 +1,466 @@
+//! What a client asks of the mount: tracking, rates, slews, sync, park, homing, MoveAxis
+//! and pulses; and the tick that ends pulses and slews.
+
+use super::coords::{alt_az, wrap180, Axes, PierSide};
+use super::rates::{
+    micro_arcsec, step_rate, DriveRate, ARCSEC_PER_RA_SECOND, SI_PER_SIDEREAL_SECOND,
+};
+use super::{time, Mount, MountError, Slew, State, MAX_PULSE_MS};
+use crate::axis::AxisState;
+use crate::error::CtlError;
+use crate::protocol::{Amount, MoveOpts, RateArg, TrackOpts};
+use crate::Controller;
+use std::time::{Duration, Instant};
+
+/// How long a tracking axis may take to come to rest before a slew (board seconds are
+/// wall seconds at time scale 1; the stop from tracking rates takes milliseconds).
+const REST_DEADLINE: Duration = Duration::from_secs(30);
+
+fn invalid<T>(m: String) -> Result<T, MountError> {
+    Err(MountError::Invalid(m))
+}
+
+fn check_ra_dec(ra: f64, dec: f64) -> Result<(), MountError> {
+    if !(0.0..24.0).contains(&ra) {
+        return invalid(format!("right ascension {ra} h is outside [0, 24)"));
+    }
+    if !(-90.0..=90.0).contains(&dec) {
+        return invalid(format!("declination {dec}° is outside [−90, 90]"));
+    }
+    Ok(())
+}
+
+impl Mount {
+    fn unparked(st: &State) -> Result<(), MountError> {
+        if st.parked {
+            Err(MountError::Parked)
+        } else {
+            Ok(())
+        }
+    }
+
+    pub fn set_tracking(&self, ctl: &Controller, on: bool) -> Result<(), MountError> {
+        let mut st = self.lock();
+        if on {
+            Self::unparked(&st)?;
+        }
+        st.tracking = on;
+        self.apply(ctl, &st)
+    }
+
+    pub fn set_drive_rate(&self, ctl: &Controller, r: DriveRate) -> Result<(), MountError> {
+        let mut st = self.lock();
+        st.drive = r;
+        self.apply(ctl, &st)
+    }
+
+    /// RightAscensionRate (seconds of RA per sidereal second) and DeclinationRate (″/s):
+    /// offsets from the drive rate, each at most the sidereal rate.
+    pub fn set_rate_offset(&self, ctl: &Controller, dec: bool, v: f64) -> Result<(), MountError> {
+        let arcsec = if dec { v } else { v * ARCSEC_PER_RA_SECOND };
+        if !(v.is_finite() && arcsec.abs() <= super::rates::SIDEREAL) {
+            return invalid(format!("rate offset {v} is beyond the sidereal rate"));
+        }
+        if dec && self.cfg.dec_axis.is_none() {
+            return Err(MountError::NotNow(
+                "a coelostat has no declination axis".into(),
+            ));
+        }
+        let mut st = self.lock();
+        if dec {
+            st.dec_rate = v;
+        } else {
+            st.ra_rate = v;
+        }
+        self.apply(ctl, &st)
+    }
+
+    /// Guide rate (degrees/s) of RA (`k` 0) or Dec (1): above 0, at most sidereal.
+    pub fn set_guide_rate(&self, k: usize, deg_per_s: f64) -> Result<(), MountError> {
+        let max = super::rates::SIDEREAL / 3600.0;
+        if !(deg_per_s > 0.0 && deg_per_s <= max * (1.0 + 1e-9)) {
+            return invalid(format!("guide rate {deg_per_s}°/s is outside (0, {max}]"));
+        }
+        self.lock().guide[k] = deg_per_s;
+        Ok(())
+    }
+
+    pub fn set_site(
+        &self,
+        lat: Option<f64>,
+        lon: Option<f64>,
+        elev: Option<f64>,
+    ) -> Result<(), MountError> {
+        let mut st = self.lock();
+        for (v, lo, hi, what) in [
+            (lat, -90.0, 90.0, "latitude"),
+            (lon, -180.0, 180.0, "longitude"),
+            (elev, -500.0, 10_000.0, "elevation"),
+        ] {
+            if let Some(v) = v {
+                if !(lo..=hi).contains(&v) {
+                    return invalid(format!("site {what} {v} is outside {lo} to {hi}"));
+                }
+            }
+        }
+        st.lat = lat.unwrap_or(st.lat);
+        st.lon = lon.unwrap_or(st.lon);
+        st.elevation = elev.unwrap_or(st.elevation);
+        Ok(())
+    }
+
+    pub fn set_target(&self, ra: Option<f64>, dec: Option<f64>) -> Result<(), MountError> {
+        check_ra_dec(ra.unwrap_or(0.0), dec.unwrap_or(0.0))?;
+        let mut st = self.lock();
+        st.target = (ra.or(st.target.0), dec.or(st.target.1));
+        Ok(())
+    }
+
+    pub fn set_settle_time(&self, s: i32) -> Result<(), MountError> {
+        if s < 0 {
+            return invalid(format!("settle time {s} s is negative"));
+        }
+        self.lock().settle = s;
+        Ok(())
+    }
+
+    /// The side a slew to (`ra` hours, `dec`) would end on.
+    pub fn destination_side(&self, ra: f64, dec: f64) -> Result<PierSide, MountError> {
+        check_ra_dec(ra, dec)?;
+        let st = self.lock();
+        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
+        Ok(self.cfg.mount.side_for(ha, st.lat))
+    }
+
+    /// The axis angles for (`ra`, `dec`) now, refused beyond the limits.
+    fn aim(&self, st: &State, ra: f64, dec: f64) -> Result<Axes, MountError> {
+        check_ra_dec(ra, dec)?;
+        let g = self.cfg.mount;
+        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
+        if g == super::Geometry::Coelostat && (dec - self.cfg.coelostat_dec).abs() > 1e-6 {
+            return invalid(format!(
+                "a coelostat's declination is set by hand ({}°); {dec}° cannot be reached",
+                self.cfg.coelostat_dec
+            ));
+        }
+        let a = g.to_axes(ha, dec, g.side_for(ha, st.lat), st.lat);
+        let swing = if g == super::Geometry::German {
+            a.polar
+        } else {
+            ha
+        };
+        if swing.abs() > self.cfg.ha_limit {
+            return invalid(format!(
+                "slew refused: the polar axis would be {:.2}° from its centre, beyond ha_limit {}°",
+                swing.abs(),
+                self.cfg.ha_limit
+            ));
+        }
+        let (alt, _) = alt_az(ha, dec, st.lat);
+        if alt < self.cfg.horizon {
+            return invalid(format!(
+                "slew refused: altitude {alt:.2}° is below the horizon limit {}°",
+                self.cfg.horizon
+            ));
+        }
+        Ok(a)
+    }
+
+    /// SlewToCoordinatesAsync: needs tracking on (ASCOM ITelescopeV4).
+    pub fn slew(&self, ctl: &Controller, ra: f64, dec: f64) -> Result<(), MountError> {
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if !st.tracking {
+            return Err(MountError::NotNow(
+                "equatorial slews need Tracking = True".into(),
+            ));
+        }
+        let a = self.aim(&st, ra, dec)?;
+        st.target = (Some(ra), Some(dec));
+        let steps = self.steps_of(&st, a);
+        self.move_axes(ctl, &mut st, steps)?;
+        st.slew = Some(Slew {
+            target: Some((ra, dec)),
+            park: false,
+        });
+        Ok(())
+    }
+
+    pub fn sync(&self, ctl: &Controller, ra: f64, dec: f64) -> Result<(), MountError> {
+        check_ra_dec(ra, dec)?;
+        let s = self.axes_status(ctl)?;
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if !st.tracking {
+            return Err(MountError::NotNow("sync needs Tracking = True".into()));
+        }
+        if st.slew.is_some() {
+            return Err(MountError::NotNow("cannot sync while slewing".into()));
+        }
+        let now = self.angles(&st, &s);
+        let side = self.pointing_of(&st, &s).side;
+        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
+        let want = self.cfg.mount.to_axes(ha, dec, side, st.lat);
+        st.sync.polar += want.polar - now.polar;
+        if self.cfg.dec_axis.is_some() {
+            st.sync.dec += want.dec - now.dec;
+        }
+        st.target = (Some(ra), Some(dec));
+        Ok(())
+    }
+
+    /// Park: to the stored park position (or home), tracking off; AtPark once there.
+    pub fn park(&self, ctl: &Controller) -> Result<(), MountError> {
+        let mut st = self.lock();
+        if st.parked {
+            return Ok(());
+        }
+        st.tracking = false;
+        st.moving = [0.0; 2];
+        let stored = ctl.with_board(|b, _| b.named_positions())?;
+        let park = stored.get(&self.cfg.park_name());
+        let axes = self.cfg.axes();
+        let at = |k: usize| park.and_then(|p| p.get(axes[k]).copied()).unwrap_or(0);
+        self.move_axes(ctl, &mut st, [at(0), at(1)])?;
+        st.slew = Some(Slew {
+            target: None,
+            park: true,
+        });
+        Ok(())
+    }
+
+    pub fn unpark(&self, ctl: &Controller) -> Result<(), MountError> {
+        let mut st = self.lock();
+        match ctl.with_board(|b, _| b.forget(&self.cfg.parked_name())) {
+            Ok(()) | Err(CtlError::UnknownName { .. }) => {}
+            Err(e) => return Err(e.into()),
+        }
+        st.parked = false;
+        Ok(())
+    }
+
+    /// SetPark: the axes' counted positions now become the park position (stored).
+    pub fn set_park(&self, ctl: &Controller) -> Result<(), MountError> {
+        let _st = self.lock();
+        let axes: Vec<String> = self.cfg.axes().iter().map(|s| s.to_string()).collect();
+        ctl.with_board(|b, now| b.save_position(&self.cfg.park_name(), &axes, now))
+            .map_err(|e| match e {
+                CtlError::Busy { .. } => MountError::NotNow(format!(
+                    "the park position is set with the axes at rest (tracking off): {e}"
+                )),
+                e => e.into(),
+            })?;
+        Ok(())
+    }
+
+    /// FindHome: Hall homing of each axis; tracking off.
+    pub fn find_home(&self, ctl: &Controller) -> Result<(), MountError> {
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        st.tracking = false;
+        st.moving = [0.0; 2];
+        self.rest(ctl)?;
+        for a in self.cfg.axes() {
+            ctl.home(a)?;
+        }
+        st.slew = Some(Slew {
+            target: None,
+            park: false,
+        });
+        Ok(())
+    }
+
+    pub fn abort(&self, ctl: &Controller) -> Result<(), MountError> {
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        st.moving = [0.0; 2];
+        for a in self.cfg.axes() {
+            ctl.stop(Some(a))?;
+        }
+        // The tick resumes tracking once the axes are at rest.
+        st.slew = st.slew.map(|s| Slew { target: None, ..s });
+        Ok(())
+    }
+
+    /// Most MoveAxis rate of axis `k` (degrees/s): the axis's vmax.
+    pub fn max_axis_rate(&self, ctl: &Controller, k: usize) -> Result<f64, MountError> {
+        let axes = self.cfg.axes();
+        let Some(name) = axes.get(k) else {
+            return invalid(format!("the mount has no axis {k}"));
+        };
+        let vmax = ctl.with_board(|b, _| b.settings(name).map(|s| s.vmax))?;
+        Ok(vmax / self.steps_per_rev()[k] as f64 * 360.0)
+    }
+
+    /// MoveAxis: axis `k` at `rate` degrees/s (0 ends it; tracking then resumes).
+    pub fn move_axis(&self, ctl: &Controller, k: usize, rate: f64) -> Result<(), MountError> {
+        let max = self.max_axis_rate(ctl, k)?;
+        if rate.is_nan() || rate.abs() > max {
+            return invalid(format!("MoveAxis rate {rate}°/s is beyond ±{max}°/s"));
+        }
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if st.slew.is_some() {
+            return Err(MountError::NotNow("a slew is under way".into()));
+        }
+        st.moving[k] = rate;
+        self.apply(ctl, &st)
+    }
+
+    /// PulseGuide: direction 0 north, 1 south, 2 east, 3 west; `ms` milliseconds at the
+    /// guide rate on top of tracking.
+    pub fn pulse(&self, ctl: &Controller, dir: i64, ms: i64) -> Result<(), MountError> {
+        let (k, sign) = match dir {
+            0 => (1, 1.0),
+            1 => (1, -1.0),
+            // East: RA grows, hour angle falls.
+            2 => (0, -1.0),
+            3 => (0, 1.0),
+            _ => return invalid(format!("guide direction {dir} is not 0 to 3")),
+        };
+        if !(0..=MAX_PULSE_MS).contains(&ms) {
+            return invalid(format!("pulse of {ms} ms is outside 0 to {MAX_PULSE_MS}"));
+        }
+        if k == 1 && self.cfg.dec_axis.is_none() {
+            return invalid("a coelostat has no declination axis to guide".into());
+        }
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if st.slew.is_some() {
+            return Err(MountError::NotNow("cannot guide while slewing".into()));
+        }
+        if ms == 0 {
+            return Ok(());
+        }
+        st.pulse[k] = Some((sign, Instant::now() + Duration::from_millis(ms as u64)));
+        self.apply(ctl, &st)
+    }
+
+    /// Ends pulses that are due, and a slew whose axes came to rest (aiming once more
+    /// at an equatorial target, then resuming tracking).
+    pub fn tick(&self, ctl: &Controller) -> Result<(), MountError> {
+        let mut st = self.lock();
+        let mut changed = false;
+        let now = Instant::now();
+        for p in &mut st.pulse {
+            if p.is_some_and(|(_, end)| end <= now) {
+                *p = None;
+                changed = true;
+            }
+        }
+        if let Some(slew) = st.slew {
+            let s = self.axes_status(ctl)?;
+            if s.iter().any(|a| a.state == AxisState::Fault) {
+                st.slew = None;
+                st.tracking = false;
+                return self.apply(ctl, &st);
+            }
+            if s.iter().all(|a| a.state == AxisState::Idle) {
+                st.slew = None;
+                changed = true;
+                if let Some((ra, dec)) = slew.target {
+                    // The sky turned during the slew: one short move to catch up.
+                    let a = self.aim(&st, ra, dec)?;
+                    let steps = self.steps_of(&st, a);
+                    self.move_axes(ctl, &mut st, steps)?;
+                    st.slew = Some(Slew {
+                        target: None,
+                        ..slew
+                    });
+                    return Ok(());
+                }
+                if slew.park {
+                    let axes: Vec<String> = self.cfg.axes().iter().map(|s| s.to_string()).collect();
+                    ctl.with_board(|b, now| b.save_position(&self.cfg.parked_name(), &axes, now))?;
+                    st.parked = true;
+                }
+            }
+        }
+        if changed {
+            self.apply(ctl, &st)?;
+        }
+        Ok(())
+    }
+
+    /// Brings tracking axes to rest (a slew cannot start on a moving axis).
+    fn rest(&self, ctl: &Controller) -> Result<(), MountError> {
+        let deadline = Instant::now() + REST_DEADLINE;
+        for a in self.cfg.axes() {
+            ctl.stop(Some(a))?;
+        }
+        loop {
+            let s = self.axes_status(ctl)?;
+            if s.iter()
+                .all(|a| a.state != AxisState::Moving && a.state != AxisState::Tracking)
+            {
+                return Ok(());
+            }
+            if Instant::now() > deadline {
+                return Err(MountError::NotNow("the axes did not come to rest".into()));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
+    /// A slew: both axes to `steps` as one group move (the board's planner).
+    fn move_axes(
+        &self,
+        ctl: &Controller,
+        st: &mut State,
+        steps: [i64; 2],
+    ) -> Result<(), MountError> {
+        st.pulse = [None, None];
+        self.rest(ctl)?;
+        let targets: Vec<(String, Amount)> = self
+            .cfg
+            .axes()
+            .iter()
+            .zip(steps)
+            .map(|(a, n)| (a.to_string(), Amount::Steps(n)))
+            .collect();
+        ctl.group_move(&targets, true, false, &MoveOpts::default())?;
+        Ok(())
+    }
+
+    /// Sets each axis's tracking rate from the mount's state: drive rate less the RA
+    /// offset, Dec offset, pulses, MoveAxis. Axes in a slew are left alone.
+    fn apply(&self, ctl: &Controller, st: &State) -> Result<(), MountError> {
+        if st.slew.is_some() {
+            return Ok(());
+        }
+        let s = self.axes_status(ctl)?;
+        let side = self.pointing_of(st, &s).side;
+        let (sp, sd) = self.cfg.mount.sense(side, st.lat);
+        let pulse = |k: usize| st.pulse[k].map_or(0.0, |(sign, _)| sign * st.guide[k] * 3600.0);
+        // Sky rates, arcseconds per second: hour angle and declination.
+        let (mut dha, mut ddec) = (0.0, 0.0);
+        if st.tracking {
+            dha = st.drive.micro_arcsec() as f64 / 1e6
+                - st.ra_rate * ARCSEC_PER_RA_SECOND / SI_PER_SIDEREAL_SECOND;
+            ddec = st.dec_rate;
+        }
+        let sky = [(dha + pulse(0), sp), (ddec + pulse(1), sd)];
+        let spr = self.steps_per_rev();
+        for (k, name) in self.cfg.axes().into_iter().enumerate() {
+            let (rate, sense) = sky[k];
+            let r = if st.moving[k] != 0.0 {
+                step_rate(micro_arcsec(st.moving[k] * 3600.0), spr[k], 1, 1)?
+            } else {
+                // sense is ±1, or ±1/2 for a coelostat's mirror: kept exact.
+                let den = if sense.abs() == 0.5 { 2 } else { 1 };
+                let uas = micro_arcsec(rate) * sense.signum() as i64;
+                step_rate(if sense == 0.0 { 0 } else { uas }, spr[k], 1, den)?
+            };
+            let moving = s.get(k).is_some_and(|a| a.state == AxisState::Tracking);
+            if r.rate.is_zero() {
+                if moving {
+                    ctl.stop(Some(name))?;
+                }
+                continue;
+            }
+            let arg = RateArg::Value(r);
+            ctl.with_board(|b, now| b.track(name, &arg, &TrackOpts::default(), None, now))?;
+        }
+        Ok(())
+    }
+}
