@@ -100,7 +100,9 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let ctl = match &link {
         None => Controller::open_store(&config, store, a.time_scale)?,
         Some(spec) => {
-            let pins = FpgaBackend::connect(spec, config.axes.len())
+            // the session this data directory's host kept: the board may still run it
+            let before = store.link_session()?;
+            let pins = FpgaBackend::connect_resuming(spec, config.axes.len(), before)
                 .with_context(|| format!("board link {spec}"))?;
             Controller::open_backend(&config, store, a.time_scale, Box::new(pins))?
         }

@@ -16,7 +16,7 @@ pub mod fpga;
 pub mod sim;
 mod sim_sync;
 
-pub use fpga::{FpgaBackend, LinkSpec};
+pub use fpga::{FpgaBackend, LinkSpec, SessionKeeper};
 pub use sim::SimBackend;
 pub(crate) use sim_sync::check_line_path;
 
@@ -215,5 +215,17 @@ pub trait BoardBackend: Send {
     /// Needs polling while idle (hardware: resets, e-stop input, link state).
     fn polls_when_idle(&self) -> bool {
         false
+    }
+    /// Keeps the board's link session with `keep` (now and whenever it changes), so a
+    /// restarted host can adopt the board it left running.
+    fn keep_session(&mut self, _keep: SessionKeeper) {}
+    /// The board still held the session kept before this start: its counts and motions
+    /// are this host's.
+    fn adopted(&self) -> bool {
+        false
+    }
+    /// The direction of a motion the adopted board was running at start-up.
+    fn adopted_motion(&self, _axis: usize) -> Option<i64> {
+        None
     }
 }

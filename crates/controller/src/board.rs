@@ -130,7 +130,7 @@ pub struct Board {
     clock_hz: f64,
     tdm: TdmConfig,
     axes: Vec<Axis>,
-    store: Store,
+    store: Arc<Store>,
     estopped: bool,
     now: u64,
     /// Problems met while advancing (store failures), reported by `info`.
@@ -190,7 +190,10 @@ impl Board {
         mut pins: Box<dyn BoardBackend>,
     ) -> Result<Board, CtlError> {
         config.validate()?;
+        let store = Arc::new(store);
         let clock_hz = pins.clock_hz().unwrap_or(config.board.clock_hz);
+        // a board that kept this host's session: its counts and motions go on
+        let adopted = pins.adopted();
         let mut axes = Vec::new();
         let mut warnings = Vec::new();
         let sim = store.sim();
@@ -219,7 +222,34 @@ impl Board {
                 last_dir: 1,
                 driver: driver::Driver::default(),
             };
-            if let Some(m) = rec.moving {
+            let i = axes.len();
+            if let Some(m) = rec.moving.clone().filter(|_| adopted) {
+                // The host died mid-move, the board did not: the count is the board's
+                // (below), the motion goes on if it runs.
+                axis.marked = true;
+                axis.marker = Some((m.from, m.target));
+                pins.configure(i, &axis.settings);
+                axis.count = pins.count(i);
+                match pins.adopted_motion(i) {
+                    Some(dir) => {
+                        axis.last_dir = dir;
+                        axis.state = AxisState::Moving;
+                        axis.motion = Some(Motion {
+                            dir,
+                            target: m.target,
+                            purpose: Purpose::Move,
+                            stopping: false,
+                            edge: None,
+                            track: None,
+                        });
+                    }
+                    None => {
+                        axis.marked = false;
+                        axis.marker = None;
+                        store.put_axis(&axis.name, &axis.record(None, axis.count))?;
+                    }
+                }
+            } else if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`; the mechanics stayed where they were
                 // (last written down while moving, else where the move began). Untrusted
                 // until homed.
@@ -233,11 +263,10 @@ impl Board {
                 axis.trusted = false;
                 store.put_axis(&axis.name, &axis.record(None, sim_pos))?;
             }
-            let i = axes.len();
             pins.configure(i, &axis.settings);
             pins.attach(i, axis.count, sim_pos);
             let read = pins.count(i);
-            if read != axis.count {
+            if read != axis.count && !axis.marked {
                 warnings.push(format!(
                     "axis {}: the board counts {read}, the store says {}; untrusted until homed",
                     axis.name, axis.count
@@ -249,6 +278,10 @@ impl Board {
             }
             axes.push(axis);
         }
+        let kept = store.clone();
+        pins.keep_session(Box::new(move |s| {
+            kept.put_link_session(s).map_err(|e| e.to_string())
+        }));
         Ok(Board {
             name: config.board.name.clone(),
             clock_hz,

@@ -35,7 +35,10 @@ const PRESETS: Table = TableDefinition::new("presets");
 const NAMED: Table = TableDefinition::new("named_positions");
 /// Named tracking rates (seed 002's constant, fast and slow motion), as the rate's text.
 const RATES: Table = TableDefinition::new("rates");
-const TABLES: [Table; 5] = [SETTINGS, AXES, PRESETS, NAMED, RATES];
+/// The FPGA board's link session ([`LinkSession`]), under [`LINK_SESSION`].
+const LINK: Table = TableDefinition::new("link");
+const TABLES: [Table; 6] = [SETTINGS, AXES, PRESETS, NAMED, RATES, LINK];
+const LINK_SESSION: &str = "session";
 
 /// How often [`Store::check`] opens a failing database again.
 pub const RETRY_PERIOD: Duration = Duration::from_secs(1);
@@ -57,6 +60,20 @@ pub struct AxisRecord {
 pub struct MovingMarker {
     pub from: i64,
     pub target: i64,
+}
+
+/// What a restarted host needs to adopt the FPGA board it left running: the token it
+/// wrote to the board's `Session` register, and what of each axis's motion lives only in
+/// the host.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkSession {
+    pub token: u32,
+    /// Per axis: what the host adds to the board's `Position` while the axis runs.
+    pub offsets: Vec<i64>,
+    /// Axes whose motion the host streams (it cannot go on without the host).
+    pub streamed: u32,
+    /// Axes of a group armed for the SYNC line.
+    pub armed: u32,
 }
 
 /// A named set of axis positions (seed 002: stored line-centre positions).
@@ -599,6 +616,12 @@ impl Store {
     pub fn put_rate(&self, name: &str, rate: &str) -> Result<(), CtlError> {
         self.put(RATES, name, &rate)
     }
+    pub fn link_session(&self) -> Result<Option<LinkSession>, CtlError> {
+        self.get(LINK, LINK_SESSION)
+    }
+    pub fn put_link_session(&self, s: &LinkSession) -> Result<(), CtlError> {
+        self.put(LINK, LINK_SESSION, s)
+    }
 }
 
 #[cfg(test)]
@@ -646,6 +669,24 @@ mod tests {
         assert_eq!(s.named_position("line").unwrap().unwrap()["X"], 7);
         assert!(s.forget_named("line").unwrap());
         assert!(s.named().unwrap().is_empty());
+    }
+
+    #[test]
+    fn the_link_session_survives_reopening() {
+        let dir = tempfile::tempdir().unwrap();
+        let kept = LinkSession {
+            token: 0xDEAD_BEEF,
+            offsets: vec![0, -3600],
+            streamed: 0b10,
+            armed: 0b01,
+        };
+        {
+            let s = Store::open(dir.path()).unwrap();
+            assert_eq!(s.link_session().unwrap(), None, "a new board has none");
+            s.put_link_session(&kept).unwrap();
+        }
+        let s = Store::open(dir.path()).unwrap();
+        assert_eq!(s.link_session().unwrap(), Some(kept));
     }
 
     #[test]

@@ -36,7 +36,10 @@ use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
+mod session;
 mod sync;
+use crate::store::LinkSession;
+pub use session::{SessionKeeper, ARM_LIFETIME};
 
 /// Baud of `serial:DEVICE` without `@BAUD`: the boards' default build.
 pub const DEFAULT_BAUD: u32 = 3_000_000;
@@ -179,6 +182,18 @@ pub struct FpgaBackend {
     chains: u32,
     /// The next start writes `Arm` instead of `Start` (the cross-board start, sync.rs).
     arming: bool,
+    /// Keeps the session across a restart of the host (session.rs), and what it kept.
+    keep: Option<SessionKeeper>,
+    kept: Option<LinkSession>,
+    /// The board kept the stored session: its counts and motions are this host's.
+    adopted: bool,
+    /// The axes of a group armed for the SYNC line, and since when.
+    armed: u32,
+    armed_at: Option<Instant>,
+    arm_lifetime: Duration,
+    /// The board's registers are set up at the next poll (an adopted board: once every
+    /// axis's settings are known, so no running axis's DIR level changes meanwhile).
+    setup_due: bool,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -200,11 +215,27 @@ impl FpgaBackend {
         FpgaBackend::with_opener(spec.to_string(), serial_opener(spec), axes)
     }
 
+    /// [`FpgaBackend::connect`] by a host that kept `before` (see session.rs): the board
+    /// still holding its token is adopted as it runs.
+    pub fn connect_resuming(
+        spec: &LinkSpec,
+        axes: usize,
+        before: Option<LinkSession>,
+    ) -> Result<FpgaBackend, CtlError> {
+        FpgaBackend::with_opener_resuming(spec.to_string(), serial_opener(spec), axes, before)
+    }
+
     /// [`FpgaBackend::connect`] over any stream `open` gives.
-    pub fn with_opener(
+    pub fn with_opener(name: String, open: Opener, axes: usize) -> Result<FpgaBackend, CtlError> {
+        FpgaBackend::with_opener_resuming(name, open, axes, None)
+    }
+
+    /// [`FpgaBackend::with_opener`] with the session kept before (see session.rs).
+    pub fn with_opener_resuming(
         name: String,
         mut open: Opener,
         axes: usize,
+        before: Option<LinkSession>,
     ) -> Result<FpgaBackend, CtlError> {
         let port = open().map_err(CtlError::Link)?;
         let mut l = HostLink::new(port);
@@ -216,8 +247,14 @@ impl FpgaBackend {
                 id.axes
             )));
         }
-        let session = link::session_token();
-        l.claim(session).map_err(link_err)?;
+        let session = match before {
+            Some(_) => 0,
+            None => {
+                let t = link::session_token();
+                l.claim(t).map_err(link_err)?;
+                t
+            }
+        };
         let mut b = FpgaBackend {
             name,
             open,
@@ -252,11 +289,25 @@ impl FpgaBackend {
             buffer: 0,
             chains: 0,
             arming: false,
+            keep: None,
+            kept: None,
+            adopted: false,
+            armed: 0,
+            armed_at: None,
+            arm_lifetime: ARM_LIFETIME,
+            setup_due: false,
         };
+        if let Some(before) = &before {
+            b.resume(before).map_err(link_err)?;
+        }
         b.buffer = b.probe_streams().map_err(link_err)?;
         b.streams = b.buffer > 0;
         b.chains = b.probe_chains().map_err(link_err)?;
-        b.setup().map_err(link_err)?;
+        if b.adopted {
+            b.setup_due = true;
+        } else {
+            b.setup().map_err(link_err)?;
+        }
         b.read_board().map_err(link_err)?;
         Ok(b)
     }
@@ -1048,7 +1099,7 @@ impl BoardBackend for FpgaBackend {
     }
     fn configure(&mut self, axis: usize, settings: &AxisSettings) {
         self.axes[axis].settings = settings.clone();
-        if self.link.is_some() {
+        if self.link.is_some() && !self.setup_due {
             if let Err(e) = self.setup() {
                 self.failed(e);
             }
@@ -1098,7 +1149,12 @@ impl BoardBackend for FpgaBackend {
             runs.push((l.axis, run));
             feeds.extend(feed.map(|f| (l.axis, f)));
         }
+        let streamed = feeds.iter().map(|(i, _)| 1u32 << i).sum();
+        self.keep_session_with(streamed, if self.arming { mask } else { 0 });
         self.send_start(writes, &mut feeds, mask)?;
+        if self.arming {
+            self.armed_now(mask);
+        }
         for (i, run) in runs {
             let ax = &mut self.axes[i];
             ax.running = Some(run);
@@ -1139,6 +1195,7 @@ impl BoardBackend for FpgaBackend {
         // open-ended: armed for the most steps, closed with the real count at rest
         let writes = self.arm_writes(axis, dir, AxisReg::StreamSteps, u32::MAX)?;
         let mut feeds = [(axis, feed)];
+        self.keep_session_with(1 << axis, 0);
         self.send_start(writes, &mut feeds, 1 << axis)?;
         let [(_, feed)] = feeds;
         let ax = &mut self.axes[axis];
@@ -1189,6 +1246,9 @@ impl BoardBackend for FpgaBackend {
             let due = moving || self.last_poll.is_none_or(|t| t.elapsed() >= IDLE_POLL);
             if self.link.is_none() {
                 self.reconnect();
+                if self.link.is_some() {
+                    self.after_reconnect();
+                }
             }
             if due && self.link.is_some() {
                 self.last_poll = Some(Instant::now());
@@ -1201,6 +1261,7 @@ impl BoardBackend for FpgaBackend {
                         self.failed(e);
                     }
                 }
+                self.after_read();
                 self.tell_retransmits();
             }
         }
@@ -1314,6 +1375,7 @@ impl BoardBackend for FpgaBackend {
             if let Some(f) = ax.feed.as_mut() {
                 f.count0 += delta;
             }
+            self.keep_session_now();
             return Ok(());
         }
         let to = ax.count + delta;
@@ -1345,7 +1407,8 @@ impl BoardBackend for FpgaBackend {
     }
 
     fn end_tick(&self, axis: usize) -> Option<u64> {
-        self.axes[axis].running.as_ref().map(|r| r.end_tick)
+        let r = self.axes[axis].running.as_ref()?;
+        (r.end_tick != session::UNKNOWN_END).then_some(r.end_tick)
     }
 
     fn fault(&self, _axis: usize) -> Option<String> {
@@ -1369,6 +1432,18 @@ impl BoardBackend for FpgaBackend {
     }
     fn sync_state(&mut self) -> Result<SyncState, CtlError> {
         self.read_sync()
+    }
+    fn keep_session(&mut self, keep: SessionKeeper) {
+        self.keep = Some(keep);
+        self.kept = None;
+        self.keep_session_now();
+    }
+    fn adopted(&self) -> bool {
+        self.adopted
+    }
+    fn adopted_motion(&self, axis: usize) -> Option<i64> {
+        let r = self.axes[axis].running.as_ref()?;
+        (r.end_tick == session::UNKNOWN_END).then_some(r.dir)
     }
 }
 
@@ -1509,6 +1584,11 @@ mod model {
         pub mute: Option<u16>,
         /// Power off and on before the request after this many more.
         pub cycle_in: Option<usize>,
+        /// A group armed for the SYNC line (`Arm`), and the axes whose DIR is forward.
+        pub armed: bool,
+        pub dir: u32,
+        /// The link is cut: nothing reaches the board.
+        pub cut: bool,
         last: Option<(Vec<u8>, Reply)>,
         out: Vec<u8>,
     }
@@ -1522,6 +1602,14 @@ mod model {
                 }
             }
             self.busy = 0;
+        }
+
+        /// The shared SYNC line falls (another board fired): an armed group starts.
+        pub fn sync_fall(&mut self) {
+            if self.armed {
+                self.armed = false;
+                self.starts += 1;
+            }
         }
 
         /// Power off and on: every register at its power-up value.
@@ -1546,7 +1634,12 @@ mod model {
                     self.session = r.data;
                     (Status::Ok, 0)
                 }
-                (0x06, false) => (Status::Ok, 0),
+                (0x06, false) => (Status::Ok, if self.armed { 0b1100 } else { 0 }),
+                (0x13, true) => {
+                    self.busy |= r.data;
+                    self.armed = true;
+                    (Status::Ok, 0)
+                }
                 (0x07, false) => (Status::Ok, self.busy),
                 (0x09, true) if self.busy & r.data != 0 => (Status::Busy, 0),
                 (0x09, true) => {
@@ -1555,6 +1648,7 @@ mod model {
                     (Status::Ok, 0)
                 }
                 (0x0A, true) => {
+                    self.armed = false;
                     self.busy &= !r.data;
                     (Status::Ok, 0)
                 }
@@ -1566,7 +1660,7 @@ mod model {
                 (0x1000..=0x1FFF, true) => (Status::Ok, 0),
                 (0x2000..=0x201F, false) if ar == 0 => {
                     let busy = self.busy >> a & 1;
-                    (Status::Ok, busy << 3 | busy)
+                    (Status::Ok, (self.dir >> a & 1) << 10 | busy << 3 | busy)
                 }
                 (0x2000..=0x201F, false) if ar == 1 => (Status::Ok, self.position[a] as u32),
                 (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),
@@ -1586,6 +1680,9 @@ mod model {
     impl Write for ModelPort {
         fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
             let mut m = self.0.lock().unwrap();
+            if m.cut {
+                return Err(std::io::ErrorKind::BrokenPipe.into());
+            }
             match m.cycle_in {
                 Some(0) => m.power_cycle(),
                 Some(n) => m.cycle_in = Some(n - 1),
@@ -1653,7 +1750,8 @@ mod exactly_once {
     use super::*;
     use multistep_core::MoveParams;
 
-    fn launch(b: &FpgaBackend, axis: usize, steps: u64) -> Launch {
+    /// A move of `steps` the board computes.
+    pub(super) fn launch(b: &FpgaBackend, axis: usize, steps: u64) -> Launch {
         let spec = MoveSpec {
             steps: Some(steps),
             params: MoveParams {

@@ -1,0 +1,450 @@
+//! The board's session across a restart of the host, and armed groups that outlive theirs.
+//!
+//! The host keeps what it wrote to the board's `Session` register, with what of each
+//! axis's motion lives only in the host ([`LinkSession`]), in the store. A restarted host
+//! that reads its stored token back adopts the board: a computed move runs on to its end,
+//! a streamed one is halted (its code came from the host that died). Any other readback
+//! means the board was reset or lost power while the host was down: every axis is
+//! untrusted until homed.
+//!
+//! A group armed for the SYNC line lives no longer than its group: it is disarmed when it
+//! is not fired within [`ARM_LIFETIME`], when the link comes back after a failure and
+//! when a restarted host finds it (the group's `ctl` has given up on it by then).
+
+use super::{FpgaBackend, Running};
+use crate::backend::PinEvent;
+use crate::store::LinkSession;
+use multistep_hdl::link::{status_bits, AxisReg, BoardReg, LinkError, Reg};
+use std::time::{Duration, Instant};
+
+/// Keeps the link session (in the store), at start-up and whenever it changes.
+pub type SessionKeeper = Box<dyn FnMut(&LinkSession) -> Result<(), String> + Send>;
+
+/// The longest a share of a cross-board group stays armed: `ctl group` fires within its
+/// 10 s wait for every board to be ready, so an older share belongs to a group that failed.
+pub const ARM_LIFETIME: Duration = Duration::from_secs(30);
+
+/// The end tick of a motion adopted from the host before a restart: not known.
+pub(super) const UNKNOWN_END: u64 = u64::MAX;
+
+impl FpgaBackend {
+    /// The session as it is now, `streamed` and `armed` axes added (a start about to go).
+    fn session_record(&self, streamed: u32, armed: u32) -> LinkSession {
+        let mut r = LinkSession {
+            token: self.session,
+            offsets: self.axes.iter().map(|a| a.offset).collect(),
+            streamed,
+            armed: self.armed | armed,
+        };
+        for (i, a) in self.axes.iter().enumerate() {
+            if a.running.is_some() && a.feed.is_some() {
+                r.streamed |= 1 << i;
+            }
+        }
+        r
+    }
+
+    /// Keeps the session when it changed; `streamed` and `armed`: axes of a start about to
+    /// go, kept before it goes (a host killed right after still knows what they run).
+    pub(super) fn keep_session_with(&mut self, streamed: u32, armed: u32) {
+        let r = self.session_record(streamed, armed);
+        if self.kept.as_ref() == Some(&r) {
+            return;
+        }
+        let Some(keep) = self.keep.as_mut() else {
+            return;
+        };
+        match keep(&r) {
+            Ok(()) => self.kept = Some(r),
+            Err(e) => eprintln!(
+                "warning: board link {}: the session is not stored ({e}); a restart \
+                 will not adopt the board",
+                self.name
+            ),
+        }
+    }
+
+    pub(super) fn keep_session_now(&mut self) {
+        self.keep_session_with(0, 0);
+    }
+
+    /// Connecting with the session a host stored before: adopts the board when it still
+    /// holds that token, else claims it anew and untrusts every axis.
+    pub(super) fn resume(&mut self, before: &LinkSession) -> Result<(), LinkError> {
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let read = l.read(Reg::Board(BoardReg::Session))?;
+        if read != 0 && read == before.token {
+            self.session = read;
+            self.adopted = true;
+            return self.adopt(before);
+        }
+        let token = multistep_hdl::link::session_token();
+        l.write(Reg::Board(BoardReg::Session), token)?;
+        self.session = token;
+        for i in 0..self.axes.len() {
+            let why = format!(
+                "the board was reset or lost power while the host was down (its session \
+                 register reads {read:#010x}, not the stored {:#010x}); untrusted until homed",
+                before.token
+            );
+            self.events.push_back((i, PinEvent::Lost { why }));
+        }
+        Ok(())
+    }
+
+    /// The board as the host left it: a running computed move runs on (its count is the
+    /// board's counter plus the kept offset), a streamed one halts at once (the count
+    /// exact), an armed group is disarmed.
+    fn adopt(&mut self, before: &LinkSession) -> Result<(), LinkError> {
+        let mask = self.mask();
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let status = l.read(Reg::Board(BoardReg::Status))?;
+        let busy = l.read(Reg::Board(BoardReg::Busy))?;
+        let armed = if status & status_bits::ARMED != 0 {
+            // the kept mask, or every busy axis when it was not kept
+            match before.armed & busy & mask {
+                0 => busy & mask,
+                m => m,
+            }
+        } else {
+            0
+        };
+        let halt = armed | (before.streamed & busy & mask);
+        if halt != 0 {
+            l.write(Reg::Board(BoardReg::Stop), halt)?;
+        }
+        for i in 0..self.axes.len() {
+            let a = i as u32;
+            let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+            let st = l.axis_state(a)?;
+            let offset = before.offsets.get(i).copied().unwrap_or(0);
+            let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + offset;
+            let ax = &mut self.axes[i];
+            ax.count = count;
+            ax.offset = offset;
+            if armed >> i & 1 == 1 {
+                let why = "disarmed: the host restarted while the axis's share of a \
+                           cross-board group was armed; it never started"
+                    .to_string();
+                self.events.push_back((i, PinEvent::Late { why }));
+            } else if before.streamed >> i & 1 == 1 && busy >> i & 1 == 1 {
+                let why = "host_restarted: the host restarted mid-stream, so the rest of \
+                           the streamed motion was lost; the axis was halted at once (the \
+                           count is exact)"
+                    .to_string();
+                self.events.push_back((i, PinEvent::Late { why }));
+            } else if st.busy {
+                ax.running = Some(Running {
+                    dir: if st.dir { 1 } else { -1 },
+                    stop_on_sensor: None,
+                    stopping: false,
+                    end_tick: UNKNOWN_END,
+                    ramp_steps: 0,
+                });
+                continue;
+            }
+            if ax.offset != 0 {
+                // at rest: the board's counter takes the offset
+                l.write(Reg::Axis(a, AxisReg::Position), count as i32 as u32)?;
+                self.axes[i].offset = 0;
+            }
+        }
+        if armed != 0 {
+            eprintln!(
+                "warning: board link {}: a cross-board group armed before the restart was \
+                 disarmed (axes {armed:#b})",
+                self.name
+            );
+        }
+        Ok(())
+    }
+
+    /// Disarms the armed group (`Stop` of its axes: a stop cancels it), and says why on
+    /// each of its axes, which end there.
+    pub(super) fn disarm(&mut self, why: &str) -> Result<(), LinkError> {
+        let armed = self.armed;
+        let all = self.mask();
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let status = l.read(Reg::Board(BoardReg::Status))?;
+        if status & status_bits::ARMED == 0 && self.armed_at.is_none() {
+            return Ok(());
+        }
+        if status & status_bits::ARMED != 0 {
+            let busy = l.read(Reg::Board(BoardReg::Busy))?;
+            let mask = match armed & busy {
+                0 => busy & all,
+                m => m,
+            };
+            l.write(Reg::Board(BoardReg::Stop), mask)?;
+            eprintln!(
+                "warning: board link {}: the armed group was disarmed: {why}",
+                self.name
+            );
+            for i in 0..self.axes.len() {
+                if mask >> i & 1 == 0 {
+                    continue;
+                }
+                let ax = &mut self.axes[i];
+                ax.feed = None;
+                ax.speed = 0.0;
+                if ax.running.take().is_some() {
+                    self.events.push_back((i, PinEvent::End { end: self.now }));
+                }
+                let why = format!("disarmed: {why}; the axis's share of the group never started");
+                self.events.push_back((i, PinEvent::Late { why }));
+            }
+        }
+        self.armed = 0;
+        self.armed_at = None;
+        self.keep_session_now();
+        Ok(())
+    }
+
+    /// Disarms a group armed longer than [`ARM_LIFETIME`]; forgets one that went.
+    pub(super) fn expire_armed(&mut self) -> Result<(), LinkError> {
+        let Some(at) = self.armed_at else {
+            return Ok(());
+        };
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        if l.read(Reg::Board(BoardReg::Status))? & status_bits::ARMED == 0 {
+            // fired, stopped or reset: nothing waits any more
+            self.armed = 0;
+            self.armed_at = None;
+            return Ok(());
+        }
+        if at.elapsed() >= self.arm_lifetime {
+            let why = format!(
+                "it was not fired within {} s",
+                self.arm_lifetime.as_secs_f64()
+            );
+            return self.disarm(&why);
+        }
+        Ok(())
+    }
+
+    /// The link answers again after a failure: whatever group is armed on the board has
+    /// been given up by its `ctl` (its link failed), so it is disarmed.
+    pub(super) fn after_reconnect(&mut self) {
+        if let Err(e) = self.disarm("the board's link failed while it was armed") {
+            self.failed(e);
+        }
+    }
+
+    /// After each poll's read: the deferred set-up, an armed group's lifetime, the kept
+    /// session.
+    pub(super) fn after_read(&mut self) {
+        if self.link.is_none() {
+            return;
+        }
+        if self.setup_due {
+            self.setup_due = false;
+            if let Err(e) = self.setup() {
+                self.failed(e);
+            }
+        }
+        if let Err(e) = self.expire_armed() {
+            self.failed(e);
+        }
+        self.keep_session_now();
+    }
+
+    /// A group was armed now on `mask`.
+    pub(super) fn armed_now(&mut self, mask: u32) {
+        self.armed = mask;
+        self.armed_at = Some(Instant::now());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::exactly_once::launch;
+    use super::super::model::{Model, ModelPort};
+    use super::super::{Opener, Port};
+    use super::*;
+    use crate::backend::BoardBackend;
+    use std::sync::{Arc, Mutex};
+
+    const TOKEN: u32 = 0x5EED_0001;
+
+    fn kept(streamed: u32) -> LinkSession {
+        LinkSession {
+            token: TOKEN,
+            offsets: vec![0, 0],
+            streamed,
+            armed: 0,
+        }
+    }
+
+    fn model(set: impl FnOnce(&mut Model)) -> Arc<Mutex<Model>> {
+        let mut m = Model::default();
+        set(&mut m);
+        Arc::new(Mutex::new(m))
+    }
+
+    /// A backend connecting to `m` with the session `before`.
+    fn resume(
+        m: &Arc<Mutex<Model>>,
+        before: Option<LinkSession>,
+    ) -> (FpgaBackend, Arc<Mutex<Vec<LinkSession>>>) {
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, before)
+            .expect("the model answers");
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let l = log.clone();
+        b.keep_session(Box::new(move |s| {
+            l.lock().unwrap().push(s.clone());
+            Ok(())
+        }));
+        (b, log)
+    }
+
+    fn events(b: &mut FpgaBackend) -> Vec<(usize, PinEvent)> {
+        b.begin_advance();
+        std::iter::from_fn(|| b.poll(1)).collect()
+    }
+
+    /// Polls until `f` holds of the model (the link is tried again every 500 ms).
+    fn poll_until(
+        b: &mut FpgaBackend,
+        m: &Arc<Mutex<Model>>,
+        f: impl Fn(&Model) -> bool,
+    ) -> Vec<(usize, PinEvent)> {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut all = Vec::new();
+        while !f(&m.lock().unwrap()) {
+            assert!(Instant::now() < deadline, "never happened: {all:?}");
+            all.extend(events(b));
+            std::thread::yield_now();
+        }
+        all.extend(events(b));
+        all
+    }
+
+    #[test]
+    fn a_board_that_lost_power_while_the_host_was_down_untrusts_every_axis() {
+        // power-up values: Session 0, the counts 0 as the store has them
+        let m = Arc::new(Mutex::new(Model::default()));
+        let (mut b, log) = resume(&m, Some(kept(0)));
+        assert!(!b.adopted());
+        let ev = events(&mut b);
+        let lost: Vec<usize> = ev
+            .iter()
+            .filter_map(|(i, e)| match e {
+                PinEvent::Lost { why } if why.contains("while the host was down") => Some(*i),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(lost, [0, 1], "{ev:?}");
+        let token = m.lock().unwrap().session;
+        assert!(token != 0 && token != TOKEN, "claimed anew");
+        assert_eq!(log.lock().unwrap().last().map(|s| s.token), Some(token));
+    }
+
+    #[test]
+    fn a_restarted_host_adopts_a_running_computed_move_and_trusts_its_end() {
+        let m = model(|m| {
+            (m.session, m.busy, m.dir) = (TOKEN, 0b01, 0b01);
+            (m.position, m.steps) = ([100, 5], 700);
+        });
+        let mut before = kept(0);
+        before.offsets = vec![3600, 0];
+        let (mut b, _) = resume(&m, Some(before));
+        assert!(b.adopted());
+        assert_eq!(m.lock().unwrap().session, TOKEN, "the session kept");
+        assert_eq!(b.adopted_motion(0), Some(1), "running forward");
+        assert_eq!(b.adopted_motion(1), None);
+        assert_eq!(
+            (b.count(0), b.count(1)),
+            (3700, 5),
+            "counter plus the kept offset"
+        );
+        assert!(events(&mut b).is_empty(), "still moving");
+        m.lock().unwrap().finish();
+        let ev = events(&mut b);
+        assert!(matches!(ev[..], [(0, PinEvent::End { .. })]), "{ev:?}");
+        assert_eq!(b.count(0), 4400);
+        assert_eq!(
+            m.lock().unwrap().position[0],
+            4400,
+            "the offset folded in at rest"
+        );
+        // a new move after it
+        let l = launch(&b, 0, 100);
+        b.start(vec![l], None, &Default::default(), 2).unwrap();
+        assert_eq!(m.lock().unwrap().starts, 1);
+    }
+
+    #[test]
+    fn a_restarted_host_halts_a_streamed_move_at_once() {
+        let m = model(|m| (m.session, m.busy, m.position) = (TOKEN, 0b10, [0, -42]));
+        let (mut b, _) = resume(&m, Some(kept(0b10)));
+        assert_eq!(m.lock().unwrap().busy, 0, "halted");
+        assert_eq!(b.adopted_motion(1), None);
+        let ev = events(&mut b);
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::Late { why })] if why.starts_with("host_restarted")),
+            "{ev:?}"
+        );
+        assert_eq!(b.count(1), -42, "the count exact");
+    }
+
+    #[test]
+    fn an_armed_group_is_disarmed_when_its_link_comes_back_and_never_fires() {
+        let m = Arc::new(Mutex::new(Model::default()));
+        let (mut b, log) = resume(&m, None);
+        let l = launch(&b, 0, 300);
+        b.arm(vec![l], 0).unwrap();
+        assert!(m.lock().unwrap().armed);
+        assert_eq!(log.lock().unwrap().last().map(|s| s.armed), Some(0b01));
+        // the link is cut: a stop cannot reach the board
+        m.lock().unwrap().cut = true;
+        assert!(b.stop(0, 1).is_err());
+        assert!(b.fault(0).is_some(), "the link is down");
+        m.lock().unwrap().cut = false;
+        let ev = poll_until(&mut b, &m, |m| !m.armed);
+        assert!(
+            ev.iter().any(|(i, e)| *i == 0
+                && matches!(e, PinEvent::Late { why } if why.starts_with("disarmed"))),
+            "{ev:?}"
+        );
+        assert!(b.fault(0).is_none(), "the link is back");
+        assert_eq!(b.end_tick(0), None, "no longer moving");
+        // a later group fired on another board alone: nothing starts here
+        let starts = m.lock().unwrap().starts;
+        m.lock().unwrap().sync_fall();
+        assert_eq!(m.lock().unwrap().starts, starts);
+        assert_eq!(log.lock().unwrap().last().map(|s| s.armed), Some(0));
+    }
+
+    #[test]
+    fn an_armed_group_not_fired_within_its_lifetime_is_disarmed() {
+        let m = Arc::new(Mutex::new(Model::default()));
+        let (mut b, _) = resume(&m, None);
+        b.arm_lifetime = Duration::ZERO;
+        let l = launch(&b, 1, 300);
+        b.arm(vec![l], 0).unwrap();
+        let ev = events(&mut b);
+        assert!(!m.lock().unwrap().armed, "{ev:?}");
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::End { .. }), (1, PinEvent::Late { why })]
+                if why.contains("not fired within")),
+            "{ev:?}"
+        );
+    }
+
+    #[test]
+    fn a_restarted_host_disarms_the_group_it_left_armed() {
+        let m = model(|m| (m.session, m.busy, m.armed) = (TOKEN, 0b11, true));
+        let mut before = kept(0);
+        before.armed = 0b11;
+        let (mut b, _) = resume(&m, Some(before));
+        assert!(!m.lock().unwrap().armed);
+        assert_eq!(m.lock().unwrap().busy, 0);
+        let ev = events(&mut b);
+        assert_eq!(ev.len(), 2, "{ev:?}");
+        assert!(ev
+            .iter()
+            .all(|(_, e)| matches!(e, PinEvent::Late { why } if why.starts_with("disarmed"))));
+    }
+}
