@@ -5,7 +5,7 @@ use crate::moveargs::ShapeArgs;
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Subcommand};
 use multistep_controller::client::{Client, ClientError, Endpoint};
-use multistep_controller::{AxisState, MoveOpts};
+use multistep_controller::{group, AxisState, MoveOpts};
 use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
@@ -281,9 +281,19 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
             if let [(i, words)] = shares.as_slice() {
                 print_lines(&boards.send(*i, &line("group", words))?);
             } else {
-                let lines: Vec<(usize, String)> =
-                    shares.iter().map(|(i, w)| (*i, line("arm", w))).collect();
-                sync_group(&mut boards, &lines)?;
+                let shares: Vec<group::Share> = shares
+                    .iter()
+                    .map(|(i, w)| group::Share {
+                        board: *i,
+                        axes: w
+                            .iter()
+                            .filter_map(|t| t.split_once('='))
+                            .map(|t| t.0.into())
+                            .collect(),
+                        line: line("arm", w),
+                    })
+                    .collect();
+                sync_group(&mut boards, &shares)?;
             }
         }
         CtlCmd::Home { axis } => {
@@ -410,94 +420,25 @@ pub fn run(a: &CtlArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// How long `ctl group` waits for every board's armed share to be ready.
-const ARM_PATIENCE: Duration = Duration::from_secs(10);
-
-/// One board's `synctick` answer: (latched count, armed, ready, late).
-fn sync_state(boards: &mut Boards, i: usize) -> anyhow::Result<(u32, bool, bool, bool)> {
-    let lines = boards.send(i, "synctick")?;
-    let line = lines.first().map_or("", |s| s.as_str());
-    let mut st = (None, false, false, false);
-    for w in line.split_whitespace() {
-        match w.split_once('=') {
-            Some(("synctick", v)) => st.0 = v.parse().ok(),
-            Some(("armed", v)) => st.1 = v == "1",
-            Some(("ready", v)) => st.2 = v == "1",
-            Some(("late", v)) => st.3 = v == "1",
-            _ => {}
-        }
+impl group::GroupBoards for Boards {
+    fn name(&self, board: usize) -> String {
+        self.list[board].0.clone()
     }
-    let tick =
-        st.0.ok_or_else(|| anyhow!("board {}: synctick answered '{line}'", boards.list[i].0))?;
-    Ok((tick, st.1, st.2, st.3))
+    fn send(&mut self, board: usize, line: &str) -> Result<Vec<String>, String> {
+        Boards::send(self, board, line).map_err(|e| format!("{e:#}"))
+    }
 }
 
-/// A group across boards (docs/HDL.md "Cross-board start"): arms each board's share
-/// (`lines`), waits until every board is ready, fires the SYNC line from the first board
-/// and prints each board's count at the fall and its offset to the first board's clock.
-/// If a board refuses, the shares armed before it are stopped (disarmed).
-fn sync_group(boards: &mut Boards, lines: &[(usize, String)]) -> anyhow::Result<()> {
-    let mut armed: Vec<(usize, Vec<String>)> = Vec::new();
-    let r = (|| -> anyhow::Result<Vec<u32>> {
-        for (i, line) in lines {
-            let answer = boards.send(*i, line)?;
-            let name = boards.list[*i].0.clone();
-            let axes = answer
-                .iter()
-                .filter_map(|l| l.split_whitespace().next().map(str::to_string))
-                .collect();
-            armed.push((*i, axes));
-            for l in answer {
-                println!("{name}:{l}");
-            }
-        }
-        let deadline = Instant::now() + ARM_PATIENCE;
-        for (i, _) in lines {
-            loop {
-                let (_, is_armed, ready, _) = sync_state(boards, *i)?;
-                if !is_armed {
-                    bail!(
-                        "board {}: its share of the group is no longer armed",
-                        boards.list[*i].0
-                    );
-                }
-                if ready {
-                    break;
-                }
-                if Instant::now() > deadline {
-                    bail!("board {}: the armed group is not ready", boards.list[*i].0);
-                }
-                std::thread::sleep(Duration::from_millis(5));
-            }
-        }
-        boards.send(lines[0].0, "fire")?;
-        let mut ticks = Vec::new();
-        for (i, _) in lines {
-            let (tick, is_armed, _, late) = sync_state(boards, *i)?;
-            if is_armed || late {
-                bail!(
-                    "board {}: its group did not start on the SYNC fall",
-                    boards.list[*i].0
-                );
-            }
-            ticks.push(tick);
-        }
-        Ok(ticks)
-    })();
-    let ticks = match r {
-        Ok(t) => t,
-        Err(e) => {
-            for (i, axes) in &armed {
-                for ax in axes {
-                    let _ = boards.send(*i, &format!("stop {ax}"));
-                }
-            }
-            return Err(e);
-        }
-    };
-    let offsets = multistep_hdl::link::sync_offsets(&ticks);
-    for ((i, _), (tick, off)) in lines.iter().zip(ticks.iter().zip(offsets)) {
-        println!("{} synctick={tick} offset={off}", boards.list[*i].0);
+/// A group across boards (`multistep_controller::group`): prints each board's answer to
+/// its arm, then its count at the SYNC fall and its offset to the first board's clock.
+/// A failure anywhere disarms every share first; the error names any share left armed.
+fn sync_group(boards: &mut Boards, shares: &[group::Share]) -> anyhow::Result<()> {
+    let started = group::start_across(boards, shares, group::ARM_PATIENCE)?;
+    for a in &started.answers {
+        println!("{a}");
+    }
+    for (i, tick, off) in started.ticks {
+        println!("{} synctick={tick} offset={off}", boards.list[i].0);
     }
     Ok(())
 }
