@@ -119,4 +119,84 @@ impl Piece {
     pub fn end(&self) -> f64 {
         self.p0 + self.advance(self.dur)
     }
+
+    /// Jerk (steps/s³) at local time τ.
+    pub fn jerk(&self, tau: f64) -> f64 {
+        match self.law {
+            Law::Poly { c3, c4, .. } => 6.0 * c3 + 24.0 * tau * c4,
+            Law::Shaped {
+                shape,
+                mirrored,
+                span,
+                ..
+            } => {
+                let d = self.dur;
+                span / (d * d * d) * shape.curvature(tau / d, mirrored)
+            }
+        }
+    }
+
+    /// Largest |v| and |a| on the piece, ends included, from its closed form: the ends and
+    /// the interior zeros of the derivative. A shape's rate is monotone, its slope has one
+    /// interior extremum (the sine's, at u = ½) and the parabola's is infinite at its
+    /// steep end, as a dense sample there also finds.
+    pub fn peaks(&self) -> (f64, f64) {
+        let d = self.dur;
+        let mut v = self.velocity(0.0).abs().max(self.velocity(d).abs());
+        let mut a = self.acceleration(0.0).abs().max(self.acceleration(d).abs());
+        match self.law {
+            Law::Poly { c2, c3, c4, .. } => {
+                // a(τ) = 2c2 + 6c3·τ + 12c4·τ² = 0 gives v's interior extrema
+                let mut roots = [f64::NAN; 2];
+                quadratic_roots(12.0 * c4, 6.0 * c3, 2.0 * c2, &mut roots);
+                for t in roots {
+                    if t > 0.0 && t < d {
+                        v = v.max(self.velocity(t).abs());
+                    }
+                }
+                // j(τ) = 6c3 + 24c4·τ = 0 gives a's
+                let t = -c3 / (4.0 * c4);
+                if t > 0.0 && t < d {
+                    a = a.max(self.acceleration(t).abs());
+                }
+            }
+            Law::Shaped {
+                shape: Shape::Sine, ..
+            } => a = a.max(self.acceleration(0.5 * d).abs()),
+            Law::Shaped { .. } => {}
+        }
+        (v, a)
+    }
+
+    /// Largest |jerk| on the piece: linear on a polynomial piece and monotone in a sine's
+    /// or an exponential's slope derivative, so at an end; `None` on a parabolic piece,
+    /// whose acceleration is unbounded.
+    pub fn peak_jerk(&self) -> Option<f64> {
+        if let Law::Shaped {
+            shape: Shape::Parabolic,
+            ..
+        } = self.law
+        {
+            return None;
+        }
+        Some(self.jerk(0.0).abs().max(self.jerk(self.dur).abs()))
+    }
+}
+
+/// Real roots of `a·x² + b·x + c` into `out` (NaN where none), without cancellation
+/// (Numerical Recipes §5.6); a double root's vertex is kept even when rounding makes the
+/// discriminant slightly negative, as an extra candidate costs nothing.
+fn quadratic_roots(a: f64, b: f64, c: f64, out: &mut [f64; 2]) {
+    if a == 0.0 {
+        out[0] = -c / b;
+        return;
+    }
+    let disc = b * b - 4.0 * a * c;
+    if !(disc > 0.0) {
+        out[0] = -b / (2.0 * a);
+        return;
+    }
+    let q = -0.5 * (b + crate::real::fm::sqrt(disc).copysign(b));
+    out[0] = q / a;
+    out[1] = c / q;
 }

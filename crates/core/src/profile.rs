@@ -19,6 +19,8 @@ pub struct Profile {
     pub(crate) len: usize,
     pub(crate) steps: u64,
     pub(crate) duration: f64,
+    /// The integer move it plays on its clock, if any (`Profile::plan_on_clock`).
+    pub(crate) exact: Option<crate::int::ExactMove>,
 }
 
 impl Profile {
@@ -112,17 +114,145 @@ impl Profile {
         Dd::new(p.p0) + p.advance(tau)
     }
 
-    /// Largest |v| and |a| on the profile, sampled densely on every piece (ends included).
+    /// Largest |v| and |a| on the profile (ends included), each piece's from its closed
+    /// form ([`Piece::peaks`]).
     pub fn peaks(&self) -> (f64, f64) {
-        let (mut vmax, mut amax) = (0.0f64, 0.0f64);
-        for p in self.pieces() {
-            const N: usize = 256;
-            for k in 0..=N {
-                let tau = p.dur * k as f64 / N as f64;
-                vmax = vmax.max(p.velocity(tau).abs());
-                amax = amax.max(p.acceleration(tau).abs());
+        self.pieces().iter().fold((0.0f64, 0.0f64), |(v, a), p| {
+            let (pv, pa) = p.peaks();
+            (v.max(pv), a.max(pa))
+        })
+    }
+
+    /// Largest |jerk| on the profile; `None` if a piece is parabolic (its acceleration is
+    /// unbounded at the steep end).
+    pub fn peak_jerk(&self) -> Option<f64> {
+        self.pieces()
+            .iter()
+            .try_fold(0.0f64, |j, p| Some(j.max(p.peak_jerk()?)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::moves::{LimitsMove, PhaseMove};
+    use proptest::prelude::*;
+
+    /// Largest |v|, |a| and |jerk| from `n + 1` evenly spaced samples of every piece.
+    fn sampled(p: &Profile, n: usize) -> (f64, f64, f64) {
+        let (mut v, mut a, mut j) = (0.0f64, 0.0f64, 0.0f64);
+        for pc in p.pieces() {
+            for k in 0..=n {
+                let tau = pc.dur * k as f64 / n as f64;
+                v = v.max(pc.velocity(tau).abs());
+                a = a.max(pc.acceleration(tau).abs());
+                j = j.max(pc.jerk(tau).abs());
             }
         }
-        (vmax, amax)
+        (v, a, j)
+    }
+
+    /// The closed form is at least the 257-point sample (up to a few ulps of rounding in
+    /// evaluating v at a different τ) and within 1e-9 of a 2^16-point one; infinite only
+    /// where the sample is.
+    fn check(p: &Profile) -> Result<(), TestCaseError> {
+        let (v, a) = p.peaks();
+        let (sv, sa, _) = sampled(p, 256);
+        let (dv, da, dj) = sampled(p, 1 << 16);
+        for (name, got, coarse, dense) in [("v", v, sv, dv), ("a", a, sa, da)] {
+            if dense.is_infinite() {
+                prop_assert!(got.is_infinite(), "{name}: {got} vs sampled {dense}");
+                continue;
+            }
+            prop_assert!(
+                got >= coarse * (1.0 - 8.0 * f64::EPSILON),
+                "{name}: {got} < {coarse}"
+            );
+            prop_assert!(
+                got >= dense * (1.0 - 8.0 * f64::EPSILON),
+                "{name}: {got} < {dense}"
+            );
+            prop_assert!(got <= dense * (1.0 + 1e-9), "{name}: {got} > {dense}");
+        }
+        if let Some(j) = p.peak_jerk() {
+            prop_assert!(j >= dj * (1.0 - 8.0 * f64::EPSILON) && j <= dj * (1.0 + 1e-9));
+        } else {
+            prop_assert!(p.pieces().iter().any(|pc| pc.peak_jerk().is_none()));
+        }
+        Ok(())
+    }
+
+    fn family() -> impl Strategy<Value = Family> {
+        prop_oneof![
+            Just(Family::Trapezoid),
+            Just(Family::Parabolic),
+            (0.03f64..4.0).prop_map(|rho| Family::Exponential { rho }),
+            Just(Family::Sine),
+            (0.05f64..=0.5).prop_map(|phi| Family::SCurve { phi }),
+            (0.05f64..=0.5, 0.05f64..=0.5).prop_map(|(phi, psi)| Family::SCurve4 { phi, psi }),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+        #[test]
+        fn phase_mode_peaks_are_the_dense_samples(
+            family in family(),
+            steps in 1u64..2_000_000,
+            ta in 1e-3f64..2.0, tb in 0.0f64..2.0, tc in 1e-3f64..2.0,
+            vs in 0.0f64..1.0, ve in 0.0f64..1.0,
+        ) {
+            let base = steps as f64 / (ta + tb + tc);
+            let m = PhaseMove::new(steps, family, ta, tb, tc).with_speeds(vs * base, ve * base);
+            if let Ok(p) = Profile::phase(&m) {
+                check(&p)?;
+            }
+        }
+
+        #[test]
+        fn limits_mode_peaks_are_the_dense_samples(
+            order in 0usize..3,
+            steps in 1u64..2_000_000,
+            vmax in 10.0f64..1e6, amax in 10.0f64..1e7, jmax in 10.0f64..1e9, smax in 10.0f64..1e11,
+            vs in 0.0f64..1.0, ve in 0.0f64..1.0,
+        ) {
+            let m = match order {
+                0 => LimitsMove::trapezoid(steps, vmax, amax),
+                1 => LimitsMove::scurve(steps, vmax, amax, jmax),
+                _ => LimitsMove::scurve4(steps, vmax, amax, jmax, smax),
+            }
+            .with_speeds(vs * vmax, ve * vmax);
+            if let Ok(p) = Profile::limits(&m) {
+                check(&p)?;
+                let (v, a) = p.peaks();
+                prop_assert!(v <= vmax * (1.0 + 1e-9) && a <= amax * (1.0 + 1e-9));
+                if order > 0 {
+                    prop_assert!(p.peak_jerk().unwrap() <= jmax * (1.0 + 1e-9));
+                }
+            }
+        }
+
+        #[test]
+        fn segment_mode_peaks_are_the_dense_samples(
+            segs in prop::collection::vec((0.0f64..1e4, 1e-3f64..1.0, 1u64..10_000), 1..8),
+        ) {
+            let segs: std::vec::Vec<Segment> = segs
+                .into_iter()
+                .map(|(v0, duration, steps)| Segment { v0, duration, steps })
+                .collect();
+            if let Ok(p) = Profile::segments(&segs) {
+                check(&p)?;
+            }
+        }
+    }
+
+    #[test]
+    fn a_parabolic_move_has_no_peak_jerk_and_an_infinite_peak_acceleration() {
+        let p = Profile::phase(&PhaseMove::new(1000, Family::Parabolic, 0.1, 0.1, 0.1)).unwrap();
+        assert!(p.peaks().1.is_infinite());
+        assert_eq!(p.peak_jerk(), None);
+        let s = Profile::limits(&LimitsMove::scurve(100_000, 1e4, 1e5, 1e6)).unwrap();
+        assert!((s.peak_jerk().unwrap() - 1e6).abs() <= 1e-9 * 1e6);
     }
 }

@@ -116,6 +116,23 @@ impl Shape {
         }
     }
 
+    /// `g''(u)` (accel) or `h''(u) = g''(1−u)` (mirrored decel), in f64: infinite for the
+    /// parabola at its steep end.
+    pub(crate) fn curvature(self, u: f64, mirrored: bool) -> f64 {
+        let w = if mirrored { 1.0 - u } else { u };
+        match self {
+            Shape::Parabolic => -0.25 / (w * crate::real::fm::sqrt(w)),
+            Shape::Sine => {
+                let pi = core::f64::consts::PI;
+                0.5 * pi * pi * crate::real::fm::cos(pi * w)
+            }
+            Shape::Exponential { rho } => {
+                let den = -crate::real::fm::exp_m1(-1.0 / rho);
+                -crate::real::fm::exp(-w / rho) / (rho * rho * den)
+            }
+        }
+    }
+
     /// `G(u)` (accel) or `H(u)` (mirrored decel).
     #[inline]
     pub(crate) fn integral<R: Real>(self, u: R, mirrored: bool) -> R {
