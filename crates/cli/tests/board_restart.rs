@@ -10,7 +10,7 @@ use common::EchoedStderr;
 use multistep_controller::client::{Client, Endpoint};
 use multistep_controller::{AxisState, AxisStatus};
 use multistep_hdl::link::{AxisReg, HostLink, Reg};
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -43,7 +43,8 @@ struct Proc {
 }
 
 impl Proc {
-    fn spawn(cmd: &mut Command) -> (Proc, String) {
+    /// Started; its first `lines` lines of output.
+    fn spawn(cmd: &mut Command, lines: usize) -> (Proc, Vec<String>) {
         let mut child = cmd
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -51,11 +52,15 @@ impl Proc {
             .spawn()
             .expect("spawn multistep");
         let stderr = EchoedStderr::start(child.stderr.take().unwrap());
-        let mut first = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut first)
-            .unwrap();
-        (Proc { child, stderr }, first.trim().to_string())
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        let first = (0..lines)
+            .map(|_| {
+                let mut l = String::new();
+                out.read_line(&mut l).unwrap();
+                l.trim().to_string()
+            })
+            .collect();
+        (Proc { child, stderr }, first)
     }
 
     /// SIGKILL, and reaped.
@@ -70,6 +75,13 @@ impl Drop for Proc {
         self.kill9();
         self.stderr.flush_if_failing();
     }
+}
+
+/// The device of board-sim's `pty DEVICE` line.
+fn pty_of(line: &str) -> String {
+    line.strip_prefix("pty ")
+        .unwrap_or_else(|| panic!("board-sim said: {line}"))
+        .to_string()
 }
 
 struct Rig {
@@ -102,11 +114,9 @@ impl Rig {
                 .arg(&config)
                 .arg("--cache-dir")
                 .arg(cache),
+            1,
         );
-        let pty = first
-            .strip_prefix("pty ")
-            .unwrap_or_else(|| panic!("board-sim said: {first}"))
-            .to_string();
+        let pty = pty_of(&first[0]);
         let (serve, client) = Rig::serve(dir.path(), &pty);
         Rig {
             dir,
@@ -125,9 +135,10 @@ impl Rig {
                 .arg("--board-config")
                 .arg(dir.join("board.toml"))
                 .args(["--board-link", &format!("serial:{pty},timeout=3")]),
+            1,
         );
-        let addr = first.rsplit("tcp://").next().unwrap().to_string();
-        assert!(addr.contains(':'), "serve said: {first}");
+        let addr = first[0].rsplit("tcp://").next().unwrap().to_string();
+        assert!(addr.contains(':'), "serve said: {first:?}");
         let client = Client::connect(&Endpoint::Tcp(addr)).unwrap();
         (serve, client)
     }
@@ -254,5 +265,88 @@ fn a_streamed_move_under_way_is_halted_exact_by_the_restarted_serve() {
         r.counter(),
         x.position + 100,
         "the board's Position register"
+    );
+}
+
+/// Two boards (`board-sim --boards 2`, their SYNC pins wired together), each armed with a
+/// share of a group; board b's link is cut, so the stop that should disarm its share
+/// fails. Once the link answers again b's `serve` disarms it (`fault=disarmed`): a later
+/// group armed and fired on board a alone does not start b's stale share.
+#[test]
+fn a_share_left_armed_behind_a_cut_link_never_fires_with_a_later_group() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("board.toml");
+    std::fs::write(&config, CONFIG).unwrap();
+    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator");
+    let (mut sim, ptys) = Proc::spawn(
+        Command::new(BIN)
+            .args([
+                "board-sim",
+                "--board",
+                "ulx3s-25f",
+                "--axes",
+                "1",
+                "--boards",
+                "2",
+            ])
+            .arg("--cache-dir")
+            .arg(cache),
+        2,
+    );
+    let mut control = sim.child.stdin.take().unwrap();
+    let mut board = |line: &str| {
+        writeln!(control, "{line}").unwrap();
+        control.flush().unwrap();
+    };
+    let (da, db) = (dir.path().join("a"), dir.path().join("b"));
+    for d in [&da, &db] {
+        std::fs::create_dir(d).unwrap();
+        std::fs::copy(&config, d.join("board.toml")).unwrap();
+    }
+    let (_sa, mut a) = Rig::serve(&da, &pty_of(&ptys[0]));
+    let (_sb, mut b) = Rig::serve(&db, &pty_of(&ptys[1]));
+    a.request("arm move X=200").unwrap();
+    b.request("arm move X=200").unwrap();
+    board("@1 cut");
+    assert!(b.request("stop X").is_err(), "b's link is cut");
+    board("@1 restore");
+    let t0 = Instant::now();
+    let bx = loop {
+        let x = b.status().unwrap().remove(0);
+        // "board link … down" while it is cut
+        if !x.fault.as_deref().unwrap_or("").starts_with("board link") {
+            break x;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "b's link: {x:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(
+        bx.fault.as_deref().unwrap_or("").starts_with("disarmed"),
+        "{bx:?}"
+    );
+    // a's own share stopped (as a failing `ctl group` does), then a group on a alone
+    a.request("stop X").unwrap();
+    a.request("arm move X=100").unwrap();
+    let t0 = Instant::now();
+    while !a.request("synctick").unwrap()[0].contains("ready=1") {
+        assert!(t0.elapsed() < Duration::from_secs(60), "a never got ready");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    a.request("fire").unwrap();
+    let t0 = Instant::now();
+    let ax = loop {
+        let x = a.status().unwrap().remove(0);
+        if x.state != AxisState::Moving {
+            break x;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "a's X: {x:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert_eq!(ax.position, 100, "{ax:?}");
+    let bx = b.status().unwrap().remove(0);
+    assert_eq!(
+        (bx.position, bx.state == AxisState::Moving),
+        (0, false),
+        "b's stale share stayed put: {bx:?}"
     );
 }
