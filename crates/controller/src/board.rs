@@ -223,31 +223,28 @@ impl Board {
                 driver: driver::Driver::default(),
             };
             let i = axes.len();
+            // a motion the adopted board still runs goes on: `moving` until it ends
+            if let Some(dir) = pins.adopted_motion(i).filter(|_| adopted) {
+                axis.last_dir = dir;
+                axis.state = AxisState::Moving;
+                axis.motion = Some(Motion {
+                    dir,
+                    target: rec.moving.as_ref().map_or(pins.count(i), |m| m.target),
+                    purpose: Purpose::Move,
+                    stopping: false,
+                    edge: None,
+                    track: None,
+                });
+            }
             if let Some(m) = rec.moving.clone().filter(|_| adopted) {
-                // The host died mid-move, the board did not: the count is the board's
-                // (below), the motion goes on if it runs.
-                axis.marked = true;
-                axis.marker = Some((m.from, m.target));
+                // The host died mid-move, the board did not: the count is the board's.
                 pins.configure(i, &axis.settings);
                 axis.count = pins.count(i);
-                match pins.adopted_motion(i) {
-                    Some(dir) => {
-                        axis.last_dir = dir;
-                        axis.state = AxisState::Moving;
-                        axis.motion = Some(Motion {
-                            dir,
-                            target: m.target,
-                            purpose: Purpose::Move,
-                            stopping: false,
-                            edge: None,
-                            track: None,
-                        });
-                    }
-                    None => {
-                        axis.marked = false;
-                        axis.marker = None;
-                        store.put_axis(&axis.name, &axis.record(None, axis.count))?;
-                    }
+                if axis.motion.is_some() {
+                    axis.marked = true;
+                    axis.marker = Some((m.from, m.target));
+                } else {
+                    store.put_axis(&axis.name, &axis.record(None, axis.count))?;
                 }
             } else if let Some(m) = rec.moving {
                 // Died mid-move: the count says `from`; the mechanics stayed where they were

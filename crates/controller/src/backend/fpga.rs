@@ -307,6 +307,9 @@ impl FpgaBackend {
             b.setup_due = true;
         } else {
             b.setup().map_err(link_err)?;
+            // a group armed before this host connected belongs to no group of its own
+            b.disarm("it was armed before this host connected")
+                .map_err(link_err)?;
         }
         b.read_board().map_err(link_err)?;
         Ok(b)

@@ -54,14 +54,15 @@ impl FpgaBackend {
         let Some(keep) = self.keep.as_mut() else {
             return;
         };
-        match keep(&r) {
-            Ok(()) => self.kept = Some(r),
-            Err(e) => eprintln!(
+        if let Err(e) = keep(&r) {
+            // said once: tried again at the next change, not at every poll
+            eprintln!(
                 "warning: board link {}: the session is not stored ({e}); a restart \
-                 will not adopt the board",
+                 may not adopt the board",
                 self.name
-            ),
+            );
         }
+        self.kept = Some(r);
     }
 
     pub(super) fn keep_session_now(&mut self) {
