@@ -560,26 +560,77 @@ fn energized() -> bool {
 impl AxisStatus {
     /// The one-line `key=value` form of the text protocol.
     pub fn line(&self) -> String {
-        let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
-        format!(
-            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} store={} rate={} en={} num={}",
-            self.axis,
-            self.position,
-            self.units,
-            self.state.name(),
-            self.homed as u8,
-            self.trusted as u8,
-            opt(self.target),
-            self.speed,
-            self.sensor as u8,
-            opt(self.drift),
-            self.fault.as_deref().unwrap_or("none").replace(' ', "_"),
-            self.store,
-            self.rate.map_or("none".to_string(), |r| r.to_string()),
-            self.enabled as u8,
-            self.number,
-        )
+        let mut s = String::with_capacity(160);
+        self.write_line(&mut s);
+        s
     }
+
+    /// Appends [`AxisStatus::line`] to `out`, with no allocation of its own: a fault's
+    /// spaces become `_` and its line breaks spaces here, where the text is produced, so
+    /// the line never needs escaping again.
+    pub fn write_line(&self, out: &mut String) {
+        use std::fmt::Write;
+        // writing into a String cannot fail
+        out.push_str(&self.axis);
+        let _ = write!(out, " pos={} units={}", self.position, self.units);
+        out.push_str(" state=");
+        out.push_str(self.state.name());
+        flag(out, " homed=", self.homed);
+        flag(out, " trusted=", self.trusted);
+        out.push_str(" target=");
+        opt(out, self.target);
+        let _ = write!(out, " speed={:.1}", self.speed);
+        flag(out, " sensor=", self.sensor);
+        out.push_str(" drift=");
+        opt(out, self.drift);
+        out.push_str(" fault=");
+        match &self.fault {
+            Some(f) => escaped(out, f, '_'),
+            None => out.push_str("none"),
+        }
+        out.push_str(" store=");
+        escaped(out, &self.store, ' ');
+        out.push_str(" rate=");
+        match self.rate {
+            Some(r) => {
+                let _ = write!(out, "{r}");
+            }
+            None => out.push_str("none"),
+        }
+        flag(out, " en=", self.enabled);
+        let _ = write!(out, " num={}", self.number);
+    }
+}
+
+fn flag(out: &mut String, key: &str, on: bool) {
+    out.push_str(key);
+    out.push(if on { '1' } else { '0' });
+}
+
+fn opt(out: &mut String, o: Option<i64>) {
+    use std::fmt::Write;
+    match o {
+        Some(x) => {
+            let _ = write!(out, "{x}");
+        }
+        None => out.push_str("none"),
+    }
+}
+
+/// `text` with each line break as a space (as every data line of a reply) and each space
+/// as `space`, copied a run at a time.
+fn escaped(out: &mut String, text: &str, space: char) {
+    let mut rest = text;
+    while let Some(i) = rest.find([' ', '\n', '\r']) {
+        out.push_str(&rest[..i]);
+        out.push(if rest.as_bytes()[i] == b' ' {
+            space
+        } else {
+            ' '
+        });
+        rest = &rest[i + 1..];
+    }
+    out.push_str(rest);
 }
 
 /// Axis names: what can be typed in a terminal and split on ':' by the host client.
@@ -591,4 +642,62 @@ pub fn valid_axis_name(name: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
         && !name.eq_ignore_ascii_case("ok")
         && !name.eq_ignore_ascii_case("all")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::Reply;
+
+    /// The line as it was first written: one `format!` and a replace per field, then the
+    /// reply's replace of line breaks over the whole line.
+    fn reference(s: &AxisStatus) -> String {
+        let opt = |o: Option<i64>| o.map_or("none".to_string(), |x| x.to_string());
+        format!(
+            "{} pos={} units={} state={} homed={} trusted={} target={} speed={:.1} sensor={} drift={} fault={} store={} rate={} en={} num={}",
+            s.axis, s.position, s.units, s.state.name(), s.homed as u8, s.trusted as u8,
+            opt(s.target), s.speed, s.sensor as u8, opt(s.drift),
+            s.fault.as_deref().unwrap_or("none").replace(' ', "_"), s.store,
+            s.rate.map_or("none".to_string(), |r| r.to_string()), s.enabled as u8, s.number,
+        )
+        .replace(['\n', '\r'], " ")
+    }
+
+    #[test]
+    fn the_status_line_is_the_reference_byte_for_byte() {
+        let mut s = AxisStatus {
+            axis: "X".into(),
+            number: 3,
+            position: -123_456,
+            units: -1.2345678901234567,
+            state: AxisState::Fault,
+            homed: true,
+            trusted: false,
+            target: Some(99),
+            speed: -2500.04999,
+            sensor: true,
+            drift: None,
+            drift_checks: 0,
+            move_start: None,
+            move_end: None,
+            fault: Some("stall at\n 12 \r\nsteps  ".into()),
+            sim_position: 0,
+            dir_level: false,
+            rate: Some(1e-7),
+            enabled: false,
+            enable_level: false,
+            store: "fail ing\n".into(),
+        };
+        let a = s.line();
+        assert_eq!(a, reference(&s));
+        assert!(
+            a.contains("fault=stall_at _12_  steps__ store=fail ing  rate=0.0000001"),
+            "{a}"
+        );
+        let text = Reply::ok(vec![a.clone()]).to_text();
+        let a = a.as_str();
+        assert_eq!(text, format!("{a}\nok\n"));
+        (s.fault, s.rate, s.target, s.drift) = (None, None, None, Some(-4));
+        assert_eq!(s.line(), reference(&s));
+    }
 }
