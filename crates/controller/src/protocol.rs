@@ -391,13 +391,20 @@ impl Reply {
     /// The reply as sent: data lines, then the status line; every line ends in `\n`.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        s.reserve(self.data.iter().map(|d| d.len() + 3).sum::<usize>() + 4);
         for d in &self.data {
-            // A data line never looks like a status line and never spans lines.
-            let d = d.replace(['\n', '\r'], " ");
+            // A data line never looks like a status line and never spans lines; one that
+            // holds no line break (every status line: its fault is escaped where it is
+            // written) is copied as it is.
             if d == "ok" || d.starts_with("error:") {
                 s.push_str("> ");
             }
-            s.push_str(&d);
+            // (a byte slice's `contains` runs a word at a time)
+            if d.as_bytes().contains(&b'\n') || d.as_bytes().contains(&b'\r') {
+                s.push_str(&d.replace(['\n', '\r'], " "));
+            } else {
+                s.push_str(d);
+            }
             s.push('\n');
         }
         match &self.result {
