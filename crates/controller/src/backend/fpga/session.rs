@@ -448,4 +448,65 @@ mod tests {
             .iter()
             .all(|(_, e)| matches!(e, PinEvent::Late { why } if why.starts_with("disarmed"))));
     }
+
+    #[test]
+    fn a_group_armed_before_the_first_connect_is_disarmed() {
+        let m = model(|m| (m.busy, m.armed) = (0b10, true));
+        let (mut b, _) = resume(&m, None);
+        assert!(!m.lock().unwrap().armed, "disarmed at connect");
+        let ev = events(&mut b);
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::Late { why })] if why.contains("before this host")),
+            "{ev:?}"
+        );
+    }
+
+    /// The whole board on the model: a host killed mid-move comes back with the axis
+    /// `moving` (not idle, not untrusted), and it ends trusted at the board's count.
+    #[test]
+    fn a_restarted_board_shows_the_adopted_axis_moving_then_trusted_at_its_end() {
+        use crate::axis::AxisState;
+        use crate::store::{AxisRecord, MovingMarker, Store};
+        use crate::{Board, BoardConfig};
+        let dir = tempfile::tempdir().unwrap();
+        let config = BoardConfig::parse(
+            "[board]\nname = \"t\"\n[[axis]]\nname = \"X\"\n[[axis]]\nname = \"Y\"\n",
+        )
+        .unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        let rec = AxisRecord {
+            position: 100,
+            homed: true,
+            trusted: true,
+            moving: Some(MovingMarker {
+                from: 100,
+                target: 800,
+            }),
+            sim_position: 0,
+        };
+        store.put_axis("X", &rec).unwrap();
+        store.put_link_session(&kept(0)).unwrap();
+        let m = model(|m| {
+            (m.session, m.busy, m.dir) = (TOKEN, 0b01, 0b01);
+            (m.position, m.steps) = ([400, 0], 400);
+        });
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let before = store.link_session().unwrap();
+        let pins = FpgaBackend::with_opener_resuming("model".into(), open, 2, before).unwrap();
+        let mut board = Board::open_with(&config, store, Box::new(pins)).unwrap();
+        let x = board.status(&["X".into()], 1).unwrap().remove(0);
+        assert_eq!(
+            (x.state, x.position, x.trusted),
+            (AxisState::Moving, 400, true),
+            "{x:?}"
+        );
+        m.lock().unwrap().finish();
+        let x = board.status(&["X".into()], 2).unwrap().remove(0);
+        assert_eq!(
+            (x.state, x.position, x.trusted, x.homed),
+            (AxisState::Idle, 800, true, true),
+            "{x:?}"
+        );
+    }
 }
