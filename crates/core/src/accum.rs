@@ -113,6 +113,14 @@ pub struct FloatCruise {
 }
 
 impl FloatCruise {
+    /// The line `⌊(y + (i − first)·w)/den⌋` (an integer cruise, i the absolute step).
+    pub(crate) fn from_line(y: u128, w: u128, den: u128, first: u64) -> Option<FloatCruise> {
+        let base = i128::try_from(y)
+            .ok()?
+            .checked_sub(i128::try_from(w.checked_mul(first as u128)?).ok()?)?;
+        Some(FloatCruise { base, w, den })
+    }
+
     /// The accumulator at step `i` (absolute, 1-based).
     pub fn at(&self, i: u64) -> Option<StepAccumulator> {
         let y = (self.w.checked_mul(i as u128)? as i128).checked_add(self.base)?;

@@ -138,6 +138,7 @@ impl Builder {
             len: self.len,
             steps,
             duration: self.t,
+            exact: None,
         })
     }
 }

@@ -23,6 +23,13 @@ const EPS: f64 = f64::EPSILON;
 /// Most ticks a move may span: half-tick decisions stay meaningful in f64 and u64.
 pub const MAX_TICKS: f64 = (1u64 << 50) as f64;
 
+/// How far (in units of ε·(f·N + x·v), ticks·steps/s) a step of a profile with an integer
+/// move behind it ([`crate::int::ExactMove`]) may lie from that move's: the profile is the
+/// move in f64, each constant and piece start a few roundings from its exact value, so
+/// positions move by a few ε·(N + v·t) steps and times by that over the speed. A step
+/// that close to a half tick is settled on the integer move.
+const DEV_ULPS: f64 = 1024.0;
+
 /// 1.5·2^52: adding it rounds a non-negative x < 2^51 to an integer held in the low
 /// mantissa bits (the classic magic-number rounding; SSE2 has no cheap floor).
 const MAGIC: f64 = 6_755_399_441_055_744.0;
@@ -71,6 +78,8 @@ struct Ramp {
     /// bound (∞: never).
     quick: f64,
     fast: bool,
+    /// [`DEV_ULPS`]' deviation times the speed, for a profile with an integer move (else 0).
+    dev: f64,
 }
 
 impl Ramp {
@@ -81,6 +90,7 @@ impl Ramp {
         h: 0.0,
         quick: f64::INFINITY,
         fast: false,
+        dev: 0.0,
     };
 
     /// The constants of piece `p` (`c1`, `c2` its quadratic coefficients) at `clock`, for
@@ -102,7 +112,10 @@ impl Ramp {
     ///
     /// `quick` is twice the right side at those maxima (with a relative margin for the
     /// rounding of its own terms), so `dist·s > quick` decides the tick.
-    fn new(p: &Piece, c1: f64, c2: f64, clock: f64, i_max: f64) -> Ramp {
+    ///
+    /// With an integer move behind the profile (`exact`), `dev` (the profile's own
+    /// deviation from it, [`DEV_ULPS`]) is added to both bounds.
+    fn new(p: &Piece, c1: f64, c2: f64, clock: f64, i_max: f64, exact: bool) -> Ramp {
         let n_max = (i_max - p.p0).max(0.0) * (1.0 + 1e-9);
         let r_max = (c1 * c1 + 4.0 * c2.abs() * n_max) * (1.0 + 1e-9);
         let s_max = fm::sqrt(if c2 > 0.0 { r_max } else { c1 * c1 }) * (1.0 + 1e-6);
@@ -114,6 +127,11 @@ impl Ramp {
             f64::INFINITY
         };
         let i_max = i_max * (1.0 + 1e-6);
+        let dev = if exact {
+            DEV_ULPS * EPS * clock * (i_max + s_max * (p.t0 + p.dur))
+        } else {
+            0.0
+        };
         let x_term = (8.0 * EPS * (p.t0 + p.dur) * clock * (1.0 + 1e-6) + 2e-9) * s_max;
         let k_err = 2.0 * clock * EPS;
         let merged = 2.0 * (k_err * (p.dur * (5.0 * s_max + rd_max) + i_max) + x_term);
@@ -127,8 +145,8 @@ impl Ramp {
         let ok = |q: f64| c1 >= 0.0 && q.is_finite() && p.dur.is_finite() && i_max.is_finite();
         let fast = c2 != 0.0 && ok(free) && (!ok(merged) || free <= 4.0 * merged);
         let quick = match (fast, ok(merged)) {
-            (true, _) => free,
-            (false, true) => merged,
+            (true, _) => free + 2.0 * dev,
+            (false, true) => merged + 2.0 * dev,
             (false, false) => f64::INFINITY,
         };
         Ramp {
@@ -138,6 +156,7 @@ impl Ramp {
             h: 1.0 / (2.0 * c2),
             quick,
             fast,
+            dev,
         }
     }
 
@@ -180,7 +199,7 @@ impl Ramp {
         let big_r = c1 * c1 + self.c2_4.abs() * n;
         let sd = s * den;
         let bound = k_err * (tau * (5.0 * sd + big_r) + i * den) + (8.0 * EPS * x + 2e-9) * sd;
-        (tau, tick, dist * sd > bound)
+        (tau, tick, dist * sd > bound + self.dev * den)
     }
 }
 
@@ -212,6 +231,8 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     /// Last step (as f64) a ramp run may give in the current piece: inside it, before N.
     ramp_hi: f64,
     inv_c1: f64,
+    /// On a cruise piece, [`DEV_ULPS`]' deviation in ticks (0 without an integer move).
+    cruise_dev: f64,
     /// Local times of the last three steps in the current piece (newest first) and how
     /// many of them are valid: the next step's Newton guess extrapolates them.
     hist: [f64; 3],
@@ -263,6 +284,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             ramp: Ramp::NONE,
             ramp_hi: 0.0,
             inv_c1: 0.0,
+            cruise_dev: 0.0,
             hist: [0.0; 3],
             nhist: 0,
             shaped: None,
@@ -496,19 +518,30 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             } else {
                 self.cur_end
             };
-            self.ramp = Ramp::new(&self.cur, c1, c2, self.clock, i_max);
+            let exact = self.profile().exact.is_some();
+            self.ramp = Ramp::new(&self.cur, c1, c2, self.clock, i_max, exact);
             self.ramp_hi = fm::floor(self.cur_end).min(self.last_f - 1.0);
         }
         self.cruise_exact = None;
+        self.cruise_dev = 0.0;
         if self.cruise {
-            let p = &self.cur;
+            let p = self.cur;
+            if self.profile().exact.is_some() {
+                let i_max = self.cur_end.max(self.last_f);
+                self.cruise_dev = DEV_ULPS * EPS * self.clock * (i_max / c1 + p.t0 + p.dur);
+            }
             // a step (and a tick) inside the piece on both sides, so that float rounding
             // of its ends never matters; step N keeps its own rule
             let margin = 1.0 + c1 / self.clock;
             let lo = fm::floor(p.p0 + margin) + 1.0;
             let hi = (fm::ceil(self.cur_end - margin) - 1.0).min(self.last_f - 1.0);
             if lo <= hi && hi < MAX_TICKS {
-                self.cruise_exact = float_cruise(p.t0, p.p0, c1, self.clock);
+                // the integer move's own cruise line where there is one
+                let pr = self.profile();
+                self.cruise_exact = match pr.exact {
+                    Some(x) => x.cruise(pr, k),
+                    None => float_cruise(p.t0, p.p0, c1, self.clock),
+                };
                 (self.run_lo, self.run_hi) = (lo as u64, hi as u64);
             }
         }
@@ -586,7 +619,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             let x = (p.t0 + tau) * f;
             let (tick, dist) = nearest_tick(x);
             let bound = self.k_err * (2.0 * tau + i * self.inv_c1) + 8.0 * EPS * x + 2e-9;
-            return (tau, tick, dist > bound);
+            return (tau, tick, dist > bound + self.cruise_dev);
         }
         if self.quad {
             return self.ramp.locate(Span::of(p), i, self.k_err, self.clock);
@@ -719,6 +752,13 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     #[cold]
     fn settle(&mut self, k: usize, i: f64, tau: f64) -> u64 {
         self.settled += 1;
+        let pr = self.profile();
+        if let Some(x) = pr.exact {
+            let guess = fm::floor((pr.piece(k).t0 + tau) * self.clock + 0.5).max(0.0);
+            if let Some(e) = x.settle(pr, k, i as u64, guess as u64) {
+                return e;
+            }
+        }
         if self.cruise {
             if let Some(e) = self.settle_cruise(i) {
                 return e;

@@ -1,6 +1,7 @@
 //! One entry point per mode, as methods of [`Profile`].
 
 use crate::error::{positive, PlanError};
+use crate::int::ExactMove;
 use crate::limits;
 use crate::moves::{LimitsMove, Move, PhaseMove, Segment};
 use crate::phase;
@@ -26,18 +27,27 @@ impl Profile {
     /// N, exactly as the integer datapath ([`crate::int::IntProfile::limits`]) and the FPGA
     /// plan it, so all of them emit the same edges. S-curves are planned as [`Profile::limits`].
     pub fn limits_on_clock(m: &LimitsMove, clock_hz: f64) -> Result<Profile, PlanError> {
-        limits::plan_on_clock(m, clock_hz)
+        let mut p = limits::plan_on_clock(m, clock_hz)?;
+        // a move the integer datapath plays keeps it: ties are settled on it exactly
+        p.exact = ExactMove::of(&Move::Limits(*m), clock_hz, &p);
+        Ok(p)
     }
 
     /// Any mode, with limits-mode trapezoids on whole ticks ([`Profile::limits_on_clock`]):
     /// what a move plays as on a clock of `clock_hz`. A move faster than one step per tick
     /// is refused: at peak speed ≤ clock rate consecutive step times are at least a tick
     /// apart, so their nearest ticks are distinct; above it, steps would share a tick.
+    /// A trapezoid with whole speeds and whole-tick times (limits mode: whole limits and
+    /// speeds) plays the integer datapath's edges ([`crate::int`]), exact ties included.
     pub fn plan_on_clock(m: &Move<'_>, clock_hz: f64) -> Result<Profile, PlanError> {
         let clock_hz = positive("clock", clock_hz)?;
         let p = match m {
             Move::Limits(l) => Profile::limits_on_clock(l, clock_hz)?,
-            other => Profile::plan(other)?,
+            other => {
+                let mut p = Profile::plan(other)?;
+                p.exact = ExactMove::of(other, clock_hz, &p);
+                p
+            }
         };
         let peak = p.peaks().0;
         if !(peak <= clock_hz) {

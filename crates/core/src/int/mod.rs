@@ -57,6 +57,7 @@
 // the kernel's items are described in the module docs above; item docs to follow
 mod chain;
 mod cubic;
+mod exact;
 #[allow(missing_docs)]
 mod gen;
 pub mod isqrt;
@@ -69,6 +70,7 @@ pub use chain::{
     pieces as chain_pieces, ChainEdges, ChainError, ChainPiece, ChainValue, ChainWidths,
     CHAIN_LIMBS,
 };
+pub use exact::ExactMove;
 pub use gen::IntEdgeGenerator;
 pub use piece::{IntPiece, KernelMode, StepKernel};
 pub use plan::{limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};

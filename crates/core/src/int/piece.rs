@@ -91,6 +91,21 @@ impl StepKernel {
         divide(num, self.dv)
     }
 
+    /// On Cruise, `(y, dy, dv)` with the j-th step's edge `⌊(y + j·dy)/dv⌋` in absolute
+    /// ticks (from `t0`), reduced as in [`StepKernel::cruise_accumulator`].
+    pub(crate) fn cruise_line(&self, t0: u64) -> Option<(u128, u128, u128)> {
+        if self.mode != KernelMode::Cruise {
+            return None;
+        }
+        let g = gcd(self.dy, self.dv).max(1);
+        let (dy, dv) = (self.dy / g, self.dv / g);
+        Some((
+            (self.y0 / g).checked_add((t0 as u128).checked_mul(dv)?)?,
+            dy,
+            dv,
+        ))
+    }
+
     /// On Cruise, the edges from step j on as a [`StepAccumulator`] of absolute ticks
     /// (from `t0`): `⌊(y0 + j·dy)/dv⌋` with dy and dv reduced by their gcd, since
     /// `⌊(g·x + r)/(g·d)⌋ = ⌊x/d⌋` for `0 ≤ r < g`. `None` on the other modes or when
@@ -428,6 +443,11 @@ impl IntPiece {
     /// piece whose accumulator fits ([`StepKernel::cruise_accumulator`]).
     pub fn cruise_accumulator(&self, j: u64) -> Option<StepAccumulator> {
         self.kernel().and_then(|k| k.cruise_accumulator(j, self.t0))
+    }
+
+    /// [`StepKernel::cruise_line`] of this piece, if it is a cruise on the 128-bit path.
+    pub(crate) fn cruise_line(&self) -> Option<(u128, u128, u128)> {
+        self.kernel().and_then(|k| k.cruise_line(self.t0))
     }
 
     /// The edge tick of the piece's j-th step (`j < steps`).
