@@ -1592,6 +1592,8 @@ mod model {
         pub dir: u32,
         /// The link is cut: nothing reaches the board.
         pub cut: bool,
+        /// Busy axes report an underrun (a stream no host feeds).
+        pub underrun: bool,
         last: Option<(Vec<u8>, Reply)>,
         out: Vec<u8>,
     }
@@ -1663,7 +1665,11 @@ mod model {
                 (0x1000..=0x1FFF, true) => (Status::Ok, 0),
                 (0x2000..=0x201F, false) if ar == 0 => {
                     let busy = self.busy >> a & 1;
-                    (Status::Ok, (self.dir >> a & 1) << 10 | busy << 3 | busy)
+                    let late = busy & u32::from(self.underrun);
+                    (
+                        Status::Ok,
+                        (self.dir >> a & 1) << 10 | late << 4 | busy << 3 | busy,
+                    )
                 }
                 (0x2000..=0x201F, false) if ar == 1 => (Status::Ok, self.position[a] as u32),
                 (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),

@@ -246,7 +246,47 @@ impl FpgaBackend {
         if let Err(e) = self.expire_armed() {
             self.failed(e);
         }
+        if let Err(e) = self.halt_starved_adoptions() {
+            self.failed(e);
+        }
         self.keep_session_now();
+    }
+
+    /// An adopted motion that underruns is a stream no host feeds (its kept mask was
+    /// lost): halted at once, so it is never busy forever.
+    fn halt_starved_adoptions(&mut self) -> Result<(), LinkError> {
+        for i in 0..self.axes.len() {
+            let adopted = self.axes[i]
+                .running
+                .as_ref()
+                .is_some_and(|r| r.end_tick == UNKNOWN_END);
+            if !adopted {
+                continue;
+            }
+            let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+            if !l.axis_state(i as u32)?.underrun {
+                continue;
+            }
+            l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
+            let ax = &mut self.axes[i];
+            ax.count = l.read(Reg::Axis(i as u32, AxisReg::Position))? as i32 as i64 + ax.offset;
+            if ax.offset != 0 {
+                l.write(
+                    Reg::Axis(i as u32, AxisReg::Position),
+                    ax.count as i32 as u32,
+                )?;
+                ax.offset = 0;
+            }
+            ax.running = None;
+            ax.speed = 0.0;
+            self.events.push_back((i, PinEvent::End { end: self.now }));
+            let why = "host_restarted: the adopted motion ran out of steps to make (a stream \
+                       of the host before the restart); the axis was halted at once (the \
+                       count is exact)"
+                .to_string();
+            self.events.push_back((i, PinEvent::Late { why }));
+        }
+        Ok(())
     }
 
     /// A group was armed now on `mask`.
@@ -508,5 +548,23 @@ mod tests {
             (AxisState::Idle, 800, true, true),
             "{x:?}"
         );
+    }
+
+    #[test]
+    fn an_adopted_motion_that_underruns_is_halted_not_busy_forever() {
+        // streamed before the restart, its mask not kept: adopted as computed
+        let m = model(|m| (m.session, m.busy, m.position) = (TOKEN, 0b01, [70, 0]));
+        let (mut b, _) = resume(&m, Some(kept(0)));
+        assert_eq!(b.adopted_motion(0), Some(-1));
+        assert!(events(&mut b).is_empty(), "running");
+        m.lock().unwrap().underrun = true;
+        let ev = events(&mut b);
+        assert!(
+            matches!(&ev[..], [(0, PinEvent::End { .. }), (0, PinEvent::Late { why })]
+                if why.starts_with("host_restarted")),
+            "{ev:?}"
+        );
+        assert_eq!((m.lock().unwrap().busy, b.count(0)), (0, 70));
+        assert!(events(&mut b).is_empty(), "told once");
     }
 }
