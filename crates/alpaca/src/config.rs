@@ -20,6 +20,7 @@
 
 use multistep_controller::axis::{valid_axis_name, MAX_POSITION};
 use multistep_controller::config::NAME_RULE;
+use multistep_controller::mount::MountConfig;
 use multistep_controller::BoardConfig;
 use serde::Deserialize;
 
@@ -29,6 +30,8 @@ pub struct AlpacaSection {
     pub focuser: Vec<FocuserConfig>,
     pub rotator: Vec<RotatorConfig>,
     pub filterwheel: Vec<FilterWheelConfig>,
+    /// Mounts (settings and ranges: `multistep_controller::mount::config`).
+    pub telescope: Vec<MountConfig>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -93,7 +96,10 @@ impl AlpacaSection {
     }
 
     pub fn is_empty(&self) -> bool {
-        self.focuser.is_empty() && self.rotator.is_empty() && self.filterwheel.is_empty()
+        self.focuser.is_empty()
+            && self.rotator.is_empty()
+            && self.filterwheel.is_empty()
+            && self.telescope.is_empty()
     }
 
     fn validate(&self, config: &BoardConfig) -> Result<(), ConfigError> {
@@ -108,6 +114,11 @@ impl AlpacaSection {
                 self.filterwheel
                     .iter()
                     .map(|w| ("filterwheel", w.axis.as_str())),
+            )
+            .chain(
+                self.telescope
+                    .iter()
+                    .flat_map(|t| t.axes().into_iter().map(|a| ("telescope", a))),
             );
         for (kind, axis) in axes {
             let Some(a) = config.axes.iter().find(|a| a.name == axis) else {
@@ -146,6 +157,9 @@ impl AlpacaSection {
                 }
                 _ => {}
             }
+        }
+        for t in &self.telescope {
+            t.validate(config).map_err(ConfigError)?;
         }
         for f in &self.focuser {
             if !(f.microns_per_unit.is_finite() && f.microns_per_unit > 0.0) {
@@ -233,6 +247,25 @@ mod tests {
     }
 
     #[test]
+    fn the_mount_example_has_a_telescope_beside_the_optics() {
+        let p = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/telescope-mount.toml"
+        );
+        let c = BoardConfig::load(std::path::Path::new(p)).unwrap();
+        let s = AlpacaSection::from_board(&c).unwrap();
+        let t = &s.telescope[0];
+        assert_eq!(
+            (t.ra_axis.as_str(), t.dec_axis.as_deref()),
+            ("ha", Some("dec"))
+        );
+        assert_eq!(
+            (s.focuser.len(), s.rotator.len(), s.filterwheel.len()),
+            (1, 1, 1)
+        );
+    }
+
+    #[test]
     fn bad_sections_are_refused_with_a_reason() {
         for (extra, says) in [
             ("[[alpaca.focuser]]\naxis = \"Q\"\n", "not an axis"),
@@ -245,6 +278,10 @@ mod tests {
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\" }, { name = \"a\" }]\n", "distinct"),
             ("[[alpaca.focuser]]\naxis = \"F\"\nspeed = 3\n", "unknown field"),
             ("[[alpaca.telescope]]\naxis = \"F\"\n", "unknown field"),
+            ("[[alpaca.telescope]]\nmount = \"fork\"\nra_axis = \"F\"\ndec_axis = \"W\"\n\
+              ra_steps_per_rev = 10\ndec_steps_per_rev = 10\nlatitude = 0.0\nlongitude = 0.0\n", "periodic"),
+            ("[[alpaca.telescope]]\nmount = \"coelostat\"\nra_axis = \"F\"\n\
+              ra_steps_per_rev = 10\nlatitude = 0.0\nlongitude = 0.0\n[[alpaca.focuser]]\naxis = \"F\"\n", "two devices"),
             ("[[alpaca.focuser]]\naxis = \"F\"\nmicrons_per_unit = -1.0\n", "positive"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"\", position = 0 }]\n", "non-empty"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = 9223372036854775807 }]\n", "outside [-1000000000000000, 1000000000000000]"),

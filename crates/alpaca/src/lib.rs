@@ -1,13 +1,14 @@
 //! # multistep-alpaca
 //!
 //! ASCOM Alpaca devices over the multistep [`Controller`]: the board configuration's
-//! `[alpaca]` section makes axes a Focuser, a Rotator or a FilterWheel, and astronomy
-//! software (N.I.N.A., SharpCap, alpyca, …) drives them over Alpaca's HTTP/JSON API. Every
-//! move is a `Controller::move_axis` call, the one the line protocol and the web page make.
+//! `[alpaca]` section makes axes a Focuser, a Rotator, a FilterWheel or a Telescope
+//! mount, and astronomy software (N.I.N.A., SharpCap, alpyca, …) drives them over
+//! Alpaca's HTTP/JSON API. Every move is a `Controller::move_axis` call, the one the line
+//! protocol and the web page make.
 //!
 //! | route | what |
 //! |---|---|
-//! | `GET/PUT /api/v1/{focuser,rotator,filterwheel}/{n}/{method}` | the device API |
+//! | `GET/PUT /api/v1/{focuser,rotator,filterwheel,telescope}/{n}/{method}` | the device API |
 //! | `GET /management/apiversions`, `/management/v1/description`, `/management/v1/configureddevices` | the management API |
 //! | `GET /setup`, `/setup/v1/{type}/{n}/setup` | setup pages |
 //! | UDP `alpacadiscovery1` to the discovery port (32227) | discovery |
@@ -66,6 +67,8 @@ pub enum AlpacaError {
     Discovery { port: u16, why: String },
     #[error("{0}")]
     Access(String),
+    #[error("{0}")]
+    Mount(String),
 }
 
 /// The Alpaca side of a running service; stops serving when dropped.
@@ -122,7 +125,7 @@ pub fn start(
         why,
     };
     let board = ctl.with_board(|b, _| b.name().to_string());
-    let devices = devices::build(section, &board);
+    let devices = devices::build(section, &board, &ctl).map_err(AlpacaError::Mount)?;
     let ctx = http::Ctx::new(ctl, devices, access, board);
     let handler: server::Handler = Arc::new(move |req| http::handle(&req, &ctx));
     let server = server::Server::start(&opts.addr, limits, "alpaca", handler)

@@ -5,6 +5,7 @@
 mod filterwheel;
 mod focuser;
 mod rotator;
+mod telescope;
 
 use crate::config::{AlpacaSection, FilterWheelConfig, FocuserConfig};
 use crate::errors::{code, Fault};
@@ -15,7 +16,8 @@ use multistep_controller::{AxisSettings, AxisState, AxisStatus, Controller, Move
 use rotator::{RotatorState, Turn};
 use serde_json::{json, Value};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
+use multistep_controller::mount::Mount;
+use std::sync::{Arc, Mutex};
 
 pub type Answer = Result<Option<Value>, Fault>;
 
@@ -24,6 +26,7 @@ pub enum DeviceType {
     Focuser,
     Rotator,
     FilterWheel,
+    Telescope,
 }
 
 impl DeviceType {
@@ -33,6 +36,7 @@ impl DeviceType {
             DeviceType::Focuser => "focuser",
             DeviceType::Rotator => "rotator",
             DeviceType::FilterWheel => "filterwheel",
+            DeviceType::Telescope => "telescope",
         }
     }
     /// As in the management API (`DeviceType`).
@@ -41,10 +45,11 @@ impl DeviceType {
             DeviceType::Focuser => "Focuser",
             DeviceType::Rotator => "Rotator",
             DeviceType::FilterWheel => "FilterWheel",
+            DeviceType::Telescope => "Telescope",
         }
     }
-    /// IFocuserV4, IRotatorV4, IFilterWheelV3: the Platform 7 interfaces (Connect,
-    /// Disconnect, Connecting, DeviceState).
+    /// IFocuserV4, IRotatorV4, IFilterWheelV3, ITelescopeV4: the Platform 7 interfaces
+    /// (Connect, Disconnect, Connecting, DeviceState).
     fn interface_version(self) -> u16 {
         match self {
             DeviceType::FilterWheel => 3,
@@ -89,6 +94,7 @@ impl DeviceType {
                 ("position", false),
                 ("position", true),
             ],
+            DeviceType::Telescope => telescope::METHODS,
         }
     }
 }
@@ -118,6 +124,7 @@ enum Role {
     Focuser(FocuserConfig),
     Rotator(Mutex<RotatorState>),
     FilterWheel(FilterWheelConfig),
+    Telescope(Arc<Mount>),
 }
 
 pub struct Device {
@@ -131,8 +138,14 @@ pub struct Device {
     connected: AtomicBool,
 }
 
-/// Builds the devices of `section`; numbers count up per type in listed order.
-pub fn build(section: &AlpacaSection, board: &str) -> Vec<Device> {
+/// Builds the devices of `section`; numbers count up per type in listed order. A
+/// telescope's mount reads its parked state from the board and is looked after by a
+/// thread of its own.
+pub fn build(
+    section: &AlpacaSection,
+    board: &str,
+    ctl: &Arc<Controller>,
+) -> Result<Vec<Device>, String> {
     let mut out = Vec::new();
     let mut add = |ty: DeviceType, number: usize, axis: &str, name: &Option<String>, role| {
         out.push(Device {
@@ -175,7 +188,19 @@ pub fn build(section: &AlpacaSection, board: &str) -> Vec<Device> {
             Role::FilterWheel(w.clone()),
         );
     }
-    out
+    for (n, t) in section.telescope.iter().enumerate() {
+        let mount = Mount::open(t.clone(), ctl).map_err(|e| format!("telescope: {e}"))?;
+        let mount = Arc::new(mount);
+        Mount::supervise(&mount, ctl.clone()).map_err(|e| format!("telescope: {e}"))?;
+        add(
+            DeviceType::Telescope,
+            n,
+            &t.ra_axis,
+            &t.name,
+            Role::Telescope(mount),
+        );
+    }
+    Ok(out)
 }
 
 /// `x` in [0, 360) (and never −0).
@@ -267,6 +292,9 @@ impl Device {
                 format!("{} is not connected; set Connected=True first", self.name),
             ));
         }
+        if let (Role::Telescope(m), "devicestate") = (&self.role, method) {
+            return self.telescope_state(ctl, m);
+        }
         if method == "devicestate" {
             return self.device_state(ctl);
         }
@@ -274,6 +302,7 @@ impl Device {
             Role::Focuser(f) => self.focuser(ctl, f, method, put, p),
             Role::Rotator(r) => self.rotator(ctl, r, method, put, p),
             Role::FilterWheel(w) => self.filterwheel(ctl, w, method, put, p),
+            Role::Telescope(m) => self.telescope(ctl, m, method, put, p),
         }
     }
 
@@ -321,6 +350,7 @@ impl Device {
             Role::FilterWheel(w) => {
                 vec![item("Position", json!(self.wheel_position(ctl, w, &st)?))]
             }
+            Role::Telescope(m) => return self.telescope_state(ctl, m),
         };
         val(items)
     }

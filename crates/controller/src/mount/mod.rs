@@ -275,3 +275,6 @@ impl Mount {
         self.lock().settle
     }
 }
+
+#[cfg(test)]
+mod tests;
