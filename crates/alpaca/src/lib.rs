@@ -19,6 +19,7 @@ pub mod devices;
 pub mod discovery;
 pub mod errors;
 mod http;
+pub mod mapping;
 pub mod params;
 
 pub use args::AlpacaArgs;

@@ -216,6 +216,7 @@ impl std::fmt::Display for Command {
                 opts.words().iter().for_each(|w| push(w));
             }
             Command::Positions => push("positions"),
+            Command::Devices => push("devices"),
             Command::Forget { name } => {
                 push("forget");
                 push(name);
@@ -463,6 +464,7 @@ mod tests {
                 opts: opts(),
             },
             Command::Positions,
+            Command::Devices,
             Command::Forget {
                 name: "park".into(),
             },

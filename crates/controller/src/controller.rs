@@ -212,6 +212,8 @@ pub struct Controller {
     time_scale: f64,
     quit: Arc<AtomicBool>,
     ticker: Option<JoinHandle<()>>,
+    /// The config's `[alpaca]` section as JSON, answered by `devices`.
+    devices: String,
 }
 
 impl Controller {
@@ -252,6 +254,7 @@ impl Controller {
                 "a real board runs in real time: time scale 1 (got {time_scale})"
             )));
         }
+        let devices = serde_json::to_string(&config.alpaca.clone().unwrap_or_default())?;
         let mut board = Board::open_with(config, store, pins)?;
         // Stored values brought into range, said once at start-up (and kept for `info`).
         for w in board.warnings() {
@@ -297,6 +300,7 @@ impl Controller {
             time_scale,
             quit,
             ticker: Some(ticker),
+            devices,
         })
     }
 
@@ -536,6 +540,7 @@ impl Controller {
                 let all = self.with_board(|b, _| b.named_positions())?;
                 all.iter().map(|(n, p)| named_line(n, p)).collect()
             }
+            Command::Devices => vec![self.devices.clone()],
             Command::Forget { name } => {
                 self.with_board(|b, _| b.forget(name))?;
                 vec![]

@@ -226,6 +226,8 @@ pub enum Command {
         opts: MoveOpts,
     },
     Positions,
+    /// The board config's `[alpaca]` device section as one JSON line (read-only).
+    Devices,
     Forget {
         name: String,
     },
@@ -707,6 +709,10 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             }
         }
         "positions" => Command::Positions,
+        "devices" => {
+            none_after(0, "devices")?;
+            Command::Devices
+        }
         "forget" => {
             want(1, "forget NAME")?;
             Command::Forget {
@@ -901,7 +907,7 @@ pub const HELP: &[&str] = &[
     "  stop [AXIS|all]  estop  reset  home AXIS",
     "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
     "  save NAME [AXIS…]  goto NAME  positions  forget NAME",
-    "  preset NAME opts  presets  version  info  auth TOKEN",
+    "  preset NAME opts  presets  version  info  devices  auth TOKEN",
     "  track AXIS RATE|NAME [amax=A] [lease=S]    run at RATE steps/s (or units/s with 'u'; negative",
     "                               reverses) until stop; again while tracking: change the rate",
     "  rate NAME RATE  rates  release AXIS  energize AXIS",

@@ -3,6 +3,7 @@
 use super::{is_moving, val, Answer, Device};
 use crate::config::FilterWheelConfig;
 use crate::errors::Fault;
+use crate::mapping::slot_at;
 use crate::params::Params;
 use multistep_controller::protocol::Amount;
 use multistep_controller::{AxisStatus, Controller, CtlError};
@@ -50,20 +51,12 @@ impl Device {
         if is_moving(st) {
             return Ok(-1);
         }
-        let period = self.settings(ctl)?.period.map(|p| p as i64);
-        let same = |a: i64, b: i64| match period {
-            Some(p) => (a - b).rem_euclid(p) == 0,
-            None => a == b,
-        };
-        for i in 0..w.slots.len() {
-            // A slot without a saved position cannot be where the wheel is.
-            if let Ok(at) = self.slot_position(ctl, w, i) {
-                if same(at, st.position) {
-                    return Ok(i as i32);
-                }
-            }
-        }
-        Ok(-1)
+        let period = self.settings(ctl)?.period;
+        // A slot without a saved position cannot be where the wheel is.
+        let at: Vec<Option<i64>> = (0..w.slots.len())
+            .map(|i| self.slot_position(ctl, w, i).ok())
+            .collect();
+        Ok(slot_at(&at, period, st.position).map_or(-1, |i| i as i32))
     }
 
     fn slot_position(

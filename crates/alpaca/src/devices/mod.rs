@@ -9,14 +9,15 @@ mod telescope;
 
 use crate::config::{AlpacaSection, FilterWheelConfig, FocuserConfig};
 use crate::errors::{code, Fault};
+use crate::mapping::Turn;
 use crate::params::Params;
 use focuser::focuser_position;
+use multistep_controller::mount::Mount;
 use multistep_controller::protocol::Amount;
 use multistep_controller::{AxisSettings, AxisState, AxisStatus, Controller, MoveOpts};
-use rotator::{RotatorState, Turn};
+use rotator::RotatorState;
 use serde_json::{json, Value};
 use std::sync::atomic::{AtomicBool, Ordering};
-use multistep_controller::mount::Mount;
 use std::sync::{Arc, Mutex};
 
 pub type Answer = Result<Option<Value>, Fault>;
@@ -203,16 +204,6 @@ pub fn build(
     Ok(out)
 }
 
-/// `x` in [0, 360) (and never −0).
-fn norm_deg(x: f64) -> f64 {
-    let r = x.rem_euclid(360.0) + 0.0;
-    if r >= 360.0 {
-        0.0
-    } else {
-        r
-    }
-}
-
 fn angle(p: &Params, name: &str) -> Result<f64, Fault> {
     let x = p.f64(name)?;
     if (0.0..360.0).contains(&x) {
@@ -339,12 +330,16 @@ impl Device {
                 item("Position", json!(focuser_position(&st)?)),
             ],
             Role::Rotator(r) => {
-                let t = Turn::of(&self.settings(ctl)?);
+                let s = self.settings(ctl)?;
+                let t = Turn::new(s.period, s.steps_per_unit);
                 let r = lock(r);
                 vec![
                     item("IsMoving", json!(is_moving(&st))),
-                    item("MechanicalPosition", json!(t.deg(t.mechanical(&st, &r)))),
-                    item("Position", json!(t.deg(t.sky(&st, &r)))),
+                    item(
+                        "MechanicalPosition",
+                        json!(t.deg(rotator::mechanical(&t, &st, &r))),
+                    ),
+                    item("Position", json!(t.deg(rotator::sky(&t, &st, &r)))),
                 ]
             }
             Role::FilterWheel(w) => {

@@ -1,0 +1,201 @@
+//! Focuser: an absolute focuser on a soft-limited axis. The position is the counted
+//! position (the `pos` of `status`), FOCUS_MAX the axis's soft_max, as the Alpaca Focuser.
+
+use crate::device::{abort, fault, moving, number_of, Props, Values};
+use crate::link::{Link, LinkError};
+use crate::props::{Element, Perm, Range, State, Vector};
+use crate::xml::Out;
+use multistep_controller::AxisStatus;
+
+#[derive(Default)]
+pub struct Focuser {
+    max: i64,
+}
+
+const ABS: &str = "ABS_FOCUS_POSITION";
+const REL: &str = "REL_FOCUS_POSITION";
+
+impl Focuser {
+    pub fn build(
+        &mut self,
+        dev: &str,
+        link: &mut Link,
+        axis: &str,
+        st: &AxisStatus,
+    ) -> Result<Vec<Vector>, LinkError> {
+        // The `[alpaca]` check at start-up makes soft_max at least 1.
+        self.max = link.setting(axis, "soft_max")?.unwrap_or(0.0) as i64;
+        let steps = |max: i64| Range {
+            min: 0.0,
+            max: max as f64,
+            step: 1.0,
+            format: "%.0f",
+        };
+        let g = "Main Control";
+        let mut abs = Vector::new(
+            dev,
+            ABS,
+            "Absolute Position",
+            g,
+            Perm::Rw,
+            vec![Element::number(
+                "FOCUS_ABSOLUTE_POSITION",
+                "Steps",
+                st.position as f64,
+                steps(self.max),
+            )],
+        );
+        abs.state = State::Ok;
+        Ok(vec![
+            abs,
+            Vector::new(
+                dev,
+                REL,
+                "Relative Position",
+                g,
+                Perm::Rw,
+                vec![Element::number(
+                    "FOCUS_RELATIVE_POSITION",
+                    "Steps",
+                    0.0,
+                    steps(self.max),
+                )],
+            ),
+            Vector::new(
+                dev,
+                "FOCUS_MOTION",
+                "Direction",
+                g,
+                Perm::Rw,
+                vec![
+                    Element::switch("FOCUS_INWARD", "Focus In", true),
+                    Element::switch("FOCUS_OUTWARD", "Focus Out", false),
+                ],
+            ),
+            abort(dev, "FOCUS_ABORT_MOTION"),
+            Vector::new(
+                dev,
+                "FOCUS_MAX",
+                "Max. Position",
+                "Main Control",
+                Perm::Ro,
+                vec![Element::number(
+                    "FOCUS_MAX_VALUE",
+                    "Steps",
+                    self.max as f64,
+                    steps(self.max),
+                )],
+            ),
+        ])
+    }
+
+    pub fn on_new(
+        &mut self,
+        p: &mut Props,
+        link: &mut Link,
+        axis: &str,
+        name: &str,
+        values: &Values,
+    ) -> Vec<Out> {
+        match name {
+            ABS => match number_of(values, "FOCUS_ABSOLUTE_POSITION") {
+                Ok(to) => self.move_to(p, link, axis, ABS, to),
+                Err(e) => p.alert(ABS, &e),
+            },
+            REL => {
+                let by = match number_of(values, "FOCUS_RELATIVE_POSITION") {
+                    Ok(x) if x >= 0.0 && x.fract() == 0.0 => x,
+                    Ok(x) => return p.alert(REL, &format!("{x} is not a whole number of steps")),
+                    Err(e) => return p.alert(REL, &e),
+                };
+                let inward = p
+                    .get("FOCUS_MOTION")
+                    .is_some_and(|v| v.switch("FOCUS_INWARD"));
+                let at = p
+                    .get(ABS)
+                    .map_or(0.0, |v| v.number("FOCUS_ABSOLUTE_POSITION"));
+                if let Some(v) = p.get_mut(REL) {
+                    v.set_number("FOCUS_RELATIVE_POSITION", by);
+                }
+                // Inward is toward smaller counts, as INDI's focusers have it.
+                let to = if inward { at - by } else { at + by };
+                self.move_to(p, link, axis, REL, to)
+            }
+            "FOCUS_MOTION" => {
+                let Some(v) = p.get_mut(name) else {
+                    return vec![];
+                };
+                for (e, t) in values {
+                    if t.trim() == "On" && v.element(e).is_some() {
+                        v.set_switch(e, true);
+                    }
+                }
+                v.state = State::Ok;
+                vec![v.set(None)]
+            }
+            "FOCUS_ABORT_MOTION" => match link.request(&format!("stop {axis}")) {
+                Ok(_) => {
+                    let mut out = p.state(name, State::Ok, None);
+                    for n in [ABS, REL] {
+                        if p.get(n).is_some_and(|v| v.state == State::Busy) {
+                            out.extend(p.state(n, State::Idle, Some("aborted")));
+                        }
+                    }
+                    out
+                }
+                Err(e) => p.alert(name, &e.to_string()),
+            },
+            _ => vec![],
+        }
+    }
+
+    /// An absolute move to `to` steps, reported on property `prop`.
+    fn move_to(&self, p: &mut Props, link: &mut Link, axis: &str, prop: &str, to: f64) -> Vec<Out> {
+        if to.fract() != 0.0 || !(0.0..=self.max as f64).contains(&to) {
+            return p.alert(
+                prop,
+                &format!("position {to} is outside 0..={} (FOCUS_MAX)", self.max),
+            );
+        }
+        match link.request(&format!("moveto {axis} {}", to as i64)) {
+            Ok(_) => {
+                let mut out = Vec::new();
+                if prop == REL {
+                    out.extend(p.state(REL, State::Busy, None));
+                }
+                out.extend(p.state(ABS, State::Busy, None));
+                out
+            }
+            Err(e) => p.alert(prop, &e.to_string()),
+        }
+    }
+
+    pub fn poll(&mut self, p: &mut Props, st: &AxisStatus) -> Vec<Out> {
+        let mut out = Vec::new();
+        let busy = moving(st);
+        let why = fault(st);
+        for name in [ABS, REL] {
+            let Some(v) = p.get_mut(name) else { continue };
+            let was = v.state;
+            let state = match (busy, &why) {
+                (true, _) => State::Busy,
+                (false, Some(_)) if was == State::Busy => State::Alert,
+                (false, None) if was == State::Busy => State::Ok,
+                _ => was,
+            };
+            let changed = name == ABS && v.number("FOCUS_ABSOLUTE_POSITION") != st.position as f64;
+            // REL follows a move only while it is the one that started it.
+            if name == REL && was != State::Busy {
+                continue;
+            }
+            if changed || state != was {
+                if name == ABS {
+                    v.set_number("FOCUS_ABSOLUTE_POSITION", st.position as f64);
+                }
+                v.state = state;
+                out.push(v.set(why.as_deref().filter(|_| state == State::Alert)));
+            }
+        }
+        out
+    }
+}

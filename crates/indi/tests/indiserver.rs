@@ -1,0 +1,525 @@
+//! `indi_multistep` under INDI's own `indiserver`, driven only by INDI's clients
+//! `indi_getprop`, `indi_setprop` and `indi_eval`, against the controller's line-protocol
+//! service (the one `multistep serve` runs) on the optics example board. Without
+//! indiserver the tests skip with a message, except under CI=true, where they fail.
+
+use multistep_controller::client::{Client, Endpoint};
+use multistep_controller::{service, BoardConfig, Controller};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+const DRIVER: &str = env!("CARGO_BIN_EXE_indi_multistep");
+const CONFIG: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/alpaca-optics.toml"
+);
+const F: &str = "Focus";
+const R: &str = "Field rotator";
+const W: &str = "Line filters";
+
+/// indiserver and INDI's clients on the PATH? In CI (CI=true) their absence fails.
+fn indi_present() -> bool {
+    let ok = ["indiserver", "indi_getprop", "indi_setprop", "indi_eval"]
+        .iter()
+        .all(|t| {
+            Command::new("sh")
+                .args(["-c", &format!("command -v {t}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        });
+    if !ok {
+        let why = "indiserver and INDI's clients are missing (apt-get install indi-bin)";
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+        eprintln!("skipped: {why}");
+    }
+    ok
+}
+
+/// A TCP relay in front of the controller that can be cut: the controller "goes away".
+struct Relay {
+    port: u16,
+    cut: Arc<AtomicBool>,
+    open: Arc<Mutex<Vec<TcpStream>>>,
+}
+
+impl Relay {
+    fn start(to: u16) -> Relay {
+        let l = TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = l.local_addr().unwrap().port();
+        let cut = Arc::new(AtomicBool::new(false));
+        let open: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
+        let (c, o) = (cut.clone(), open.clone());
+        std::thread::spawn(move || {
+            for s in l.incoming().flatten() {
+                if c.load(Ordering::SeqCst) {
+                    continue; // dropped: closed at once
+                }
+                let Ok(up) = TcpStream::connect(("127.0.0.1", to)) else {
+                    continue;
+                };
+                o.lock()
+                    .unwrap()
+                    .extend([s.try_clone().unwrap(), up.try_clone().unwrap()]);
+                pipe(s.try_clone().unwrap(), up.try_clone().unwrap());
+                pipe(up, s);
+            }
+        });
+        Relay { port, cut, open }
+    }
+
+    fn set_cut(&self, cut: bool) {
+        self.cut.store(cut, Ordering::SeqCst);
+        if cut {
+            for s in self.open.lock().unwrap().drain(..) {
+                let _ = s.shutdown(Shutdown::Both);
+            }
+        }
+    }
+}
+
+fn pipe(mut from: TcpStream, mut to: TcpStream) {
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = from.read(&mut buf) {
+            if n == 0 || to.write_all(&buf[..n]).is_err() {
+                break;
+            }
+        }
+        let _ = to.shutdown(Shutdown::Both);
+    });
+}
+
+/// The controller's service, the relay, and indiserver running the driver.
+struct Rig {
+    _dir: tempfile::TempDir,
+    ctl_port: u16,
+    relay: Relay,
+    port: u16,
+    server: Child,
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        let _ = self.server.kill();
+        let _ = self.server.wait();
+    }
+}
+
+impl Rig {
+    fn start() -> Rig {
+        let dir = tempfile::tempdir().unwrap();
+        let config = BoardConfig::load(std::path::Path::new(CONFIG)).unwrap();
+        let ctl = Arc::new(Controller::open(&config, &dir.path().join("d"), 1.0).unwrap());
+        let l = TcpListener::bind("127.0.0.1:0").unwrap();
+        let ctl_port = l.local_addr().unwrap().port();
+        std::thread::spawn(move || service::serve_tcp(ctl, l));
+        let relay = Relay::start(ctl_port);
+        let port = TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let mut server = Command::new("indiserver")
+            // its own local socket name (abstract), so servers of parallel tests do not
+            // collide; -r 0: a driver that dies is not restarted, the test sees it
+            .args(["-p", &port.to_string(), "-r", "0"])
+            .args(["-u", &format!("/tmp/indiserver-multistep-{port}"), DRIVER])
+            .env(
+                "MULTISTEP_INDI_CONTROLLER",
+                format!("tcp://127.0.0.1:{}", relay.port),
+            )
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // indiserver's log (and the driver's stderr) under the test's output
+        let err = server.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for l in BufReader::new(err).lines().map_while(Result::ok) {
+                eprintln!("indiserver: {l}");
+            }
+        });
+        let rig = Rig {
+            _dir: dir,
+            ctl_port,
+            relay,
+            port,
+            server,
+        };
+        let end = Instant::now() + Duration::from_secs(60);
+        while rig.get(&format!("{W}.CONNECTION.CONNECT")).is_none() {
+            assert!(Instant::now() < end, "the driver's devices never showed");
+        }
+        for d in [F, R, W] {
+            rig.set(&format!("{d}.CONNECTION.CONNECT=On"));
+        }
+        rig.wait(&format!("\"{W}.CONNECTION._STATE\"==1 && \"{R}.CONNECTION._STATE\"==1 && \"{F}.CONNECTION._STATE\"==1"));
+        rig
+    }
+
+    fn tool(&self, tool: &str, args: &[&str]) -> std::process::Output {
+        Command::new(tool)
+            .args(["-p", &self.port.to_string()])
+            .args(args)
+            .output()
+            .unwrap()
+    }
+
+    /// `indi_getprop`: one value, None when nothing answered.
+    fn get(&self, spec: &str) -> Option<String> {
+        let o = self.tool("indi_getprop", &["-t", "2", "-1", spec]);
+        let v = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        (o.status.success() && !v.is_empty()).then_some(v)
+    }
+
+    fn num(&self, spec: &str) -> f64 {
+        let v = self.get(spec).unwrap_or_else(|| panic!("{spec}: no value"));
+        v.parse().unwrap_or_else(|_| panic!("{spec}={v}"))
+    }
+
+    /// Every property of `device` as `prop.element=value` lines.
+    fn all(&self, device: &str) -> Vec<String> {
+        let o = self.tool("indi_getprop", &["-t", "2", &format!("{device}.*.*")]);
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .map(|l| {
+                l.strip_prefix(&format!("{device}."))
+                    .unwrap_or(l)
+                    .to_string()
+            })
+            .collect()
+    }
+
+    fn set(&self, spec: &str) {
+        let o = self.tool("indi_setprop", &["-t", "5", spec]);
+        assert!(o.status.success(), "indi_setprop {spec}: {o:?}");
+    }
+
+    /// `indi_eval -w`: waits (generous deadline) until `expr` holds; the operands as they
+    /// changed on the way.
+    fn wait(&self, expr: &str) -> String {
+        let o = self.tool("indi_eval", &["-t", "90", "-o", "-w", expr]);
+        // indi_eval prints the operands on stderr
+        let s = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "indi_eval {expr}: {o:?}");
+        s
+    }
+
+    /// The line protocol's `status` position of `axis`.
+    fn pos(&self, axis: &str) -> i64 {
+        let mut c =
+            Client::connect(&Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port))).unwrap();
+        c.status()
+            .unwrap()
+            .into_iter()
+            .find(|s| s.axis == axis)
+            .unwrap()
+            .position
+    }
+
+    /// Polls the line protocol (generous deadline) until `axis` rests at `at`.
+    fn settle(&self, axis: &str, at: i64) {
+        let end = Instant::now() + Duration::from_secs(60);
+        loop {
+            let l = self.line(&format!("status {axis}")).join(" ");
+            if l.contains("state=idle") && l.contains(&format!(" pos={at} ")) {
+                return;
+            }
+            assert!(Instant::now() < end, "{l}");
+        }
+    }
+
+    fn line(&self, line: &str) -> Vec<String> {
+        let mut c =
+            Client::connect(&Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port))).unwrap();
+        c.request(line).unwrap()
+    }
+}
+
+/// The trail of a number in `indi_eval -o` output.
+fn trail(out: &str, spec: &str) -> Vec<f64> {
+    out.lines()
+        .filter_map(|l| l.strip_prefix(&format!("{spec}="))?.parse().ok())
+        .collect()
+}
+
+#[test]
+fn every_property_is_listed_with_its_type_and_permission() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    // (device, property, perm, element names, kind)
+    let want: [(&str, &str, &str, &[&str], char); 18] = [
+        (F, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
+        (
+            F,
+            "DRIVER_INFO",
+            "ro",
+            &[
+                "DRIVER_NAME",
+                "DRIVER_EXEC",
+                "DRIVER_VERSION",
+                "DRIVER_INTERFACE",
+            ],
+            't',
+        ),
+        (
+            F,
+            "ABS_FOCUS_POSITION",
+            "rw",
+            &["FOCUS_ABSOLUTE_POSITION"],
+            'n',
+        ),
+        (
+            F,
+            "REL_FOCUS_POSITION",
+            "rw",
+            &["FOCUS_RELATIVE_POSITION"],
+            'n',
+        ),
+        (
+            F,
+            "FOCUS_MOTION",
+            "rw",
+            &["FOCUS_INWARD", "FOCUS_OUTWARD"],
+            's',
+        ),
+        (F, "FOCUS_ABORT_MOTION", "rw", &["ABORT"], 's'),
+        (F, "FOCUS_MAX", "ro", &["FOCUS_MAX_VALUE"], 'n'),
+        (R, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
+        (R, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
+        (R, "ABS_ROTATOR_ANGLE", "rw", &["ANGLE"], 'n'),
+        (R, "SYNC_ROTATOR_ANGLE", "rw", &["ANGLE"], 'n'),
+        (
+            R,
+            "ROTATOR_REVERSE",
+            "rw",
+            &["INDI_ENABLED", "INDI_DISABLED"],
+            's',
+        ),
+        (R, "ROTATOR_ABORT_MOTION", "rw", &["ABORT"], 's'),
+        (R, "ROTATOR_TRAVEL", "rw", &["MIN", "MAX"], 'n'),
+        (W, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
+        (W, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
+        (W, "FILTER_SLOT", "rw", &["FILTER_SLOT_VALUE"], 'n'),
+        (
+            W,
+            "FILTER_NAME",
+            "ro",
+            &["FILTER_SLOT_NAME_1", "FILTER_SLOT_NAME_5"],
+            't',
+        ),
+    ];
+    for (d, p, perm, elements, kind) in want {
+        assert_eq!(
+            rig.get(&format!("{d}.{p}._PERM")).as_deref(),
+            Some(perm),
+            "{d}.{p}"
+        );
+        for e in elements {
+            let v = rig
+                .get(&format!("{d}.{p}.{e}"))
+                .unwrap_or_else(|| panic!("{d}.{p}.{e} missing"));
+            match kind {
+                's' => assert!(v == "On" || v == "Off", "{d}.{p}.{e}={v}"),
+                'n' => assert!(v.parse::<f64>().is_ok(), "{d}.{p}.{e}={v}"),
+                _ => assert!(
+                    v.parse::<f64>().is_err() || p == "DRIVER_INFO",
+                    "{d}.{p}.{e}={v}"
+                ),
+            }
+        }
+    }
+    // nothing else: every property of each device is one of those
+    for d in [F, R, W] {
+        for l in rig.all(d) {
+            let p = l.split('.').next().unwrap();
+            assert!(
+                want.iter().any(|w| w.0 == d && w.1 == p),
+                "{d}: unexpected {l}"
+            );
+        }
+    }
+    assert_eq!(
+        rig.get(&format!("{F}.DRIVER_INFO.DRIVER_INTERFACE"))
+            .as_deref(),
+        Some("8")
+    );
+    assert_eq!(
+        rig.get(&format!("{R}.DRIVER_INFO.DRIVER_INTERFACE"))
+            .as_deref(),
+        Some("4096")
+    );
+    assert_eq!(
+        rig.get(&format!("{W}.DRIVER_INFO.DRIVER_INTERFACE"))
+            .as_deref(),
+        Some("16")
+    );
+    assert_eq!(rig.num(&format!("{F}.FOCUS_MAX.FOCUS_MAX_VALUE")), 32000.0);
+    assert_eq!(
+        rig.get(&format!("{W}.FILTER_NAME.FILTER_SLOT_NAME_2"))
+            .as_deref(),
+        Some("CaII K 393.4")
+    );
+    // DISCONNECT takes the device's own properties away, CONNECT brings them back
+    rig.set(&format!("{F}.CONNECTION.DISCONNECT=On"));
+    rig.wait(&format!("\"{F}.CONNECTION._STATE\"==0"));
+    assert_eq!(
+        rig.get(&format!("{F}.ABS_FOCUS_POSITION.FOCUS_ABSOLUTE_POSITION")),
+        None
+    );
+    rig.set(&format!("{F}.CONNECTION.CONNECT=On"));
+    rig.wait(&format!("\"{F}.CONNECTION._STATE\"==1"));
+    assert_eq!(
+        rig.num(&format!("{F}.ABS_FOCUS_POSITION.FOCUS_ABSOLUTE_POSITION")),
+        0.0
+    );
+}
+
+#[test]
+fn the_focuser_moves_and_agrees_with_status_and_bad_values_get_alert() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=16000"));
+    let out = rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==16000"
+    ));
+    // Busy while it moved, through positions between
+    assert!(out.contains(&format!("{abs}._STATE=2")), "{out}");
+    let t = trail(&out, &format!("{abs}.FOCUS_ABSOLUTE_POSITION"));
+    assert!(t.iter().any(|&x| x > 0.0 && x < 16000.0), "{t:?}");
+    assert_eq!(rig.pos("focus"), 16000);
+    // relative, outward (toward larger counts)
+    rig.set(&format!("{F}.FOCUS_MOTION.FOCUS_OUTWARD=On"));
+    rig.set(&format!(
+        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=1000"
+    ));
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==17000"
+    ));
+    assert_eq!(rig.pos("focus"), 17000);
+    // beyond FOCUS_MAX, not a number, a fraction: Alert, nothing moves, the driver lives
+    for bad in ["40000", "-1", "abc", "12.5"] {
+        rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION={bad}"));
+        rig.wait(&format!("\"{abs}._STATE\"==3"));
+        assert_eq!(rig.pos("focus"), 17000, "{bad}");
+        rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=17000"));
+        rig.wait(&format!("\"{abs}._STATE\"==1"));
+    }
+    // abort stops a move on the way
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=0"));
+    rig.wait(&format!("\"{abs}._STATE\"==2"));
+    rig.set(&format!("{F}.FOCUS_ABORT_MOTION.ABORT=On"));
+    rig.wait(&format!("\"{abs}._STATE\"!=2"));
+    let end = Instant::now() + Duration::from_secs(60);
+    while !rig.line("status focus")[0].contains("state=idle") {
+        assert!(Instant::now() < end);
+    }
+    let at = rig.pos("focus");
+    assert!(at > 0 && at < 17000, "aborted at {at}");
+    rig.wait(&format!("\"{abs}.FOCUS_ABSOLUTE_POSITION\"=={at}"));
+}
+
+#[test]
+fn the_rotator_turns_inside_its_travel_and_the_wheel_changes_filter() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    let abs = format!("{R}.ABS_ROTATOR_ANGLE");
+    let angle = format!("{abs}.ANGLE");
+    let goto = |a: f64| -> Vec<f64> {
+        rig.set(&format!("{angle}={a}"));
+        let out = rig.wait(&format!(
+            "\"{abs}._STATE\"==1 && abs(\"{angle}\"-{a})<0.001"
+        ));
+        trail(&out, &angle)
+    };
+    // free: 350 -> 10 the short way, through 0
+    goto(350.0);
+    let t = goto(10.0);
+    assert!(t.iter().all(|&x| !(10.5..349.5).contains(&x)), "{t:?}");
+    assert_eq!(rig.pos("rot"), 400);
+    // travel 0..300: 10 -> 290 the long way (+280), never through 300..360
+    rig.set(&format!("{R}.ROTATOR_TRAVEL.MIN=0;MAX=300"));
+    rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==1"));
+    let t = goto(290.0);
+    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
+    assert!(t.iter().any(|&x| x > 100.0 && x < 200.0), "{t:?}");
+    assert_eq!(rig.pos("rot"), 290 * 40);
+    // and back the same side
+    let t = goto(10.0);
+    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
+    // an angle beyond the travel: Alert, no move
+    rig.set(&format!("{angle}=330"));
+    rig.wait(&format!("\"{abs}._STATE\"==3"));
+    assert_eq!(rig.pos("rot"), 400);
+    for bad in ["MIN=100;MAX=50", "MIN=0;MAX=500"] {
+        rig.set(&format!("{R}.ROTATOR_TRAVEL.{bad}"));
+        rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==3"));
+        rig.set(&format!("{R}.ROTATOR_TRAVEL.MIN=0;MAX=300"));
+        rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==1"));
+    }
+    // sync: the sky angle moves, the axis does not
+    rig.set(&format!("{R}.SYNC_ROTATOR_ANGLE.ANGLE=100"));
+    rig.wait(&format!("abs(\"{angle}\"-100)<0.001"));
+    assert_eq!(rig.pos("rot"), 400);
+
+    // the wheel: slot 3 is at 2560
+    let slot = format!("{W}.FILTER_SLOT");
+    rig.set(&format!("{slot}.FILTER_SLOT_VALUE=3"));
+    rig.wait(&format!(
+        "\"{slot}._STATE\"==1 && \"{slot}.FILTER_SLOT_VALUE\"==3"
+    ));
+    assert_eq!(rig.pos("wheel"), 2560);
+    // "Clear" is a named position not yet saved; 0 and 6 are not slots
+    for bad in ["5", "0", "6", "x"] {
+        rig.set(&format!("{slot}.FILTER_SLOT_VALUE={bad}"));
+        rig.wait(&format!("\"{slot}._STATE\"==3"));
+        assert_eq!(rig.pos("wheel"), 2560, "{bad}");
+        rig.set(&format!("{slot}.FILTER_SLOT_VALUE=3"));
+        rig.wait(&format!("\"{slot}._STATE\"==1"));
+    }
+    rig.line("moveto wheel 5120");
+    rig.settle("wheel", 5120);
+    rig.line("save Clear wheel");
+    rig.line("moveto wheel 0");
+    rig.settle("wheel", 0);
+    rig.set(&format!("{slot}.FILTER_SLOT_VALUE=5"));
+    rig.wait(&format!(
+        "\"{slot}._STATE\"==1 && \"{slot}.FILTER_SLOT_VALUE\"==5"
+    ));
+    assert_eq!(rig.pos("wheel"), 5120);
+}
+
+#[test]
+fn the_driver_reports_the_controller_going_away_and_comes_back() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    rig.relay.set_cut(true);
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==3 && \"{W}.FILTER_SLOT._STATE\"==3"
+    ));
+    // a move asked for meanwhile is refused with Alert, and the driver still answers
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=1000"));
+    rig.wait(&format!("\"{abs}._STATE\"==3"));
+    assert_eq!(rig.pos("focus"), 0);
+    rig.relay.set_cut(false);
+    rig.wait(&format!("\"{abs}._STATE\"==1"));
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=1000"));
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==1000"
+    ));
+    assert_eq!(rig.pos("focus"), 1000);
+}
