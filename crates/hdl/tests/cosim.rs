@@ -9,7 +9,6 @@ use common::host::half_interval_falls;
 use common::{narrow_params, params, random_move, IntMove, Rng, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove};
 use multistep_core::tdm::{Axis, Board, Latencies, TdmConfig};
-use multistep_core::Profile;
 use multistep_hdl::simulator::Simulator;
 use multistep_hdl::tools::{simulate, simulate_in, SimOutput};
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design};
@@ -149,31 +148,22 @@ fn cosim_in(
             half_interval_falls(&want),
             "{name}: axis {a} falls"
         );
-        assert_board_edges(
-            &model[a],
-            &want,
-            &im.float_profile(),
-            &format!("{name}: axis {a}"),
-        );
+        assert_board_edges(&model[a], &want, &format!("{name}: axis {a}"));
     }
     out
 }
 
-/// The float board's edges are core::int's, except that the float planner may put a step
-/// that falls exactly on a half tick one tick later: its speeds are rounded to f64, so it
-/// cannot see the tie that core::int settles to the earlier tick. Such a step is checked
-/// to be a tie (the float position at the half tick is the step to 1e-6).
-fn assert_board_edges(board: &[u64], want: &[u64], float: &Profile, name: &str) {
+/// The float board's edges are core::int's on every step, exact half-tick ties included
+/// (the float profile keeps its integer move and settles ties on it).
+fn assert_board_edges(board: &[u64], want: &[u64], name: &str) {
     assert_eq!(board.len(), want.len(), "{name}: board step count");
-    for (i, (&b, &w)) in board.iter().zip(want).enumerate() {
-        if b != w {
-            let p = float.position((w as f64 + 0.5) / HZ as f64);
-            assert!(
-                b == w + 1 && (p - (i + 1) as f64).abs() < 1e-6,
-                "{name}: step {} at {b} on the TDM board, {w} in core::int (position {p})",
-                i + 1
-            );
-        }
+    if let Some(k) = (0..want.len()).find(|&k| board[k] != want[k]) {
+        panic!(
+            "{name}: step {} at {} on the TDM board, {} in core::int",
+            k + 1,
+            board[k],
+            want[k]
+        );
     }
 }
 

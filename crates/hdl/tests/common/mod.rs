@@ -2,9 +2,7 @@
 //! with start and end speeds), their float twins for the core's TDM board, and params.
 #![allow(dead_code)]
 
-use multistep_core::int::{
-    limits_to_phase, IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment,
-};
+use multistep_core::int::{IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
 use multistep_core::{Family, LimitsMove, Move, PhaseMove, Profile, Segment};
 use multistep_hdl::{AxisMove, CoreParams};
 
@@ -58,7 +56,8 @@ impl IntMove {
         self.try_profile().expect("core plans it")
     }
 
-    /// The same move for the core's float planner (speeds in steps/s, times in s).
+    /// The same move for the core's float planner (speeds in steps/s, times in s), planned
+    /// on the clock as the command line plans it.
     pub fn float_profile(&self) -> Profile {
         let s = |ticks: u64| ticks as f64 / HZ as f64;
         let phase = |m: &IntPhaseMove| PhaseMove {
@@ -70,9 +69,10 @@ impl IntMove {
             end_speed: m.end_speed as f64,
             family: Family::Trapezoid,
         };
-        match self {
-            IntMove::Segments(segs) => {
-                let v: Vec<Segment> = segs
+        let segs: Vec<Segment>;
+        let m = match self {
+            IntMove::Segments(v) => {
+                segs = v
                     .iter()
                     .map(|g| Segment {
                         v0: g.v0 as f64,
@@ -80,12 +80,16 @@ impl IntMove {
                         steps: g.steps,
                     })
                     .collect();
-                Profile::segments(&v)
+                Move::Segments(&segs)
             }
-            IntMove::Phase(m) => Profile::phase(&phase(m)),
-            IntMove::Limits(m) => Profile::phase(&phase(&limits_to_phase(m, CLOCK).unwrap())),
-        }
-        .expect("float planner")
+            IntMove::Phase(m) => Move::Phase(phase(m)),
+            IntMove::Limits(m) => Move::Limits(LimitsMove {
+                start_speed: m.start_speed as f64,
+                end_speed: m.end_speed as f64,
+                ..LimitsMove::trapezoid(m.steps, m.vmax as f64, m.amax as f64)
+            }),
+        };
+        Profile::plan_on_clock(&m, HZ as f64).expect("float planner")
     }
 }
 
