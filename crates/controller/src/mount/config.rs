@@ -53,6 +53,12 @@ pub struct MountConfig {
     /// A coelostat's declination (set by hand on its second mirror): −90 to 90.
     #[serde(default)]
     pub coelostat_dec: f64,
+    /// Backlash of each axis's gears, microsteps: 0 (default) to 1000000. Slews and
+    /// parks end approaching their target by at least this much from one side.
+    #[serde(default)]
+    pub ra_backlash: u64,
+    #[serde(default)]
+    pub dec_backlash: u64,
 }
 
 fn german() -> Geometry {
@@ -67,6 +73,8 @@ fn half() -> f64 {
 
 /// Most microsteps per axis turn.
 pub const MAX_STEPS_PER_REV: u64 = 1 << 40;
+/// Most backlash, microsteps.
+pub const MAX_BACKLASH: u64 = 1_000_000;
 
 impl MountConfig {
     /// The axes the mount drives.
@@ -127,6 +135,19 @@ impl MountConfig {
                     "telescope steps per turn {spr} is outside 1 to {MAX_STEPS_PER_REV}"
                 ));
             }
+        }
+        for (what, b) in [
+            ("ra_backlash", self.ra_backlash),
+            ("dec_backlash", self.dec_backlash),
+        ] {
+            if b > MAX_BACKLASH {
+                return Err(format!(
+                    "telescope {what} = {b} is outside 0 to {MAX_BACKLASH}"
+                ));
+            }
+        }
+        if coelostat && self.dec_backlash != 0 {
+            return Err("a coelostat has no dec axis: give no dec_backlash".into());
         }
         if self.dec_axis.as_deref() == Some(self.ra_axis.as_str()) {
             return Err(format!("telescope axis '{}' given twice", self.ra_axis));
@@ -193,6 +214,14 @@ mod tests {
             ("mount = \"coelostat\"\nelevation = nan\n", "elevation"),
             ("mount = \"altaz\"\n", "unknown variant"),
             ("mount = \"coelostat\"\nspeed = 1\n", "unknown field"),
+            (
+                "mount = \"coelostat\"\nra_backlash = 1000001\n",
+                "ra_backlash",
+            ),
+            (
+                "mount = \"coelostat\"\ndec_backlash = 5\n",
+                "no dec_backlash",
+            ),
         ] {
             let e = check(extra).unwrap_err();
             assert!(e.contains(says), "{extra}: {e}");

@@ -59,6 +59,9 @@ struct Slew {
     /// turned while it ran).
     target: Option<(f64, f64)>,
     park: bool,
+    /// Counts to move on to once the first move ends: the last stretch of a park,
+    /// approached from the side that takes up the backlash.
+    then: Option<[i64; 2]>,
 }
 
 #[derive(Clone, Debug)]
@@ -186,6 +189,17 @@ impl Mount {
             polar: deg(0) + st.sync.polar,
             dec: deg(1) + st.sync.dec,
         }
+    }
+
+    /// Each axis's backlash (microsteps) and the direction every slew ends moving in:
+    /// the polar axis's tracking direction, + for the declination axis. A slew stops
+    /// short of its target by the backlash on the other side, then approaches it, so the
+    /// gears mesh as they do when tracking.
+    fn approach(&self, st: &State, steps: [i64; 2]) -> [i64; 2] {
+        let (polar, _) = self.cfg.mount.sense(PierSide::Unknown, st.lat);
+        let b = [self.cfg.ra_backlash, self.cfg.dec_backlash];
+        let dir = [polar.signum() as i64, 1];
+        [0, 1].map(|k| steps[k] - b[k] as i64 * dir[k])
     }
 
     /// Counted positions that put the axes at `a` (sync offsets taken off).

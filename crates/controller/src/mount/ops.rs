@@ -177,11 +177,13 @@ impl Mount {
         }
         let a = self.aim(&st, ra, dec)?;
         st.target = (Some(ra), Some(dec));
-        let steps = self.steps_of(&st, a);
+        // The catch-up move (see `tick`) makes the last stretch, backlash included.
+        let steps = self.approach(&st, self.steps_of(&st, a));
         self.move_axes(ctl, &mut st, steps)?;
         st.slew = Some(Slew {
             target: Some((ra, dec)),
             park: false,
+            then: None,
         });
         Ok(())
     }
@@ -221,10 +223,13 @@ impl Mount {
         let park = stored.get(&self.cfg.park_name());
         let axes = self.cfg.axes();
         let at = |k: usize| park.and_then(|p| p.get(axes[k]).copied()).unwrap_or(0);
-        self.move_axes(ctl, &mut st, [at(0), at(1)])?;
+        let park = [at(0), at(1)];
+        let first = self.approach(&st, park);
+        self.move_axes(ctl, &mut st, first)?;
         st.slew = Some(Slew {
             target: None,
             park: true,
+            then: (first != park).then_some(park),
         });
         Ok(())
     }
@@ -266,6 +271,7 @@ impl Mount {
         st.slew = Some(Slew {
             target: None,
             park: false,
+            then: None,
         });
         Ok(())
     }
@@ -278,7 +284,11 @@ impl Mount {
             ctl.stop(Some(a))?;
         }
         // The tick resumes tracking once the axes are at rest.
-        st.slew = st.slew.map(|s| Slew { target: None, ..s });
+        st.slew = st.slew.map(|_| Slew {
+            target: None,
+            park: false,
+            then: None,
+        });
         Ok(())
     }
 
@@ -367,6 +377,11 @@ impl Mount {
                         target: None,
                         ..slew
                     });
+                    return Ok(());
+                }
+                if let Some(steps) = slew.then {
+                    self.move_axes(ctl, &mut st, steps)?;
+                    st.slew = Some(Slew { then: None, ..slew });
                     return Ok(());
                 }
                 if slew.park {

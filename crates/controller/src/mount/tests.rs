@@ -21,7 +21,7 @@ fn mount(extra: &str, dir: &std::path::Path) -> (Arc<Controller>, Mount) {
 }
 
 /// Polls (ticking the mount) until `cond` holds; a generous deadline.
-fn until(ctl: &Controller, m: &Mount, what: &str, cond: impl Fn(&[AxisStatus]) -> bool) {
+fn until(ctl: &Controller, m: &Mount, what: &str, mut cond: impl FnMut(&[AxisStatus]) -> bool) {
     let end = Instant::now() + Duration::from_secs(60);
     loop {
         m.tick(ctl).unwrap();
@@ -104,4 +104,50 @@ fn a_fork_slews_to_its_target_and_stays_parked_when_reopened() {
     drop((ctl, m));
     let (_ctl, m) = mount(fork, tmp.path());
     assert!(!m.at_park());
+}
+
+#[test]
+fn slews_and_parks_end_approaching_from_one_side_by_the_backlash() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (ctl, m) = mount(
+        "dec_axis = \"dec\"\ndec_steps_per_rev = 1296000\nra_backlash = 2000\ndec_backlash = 1000\n",
+        tmp.path(),
+    );
+    m.set_tracking(&ctl, true).unwrap();
+    // From the home pose (counts 0, 0) to HA +30°, Dec 20° (pier east): the polar axis
+    // runs down to −60°, the dec axis up to 70°.
+    let mut low = [i64::MAX; 2];
+    let slew = |ha: f64, dec: f64, low: &mut [i64; 2]| {
+        *low = [i64::MAX; 2];
+        let ra = (m.sidereal_time() - ha / 15.0).rem_euclid(24.0);
+        m.slew(&ctl, ra, dec).unwrap();
+        until(&ctl, &m, "slew ends", |s| {
+            for k in 0..2 {
+                low[k] = low[k].min(s[k].position);
+            }
+            !m.slewing()
+        });
+        let s = m.axes_status(&ctl).unwrap();
+        [s[0].position, s[1].position]
+    };
+    let end = slew(30.0, 20.0, &mut low);
+    // One step is 1″: the polar axis went below its end by more than half its backlash,
+    // then came up to it (and tracks on up); the dec axis came up to 70° directly.
+    assert!(low[0] < end[0] - 1000, "{low:?} {end:?}");
+    assert_eq!(end[1], 70 * 3600);
+    assert!(low[1] >= 0);
+    // Back up the sky to Dec 60° (dec axis 30°): it overshoots below and comes up.
+    let end = slew(30.0, 60.0, &mut low);
+    assert_eq!(end[1], 30 * 3600);
+    assert!(low[1] < end[1] - 500, "{low:?} {end:?}");
+    // Park (home counts) from above on the dec axis: also ends coming up.
+    m.park(&ctl).unwrap();
+    let mut min_dec = i64::MAX;
+    until(&ctl, &m, "parked", |s| {
+        min_dec = min_dec.min(s[1].position);
+        m.at_park()
+    });
+    let s = m.axes_status(&ctl).unwrap();
+    assert_eq!((s[0].position, s[1].position), (0, 0));
+    assert!(min_dec < -500, "{min_dec}");
 }
