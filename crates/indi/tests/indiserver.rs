@@ -17,6 +17,8 @@ const CONFIG: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../examples/alpaca-optics.toml"
 );
+/// The controller wants it first on every connection, the driver's too.
+const TOKEN: &str = "indi-test-token-0123456789";
 const F: &str = "Focus";
 const R: &str = "Field rotator";
 const W: &str = "Line filters";
@@ -116,7 +118,11 @@ impl Rig {
         let ctl = Arc::new(Controller::open(&config, &dir.path().join("d"), 1.0).unwrap());
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let ctl_port = l.local_addr().unwrap().port();
-        std::thread::spawn(move || service::serve_tcp(ctl, l));
+        let opts = service::TcpOptions {
+            token: Some(TOKEN.into()),
+            ..Default::default()
+        };
+        std::thread::spawn(move || service::serve_tcp_with(ctl, l, opts));
         let relay = Relay::start(ctl_port);
         let port = TcpListener::bind("127.0.0.1:0")
             .unwrap()
@@ -128,6 +134,7 @@ impl Rig {
             // collide; -r 0: a driver that dies is not restarted, the test sees it
             .args(["-p", &port.to_string(), "-r", "0"])
             .args(["-u", &format!("/tmp/indiserver-multistep-{port}"), DRIVER])
+            .env("MULTISTEP_INDI_TOKEN", TOKEN)
             .env(
                 "MULTISTEP_INDI_CONTROLLER",
                 format!("tcp://127.0.0.1:{}", relay.port),
@@ -211,9 +218,8 @@ impl Rig {
 
     /// The line protocol's `status` position of `axis`.
     fn pos(&self, axis: &str) -> i64 {
-        let mut c =
-            Client::connect(&Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port))).unwrap();
-        c.status()
+        self.client()
+            .status()
             .unwrap()
             .into_iter()
             .find(|s| s.axis == axis)
@@ -234,9 +240,14 @@ impl Rig {
     }
 
     fn line(&self, line: &str) -> Vec<String> {
-        let mut c =
-            Client::connect(&Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port))).unwrap();
-        c.request(line).unwrap()
+        self.client().request(line).unwrap()
+    }
+
+    fn client(&self) -> Client {
+        let at = Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port));
+        let mut c = Client::connect(&at).unwrap();
+        c.authenticate(TOKEN).unwrap();
+        c
     }
 }
 
@@ -522,4 +533,25 @@ fn the_driver_reports_the_controller_going_away_and_comes_back() {
         "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==1000"
     ));
     assert_eq!(rig.pos("focus"), 1000);
+}
+
+#[test]
+fn the_devices_command_answers_the_boards_alpaca_section_as_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = BoardConfig::load(std::path::Path::new(CONFIG)).unwrap();
+    let ctl = Controller::open(&config, &dir.path().join("d"), 1.0).unwrap();
+    let r = ctl.execute_bytes(b"devices");
+    assert!(r.result.is_ok() && r.data.len() == 1, "{r:?}");
+    let json: serde_json::Value = serde_json::from_str(&r.data[0]).unwrap();
+    assert_eq!(json["focuser"][0]["axis"], "focus");
+    assert_eq!(json["filterwheel"][0]["slots"][4]["name"], "Clear");
+    let bare = BoardConfig::parse("[[axis]]\nname = \"X\"\n").unwrap();
+    let ctl = Controller::open(&bare, &dir.path().join("e"), 1.0).unwrap();
+    assert_eq!(ctl.execute_bytes(b"devices").data, vec!["{}".to_string()]);
+    let e = ctl
+        .execute_bytes(b"devices x")
+        .result
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("usage: devices"), "{e}");
 }
