@@ -1,5 +1,8 @@
 //! Helpers the test binaries share.
 
+// each test binary compiles this module and may use only part of it
+#![allow(dead_code)]
+
 use std::io::{BufRead, BufReader, Read};
 use std::sync::mpsc;
 use std::time::Duration;
