@@ -61,45 +61,77 @@ pub const MOVES: [BenchMove; 6] = [
     },
 ];
 
-/// A phase-mode move of one velocity family (only multistep plans these): N steps in
-/// 2 s accelerating, 6 s cruising, 2 s decelerating, from rest to rest at 50 MHz.
+/// A phase-mode move of one velocity family (only multistep plans these), from rest to
+/// rest at 50 MHz, planned on the clock as `multistep plan` plans it: 10⁶ steps in 2 s
+/// accelerating, 6 s cruising, 2 s decelerating, or 2·10⁵ steps all on ramps (1/0/1 s:
+/// the dearest edges of each family).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FamilyMove {
     pub name: &'static str,
     #[serde(skip)]
     pub family: Family,
     pub steps: u64,
+    /// Accel, cruise and decel times (s).
+    #[serde(skip)]
+    pub times: [f64; 3],
 }
 
-const fn family(name: &'static str, family: Family) -> FamilyMove {
+/// 10⁶ steps in 2/6/2 s (`ramps` false) or 2·10⁵ in 1/0/1 s.
+const fn family(name: &'static str, family: Family, ramps: bool) -> FamilyMove {
+    let (steps, times) = if ramps {
+        (200_000, [1.0, 0.0, 1.0])
+    } else {
+        (1_000_000, [2.0, 6.0, 2.0])
+    };
     FamilyMove {
         name,
         family,
-        steps: 1_000_000,
+        steps,
+        times,
     }
 }
 
-/// One move per family.
-pub const FAMILY_MOVES: [FamilyMove; 6] = [
-    family("trapezoid-2/6/2", Family::Trapezoid),
-    family("parabolic-2/6/2", Family::Parabolic),
-    family("exponential-2/6/2", Family::Exponential { rho: 0.25 }),
-    family("sine-2/6/2", Family::Sine),
-    family("scurve-2/6/2", Family::SCurve { phi: 0.5 }),
-    family("scurve4-2/6/2", Family::SCurve4 { phi: 0.5, psi: 0.5 }),
+/// One move per family with a long cruise, and one all on ramps.
+pub const FAMILY_MOVES: [FamilyMove; 12] = [
+    family("trapezoid-2/6/2", Family::Trapezoid, false),
+    family("parabolic-2/6/2", Family::Parabolic, false),
+    family(
+        "exponential-2/6/2",
+        Family::Exponential { rho: 0.25 },
+        false,
+    ),
+    family("sine-2/6/2", Family::Sine, false),
+    family("scurve-2/6/2", Family::SCurve { phi: 0.5 }, false),
+    family(
+        "scurve4-2/6/2",
+        Family::SCurve4 { phi: 0.5, psi: 0.5 },
+        false,
+    ),
+    family("trapezoid-1/0/1", Family::Trapezoid, true),
+    family("parabolic-1/0/1", Family::Parabolic, true),
+    family("exponential-1/0/1", Family::Exponential { rho: 0.25 }, true),
+    family("sine-1/0/1", Family::Sine, true),
+    family("scurve-1/0/1", Family::SCurve { phi: 0.5 }, true),
+    family(
+        "scurve4-1/0/1",
+        Family::SCurve4 { phi: 0.5, psi: 0.5 },
+        true,
+    ),
 ];
 
 impl FamilyMove {
     pub fn profile(&self) -> Result<Profile, PlanError> {
-        Profile::phase(&PhaseMove {
+        let [accel_time, cruise_time, decel_time] = self.times;
+        let m = PhaseMove {
             steps: self.steps,
-            accel_time: 2.0,
-            cruise_time: 6.0,
-            decel_time: 2.0,
+            accel_time,
+            cruise_time,
+            decel_time,
             start_speed: 0.0,
             end_speed: 0.0,
             family: self.family,
-        })
+        };
+        Profile::plan_on_clock(&Move::Phase(m), CLOCK_HZ as f64)
     }
 }
 
