@@ -152,10 +152,10 @@ impl Device {
             ("declination", _) => val(m.pointing(ctl)?.dec),
             ("rightascension", _) => val(m.pointing(ctl)?.ra),
             ("sideofpier", false) => val(side(m.pointing(ctl)?.side)),
-            ("sideofpier", true) => ni("SideOfPier (set)"),
+            ("sideofpier", true) => ni("setting SideOfPier"),
             ("siderealtime", _) => val(m.sidereal_time()),
             ("aperturearea", _) | ("aperturediameter", _) | ("focallength", _) => {
-                ni("the optics' dimensions")
+                ni("reporting the optics' size")
             }
             ("athome", _) => val(m.at_home(ctl)?),
             ("atpark", _) => val(m.at_park()),
@@ -260,7 +260,7 @@ impl Device {
             }
             ("trackingrates", _) => val(DRIVE_RATES.map(|r| r as i32)),
             ("utcdate", false) => val(time::iso8601(time::unix_now())),
-            ("utcdate", true) => ni("UTCDate (set): the board keeps the host's UTC"),
+            ("utcdate", true) => ni("setting UTCDate (the mount reads the host's UTC)"),
             ("abortslew", _) => {
                 m.abort(ctl)?;
                 Ok(None)
@@ -332,10 +332,13 @@ impl Device {
                 Ok(None)
             }
             ("slewtocoordinates" | "slewtotarget", _) => {
-                ni("synchronous slews (use the Async forms)")
+                Err(Fault::device(
+                    code::NOT_IMPLEMENTED,
+                    "synchronous slews are not implemented; use SlewToCoordinatesAsync or SlewToTargetAsync",
+                ))
             }
             ("slewtoaltaz" | "slewtoaltazasync" | "synctoaltaz", _) => {
-                ni("alt-azimuth slews and syncs")
+                ni("slewing or syncing in altitude and azimuth")
             }
             _ => Err(Fault::BadRequest(format!("unknown method {method}"))),
         }
