@@ -176,9 +176,14 @@ impl Rig {
             .unwrap()
     }
 
-    /// `indi_getprop`: one value, None when nothing answered.
+    /// `indi_getprop`: one value, None when nothing answered within 10 s (it returns as
+    /// soon as the value came).
     fn get(&self, spec: &str) -> Option<String> {
-        let o = self.tool("indi_getprop", &["-t", "2", "-1", spec]);
+        self.get_within(spec, 10)
+    }
+
+    fn get_within(&self, spec: &str, seconds: u32) -> Option<String> {
+        let o = self.tool("indi_getprop", &["-t", &seconds.to_string(), "-1", spec]);
         let v = String::from_utf8_lossy(&o.stdout).trim().to_string();
         (o.status.success() && !v.is_empty()).then_some(v)
     }
@@ -202,7 +207,7 @@ impl Rig {
     }
 
     fn set(&self, spec: &str) {
-        let o = self.tool("indi_setprop", &["-t", "5", spec]);
+        let o = self.tool("indi_setprop", &["-t", "20", spec]);
         assert!(o.status.success(), "indi_setprop {spec}: {o:?}");
     }
 
@@ -381,7 +386,11 @@ fn every_property_is_listed_with_its_type_and_permission() {
     rig.set(&format!("{F}.CONNECTION.DISCONNECT=On"));
     rig.wait(&format!("\"{F}.CONNECTION._STATE\"==0"));
     assert_eq!(
-        rig.get(&format!("{F}.ABS_FOCUS_POSITION.FOCUS_ABSOLUTE_POSITION")),
+        // gone: nothing answers (2 s)
+        rig.get_within(
+            &format!("{F}.ABS_FOCUS_POSITION.FOCUS_ABSOLUTE_POSITION"),
+            2
+        ),
         None
     );
     rig.set(&format!("{F}.CONNECTION.CONNECT=On"));
