@@ -175,7 +175,37 @@ fn localize(text: &str) -> String {
             out = out.replace(&format!("{pat}{from}"), &format!("{pat}{to}"));
         }
     }
+    if out.contains("--alpaca ") && !out.contains("--alpaca-discovery-port") {
+        out = own_discovery_port(&out);
+    }
     out
+}
+
+/// Alpaca discovery on a free UDP port instead of the default one, which any other service
+/// on the machine may hold: after every `--alpaca PORT`, and in the text that names it.
+fn own_discovery_port(text: &str) -> String {
+    let udp = std::net::UdpSocket::bind("0.0.0.0:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(i) = rest.find("--alpaca ") {
+        let digits = rest[i + 9..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .count();
+        let end = i + 9 + digits;
+        out.push_str(&rest[..end]);
+        if digits > 0 {
+            out.push_str(&format!(" --alpaca-discovery-port {udp}"));
+        }
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    let default = multistep_alpaca::discovery::DEFAULT_PORT;
+    out.replace(&format!("udp port {default}"), &format!("udp port {udp}"))
 }
 
 /// A directory laid out as the repository root is for a person pasting the block.
@@ -399,4 +429,12 @@ fn ports_and_data_directories_are_localized() {
     let port = t.split("127.0.0.1:").nth(1).unwrap();
     let port: String = port.chars().take_while(char::is_ascii_digit).collect();
     assert_eq!(t.matches(&format!("127.0.0.1:{port}")).count(), 2, "{t}");
+    let udp = t.split("--alpaca-discovery-port ").nth(1).unwrap();
+    let udp: String = udp.chars().take_while(char::is_ascii_digit).collect();
+    let d = localize("serve --alpaca 11111\n# stderr: (discovery on udp port 32227)");
+    assert!(
+        d.contains("--alpaca-discovery-port") && !d.contains("32227"),
+        "{d}"
+    );
+    assert_ne!(udp, "32227", "{t}");
 }
