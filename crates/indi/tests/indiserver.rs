@@ -112,6 +112,7 @@ impl Drop for Rig {
 }
 
 impl Rig {
+    /// The controller's service in this process (as `multistep serve` runs it).
     fn start() -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = BoardConfig::load(std::path::Path::new(CONFIG)).unwrap();
@@ -123,6 +124,11 @@ impl Rig {
             ..Default::default()
         };
         std::thread::spawn(move || service::serve_tcp_with(ctl, l, opts));
+        Rig::around(dir, ctl_port)
+    }
+
+    /// indiserver and the driver for the controller listening on `ctl_port`.
+    fn around(dir: tempfile::TempDir, ctl_port: u16) -> Rig {
         let relay = Relay::start(ctl_port);
         let port = TcpListener::bind("127.0.0.1:0")
             .unwrap()
@@ -563,4 +569,69 @@ fn the_devices_command_answers_the_boards_alpaca_section_as_json() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("usage: devices"), "{e}");
+}
+
+/// `multistep serve` beside this driver in the target directory, as the workspace's
+/// build leaves it; None (skipped with a message, a failure under CI=true) without it.
+fn multistep_serve() -> Option<std::path::PathBuf> {
+    let bin = std::path::Path::new(DRIVER).with_file_name("multistep");
+    let ok = bin.exists();
+    if !ok {
+        let why = format!("{} is not built (cargo build -p multistep)", bin.display());
+        assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+        eprintln!("skipped: {why}");
+    }
+    ok.then_some(bin)
+}
+
+struct Serve(Child);
+
+impl Drop for Serve {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn under_multistep_serve_the_focuser_moves_to_where_status_says() {
+    if !indi_present() {
+        return;
+    }
+    let Some(bin) = multistep_serve() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(bin)
+        .args(["serve", "--listen", "127.0.0.1:0", "--listen-token", TOKEN])
+        .arg("--data")
+        .arg(dir.path().join("d"))
+        .args(["--board-config", CONFIG])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    // "board optics listening on tcp://127.0.0.1:PORT"
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let _serve = Serve(child);
+    let port: u16 = first
+        .trim()
+        .rsplit(':')
+        .next()
+        .unwrap()
+        .parse()
+        .expect(&first);
+    let rig = Rig::around(dir, port);
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=2500"));
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==2500"
+    ));
+    assert_eq!(rig.pos("focus"), 2500);
+    rig.set(&format!("{W}.FILTER_SLOT.FILTER_SLOT_VALUE=2"));
+    rig.wait(&format!(
+        "\"{W}.FILTER_SLOT._STATE\"==1 && \"{W}.FILTER_SLOT.FILTER_SLOT_VALUE\"==2"
+    ));
+    assert_eq!(rig.pos("wheel"), 1280);
 }
