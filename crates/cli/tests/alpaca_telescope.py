@@ -291,20 +291,20 @@ def first(t):
     t.DeclinationRate = 0.0
     poll(lambda: axis("dec")["state"] == "idle", "the dec axis rests again")
 
-    # Pulse guiding at the sidereal rate.
+    # Pulse guiding at the sidereal rate; 5 s pulses leave a loaded machine time to see them.
     t.GuideRateRightAscension = SIDEREAL / 3600
     t.GuideRateDeclination = SIDEREAL / 3600
     check(abs(t.GuideRateRightAscension - SIDEREAL / 3600) < 1e-12, "GuideRateRightAscension set")
-    t.PulseGuide(GuideDirections.guideWest, 1500)
+    t.PulseGuide(GuideDirections.guideWest, 5000)
     check(t.IsPulseGuiding, "IsPulseGuiding during a west pulse")
     speed("ha", 2 * sid, 1e-6, "a west pulse doubles the polar rate")
     poll(lambda: not t.IsPulseGuiding, "the west pulse ends")
     speed("ha", sid, 1e-6, "sidereal again after it")
-    t.PulseGuide(GuideDirections.guideEast, 1500)
+    t.PulseGuide(GuideDirections.guideEast, 5000)
     speed("ha", 0.0, 1e-6, "an east pulse holds the polar axis")
     poll(lambda: not t.IsPulseGuiding, "the east pulse ends")
     speed("ha", sid, 1e-6, "sidereal after the east pulse")
-    t.PulseGuide(GuideDirections.guideNorth, 1500)
+    t.PulseGuide(GuideDirections.guideNorth, 5000)
     speed("dec", sid, 1e-6, "a north pulse turns the dec axis (pier west: with Dec)")
     poll(lambda: not t.IsPulseGuiding, "the north pulse ends")
     poll(lambda: axis("dec")["state"] == "idle", "the dec axis rests after the pulse")

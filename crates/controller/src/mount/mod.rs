@@ -19,6 +19,7 @@ pub use rates::DriveRate;
 use crate::axis::{AxisState, AxisStatus};
 use crate::error::CtlError;
 use crate::Controller;
+use std::io::Write;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use std::time::{Duration, Instant};
 
@@ -146,7 +147,8 @@ impl Mount {
                     if let Err(e) = m.tick(&ctl) {
                         let e = e.to_string();
                         if said.as_ref() != Some(&e) {
-                            eprintln!("warning: mount: {e}");
+                            // stderr may be closed: nothing to do about that here.
+                            let _ = writeln!(std::io::stderr(), "warning: mount: {e}");
                             said = Some(e);
                         }
                     }

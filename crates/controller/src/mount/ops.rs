@@ -358,19 +358,26 @@ impl Mount {
                 changed = true;
             }
         }
-        if let Some(slew) = st.slew {
+        let busy = st.slew.is_some() || st.tracking || st.moving != [0.0; 2];
+        if busy {
+            // An axis stopped by the board (a soft limit, a fault): the mount stops too.
             let s = self.axes_status(ctl)?;
             if s.iter().any(|a| a.state == AxisState::Fault) {
                 st.slew = None;
                 st.tracking = false;
+                st.moving = [0.0; 2];
                 return self.apply(ctl, &st);
             }
+        }
+        if let Some(slew) = st.slew {
+            let s = self.axes_status(ctl)?;
             if s.iter().all(|a| a.state == AxisState::Idle) {
                 st.slew = None;
                 changed = true;
-                if let Some((ra, dec)) = slew.target {
-                    // The sky turned during the slew: one short move to catch up.
-                    let a = self.aim(&st, ra, dec)?;
+                // The sky turned during the slew: one short move to catch up (unless the
+                // target has meanwhile crossed a limit; tracking then resumes where it is).
+                let aim = slew.target.map(|(ra, dec)| self.aim(&st, ra, dec));
+                if let Some(Ok(a)) = aim {
                     let steps = self.steps_of(&st, a);
                     self.move_axes(ctl, &mut st, steps)?;
                     st.slew = Some(Slew {
