@@ -35,12 +35,13 @@ const DEV_ULPS: f64 = 1024.0;
 const MAGIC: f64 = 6_755_399_441_055_744.0;
 
 /// The nearest tick to x ≥ 0 and |frac(x) − ½|, the distance from the half tick where
-/// the choice of tick would flip.
+/// the choice of tick would flip. `x + MAGIC` has MAGIC's exponent, so its bits are
+/// MAGIC's plus the tick (one subtract).
 #[inline(always)]
 fn nearest_tick(x: f64) -> (u64, f64) {
     let y = x + MAGIC;
     let r = y - MAGIC;
-    let tick = (y.to_bits() & ((1u64 << 52) - 1)) - (1u64 << 51);
+    let tick = y.to_bits().wrapping_sub(MAGIC.to_bits());
     (tick, 0.5 - (x - r).abs())
 }
 
@@ -163,12 +164,19 @@ impl Ramp {
     /// Local time of step i, its nearest tick, and whether f64 decides that tick: the
     /// piece's closed form and bound first ([`Ramp::new`]), the merged form with its
     /// per-step bound where that bound cannot decide.
+    /// `FAST` is `self.fast`, as a parameter so that a loop over steps has no branch on it.
     #[inline(always)]
-    fn locate(&self, p: Span, i: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+    fn locate<const FAST: bool>(
+        &self,
+        p: Span,
+        i: f64,
+        k_err: f64,
+        clock: f64,
+    ) -> (f64, u64, bool) {
         let n = i - p.p0;
         let r = self.c1_sq + self.c2_4 * n;
         let s = fm::sqrt(r.max(0.0));
-        let tau = if self.fast {
+        let tau = if FAST {
             (s - self.c1) * self.h
         } else {
             2.0 * n / (self.c1 + s)
@@ -559,7 +567,23 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     /// step N), with the piece's constants and the last edge in local variables: the
     /// closed form, and the settle only where the bound cannot decide.
     #[inline(always)]
-    fn ramp_steps<B>(&mut self, n: u64, mut out: B, mut f: impl FnMut(B, u64) -> B) -> B {
+    fn ramp_steps<B>(&mut self, n: u64, out: B, f: impl FnMut(B, u64) -> B) -> B {
+        if self.ramp.fast {
+            self.ramp_loop::<B, true>(n, out, f)
+        } else {
+            self.ramp_loop::<B, false>(n, out, f)
+        }
+    }
+
+    /// [`EdgeGenerator::ramp_steps`] with `FAST` = `self.ramp.fast`. Every edge is the
+    /// nearest tick (decided or settled), so they never go backwards: no clamp.
+    #[inline(always)]
+    fn ramp_loop<B, const FAST: bool>(
+        &mut self,
+        n: u64,
+        mut out: B,
+        mut f: impl FnMut(B, u64) -> B,
+    ) -> B {
         let ramp = self.ramp;
         let (k_err, clock) = (self.k_err, self.clock);
         let span = Span::of(&self.cur);
@@ -569,13 +593,12 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         let first = self.next as i64;
         for k in 0..n as i64 {
             let i = (first + k) as f64;
-            let (tau, tick, decided) = ramp.locate(span, i, k_err, clock);
+            let (tau, tick, decided) = ramp.locate::<FAST>(span, i, k_err, clock);
             let e = if decided {
                 tick
             } else {
                 self.settle(self.piece, i, tau)
             };
-            let e = e.max(last);
             last = e;
             out = f(out, e);
         }
@@ -622,7 +645,12 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             return (tau, tick, dist > bound + self.cruise_dev);
         }
         if self.quad {
-            return self.ramp.locate(Span::of(p), i, self.k_err, self.clock);
+            let (span, k_err, clock) = (Span::of(p), self.k_err, self.clock);
+            return if self.ramp.fast {
+                self.ramp.locate::<true>(span, i, k_err, clock)
+            } else {
+                self.ramp.locate::<false>(span, i, k_err, clock)
+            };
         }
         let p = self.cur;
         let (tau, err) = self.newton(&p, n, EPS * i);
