@@ -8,9 +8,9 @@ use std::sync::Arc;
 
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct AlpacaArgs {
-    /// Serve the board config's [alpaca] devices (Focuser, Rotator, FilterWheel) as ASCOM
-    /// Alpaca on HOST:PORT, or on 127.0.0.1 with just a PORT (loopback unless
-    /// --alpaca-allow-remote; port 0 picks a free port)
+    /// Serve the board config's [alpaca] devices (Focuser, Rotator, FilterWheel,
+    /// Telescope) as ASCOM Alpaca on HOST:PORT, or on 127.0.0.1 with just a PORT (loopback
+    /// unless --alpaca-allow-remote; port 0 picks a free port)
     #[arg(long, value_name = "HOST:PORT")]
     pub alpaca: Option<String>,
     /// Allow --alpaca on a non-loopback address (needs --alpaca-token)
