@@ -191,6 +191,17 @@ impl Ramp {
         self.exact(p, i, n, s, k_err, clock)
     }
 
+    /// [`Ramp::locate`] outside a ramp loop (a piece's first and last steps): out of line,
+    /// so that the general path, which the curves' steps take, stays small.
+    #[inline(never)]
+    fn locate_once(&self, p: Span, i: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+        if self.fast {
+            self.locate::<true>(p, i, k_err, clock)
+        } else {
+            self.locate::<false>(p, i, k_err, clock)
+        }
+    }
+
     /// Seed 000's merged closed form `τ = 2n/(c1 + √(c1² + 4c2·n))` (one root, one
     /// divide, no cancellation) with its per-step error bound.
     #[inline(never)]
@@ -645,12 +656,9 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             return (tau, tick, dist > bound + self.cruise_dev);
         }
         if self.quad {
-            let (span, k_err, clock) = (Span::of(p), self.k_err, self.clock);
-            return if self.ramp.fast {
-                self.ramp.locate::<true>(span, i, k_err, clock)
-            } else {
-                self.ramp.locate::<false>(span, i, k_err, clock)
-            };
+            return self
+                .ramp
+                .locate_once(Span::of(p), i, self.k_err, self.clock);
         }
         let p = self.cur;
         let (tau, err) = self.newton(&p, n, EPS * i);
