@@ -1,8 +1,10 @@
 //! `estop` and `stop` under load on the simulated board, in real time: 32 line-protocol
 //! clients poll `status`, 12 threads preview a long group of X and Y without pause, axes U
 //! and V run a group and Z tracks at 20 000 steps/s. Each trial asks for an `estop` (or a `stop Z`) over
-//! the line protocol and measures, host side, the time to its answer, and on the board the
-//! steps Z took after it was asked for, against what the stop rule allows.
+//! the line protocol and measures, host side, the time to its answer and to its
+//! application to the board, and on the board the steps Z took after it was asked for,
+//! against what the stop rule allows. Previews refused as busy (`error:23`, the timing
+//! pool's queue full) are counted.
 //!
 //! `cargo run --release -p multistep-controller --example estop_load -- [TRIALS]`
 
@@ -142,6 +144,7 @@ fn main() {
         }));
     }
     let previews = Arc::new(AtomicU64::new(0));
+    let refused = Arc::new(AtomicU64::new(0));
     let preview_ns = Arc::new(AtomicU64::new(0));
     let group = vec![
         ("X".to_string(), Amount::Steps(5_000_000)),
@@ -150,22 +153,27 @@ fn main() {
     for _ in 0..PREVIEWERS {
         let (ctl, quit, group) = (ctl.clone(), quit.clone(), group.clone());
         let (previews, preview_ns) = (previews.clone(), preview_ns.clone());
+        let refused = refused.clone();
         threads.push(std::thread::spawn(move || {
             while !quit.load(Ordering::Relaxed) {
                 let t = Instant::now();
                 // Refused after an e-stop until the reset: only the timed ones count.
-                if ctl
-                    .preview(&group, false, false, &MoveOpts::default())
-                    .is_ok()
-                {
-                    previews.fetch_add(1, Ordering::Relaxed);
-                    preview_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                match ctl.preview(&group, false, false, &MoveOpts::default()) {
+                    Ok(_) => {
+                        previews.fetch_add(1, Ordering::Relaxed);
+                        preview_ns.fetch_add(t.elapsed().as_nanos() as u64, Ordering::Relaxed);
+                    }
+                    Err(e) if e.code() == 23 => {
+                        refused.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Err(_) => {}
                 }
             }
         }));
     }
     let mut c = Client::connect(&addr);
     let (mut estop_ms, mut latch_ms, mut estop_steps) = (Vec::new(), Vec::new(), Vec::new());
+    let mut applied_ms = Vec::new();
     let (mut stop_ms, mut stop_over) = (Vec::new(), Vec::new());
     let started = Instant::now();
     for k in 0..trials {
@@ -184,6 +192,8 @@ fn main() {
         if estop {
             let s = z(&ctl);
             let latched = s.move_end.expect("halted");
+            let applied = ctl.last_estop_applied().expect("applied");
+            applied_ms.push(applied.saturating_duration_since(t).as_secs_f64() * 1e3);
             estop_ms.push(answer);
             latch_ms.push((latched as f64 - asked as f64) / CLOCK_HZ * 1e3);
             estop_steps.push(s.position as f64 - p_asked);
@@ -207,12 +217,18 @@ fn main() {
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     let n = previews.load(Ordering::Relaxed);
     println!(
-        "{trials} trials in {secs:.1} s; {} status replies, {n} previews timed (mean {:.0} ms); loadavg {}",
+        "{trials} trials in {secs:.1} s; {} status replies, {n} previews timed (mean {:.0} ms), {} refused as busy; loadavg {}",
         polls.load(Ordering::Relaxed),
         preview_ns.load(Ordering::Relaxed) as f64 / n.max(1) as f64 / 1e6,
+        refused.load(Ordering::Relaxed),
         load.trim()
     );
     summary("estop answer, host side", "ms", &mut estop_ms);
+    summary(
+        "estop applied to the board, host side",
+        "ms",
+        &mut applied_ms,
+    );
     summary(
         "estop latched after it was asked (board)",
         "ms",

@@ -208,6 +208,9 @@ pub trait BoardBackend: Send {
     }
     /// Limits the work of one advance (see [`crate::Board::set_work_budget`]).
     fn set_work_budget(&mut self, _budget: Option<u64>) {}
+    /// The flag set while a halt waits for the board: a backend sending a batch of link
+    /// frames lets go between two of them (see `HostLink::urgent`).
+    fn set_urgent_flag(&mut self, _flag: std::sync::Arc<std::sync::atomic::AtomicBool>) {}
     /// Work done so far and the most any one advance did.
     fn work(&self) -> (u64, u64) {
         (0, 0)

@@ -304,6 +304,12 @@ impl Board {
         self.halt_tick = tick;
     }
 
+    /// Shares the flag set while a halt waits for the board: the backend's batches of
+    /// link frames end early for it.
+    pub fn set_halt_flag(&mut self, flag: Arc<std::sync::atomic::AtomicBool>) {
+        self.pins.set_urgent_flag(flag);
+    }
+
     pub fn set_work_budget(&mut self, budget: Option<u64>) {
         self.pins.set_work_budget(budget);
     }

@@ -7,6 +7,7 @@ use crate::backend::{BoardBackend, SimBackend};
 use crate::board::{Board, Halted, PlannedAxis};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
+use crate::pool::{Lane, WorkPool};
 use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
 use crate::store::Store;
 use std::collections::HashMap;
@@ -63,14 +64,17 @@ enum HaltKind {
 /// board next (a command, the ticker, the asker itself) applies them before anything else,
 /// at the tick they were asked at, so an e-stop never queues behind other work.
 struct Halts {
-    /// Something is queued: checked on every board lock without taking `queue`.
-    pending: AtomicBool,
+    /// Something is queued: checked on every board lock without taking `queue`, and by
+    /// the FPGA backend between link frames (shared with the board).
+    pending: Arc<AtomicBool>,
     /// E-stopped axes wait to be written down.
     unrecorded: AtomicBool,
     /// The earliest tick of the halts queued (`u64::MAX`: none), shared with the board.
     tick: Arc<AtomicU64>,
     queue: Mutex<HaltQueue>,
     applied: Condvar,
+    /// When the last e-stop was applied to the board (its write, on the FPGA board).
+    estop_applied: Mutex<Option<Instant>>,
 }
 
 #[derive(Default)]
@@ -85,11 +89,12 @@ struct HaltQueue {
 impl Default for Halts {
     fn default() -> Self {
         Halts {
-            pending: AtomicBool::new(false),
+            pending: Arc::new(AtomicBool::new(false)),
             unrecorded: AtomicBool::new(false),
             tick: Arc::new(AtomicU64::new(u64::MAX)),
             queue: Mutex::default(),
             applied: Condvar::new(),
+            estop_applied: Mutex::default(),
         }
     }
 }
@@ -127,6 +132,8 @@ impl Halts {
             let r = match kind {
                 HaltKind::EStop => {
                     halted.push(b.estop_latch(at));
+                    *self.estop_applied.lock().unwrap_or_else(|p| p.into_inner()) =
+                        Some(Instant::now());
                     Ok(())
                 }
                 HaltKind::Stop(axis) => b.stop(axis.as_deref(), at),
@@ -160,13 +167,42 @@ struct Shared {
     halts: Halts,
 }
 
+/// The board locked. Halts asked for meanwhile are applied when it is let go, by the
+/// holder itself: no hand-over to the asker's thread, which may not be scheduled soon.
+struct Locked<'a> {
+    board: MutexGuard<'a, Board>,
+    halts: &'a Halts,
+}
+
+impl std::ops::Deref for Locked<'_> {
+    type Target = Board;
+    fn deref(&self) -> &Board {
+        &self.board
+    }
+}
+
+impl std::ops::DerefMut for Locked<'_> {
+    fn deref_mut(&mut self) -> &mut Board {
+        &mut self.board
+    }
+}
+
+impl Drop for Locked<'_> {
+    fn drop(&mut self) {
+        self.halts.apply(&mut self.board);
+    }
+}
+
 impl Shared {
     /// The board, with every halt asked for so far applied.
-    fn lock(&self) -> MutexGuard<'_, Board> {
+    fn lock(&self) -> Locked<'_> {
         let mut b = lock(&self.board);
         self.halts.apply(&mut b);
         self.halts.record(&mut b);
-        b
+        Locked {
+            board: b,
+            halts: &self.halts,
+        }
     }
 
     /// Asks for a halt at tick `at` and waits until it is applied: by this thread as soon
@@ -212,6 +248,8 @@ pub struct Controller {
     time_scale: f64,
     quit: Arc<AtomicBool>,
     ticker: Option<JoinHandle<()>>,
+    /// Where groups and previews are timed (see [`WorkPool`]).
+    pool: WorkPool,
     /// The config's `[alpaca]` section as JSON, answered by `devices`.
     devices: String,
 }
@@ -268,6 +306,7 @@ impl Controller {
         let clock_hz = board.clock_hz();
         let halts = Halts::default();
         board.set_halt_tick(halts.tick.clone());
+        board.set_halt_flag(halts.pending.clone());
         let shared = Arc::new(Shared {
             board: Mutex::new(board),
             halts,
@@ -300,6 +339,7 @@ impl Controller {
             time_scale,
             quit,
             ticker: Some(ticker),
+            pool: WorkPool::for_this_machine()?,
             devices,
         })
     }
@@ -324,7 +364,8 @@ impl Controller {
 
     /// What `group_move(targets, absolute, sync, opts)` would run from the counted
     /// positions now, without starting anything (see [`Board::preview`]). Only the
-    /// planning holds the board; the TDM timing runs with the board free.
+    /// planning holds the board; the TDM timing runs with the board free, in the timing
+    /// pool behind any move waiting there (`error:23` when its queue is full).
     pub fn preview(
         &self,
         targets: &[(String, Amount)],
@@ -332,8 +373,18 @@ impl Controller {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<Vec<PlannedAxis>, CtlError> {
-        self.with_board(|b, _| b.plan_preview(targets, absolute, sync, opts))?
-            .time()
+        let plan = self.with_board(|b, _| b.plan_preview(targets, absolute, sync, opts))?;
+        self.pool.run(Lane::Preview, move || plan.time())?
+    }
+
+    /// When the last e-stop was applied to the board (on the FPGA board: its write).
+    pub fn last_estop_applied(&self) -> Option<Instant> {
+        *self
+            .shared
+            .halts
+            .estop_applied
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
     }
 
     pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
@@ -368,7 +419,8 @@ impl Controller {
         opts: &MoveOpts,
         arm: bool,
     ) -> Result<Vec<i64>, CtlError> {
-        // The TDM timing runs with the board free: estop and other clients do not wait on it.
+        // The TDM timing runs with the board free, in the timing pool: estop and other
+        // clients do not wait on it.
         // If another client's move ran on these axes meanwhile, plan again from where they
         // are now (planning refuses at once while they still move).
         if arm {
@@ -378,7 +430,12 @@ impl Controller {
         loop {
             let pending =
                 self.with_board(|b, now| b.plan_group_move(targets, absolute, sync, opts, now))?;
-            let report = pending.time()?;
+            // timed in the pool, ahead of previews
+            let (pending, report) = self.pool.run(Lane::Move, move || {
+                let r = pending.time();
+                (pending, r)
+            })?;
+            let report = report?;
             let started = self.with_board(|b, now| {
                 if arm {
                     b.arm_group_move(pending, now)

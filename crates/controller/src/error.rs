@@ -58,6 +58,9 @@ pub enum CtlError {
     /// The FPGA board refused a request, or cannot carry out what it asks for.
     #[error("{0}")]
     LinkRefused(String),
+    /// Too much long work (moves and previews to time) is waiting already.
+    #[error("busy: {0}")]
+    Overloaded(String),
 }
 
 impl CtlError {
@@ -86,6 +89,7 @@ impl CtlError {
             CtlError::StoreGone(_) => 20,
             CtlError::Link(_) => 21,
             CtlError::LinkRefused(_) => 22,
+            CtlError::Overloaded(_) => 23,
         }
     }
 

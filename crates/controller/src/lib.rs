@@ -19,6 +19,7 @@ pub mod group;
 pub mod hall;
 pub mod motion;
 pub mod mount;
+pub mod pool;
 pub mod protocol;
 pub mod service;
 pub mod store;

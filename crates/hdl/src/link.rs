@@ -11,6 +11,8 @@
 
 use crate::moves::mode_code;
 use crate::{AxisMove, CoreParams, HdlError, PieceRegs, Widths};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// First byte of a request.
 pub const REQUEST_SYNC: u8 = 0xA5;
@@ -989,6 +991,10 @@ pub fn session_token() -> u32 {
 /// (`ms_link.v`), so a write whose reply was lost is never executed twice, and its answer
 /// is the one the board gave. An error after the retransmissions leaves the request's
 /// outcome unknown ([`LinkError::in_doubt`]).
+///
+/// Urgent requests: one frame is atomic, but whoever sends many in a row (a stream's
+/// code, a poll's reads) checks [`HostLink::urgent`] between them and lets go of the link
+/// when it is set, so that an e-stop waits for one frame, not for the whole batch.
 #[derive(Debug)]
 pub struct HostLink<T> {
     io: T,
@@ -996,6 +1002,8 @@ pub struct HostLink<T> {
     decoder: ReplyDecoder,
     /// Frames sent again.
     pub retransmitted: u64,
+    /// Set by whoever waits to send something urgent (see above).
+    urgent: Option<Arc<AtomicBool>>,
 }
 
 impl<T: std::io::Read + std::io::Write> HostLink<T> {
@@ -1005,7 +1013,21 @@ impl<T: std::io::Read + std::io::Write> HostLink<T> {
             seq: 0,
             decoder: ReplyDecoder::new(),
             retransmitted: 0,
+            urgent: None,
         }
+    }
+
+    /// The link with `flag` as its urgent flag (see [`HostLink::urgent`]).
+    pub fn with_urgent(mut self, flag: Option<Arc<AtomicBool>>) -> Self {
+        self.urgent = flag;
+        self
+    }
+
+    /// An urgent request waits for the link: a batch of frames should end here.
+    pub fn urgent(&self) -> bool {
+        self.urgent
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::SeqCst))
     }
 
     /// Reads the board's session register and writes `token` (nonzero) to it. Returns
@@ -1334,6 +1356,16 @@ mod tests {
             matches!(fire_armed(&mut ls, 0, 3, || {}), Err(LinkError::Move(m)) if m.contains("no group armed"))
         );
         assert!(fire_armed(&mut ls, 1, 3, || {}).is_err());
+    }
+
+    #[test]
+    fn the_urgent_flag_is_read_through_the_link() {
+        let flag = Arc::new(AtomicBool::new(false));
+        let l = fake(false).with_urgent(Some(flag.clone()));
+        assert!(!l.urgent());
+        flag.store(true, Ordering::SeqCst);
+        assert!(l.urgent());
+        assert!(!fake(false).urgent(), "no flag: never urgent");
     }
 
     #[test]

@@ -34,6 +34,8 @@ use stream::Feed;
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod session;
@@ -194,6 +196,8 @@ pub struct FpgaBackend {
     /// The board's registers are set up at the next poll (an adopted board: once every
     /// axis's settings are known, so no running axis's DIR level changes meanwhile).
     setup_due: bool,
+    /// Set while a halt waits for the board: a poll lets go of the link (see `HostLink`).
+    urgent: Option<Arc<AtomicBool>>,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -296,6 +300,7 @@ impl FpgaBackend {
             armed_at: None,
             arm_lifetime: ARM_LIFETIME,
             setup_due: false,
+            urgent: None,
         };
         if let Some(before) = &before {
             b.resume(before).map_err(link_err)?;
@@ -368,7 +373,7 @@ impl FpgaBackend {
                 continue;
             }
             let done = (ax.count - f.count0).unsigned_abs();
-            if let Err(e) = pump(l, f, i as u32, done) {
+            if let Err(e) = pump(l, f, i as u32, done, true) {
                 if matches!(e, LinkError::Io(_)) || e.in_doubt() {
                     return Err(e);
                 }
@@ -684,7 +689,7 @@ impl FpgaBackend {
             self.down = Some("another board answers on this link".into());
             return;
         }
-        self.link = Some(l);
+        self.link = Some(l.with_urgent(self.urgent.clone()));
         eprintln!("board link {}: answering again", self.name);
         self.down = None;
     }
@@ -823,7 +828,7 @@ impl FpgaBackend {
             if f.buffer == 0 {
                 return Err(LinkError::Move(NO_REPLAY.into()));
             }
-            pump(l, f, a, 0)?;
+            pump(l, f, a, 0, false)?;
         }
         Ok(())
     }
@@ -1001,15 +1006,19 @@ fn stream_stats(axis: usize, f: &Feed, count: i64) {
 /// Sends `axis` the code its buffer has room for: fills the frame from the feed, sends it
 /// when the free count (the last reply's, read again when it looks short) says it fits.
 /// `done`: the steps the board has made of this motion (a tracker codes only a lead
-/// beyond them).
+/// beyond them). `may_yield`: ends early, between two frames, for an urgent request.
 fn pump<T: Read + Write>(
     l: &mut HostLink<T>,
     f: &mut Feed,
     axis: u32,
     done: u64,
+    may_yield: bool,
 ) -> Result<(), LinkError> {
     let mut refreshed = false;
     loop {
+        if may_yield && l.urgent() {
+            return Ok(());
+        }
         f.fill(BULK_MAX, f.lead_limit(done))
             .map_err(LinkError::Move)?;
         let Some(n) = f.next_frame(BULK_MAX.min(f.free as usize)) else {
@@ -1241,6 +1250,11 @@ impl BoardBackend for FpgaBackend {
         self.polled = false;
     }
 
+    fn set_urgent_flag(&mut self, flag: Arc<AtomicBool>) {
+        self.link = self.link.take().map(|l| l.with_urgent(Some(flag.clone())));
+        self.urgent = Some(flag);
+    }
+
     fn poll(&mut self, now: u64) -> Option<(usize, PinEvent)> {
         self.now = now.max(self.now);
         if self.events.is_empty() && !self.polled {
@@ -1259,7 +1273,9 @@ impl BoardBackend for FpgaBackend {
                 if let Err(e) = self.feed_streams() {
                     self.failed(e);
                 }
-                if self.link.is_some() {
+                // a halt waiting for the link goes first; the board is read next poll
+                let urgent = self.link.as_ref().is_some_and(|l| l.urgent());
+                if self.link.is_some() && !urgent {
                     if let Err(e) = self.read_board() {
                         self.failed(e);
                     }
@@ -1875,3 +1891,6 @@ mod exactly_once {
 
 #[cfg(test)]
 mod track_feed;
+
+#[cfg(test)]
+mod preempt;
