@@ -122,3 +122,59 @@ fn a_stop_of_an_unknown_axis_is_refused() {
     assert!(ctl.stop(Some("Q")).is_err());
     assert_eq!(state(&ctl, "Z"), AxisState::Tracking);
 }
+
+/// Board ticks of `ms` milliseconds at the config's 50 MHz.
+fn ticks(ms: u64) -> u64 {
+    ms * 50_000
+}
+
+/// Z's status once the board's clock has passed `tick` (it advances on every status).
+fn z_after(ctl: &Controller, tick: u64) -> multistep_controller::AxisStatus {
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    loop {
+        let (now, s) = ctl.with_board(|b, now| {
+            let s = b.status(&["Z".to_string()], now).unwrap().remove(0);
+            (b.now(), s)
+        });
+        if now >= tick {
+            return s;
+        }
+        assert!(
+            std::time::Instant::now() < end,
+            "the board clock stands at {now}"
+        );
+        std::thread::yield_now();
+    }
+}
+
+/// Under the previews' load, the e-stop holds at the tick it was asked at: no step of
+/// the tracking axis after it, neither counted nor on the simulated motor, while the
+/// board's clock runs on for 50 ms.
+#[test]
+fn no_axis_steps_after_the_estop_tick() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = open_tracking(dir.path());
+    let moving = z_after(&ctl, ctl.now() + ticks(20));
+    assert!(moving.speed > 0.0, "{moving:?}");
+    let before = ctl.now();
+    previews_done_when(&ctl, || ctl.estop());
+    let after = ctl.now();
+    let s = z_after(&ctl, 0);
+    let latched = s.move_end.expect("halted at a tick");
+    assert!(
+        (before..=after).contains(&latched),
+        "{before} ≤ {latched} ≤ {after}"
+    );
+    let later = z_after(&ctl, after + ticks(50));
+    assert_eq!(
+        (later.position, later.sim_position, later.move_end),
+        (s.position, s.sim_position, Some(latched)),
+        "Z stepped after the e-stop"
+    );
+    assert!(
+        s.position > moving.position,
+        "Z moved until the e-stop: {} then {}",
+        moving.position,
+        s.position
+    );
+}
