@@ -145,7 +145,7 @@ pub fn tdm_report(profiles: &[Profile], cfg: &TdmConfig) -> Result<tdm::Report, 
 /// start speed equal to the speed limit (DESIGN.md §2), so the core plans it. `None` when
 /// the axis is slow enough to stop on the spot (less than half a step to go).
 pub fn stop_profile(speed: f64, amax: f64) -> Option<Profile> {
-    let dist = speed * speed / (2.0 * amax);
+    let dist = multistep_core::stop_distance(speed, amax, None);
     if speed.is_nan() || speed <= 0.0 || dist < 0.5 {
         return None;
     }

@@ -153,15 +153,12 @@ impl TrackSource {
             Some(_) => now.max(self.tracker.rate().to_f64()),
             None => now,
         };
-        let mut d = v * v / (2.0 * amax);
+        let d = multistep_core::stop_distance(v, amax, jmax);
         let mut ramp_left = 0;
-        if let Some(j) = jmax {
-            d += v * amax / (2.0 * j);
-            if let (Some(p), TrackSegment::Ramp { start_step, .. }) =
-                (self.tracker.ramp_profile(), self.tracker.segment())
-            {
-                ramp_left = p.steps().saturating_sub(self.tracker.steps() - start_step);
-            }
+        if let (Some(_), Some(p), TrackSegment::Ramp { start_step, .. }) =
+            (jmax, self.tracker.ramp_profile(), self.tracker.segment())
+        {
+            ramp_left = p.steps().saturating_sub(self.tracker.steps() - start_step);
         }
         (d.ceil().min(1e15) as u64) + ramp_left + 2
     }

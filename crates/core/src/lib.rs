@@ -37,6 +37,7 @@ pub mod edges;
 pub mod error;
 pub mod hal;
 pub mod int;
+mod kinematics;
 mod limits;
 mod moves;
 pub mod params;
@@ -57,6 +58,7 @@ pub mod track;
 
 pub use edges::{edges, EdgeGenerator, Periods, MAX_TICKS};
 pub use error::{Num, PlanError};
+pub use kinematics::{stop_distance, time_scale};
 pub use moves::{
     Family, LimitsMove, Move, Order, PhaseMove, Segment, DEFAULT_PHI, DEFAULT_PSI, DEFAULT_RHO,
     MAX_PIECES, MAX_STEPS,
