@@ -1014,7 +1014,7 @@ impl Board {
         for &(i, d) in plan.iter().filter(|p| p.1 != 0) {
             let (v, a) = phase(i, d, 1.0)?.peaks();
             let s = &self.axes[i].settings;
-            scale = scale.max(v / s.vmax).max((a / s.amax).sqrt());
+            scale = scale.max(multistep_core::time_scale(v, a, s.vmax, s.amax));
         }
         plan.iter()
             .map(|&(i, d)| {
@@ -1340,5 +1340,25 @@ fn axis_number(word: &str) -> Option<usize> {
         word.parse().ok()
     } else {
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shortest;
+
+    #[test]
+    fn the_short_way_takes_a_half_turn_forward_never_backward() {
+        // (-P/2, P/2]: the tie goes forward, so a rotator asked for half a turn
+        // either way turns the same way
+        assert_eq!(shortest(180, 360), 180);
+        assert_eq!(shortest(-180, 360), 180);
+        assert_eq!(shortest(540, 360), 180);
+        assert_eq!(shortest(181, 360), -179);
+        assert_eq!(shortest(-181, 360), 179);
+        assert_eq!(shortest(179, 360), 179);
+        assert_eq!(shortest(360, 360), 0);
+        // an odd period has no tie
+        assert_eq!((shortest(3, 7), shortest(4, 7)), (3, -3));
     }
 }

@@ -38,6 +38,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod readback;
 mod session;
 mod sync;
 use crate::store::LinkSession;
@@ -483,7 +484,7 @@ impl FpgaBackend {
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let st = l.axis_state(a)?;
             let ax = &mut self.axes[i];
-            let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + ax.offset;
+            let count = readback::count(l.read(Reg::Axis(a, AxisReg::Position))?, ax.offset);
             ax.count = count;
             ax.sensor = st.hall;
             let Some(r) = ax.running.as_mut() else {
@@ -494,7 +495,7 @@ impl FpgaBackend {
                 continue;
             };
             if st.hall_flag {
-                let hp = l.read(Reg::Axis(a, AxisReg::HallPosition))? as i32 as i64 + ax.offset;
+                let hp = readback::count(l.read(Reg::Axis(a, AxisReg::HallPosition))?, ax.offset);
                 l.write(Reg::Board(BoardReg::Clear), 1 << a)?;
                 let trigger = !r.stopping && r.stop_on_sensor == Some(true);
                 r.stopping |= trigger;
@@ -531,7 +532,7 @@ impl FpgaBackend {
                 // axis halts at once (homing speed).
                 l.write(Reg::Board(BoardReg::Stop), 1 << a)?;
                 r.stopping = true;
-                let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + ax.offset;
+                let count = readback::count(l.read(Reg::Axis(a, AxisReg::Position))?, ax.offset);
                 ax.count = count;
                 let edge = FilteredEdge {
                     tick: self.now,
@@ -567,7 +568,10 @@ impl FpgaBackend {
                 ax.speed = 0.0;
                 if ax.offset != 0 {
                     // at rest: the board's counter takes the wrapped count
-                    l.write(Reg::Axis(a, AxisReg::Position), ax.count as i32 as u32)?;
+                    l.write(
+                        Reg::Axis(a, AxisReg::Position),
+                        readback::register(ax.count),
+                    )?;
                     ax.offset = 0;
                 }
                 let feed = ax.feed.take();
@@ -619,7 +623,7 @@ impl FpgaBackend {
         self.setup()?;
         for i in 0..self.axes.len() {
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
-            let count = l.read(Reg::Axis(i as u32, AxisReg::Position))? as i32 as i64;
+            let count = readback::count(l.read(Reg::Axis(i as u32, AxisReg::Position))?, 0);
             let ax = &mut self.axes[i];
             ax.feed = None;
             ax.offset = 0;
@@ -1308,7 +1312,7 @@ impl BoardBackend for FpgaBackend {
         match r {
             Ok(p) => {
                 let ax = &mut self.axes[axis];
-                ax.count = p as i32 as i64 + ax.offset;
+                ax.count = readback::count(p, ax.offset);
                 if let Some(r) = ax.running.as_mut() {
                     r.stopping = true;
                 }

@@ -119,7 +119,7 @@ impl FpgaBackend {
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let st = l.axis_state(a)?;
             let offset = before.offsets.get(i).copied().unwrap_or(0);
-            let count = l.read(Reg::Axis(a, AxisReg::Position))? as i32 as i64 + offset;
+            let count = super::readback::count(l.read(Reg::Axis(a, AxisReg::Position))?, offset);
             let ax = &mut self.axes[i];
             ax.count = count;
             ax.offset = offset;
@@ -269,11 +269,12 @@ impl FpgaBackend {
             }
             l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
             let ax = &mut self.axes[i];
-            ax.count = l.read(Reg::Axis(i as u32, AxisReg::Position))? as i32 as i64 + ax.offset;
+            ax.count =
+                super::readback::count(l.read(Reg::Axis(i as u32, AxisReg::Position))?, ax.offset);
             if ax.offset != 0 {
                 l.write(
                     Reg::Axis(i as u32, AxisReg::Position),
-                    ax.count as i32 as u32,
+                    super::readback::register(ax.count),
                 )?;
                 ax.offset = 0;
             }

@@ -1,0 +1,139 @@
+//! The board's 32-bit position registers as the host's 64-bit counts, and what a board
+//! reset does to them.
+
+/// A position register as a count: the register holds the low 32 bits of the board's
+/// two's-complement counter (sign-extended here), `offset` the steps the host keeps
+/// outside it.
+pub(super) fn count(raw: u32, offset: i64) -> i64 {
+    raw as i32 as i64 + offset
+}
+
+/// A count at rest written back to the position register: its low 32 bits.
+pub(super) fn register(count: i64) -> u32 {
+    count as i32 as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::exactly_once::launch;
+    use super::super::model::{connect, Model, ModelPort};
+    use super::super::{FpgaBackend, Opener, Port};
+    use super::*;
+    use crate::backend::{BoardBackend, PinEvent};
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+
+    fn events(b: &mut FpgaBackend, now: u64) -> Vec<(usize, PinEvent)> {
+        b.begin_advance();
+        std::iter::from_fn(|| b.poll(now)).collect()
+    }
+
+    #[test]
+    fn a_register_reads_back_sign_extended_and_writes_back_its_low_bits() {
+        assert_eq!(count(0xFFFF_FFD6, 0), -42);
+        assert_eq!(count(0xFFFF_FFD6, 1 << 32), (1 << 32) - 42);
+        assert_eq!(count(7, -10), -3);
+        assert_eq!(register(-42), 0xFFFF_FFD6);
+        assert_eq!(count(register(-5_000_000), 0), -5_000_000);
+    }
+
+    #[test]
+    fn a_move_backward_ends_at_a_negative_count() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = -300;
+        let l = launch(&b, 0, 300);
+        b.start(vec![l], None, &Default::default(), 0).unwrap();
+        m.lock().unwrap().position[1] = -42;
+        assert!(events(&mut b, 1).is_empty(), "still moving");
+        assert_eq!(b.count(1), -42, "an idle axis read while another moves");
+        m.lock().unwrap().finish();
+        let ev = events(&mut b, 2);
+        assert!(matches!(ev[..], [(0, PinEvent::End { .. })]), "{ev:?}");
+        assert_eq!(b.count(0), -300);
+    }
+
+    #[test]
+    fn a_reset_marks_an_idle_axis_lost_and_takes_the_boards_count() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        // axis 1 at rest at 500 while axis 0 moves
+        m.lock().unwrap().position[1] = 500;
+        let l = launch(&b, 0, 300);
+        b.start(vec![l], None, &Default::default(), 0).unwrap();
+        assert!(events(&mut b, 1).is_empty());
+        assert_eq!(b.count(1), 500);
+        m.lock().unwrap().power_cycle();
+        let ev = events(&mut b, 2);
+        let idle: Vec<&str> = ev
+            .iter()
+            .filter_map(|(i, e)| match e {
+                PinEvent::Lost { why } if *i == 1 => Some(why.as_str()),
+                _ => None,
+            })
+            .collect();
+        assert!(
+            matches!(idle[..], [why] if why.contains("was lost;")),
+            "{ev:?}"
+        );
+        assert_eq!(b.count(1), 0, "the board's count after the reset");
+    }
+
+    /// The whole board: a reset of an idle board leaves no axis trusted or homed.
+    #[test]
+    fn a_reset_board_untrusts_its_idle_axes() {
+        use crate::store::{AxisRecord, LinkSession, Store};
+        use crate::{Board, BoardConfig};
+        const TOKEN: u32 = 0x5EED_0002;
+        let dir = tempfile::tempdir().unwrap();
+        let config = BoardConfig::parse(
+            "[board]\nname = \"t\"\n[[axis]]\nname = \"X\"\n[[axis]]\nname = \"Y\"\n",
+        )
+        .unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        for (name, position) in [("X", 100), ("Y", -7)] {
+            let rec = AxisRecord {
+                position,
+                homed: true,
+                trusted: true,
+                moving: None,
+                sim_position: 0,
+            };
+            store.put_axis(name, &rec).unwrap();
+        }
+        let kept = LinkSession {
+            token: TOKEN,
+            offsets: vec![0, 0],
+            streamed: 0,
+            armed: 0,
+        };
+        store.put_link_session(&kept).unwrap();
+        let mut model = Model::default();
+        (model.session, model.position) = (TOKEN, [100, -7]);
+        let m = Arc::new(Mutex::new(model));
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let before = store.link_session().unwrap();
+        let pins = FpgaBackend::with_opener_resuming("model".into(), open, 2, before).unwrap();
+        let mut board = Board::open_with(&config, store, Box::new(pins)).unwrap();
+        let names = ["X".to_string(), "Y".to_string()];
+        let st = board.status(&names, 1).unwrap();
+        assert!(st.iter().all(|a| a.trusted && a.homed), "{st:?}");
+        assert_eq!((st[0].position, st[1].position), (100, -7));
+        m.lock().unwrap().power_cycle();
+        // an idle board is read every IDLE_POLL: wait for the reset to be seen
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut now = 2;
+        while !board
+            .warnings()
+            .iter()
+            .any(|w| w.contains("reset or lost power"))
+        {
+            assert!(Instant::now() < deadline, "the reset was never seen");
+            board.status(&names, now).unwrap();
+            now += 1;
+            std::thread::yield_now();
+        }
+        let st = board.status(&names, now).unwrap();
+        assert!(st.iter().all(|a| !a.trusted && !a.homed), "{st:?}");
+    }
+}
