@@ -7,6 +7,8 @@
 //!
 //! [[alpaca.rotator]]
 //! axis = "pa"                 # periodic, one period = 360 units (degrees)
+//! min_deg = -90.0             # optional travel (axis degrees): no move crosses the rest
+//! max_deg = 200.0             # of the turn (a cable wrap); both or neither
 //!
 //! [[alpaca.filterwheel]]
 //! axis = "wheel"
@@ -18,6 +20,7 @@
 //!
 //! Devices of one type are numbered 0, 1, … in the order they are listed.
 
+use crate::mapping::Travel;
 use multistep_controller::axis::{valid_axis_name, MAX_POSITION};
 use multistep_controller::config::NAME_RULE;
 use multistep_controller::mount::MountConfig;
@@ -55,6 +58,27 @@ fn one_mm() -> f64 {
 pub struct RotatorConfig {
     pub axis: String,
     pub name: Option<String>,
+    /// Allowed travel in the axis's degrees (position / steps_per_unit): `min_deg` in
+    /// [-360, 360], `max_deg` above it and at most 360 further. Without them the rotator
+    /// turns freely, the short way.
+    pub min_deg: Option<f64>,
+    pub max_deg: Option<f64>,
+}
+
+impl RotatorConfig {
+    /// The travel the keys give (None: free), checked.
+    pub fn travel(&self) -> Result<Option<Travel>, ConfigError> {
+        match (self.min_deg, self.max_deg) {
+            (None, None) => Ok(None),
+            (Some(lo), Some(hi)) => Travel::new(lo, hi)
+                .map(Some)
+                .map_err(|e| ConfigError(format!("rotator '{}': {e}", self.axis))),
+            _ => Err(ConfigError(format!(
+                "rotator '{}': give both min_deg and max_deg, or neither",
+                self.axis
+            ))),
+        }
+    }
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -161,6 +185,9 @@ impl AlpacaSection {
         for t in &self.telescope {
             t.validate(config).map_err(ConfigError)?;
         }
+        for r in &self.rotator {
+            r.travel()?;
+        }
         for f in &self.focuser {
             if !(f.microns_per_unit.is_finite() && f.microns_per_unit > 0.0) {
                 return err(format!(
@@ -229,6 +256,15 @@ mod tests {
         assert_eq!(s.focuser[0].microns_per_unit, 1000.0);
         assert_eq!(s.filterwheel[0].slots[1].position, None);
         assert!(section("").unwrap().is_empty());
+        let r =
+            section("[[alpaca.rotator]]\naxis = \"R\"\nmin_deg = -90\nmax_deg = 180.5\n").unwrap();
+        assert_eq!(
+            r.rotator[0].travel().unwrap(),
+            Some(Travel {
+                min_deg: -90.0,
+                max_deg: 180.5
+            })
+        );
     }
 
     #[test]
@@ -273,6 +309,9 @@ mod tests {
             ("[[alpaca.focuser]]\naxis = \"W\"\n", "periodic"),
             ("[[alpaca.rotator]]\naxis = \"W\"\n", "360"),
             ("[[alpaca.rotator]]\naxis = \"F\"\n", "360"),
+            ("[[alpaca.rotator]]\naxis = \"R\"\nmin_deg = 0.0\n", "both min_deg and max_deg"),
+            ("[[alpaca.rotator]]\naxis = \"R\"\nmin_deg = 0.0\nmax_deg = 400.0\n", "at most 360"),
+            ("[[alpaca.rotator]]\naxis = \"R\"\nmin_deg = 10.0\nmax_deg = -10.0\n", "above it"),
             ("[[alpaca.rotator]]\naxis = \"R\"\n[[alpaca.filterwheel]]\naxis = \"R\"\nslots = [{ name = \"a\" }]\n", "two devices"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = []\n", "no slots"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\" }, { name = \"a\" }]\n", "distinct"),

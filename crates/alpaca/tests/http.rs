@@ -66,8 +66,18 @@ fn rig_at_scale(
     token: Option<&str>,
     time_scale: f64,
 ) -> Result<Rig, AlpacaError> {
+    rig_on(CONFIG, addr, allow_remote, token, time_scale)
+}
+
+fn rig_on(
+    config: &str,
+    addr: &str,
+    allow_remote: bool,
+    token: Option<&str>,
+    time_scale: f64,
+) -> Result<Rig, AlpacaError> {
     let dir = tempfile::tempdir().unwrap();
-    let config = BoardConfig::parse(CONFIG).unwrap();
+    let config = BoardConfig::parse(config).unwrap();
     let ctl = Arc::new(Controller::open(&config, dir.path(), time_scale).unwrap());
     let section = AlpacaSection::from_board(&config).unwrap();
     let opts = AlpacaOptions {
@@ -450,6 +460,45 @@ fn rotator_takes_the_short_way_across_the_wrap_and_syncs() {
     r.ok_put(&format!("{rot}/movemechanical"), "Position=30");
     assert_eq!(r.wait_idle("R").position, 33000);
     assert_eq!(r.ok_get(&format!("{rot}/mechanicalposition")), 30.0);
+}
+
+#[test]
+fn rotator_with_a_travel_refuses_the_wrap_and_turns_the_long_way() {
+    let config = CONFIG.replace(
+        "[[alpaca.rotator]]\naxis = \"R\"\n",
+        "[[alpaca.rotator]]\naxis = \"R\"\nmin_deg = -90.0\nmax_deg = 180.0\n",
+    );
+    let r = rig_on(&config, "127.0.0.1:0", false, None, 1.0).unwrap();
+    let rot = "/api/v1/rotator/0";
+    r.ok_put(&format!("{rot}/connected"), "Connected=true");
+    // 200° lies in the wrap (180°..270°)
+    let (_, v) = r.put(&format!("{rot}/moveabsolute"), "Position=200");
+    assert_eq!(v["ErrorNumber"], 0x401, "{v}");
+    assert!(
+        v["ErrorMessage"].as_str().unwrap().contains("cable wrap"),
+        "{v}"
+    );
+    assert_eq!(r.status("R").position, 0);
+    r.ok_put(&format!("{rot}/moveabsolute"), "Position=170");
+    assert_eq!(r.wait_idle("R").position, 17000);
+    // 170° → 280° (-80°): the short way crosses the wrap, so 250° down, in legs that
+    // follow one another while a client polls IsMoving
+    r.ok_put(&format!("{rot}/moveabsolute"), "Position=280");
+    let end = Instant::now() + Duration::from_secs(60);
+    let mut seen = Vec::new();
+    while r.ok_get(&format!("{rot}/ismoving")) == true {
+        seen.push(r.status("R").position);
+        assert!(Instant::now() < end, "still moving: {seen:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let s = r.status("R");
+    assert_eq!((s.position, s.dir_level), (28000, false));
+    assert!(
+        seen.iter().all(|&p| p <= 18000 || p >= 27000),
+        "entered the wrap: {seen:?}"
+    );
+    assert!(seen.iter().any(|&p| p < 9000), "{seen:?}");
+    assert_eq!(r.ok_get(&format!("{rot}/position")), 280.0);
 }
 
 /// Hundredths of a degree as the decimal text a client sends.

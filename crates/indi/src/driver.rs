@@ -53,10 +53,13 @@ impl Driver {
         }
         for r in &section.rotator {
             let n = name(&r.name, "rotator", &r.axis);
+            let travel = r
+                .travel()
+                .map_err(|e| DriverError::Devices(e.to_string()))?;
             devices.push(Device::new(
                 n,
                 r.axis.clone(),
-                Role::Rotator(Rotator::new()),
+                Role::Rotator(Rotator::new(travel)),
             ));
         }
         for w in &section.filterwheel {

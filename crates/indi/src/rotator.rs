@@ -1,12 +1,13 @@
 //! Rotator: a periodic axis whose turn is 360 units (degrees). Angles, sync and reverse are
-//! the Alpaca Rotator's (`multistep_alpaca::mapping::Turn`); travel limits keep a cabled
-//! rotator off its cable wrap by turning the long way round when the short way crosses it.
+//! the Alpaca Rotator's (`multistep_alpaca::mapping::Turn`); the board config's travel
+//! limits keep a cabled rotator off its cable wrap (`mapping::rotator_path`, shared with
+//! the Alpaca Rotator).
 
 use crate::device::{abort, fault, moving, number_of, Props, Values};
 use crate::link::{Link, LinkError};
 use crate::props::{Element, Perm, Range, State, Vector};
 use crate::xml::Out;
-use multistep_alpaca::mapping::Turn;
+use multistep_alpaca::mapping::{rotator_path, Travel, Turn};
 use multistep_controller::AxisStatus;
 use std::collections::VecDeque;
 
@@ -15,8 +16,8 @@ pub struct Rotator {
     /// Sky angle minus mechanical angle, set by SYNC_ROTATOR_ANGLE (microsteps).
     sync_offset: i64,
     reverse: bool,
-    /// Allowed travel of the axis's own angle, degrees: from MIN up to MAX (None: free).
-    travel: Option<(f64, f64)>,
+    /// Allowed travel of the axis's own angle (the board config's; None: free).
+    travel: Option<Travel>,
     /// Relative moves still to make, each under half a turn so the controller's
     /// shortest-way rule keeps its sense.
     legs: VecDeque<i64>,
@@ -26,12 +27,12 @@ const ABS: &str = "ABS_ROTATOR_ANGLE";
 const TRAVEL: &str = "ROTATOR_TRAVEL";
 
 impl Rotator {
-    pub fn new() -> Rotator {
+    pub fn new(travel: Option<Travel>) -> Rotator {
         Rotator {
             turn: Turn::new(Some(360), 1.0),
             sync_offset: 0,
             reverse: false,
-            travel: None,
+            travel,
             legs: VecDeque::new(),
         }
     }
@@ -53,7 +54,7 @@ impl Rotator {
             format: "%.2f",
         };
         let g = "Main Control";
-        let (lo, hi) = self.travel.unwrap_or((0.0, 360.0));
+        let (lo, hi) = self.travel.map_or((0.0, 360.0), |t| (t.min_deg, t.max_deg));
         let mut abs = Vector::new(
             dev,
             ABS,
@@ -100,7 +101,7 @@ impl Rotator {
                 TRAVEL,
                 "Travel (cable wrap)",
                 "Limits",
-                Perm::Rw,
+                Perm::Ro,
                 vec![
                     Element::number("MIN", "From (axis degrees)", lo, deg(-360.0, 360.0)),
                     Element::number("MAX", "To (axis degrees)", hi, deg(-360.0, 720.0)),
@@ -187,26 +188,10 @@ impl Rotator {
                     Err(e) => p.alert(name, &e.to_string()),
                 }
             }
-            TRAVEL => {
-                let (lo, hi) = match (number_of(values, "MIN"), number_of(values, "MAX")) {
-                    (Ok(lo), Ok(hi)) => (lo, hi),
-                    (Err(e), _) | (_, Err(e)) => return p.alert(TRAVEL, &e),
-                };
-                if !(hi > lo && hi - lo <= 360.0 && (-360.0..=360.0).contains(&lo)) {
-                    return p.alert(
-                        TRAVEL,
-                        &format!("travel {lo}..{hi}: MAX must be above MIN, at most 360 apart"),
-                    );
-                }
-                self.travel = (hi - lo < 360.0).then_some((lo, hi));
-                let Some(v) = p.get_mut(TRAVEL) else {
-                    return vec![];
-                };
-                v.set_number("MIN", lo);
-                v.set_number("MAX", hi);
-                v.state = State::Ok;
-                vec![v.set(None)]
-            }
+            TRAVEL => p.alert(
+                TRAVEL,
+                "the travel is the board config's (min_deg, max_deg of its [[alpaca.rotator]])",
+            ),
             _ => vec![],
         }
     }
@@ -224,31 +209,11 @@ impl Rotator {
         let t = self.turn;
         let mech = t.steps(a) - self.sync_offset;
         let target = t.axis_target(mech, self.reverse);
-        self.legs.clear();
-        let first = match self.travel {
-            None => format!("moveto {axis} {target}"),
-            Some((lo, hi)) => {
-                let lo_steps = (lo * t.steps_per_degree).round() as i64;
-                let span = ((hi - lo) * t.steps_per_degree).round() as i64;
-                // positions unrolled from MIN: the travel is [0, span]
-                let unroll = |x: i64| (x - lo_steps).rem_euclid(t.period);
-                let (from, to) = (unroll(st.position), unroll(target));
-                if to > span {
-                    return p.alert(
-                        ABS,
-                        &format!(
-                            "angle {a} puts the axis at {:.2}°, outside its travel {lo}..{hi} (cable wrap)",
-                            t.deg(target)
-                        ),
-                    );
-                }
-                self.legs = legs(to - from, t.period);
-                match self.legs.pop_front() {
-                    Some(d) => format!("move {axis} {d}"),
-                    None => format!("move {axis} 0"),
-                }
-            }
+        self.legs = match rotator_path(&t, self.travel, st.position, target) {
+            Ok(l) => l.into(),
+            Err(e) => return p.alert(ABS, &format!("angle {a}: {e}")),
         };
+        let first = format!("move {axis} {}", self.legs.pop_front().unwrap_or(0));
         match link.request(&first) {
             Ok(_) => {
                 if let Some(v) = p.get_mut(ABS) {
@@ -301,37 +266,5 @@ impl Rotator {
             out.push(v.set(why.as_deref().filter(|_| state == State::Alert)));
         }
         out
-    }
-}
-
-/// `delta` steps as relative moves each shorter than half of `period`, so that the
-/// controller's shortest-way rule for periodic axes leaves each one as it is.
-fn legs(delta: i64, period: i64) -> VecDeque<i64> {
-    let most = ((period - 1) / 2).max(1);
-    let n = (delta.abs() + most - 1) / most;
-    let n = n.max(1);
-    (0..n)
-        .map(|i| delta * (i + 1) / n - delta * i / n)
-        .filter(|&d| d != 0)
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn legs_add_up_and_stay_under_half_a_turn() {
-        for (d, p) in [
-            (13000, 14400),
-            (-13000, 14400),
-            (7200, 14400),
-            (1, 14400),
-            (0, 4),
-        ] {
-            let l = legs(d, p);
-            assert_eq!(l.iter().sum::<i64>(), d);
-            assert!(l.iter().all(|x| 2 * x.abs() < p), "{l:?}");
-        }
     }
 }

@@ -114,8 +114,13 @@ impl Drop for Rig {
 impl Rig {
     /// The controller's service in this process (as `multistep serve` runs it).
     fn start() -> Rig {
+        Rig::start_with(&std::fs::read_to_string(CONFIG).unwrap())
+    }
+
+    /// The same, on the board config `text`.
+    fn start_with(text: &str) -> Rig {
         let dir = tempfile::tempdir().unwrap();
-        let config = BoardConfig::load(std::path::Path::new(CONFIG)).unwrap();
+        let config = BoardConfig::parse(text).unwrap();
         let ctl = Arc::new(Controller::open(&config, &dir.path().join("d"), 1.0).unwrap());
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let ctl_port = l.local_addr().unwrap().port();
@@ -254,6 +259,17 @@ impl Rig {
         self.client().request(line).unwrap()
     }
 
+    /// Sets the rotator's angle and waits for it; the angles shown on the way.
+    fn turn_to(&self, a: f64) -> Vec<f64> {
+        let abs = format!("{R}.ABS_ROTATOR_ANGLE");
+        let angle = format!("{abs}.ANGLE");
+        self.set(&format!("{angle}={a}"));
+        let out = self.wait(&format!(
+            "\"{abs}._STATE\"==1 && abs(\"{angle}\"-{a})<0.001"
+        ));
+        trail(&out, &angle)
+    }
+
     fn client(&self) -> Client {
         let at = Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port));
         let mut c = Client::connect(&at).unwrap();
@@ -325,7 +341,7 @@ fn every_property_is_listed_with_its_type_and_permission() {
             's',
         ),
         (R, "ROTATOR_ABORT_MOTION", "rw", &["ABORT"], 's'),
-        (R, "ROTATOR_TRAVEL", "rw", &["MIN", "MAX"], 'n'),
+        (R, "ROTATOR_TRAVEL", "ro", &["MIN", "MAX"], 'n'),
         (W, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (W, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
         (W, "FILTER_SLOT", "rw", &["FILTER_SLOT_VALUE"], 'n'),
@@ -462,38 +478,12 @@ fn the_rotator_turns_inside_its_travel_and_the_wheel_changes_filter() {
     let rig = Rig::start();
     let abs = format!("{R}.ABS_ROTATOR_ANGLE");
     let angle = format!("{abs}.ANGLE");
-    let goto = |a: f64| -> Vec<f64> {
-        rig.set(&format!("{angle}={a}"));
-        let out = rig.wait(&format!(
-            "\"{abs}._STATE\"==1 && abs(\"{angle}\"-{a})<0.001"
-        ));
-        trail(&out, &angle)
-    };
+    let goto = |a: f64| rig.turn_to(a);
     // free: 350 -> 10 the short way, through 0
     goto(350.0);
     let t = goto(10.0);
     assert!(t.iter().all(|&x| !(10.5..349.5).contains(&x)), "{t:?}");
     assert_eq!(rig.pos("rot"), 400);
-    // travel 0..300: 10 -> 290 the long way (+280), never through 300..360
-    rig.set(&format!("{R}.ROTATOR_TRAVEL.MIN=0;MAX=300"));
-    rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==1"));
-    let t = goto(290.0);
-    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
-    assert!(t.iter().any(|&x| x > 100.0 && x < 200.0), "{t:?}");
-    assert_eq!(rig.pos("rot"), 290 * 40);
-    // and back the same side
-    let t = goto(10.0);
-    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
-    // an angle beyond the travel: Alert, no move
-    rig.set(&format!("{angle}=330"));
-    rig.wait(&format!("\"{abs}._STATE\"==3"));
-    assert_eq!(rig.pos("rot"), 400);
-    for bad in ["MIN=100;MAX=50", "MIN=0;MAX=500"] {
-        rig.set(&format!("{R}.ROTATOR_TRAVEL.{bad}"));
-        rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==3"));
-        rig.set(&format!("{R}.ROTATOR_TRAVEL.MIN=0;MAX=300"));
-        rig.wait(&format!("\"{R}.ROTATOR_TRAVEL._STATE\"==1"));
-    }
     // sync: the sky angle moves, the axis does not
     rig.set(&format!("{R}.SYNC_ROTATOR_ANGLE.ANGLE=100"));
     rig.wait(&format!("abs(\"{angle}\"-100)<0.001"));
@@ -524,6 +514,38 @@ fn the_rotator_turns_inside_its_travel_and_the_wheel_changes_filter() {
         "\"{slot}._STATE\"==1 && \"{slot}.FILTER_SLOT_VALUE\"==5"
     ));
     assert_eq!(rig.pos("wheel"), 5120);
+}
+
+#[test]
+fn the_rotator_keeps_inside_the_travel_of_the_board_config() {
+    if !indi_present() {
+        return;
+    }
+    let text = std::fs::read_to_string(CONFIG).unwrap().replace(
+        "name = \"Field rotator\"\n",
+        "name = \"Field rotator\"\nmin_deg = 0.0\nmax_deg = 300.0\n",
+    );
+    let rig = Rig::start_with(&text);
+    let abs = format!("{R}.ABS_ROTATOR_ANGLE");
+    let angle = format!("{abs}.ANGLE");
+    let goto = |a: f64| rig.turn_to(a);
+    // the travel is the config's, shown read-only
+    let travel = format!("{R}.ROTATOR_TRAVEL");
+    assert_eq!(rig.num(&format!("{travel}.MIN")), 0.0);
+    assert_eq!(rig.num(&format!("{travel}.MAX")), 300.0);
+    // 10 -> 290 the long way (+280), never through 300..360
+    goto(10.0);
+    let t = goto(290.0);
+    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
+    assert!(t.iter().any(|&x| x > 100.0 && x < 200.0), "{t:?}");
+    assert_eq!(rig.pos("rot"), 290 * 40);
+    // and back the same side
+    let t = goto(10.0);
+    assert!(t.iter().all(|&x| (9.99..=290.01).contains(&x)), "{t:?}");
+    // an angle beyond the travel: Alert, no move
+    rig.set(&format!("{angle}=330"));
+    rig.wait(&format!("\"{abs}._STATE\"==3"));
+    assert_eq!(rig.pos("rot"), 400);
 }
 
 #[test]

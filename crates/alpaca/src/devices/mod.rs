@@ -177,7 +177,9 @@ pub fn build(
             n,
             &r.axis,
             &r.name,
-            Role::Rotator(Mutex::default()),
+            Role::Rotator(Mutex::new(RotatorState::new(
+                r.travel().map_err(|e| e.to_string())?,
+            ))),
         );
     }
     for (n, w) in section.filterwheel.iter().enumerate() {

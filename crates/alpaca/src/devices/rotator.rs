@@ -1,11 +1,13 @@
-//! Rotator: a periodic axis whose turn is 360 units (degrees), with Sync and Reverse.
+//! Rotator: a periodic axis whose turn is 360 units (degrees), with Sync and Reverse, kept
+//! inside the board config's travel (`mapping::rotator_path`) when it has one.
 
 use super::{angle, is_moving, lock, val, Answer, Device};
 use crate::errors::Fault;
-use crate::mapping::{norm_deg, Turn};
+use crate::mapping::{norm_deg, rotator_path, Travel, Turn};
 use crate::params::Params;
 use multistep_controller::protocol::Amount;
-use multistep_controller::{AxisStatus, Controller};
+use multistep_controller::{AxisState, AxisStatus, Controller};
+use std::collections::VecDeque;
 use std::sync::Mutex;
 
 /// Rotator state that is the device's, not the axis's; kept while the server runs.
@@ -16,24 +18,49 @@ pub(super) struct RotatorState {
     reverse: bool,
     /// Sky angle the last move was sent to.
     target: Option<f64>,
+    /// The config's travel (None: free).
+    travel: Option<Travel>,
+    /// Relative moves of the path still to make, one after another.
+    legs: VecDeque<i64>,
+}
+
+impl RotatorState {
+    pub(super) fn new(travel: Option<Travel>) -> RotatorState {
+        RotatorState {
+            travel,
+            ..RotatorState::default()
+        }
+    }
 }
 
 impl Device {
     pub(super) fn rotator(
         &self,
         ctl: &Controller,
-        r: &Mutex<RotatorState>,
+        rotator: &Mutex<RotatorState>,
         m: &str,
         put: bool,
         p: &Params,
     ) -> Answer {
-        let st = self.status(ctl)?;
+        let mut st = self.status(ctl)?;
         let s = self.settings(ctl)?;
         let t = Turn::new(s.period, s.steps_per_unit);
-        let mut r = lock(r);
+        let mut r = lock(rotator);
+        // A path's next leg starts once the last one has ended (clients poll IsMoving).
+        if !is_moving(&st) && st.state != AxisState::Fault {
+            if let Some(d) = r.legs.pop_front() {
+                if let Err(e) = self.move_by(ctl, d) {
+                    r.legs.clear();
+                    return Err(e);
+                }
+                st = self.status(ctl)?;
+            }
+        } else if st.state == AxisState::Fault {
+            r.legs.clear();
+        }
         match (m, put) {
             ("canreverse", _) => val(true),
-            ("ismoving", _) => val(is_moving(&st)),
+            ("ismoving", _) => val(is_moving(&st) || !r.legs.is_empty()),
             ("mechanicalposition", _) => val(t.deg(mechanical(&t, &st, &r))),
             ("position", _) => val(t.deg(sky(&t, &st, &r))),
             ("targetposition", _) => val(r.target.unwrap_or_else(|| t.deg(sky(&t, &st, &r)))),
@@ -43,7 +70,10 @@ impl Device {
                 Ok(None)
             }
             ("stepsize", _) => val(360.0 / t.period as f64),
-            ("halt", _) => self.halt(ctl),
+            ("halt", _) => {
+                r.legs.clear();
+                self.halt(ctl)
+            }
             ("sync", _) => {
                 let to = angle(p, "Position")?;
                 r.sync_offset = t.steps(to) - mechanical(&t, &st, &r);
@@ -53,35 +83,53 @@ impl Device {
             ("move", _) => {
                 let to = norm_deg(t.deg(sky(&t, &st, &r)) + p.f64("Position")?);
                 let mech = t.steps(to) - r.sync_offset;
-                self.rotate(ctl, &t, &mut r, mech, to)
+                self.rotate(ctl, &t, &st, &mut r, mech, to)
             }
             ("moveabsolute", _) => {
                 let to = angle(p, "Position")?;
                 let mech = t.steps(to) - r.sync_offset;
-                self.rotate(ctl, &t, &mut r, mech, to)
+                self.rotate(ctl, &t, &st, &mut r, mech, to)
             }
             ("movemechanical", _) => {
                 let to = angle(p, "Position")?;
                 let sky = t.deg((t.steps(to) + r.sync_offset).rem_euclid(t.period));
-                self.rotate(ctl, &t, &mut r, t.steps(to), sky)
+                self.rotate(ctl, &t, &st, &mut r, t.steps(to), sky)
             }
             _ => Err(Fault::BadRequest(format!("unknown method {m}"))),
         }
     }
 
-    /// An absolute move of the axis to mechanical angle `mech` (steps): the controller
-    /// takes the shortest way round, as for every periodic axis.
+    /// A move of the axis to mechanical angle `mech` (steps): the short way when travel
+    /// is free, else the way inside the travel; a target outside it is InvalidValue.
     fn rotate(
         &self,
         ctl: &Controller,
         t: &Turn,
+        st: &AxisStatus,
         r: &mut RotatorState,
         mech: i64,
         sky: f64,
     ) -> Answer {
-        self.move_to(ctl, Amount::Steps(t.axis_target(mech, r.reverse)))?;
+        let target = t.axis_target(mech, r.reverse);
+        let mut legs: VecDeque<i64> = rotator_path(t, r.travel, st.position, target)
+            .map_err(|e| Fault::invalid_value(e.to_string()))?
+            .into();
+        if let Some(d) = legs.pop_front() {
+            self.move_by(ctl, d)?;
+        }
+        r.legs = legs;
         r.target = Some(sky);
         Ok(None)
+    }
+
+    fn move_by(&self, ctl: &Controller, steps: i64) -> Result<(), Fault> {
+        ctl.move_axis(
+            &self.axis,
+            Amount::Steps(steps),
+            false,
+            &multistep_controller::protocol::MoveOpts::default(),
+        )?;
+        Ok(())
     }
 }
 
