@@ -718,6 +718,18 @@ impl Board {
         }
     }
 
+    /// Busy unless axis `i` has no motion under way.
+    pub(super) fn check_at_rest(&self, i: usize) -> Result<(), CtlError> {
+        let ax = &self.axes[i];
+        match ax.motion {
+            Some(_) => Err(CtlError::Busy {
+                axis: ax.name.clone(),
+                state: ax.state.name(),
+            }),
+            None => Ok(()),
+        }
+    }
+
     fn amount_steps(&self, i: usize, a: Amount) -> Result<i64, CtlError> {
         match a {
             Amount::Steps(n) => Ok(n),
@@ -1267,6 +1279,28 @@ impl Board {
 
     pub fn presets(&self) -> Result<BTreeMap<String, MoveOpts>, CtlError> {
         self.store.presets()
+    }
+
+    /// `setpos AXIS N`: an idle axis's count becomes `to` (reduced into the period, or
+    /// within the soft limits), nothing moves — the same place renamed, as homing
+    /// re-references it; stored like any position. The sensor's edge is no longer at
+    /// `home_offset`, so the axis is no longer homed (its trust is unchanged).
+    pub fn set_position(&mut self, axis: &str, to: Amount, now: u64) -> Result<i64, CtlError> {
+        self.advance(now);
+        let i = self.index(axis)?;
+        self.check_at_rest(i)?;
+        // as a moveto's target: reduced into the period, or checked against the limits
+        let count = self.axes[i].count;
+        let mut to = count + self.delta(i, to, true)?;
+        if let Some(p) = self.axes[i].period() {
+            to = to.rem_euclid(p);
+        }
+        self.pins.rebase(i, to - count, true)?;
+        let ax = &mut self.axes[i];
+        ax.count = self.pins.count(i);
+        ax.homed = false;
+        self.persist(i);
+        Ok(self.axes[i].count)
     }
 
     /// Simulation: the mechanics lose `steps` steps that the count does not see.

@@ -110,6 +110,18 @@ impl Client {
         }
     }
 
+    /// `setpos AXIS N`: the idle axis's position becomes `to` without moving (a
+    /// focuser's sync); the position it now reads.
+    pub fn set_position(&mut self, axis: &str, to: Amount) -> Result<i64, ClientError> {
+        let data = self.send(&Command::SetPos {
+            axis: axis.to_string(),
+            to,
+        })?;
+        data.first()
+            .and_then(|l| l.rsplit_once("pos=")?.1.parse().ok())
+            .ok_or_else(|| ClientError::Other(format!("setpos answered {data:?}")))
+    }
+
     /// `status json`, parsed.
     pub fn status(&mut self) -> Result<Vec<AxisStatus>, ClientError> {
         let data = self.request("status json")?;
@@ -256,6 +268,11 @@ impl std::fmt::Display for Command {
                 push("energize");
                 push(axis);
             }
+            Command::SetPos { axis, to } => {
+                push("setpos");
+                push(axis);
+                push(&amount(to));
+            }
         }
         f.write_str(&words.join(" "))
     }
@@ -287,9 +304,10 @@ fn free_words(cmd: &Command) -> Vec<&str> {
             w.extend(opt_words(o));
         }
         Command::Stop { axis: Some(a) } | Command::Home { axis: a } => w.push(a),
-        Command::SimSlip { axis, .. } | Command::Release { axis } | Command::Energize { axis } => {
-            w.push(axis)
-        }
+        Command::SimSlip { axis, .. }
+        | Command::Release { axis }
+        | Command::Energize { axis }
+        | Command::SetPos { axis, .. } => w.push(axis),
         Command::Track { axis, rate, .. } => {
             w.push(axis);
             if let RateArg::Preset(n) = rate {
@@ -505,6 +523,14 @@ mod tests {
             Command::Rates,
             Command::Release { axis: x() },
             Command::Energize { axis: x() },
+            Command::SetPos {
+                axis: x(),
+                to: Amount::Steps(-12000),
+            },
+            Command::SetPos {
+                axis: x(),
+                to: Amount::Units(2.5),
+            },
         ];
         for c in cmds {
             let line = c.to_string();

@@ -640,6 +640,10 @@ impl Controller {
                 self.with_board(|b, now| b.energize(axis, now))?;
                 vec![]
             }
+            Command::SetPos { axis, to } => {
+                let p = self.with_board(|b, now| b.set_position(axis, *to, now))?;
+                vec![format!("{axis} pos={p}")]
+            }
         })
     }
 }

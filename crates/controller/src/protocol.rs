@@ -262,6 +262,11 @@ pub enum Command {
     Energize {
         axis: String,
     },
+    /// Renames an idle axis's position without moving it (`setpos AXIS N`).
+    SetPos {
+        axis: String,
+        to: Amount,
+    },
 }
 
 /// A tracking rate as typed: steps/s, or user units/s with `u`; negative reverses.
@@ -817,6 +822,14 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
                 Command::Energize { axis }
             }
         }
+        "setpos" => {
+            want(2, "setpos AXIS N")?;
+            none_after(2, "setpos AXIS N")?;
+            Command::SetPos {
+                axis: axis_word(rest[0])?,
+                to: parse_amount(rest[1])?,
+            }
+        }
         other => {
             let shown: String = other.chars().take(40).collect();
             return Err(CtlError::syntax(format!(
@@ -911,6 +924,7 @@ pub const HELP: &[&str] = &[
     "  track AXIS RATE|NAME [amax=A] [lease=S]    run at RATE steps/s (or units/s with 'u'; negative",
     "                               reverses) until stop; again while tracking: change the rate",
     "  rate NAME RATE  rates  release AXIS  energize AXIS",
+    "  setpos AXIS N                an idle axis's position becomes N, nothing moves",
     "  sim AXIS slip N              simulated boards only: lose N steps",
 ];
 

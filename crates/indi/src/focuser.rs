@@ -1,5 +1,6 @@
 //! Focuser: an absolute focuser on a soft-limited axis. The position is the counted
 //! position (the `pos` of `status`), FOCUS_MAX the axis's soft_max, as the Alpaca Focuser.
+//! FOCUS_SYNC renames the idle axis's position without moving (the controller's `setpos`).
 
 use crate::device::{abort, fault, moving, number_of, Props, Values};
 use crate::link::{Link, LinkError};
@@ -14,6 +15,7 @@ pub struct Focuser {
 
 const ABS: &str = "ABS_FOCUS_POSITION";
 const REL: &str = "REL_FOCUS_POSITION";
+const SYNC: &str = "FOCUS_SYNC";
 
 impl Focuser {
     pub fn build(
@@ -75,6 +77,19 @@ impl Focuser {
             abort(dev, "FOCUS_ABORT_MOTION"),
             Vector::new(
                 dev,
+                SYNC,
+                "Sync",
+                g,
+                Perm::Rw,
+                vec![Element::number(
+                    "FOCUS_SYNC_VALUE",
+                    "Steps",
+                    st.position as f64,
+                    steps(self.max),
+                )],
+            ),
+            Vector::new(
+                dev,
                 "FOCUS_MAX",
                 "Max. Position",
                 "Main Control",
@@ -121,6 +136,10 @@ impl Focuser {
                 let to = if inward { at - by } else { at + by };
                 self.move_to(p, link, axis, REL, to)
             }
+            SYNC => match number_of(values, "FOCUS_SYNC_VALUE") {
+                Ok(to) => self.sync(p, link, axis, to),
+                Err(e) => p.alert(SYNC, &e),
+            },
             "FOCUS_MOTION" => {
                 let Some(v) = p.get_mut(name) else {
                     return vec![];
@@ -168,6 +187,28 @@ impl Focuser {
             }
             Err(e) => p.alert(prop, &e.to_string()),
         }
+    }
+
+    /// The idle axis's position becomes `to` steps; nothing moves.
+    fn sync(&self, p: &mut Props, link: &mut Link, axis: &str, to: f64) -> Vec<Out> {
+        if to.fract() != 0.0 || !(0.0..=self.max as f64).contains(&to) {
+            return p.alert(
+                SYNC,
+                &format!("position {to} is outside 0..={} (FOCUS_MAX)", self.max),
+            );
+        }
+        if let Err(e) = link.request(&format!("setpos {axis} {}", to as i64)) {
+            return p.alert(SYNC, &e.to_string());
+        }
+        let mut out = Vec::new();
+        for (name, element) in [(SYNC, "FOCUS_SYNC_VALUE"), (ABS, "FOCUS_ABSOLUTE_POSITION")] {
+            if let Some(v) = p.get_mut(name) {
+                v.set_number(element, to);
+                v.state = State::Ok;
+                out.push(v.set(None));
+            }
+        }
+        out
     }
 
     pub fn poll(&mut self, p: &mut Props, st: &AxisStatus) -> Vec<Out> {

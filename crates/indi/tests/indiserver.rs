@@ -292,7 +292,7 @@ fn every_property_is_listed_with_its_type_and_permission() {
     }
     let rig = Rig::start();
     // (device, property, perm, element names, kind)
-    let want: [(&str, &str, &str, &[&str], char); 18] = [
+    let want: [(&str, &str, &str, &[&str], char); 19] = [
         (F, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (
             F,
@@ -328,6 +328,7 @@ fn every_property_is_listed_with_its_type_and_permission() {
             's',
         ),
         (F, "FOCUS_ABORT_MOTION", "rw", &["ABORT"], 's'),
+        (F, "FOCUS_SYNC", "rw", &["FOCUS_SYNC_VALUE"], 'n'),
         (F, "FOCUS_MAX", "ro", &["FOCUS_MAX_VALUE"], 'n'),
         (R, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (R, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
@@ -421,6 +422,45 @@ fn every_property_is_listed_with_its_type_and_permission() {
         rig.num(&format!("{F}.ABS_FOCUS_POSITION.FOCUS_ABSOLUTE_POSITION")),
         0.0
     );
+}
+
+#[test]
+fn focus_sync_renames_the_position_without_moving() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    let sync = format!("{F}.FOCUS_SYNC");
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=16000"));
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==16000"
+    ));
+    let status = || rig.client().status_of(&["focus".into()]).unwrap().remove(0);
+    let before = status();
+    rig.set(&format!("{sync}.FOCUS_SYNC_VALUE=10000"));
+    rig.wait(&format!(
+        "\"{sync}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==10000"
+    ));
+    let after = status();
+    // renamed, not moved: the last move is still the one to 16000
+    assert_eq!(after.position, 10000);
+    assert_eq!(
+        (after.move_start, after.move_end, after.target),
+        (before.move_start, before.move_end, None)
+    );
+    // beyond FOCUS_MAX or a fraction: Alert, the position stays
+    for bad in ["40000", "12.5"] {
+        rig.set(&format!("{sync}.FOCUS_SYNC_VALUE={bad}"));
+        rig.wait(&format!("\"{sync}._STATE\"==3"));
+        assert_eq!(rig.pos("focus"), 10000, "{bad}");
+    }
+    // a move from the new numbers
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=10500"));
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==1 && \"{abs}.FOCUS_ABSOLUTE_POSITION\"==10500"
+    ));
+    assert_eq!(rig.pos("focus"), 10500);
 }
 
 #[test]

@@ -64,13 +64,7 @@ impl Board {
     pub fn release(&mut self, axis: &str, now: u64) -> Result<(), CtlError> {
         self.advance(now);
         let i = self.index(axis)?;
-        let ax = &self.axes[i];
-        if ax.motion.is_some() {
-            return Err(CtlError::Busy {
-                axis: ax.name.clone(),
-                state: ax.state.name(),
-            });
-        }
+        self.check_at_rest(i)?;
         self.release_axis(i)
     }
 
