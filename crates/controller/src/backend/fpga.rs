@@ -1614,6 +1614,8 @@ mod model {
         pub cut: bool,
         /// Busy axes report an underrun (a stream no host feeds).
         pub underrun: bool,
+        /// The `StreamSteps` written to each axis, in order.
+        pub stream_steps: [Vec<u32>; 2],
         last: Option<(Vec<u8>, Reply)>,
         out: Vec<u8>,
     }
@@ -1696,6 +1698,8 @@ mod model {
                 (0x2000..=0x201F, true) if ar == 1 || ar == 5 => {
                     if ar == 1 {
                         self.position[a] = r.data as i32 as i64;
+                    } else {
+                        self.stream_steps[a].push(r.data);
                     }
                     (Status::Ok, 0)
                 }

@@ -167,3 +167,39 @@ fn a_stream_that_fails_halts_its_axis_and_the_board_is_still_read() {
     assert_eq!(m.lock().unwrap().busy, 0, "axis 0 halted");
     assert_eq!((b.count(0), b.count(1)), (100, 777), "every axis read");
 }
+
+/// A tracker that comes to rest after `steps` steps at 1 kHz.
+struct Rests {
+    steps: u64,
+    made: u64,
+}
+
+impl StepSource for Rests {
+    fn peek(&mut self) -> Option<u64> {
+        (self.made < self.steps).then_some((self.made + 1) * 50_000)
+    }
+    fn take(&mut self) {
+        self.made += 1;
+    }
+    fn speed_at(&self, _tick: u64) -> f64 {
+        1000.0
+    }
+    fn end_tick(&self) -> u64 {
+        u64::MAX
+    }
+    fn steps_left(&self) -> u64 {
+        self.steps - self.made
+    }
+}
+
+/// An open-ended stream is armed for the most steps and, once its source comes to rest,
+/// closed at exactly the steps coded: the axis ends there, not a step beyond.
+#[test]
+fn a_tracking_stream_at_rest_is_closed_at_its_last_coded_step() {
+    let (mut b, m) = connect();
+    let src = Rests { steps: 40, made: 0 };
+    b.start_source(0, Box::new(src), 1, 0).unwrap();
+    events(&mut b, 1);
+    let written = m.lock().unwrap().stream_steps[0].clone();
+    assert!(written.ends_with(&[u32::MAX, 40]), "{written:?}");
+}
