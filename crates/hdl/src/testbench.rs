@@ -3,7 +3,6 @@
 //! calculator select and FIFO write as `sel|push cycle core`, then `go CYCLE`,
 //! `underrun MASK` and `dir MASK`.
 
-use crate::moves::mode_code;
 use crate::{Arch, AxisMove, Design, HdlError};
 use std::fmt::Write as _;
 
@@ -20,24 +19,8 @@ pub fn bus_addr(d: &Design, cmd: bool, axis: u32, word: u32) -> u32 {
     (u32::from(cmd) << (d.widths.aw - 1)) | (axis << 5) | word
 }
 
-/// The 17 staging words of a piece: y0, dy (4 each), k (3, two's complement), dv (3),
-/// t0, steps, mode.
-pub fn staging_words(p: &crate::PieceRegs) -> [u32; 17] {
-    let mut w = [0u32; 17];
-    let k = &p.kernel;
-    for i in 0..4 {
-        w[i] = (k.y0 >> (32 * i)) as u32;
-        w[4 + i] = (k.dy >> (32 * i)) as u32;
-    }
-    for i in 0..3 {
-        w[8 + i] = (k.k >> (32 * i)) as u32;
-        w[11 + i] = (k.dv >> (32 * i)) as u32;
-    }
-    w[14] = p.t0 as u32;
-    w[15] = p.steps as u32;
-    w[16] = mode_code(k.mode);
-    w
-}
+/// The 17 staging words of a piece, as the link loads them.
+pub use crate::link::staging_words;
 
 /// Logs the calculators' selects and FIFO writes (hierarchical references into the DUT).
 fn calc_log(d: &Design) -> String {
