@@ -499,6 +499,21 @@ fn rotator_with_a_travel_refuses_the_wrap_and_turns_the_long_way() {
     );
     assert!(seen.iter().any(|&p| p < 9000), "{seen:?}");
     assert_eq!(r.ok_get(&format!("{rot}/position")), 280.0);
+    // and back up, a client reading only DeviceState
+    r.ok_put(&format!("{rot}/moveabsolute"), "Position=170");
+    let moving = || {
+        let v = r.ok_get(&format!("{rot}/devicestate"));
+        let items = v.as_array().unwrap().clone();
+        items.iter().find(|i| i["Name"] == "IsMoving").unwrap()["Value"] == true
+    };
+    while moving() {
+        let p = r.status("R").position;
+        assert!(p <= 18000 || p >= 27000, "entered the wrap: {p}");
+        assert!(Instant::now() < end, "still moving at {p}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let s = r.status("R");
+    assert_eq!((s.position, s.dir_level), (17000, true));
 }
 
 /// Hundredths of a degree as the decimal text a client sends.

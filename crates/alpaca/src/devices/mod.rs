@@ -334,9 +334,10 @@ impl Device {
             Role::Rotator(r) => {
                 let s = self.settings(ctl)?;
                 let t = Turn::new(s.period, s.steps_per_unit);
-                let r = lock(r);
+                let mut r = lock(r);
+                let st = self.next_leg(ctl, &mut r, st)?;
                 vec![
-                    item("IsMoving", json!(is_moving(&st))),
+                    item("IsMoving", json!(rotator::moving(&st, &r))),
                     item(
                         "MechanicalPosition",
                         json!(t.deg(rotator::mechanical(&t, &st, &r))),

@@ -42,25 +42,14 @@ impl Device {
         put: bool,
         p: &Params,
     ) -> Answer {
-        let mut st = self.status(ctl)?;
+        let st = self.status(ctl)?;
         let s = self.settings(ctl)?;
         let t = Turn::new(s.period, s.steps_per_unit);
         let mut r = lock(rotator);
-        // A path's next leg starts once the last one has ended (clients poll IsMoving).
-        if !is_moving(&st) && st.state != AxisState::Fault {
-            if let Some(d) = r.legs.pop_front() {
-                if let Err(e) = self.move_by(ctl, d) {
-                    r.legs.clear();
-                    return Err(e);
-                }
-                st = self.status(ctl)?;
-            }
-        } else if st.state == AxisState::Fault {
-            r.legs.clear();
-        }
+        let st = self.next_leg(ctl, &mut r, st)?;
         match (m, put) {
             ("canreverse", _) => val(true),
-            ("ismoving", _) => val(is_moving(&st) || !r.legs.is_empty()),
+            ("ismoving", _) => val(moving(&st, &r)),
             ("mechanicalposition", _) => val(t.deg(mechanical(&t, &st, &r))),
             ("position", _) => val(t.deg(sky(&t, &st, &r))),
             ("targetposition", _) => val(r.target.unwrap_or_else(|| t.deg(sky(&t, &st, &r)))),
@@ -122,6 +111,30 @@ impl Device {
         Ok(None)
     }
 
+    /// A path's next leg, started once the last has ended (clients poll IsMoving or
+    /// DeviceState); the axis's status after it.
+    pub(super) fn next_leg(
+        &self,
+        ctl: &Controller,
+        r: &mut RotatorState,
+        st: AxisStatus,
+    ) -> Result<AxisStatus, Fault> {
+        if st.state == AxisState::Fault {
+            r.legs.clear();
+        }
+        if is_moving(&st) {
+            return Ok(st);
+        }
+        let Some(d) = r.legs.pop_front() else {
+            return Ok(st);
+        };
+        if let Err(e) = self.move_by(ctl, d) {
+            r.legs.clear();
+            return Err(e);
+        }
+        self.status(ctl)
+    }
+
     fn move_by(&self, ctl: &Controller, steps: i64) -> Result<(), Fault> {
         ctl.move_axis(
             &self.axis,
@@ -131,6 +144,11 @@ impl Device {
         )?;
         Ok(())
     }
+}
+
+/// Moving, or legs of its path still to make.
+pub(super) fn moving(st: &AxisStatus, r: &RotatorState) -> bool {
+    is_moving(st) || !r.legs.is_empty()
 }
 
 pub(super) fn mechanical(t: &Turn, st: &AxisStatus, r: &RotatorState) -> i64 {
