@@ -12,6 +12,7 @@
 pub mod axis;
 pub mod fault;
 pub mod multi;
+pub mod proxy;
 pub mod pty;
 pub mod uart;
 

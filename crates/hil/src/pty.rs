@@ -98,3 +98,10 @@ impl Pty {
         let _ = unsafe { libc::write(self.master.as_raw_fd(), bytes.as_ptr().cast(), bytes.len()) };
     }
 }
+
+impl AsRawFd for Pty {
+    /// The master side's descriptor (to poll it with others).
+    fn as_raw_fd(&self) -> std::os::fd::RawFd {
+        self.master.as_raw_fd()
+    }
+}
