@@ -33,19 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     .resolve()?;
     let ip = link::int_profile(&mv, u64::from(id.clock_hz))?;
-    let params = multistep_hdl::CoreParams {
-        axes: id.axes,
-        fifo_depth: 1 << id.fifo_depth_bits,
-        pieces: 1 << id.slot_bits,
-        step_bits: id.step_bits,
-        tick_bits: id.tick_bits,
-        radicand_bits: id.radicand_bits,
-        kernel_bits: id.kernel_bits,
-        radix_bits: id.radix_bits,
-        clock_hz: f64::from(id.clock_hz),
-        max_piece_s: f64::from((1u32 << id.tick_bits) - 2) / f64::from(id.clock_hz),
-        max_rate: 1000.0,
-    };
+    let params = multistep_hdl::CoreParams::from(&id);
     let m = multistep_hdl::AxisMove::from_profile(&ip, true, &params)?;
     let writes = link::move_writes(&params, 0, &m, 0)?;
     let t = Instant::now();

@@ -791,6 +791,10 @@ pub fn arm_write(axes: u32) -> RegWrite {
 
 /// `Status` bits of the cross-board start (docs/HDL.md, "Cross-board start").
 pub mod status_bits {
+    /// The e-stop is latched.
+    pub const ESTOP: u32 = 1 << 0;
+    /// The e-stop input is active.
+    pub const ESTOP_INPUT: u32 = 1 << 1;
     /// A group waits for its start.
     pub const PENDING: u32 = 1 << 2;
     /// That group is armed: it waits for the SYNC edge.

@@ -89,6 +89,28 @@ fn index_bits(n: u32) -> u32 {
 /// The multiplier's digit: one DSP-sized slice of the narrow operand per cycle.
 const MUL_DIGIT_BITS: u32 = 16;
 
+/// The core's parameters as a board reports them (its build id): what the board was
+/// built with, the longest piece the tick counter holds, the rest at their defaults.
+impl From<&crate::link::BuildId> for CoreParams {
+    fn from(id: &crate::link::BuildId) -> Self {
+        CoreParams {
+            axes: id.axes,
+            fifo_depth: 1 << id.fifo_depth_bits,
+            pieces: 1 << id.slot_bits,
+            step_bits: id.step_bits,
+            tick_bits: id.tick_bits,
+            radicand_bits: id.radicand_bits,
+            kernel_bits: id.kernel_bits,
+            radix_bits: id.radix_bits,
+            clock_hz: f64::from(id.clock_hz),
+            // the default 0.3 s needs 24 bits at 50 MHz
+            max_piece_s: ((1u64 << id.tick_bits.min(63)) - 1) as f64
+                / f64::from(id.clock_hz.max(1)),
+            ..CoreParams::default()
+        }
+    }
+}
+
 impl CoreParams {
     /// Checks every parameter and derives the RTL widths.
     pub fn widths(&self) -> Result<Widths, HdlError> {
@@ -231,6 +253,33 @@ impl Widths {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_build_id_gives_the_params_the_board_was_built_with() {
+        let id = crate::link::BuildId {
+            version: 1,
+            axes: 2,
+            fifo_depth_bits: 4,
+            slot_bits: 2,
+            radix_bits: 4,
+            step_bits: 32,
+            tick_bits: 24,
+            radicand_bits: 68,
+            kernel_bits: 72,
+            clock_hz: 50_000_000,
+            baud: 3_000_000,
+        };
+        let p = CoreParams::from(&id);
+        assert_eq!((p.axes, p.fifo_depth, p.pieces), (2, 16, 4));
+        assert_eq!((p.tick_bits, p.kernel_bits, p.radix_bits), (24, 72, 4));
+        // 2^24 − 1 ticks at 50 MHz
+        assert!(
+            (p.max_piece_s - 0.335_544_3).abs() < 1e-7,
+            "{}",
+            p.max_piece_s
+        );
+        assert_eq!(p.max_rate, CoreParams::default().max_rate);
+    }
 
     #[test]
     fn default_widths_and_cycles() {

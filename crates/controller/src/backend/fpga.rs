@@ -27,7 +27,7 @@ use multistep_core::int::{IntClock, IntProfile, IntSegment};
 use multistep_core::MoveSpec;
 use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
 use multistep_hdl::link::{
-    self, core_addr, AxisReg, BoardReg, BuildId, HostLink, LinkError, Reg, Status, BULK_MAX,
+    self, core_addr, status_bits, AxisReg, BoardReg, HostLink, LinkError, Reg, Status, BULK_MAX,
 };
 use multistep_hdl::{AxisMove, CoreParams};
 use stream::Feed;
@@ -245,7 +245,7 @@ impl FpgaBackend {
         let port = open().map_err(CtlError::Link)?;
         let mut l = HostLink::new(port);
         let id = l.build_id().map_err(link_err)?;
-        let params = params_of(&id);
+        let params = CoreParams::from(&id);
         if (id.axes as usize) < axes {
             return Err(CtlError::Setting(format!(
                 "the board on {name} has {} axes, the config {axes}",
@@ -464,7 +464,7 @@ impl FpgaBackend {
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         let status = l.read(Reg::Board(BoardReg::Status))?;
         let busy = l.read(Reg::Board(BoardReg::Busy))?;
-        self.estop_input = status & 2 != 0;
+        self.estop_input = status & status_bits::ESTOP_INPUT != 0;
         // What this poll reads is believed once the session, read last, still holds: a
         // reset between two reads would show a moving axis come to rest.
         let told = self.events.len();
@@ -475,7 +475,7 @@ impl FpgaBackend {
             .filter(|(_, a)| a.running.is_some())
             .map(|(i, _)| 1u32 << i)
             .sum();
-        if status & 1 != 0 && !self.estopped {
+        if status & status_bits::ESTOP != 0 && !self.estopped {
             self.estopped = true;
             self.events.push_back((0, PinEvent::Estop));
         }
@@ -550,7 +550,7 @@ impl FpgaBackend {
                 ));
             }
             // A group waiting out its DIR setup has not started yet.
-            let pending = status & 4 != 0;
+            let pending = status & status_bits::PENDING != 0;
             if pending || (busy >> a & 1 == 1 && st.busy) {
                 let period = l.read(Reg::Axis(a, AxisReg::Period))?;
                 ax.speed = if period > 0 {
@@ -689,7 +689,7 @@ impl FpgaBackend {
                 return;
             }
         };
-        if params_of(&id) != self.params {
+        if CoreParams::from(&id) != self.params {
             self.down = Some("another board answers on this link".into());
             return;
         }
@@ -1080,24 +1080,6 @@ fn check_streamable(
         last = t;
     }
     Ok(())
-}
-
-/// The core's parameters as the board reports them.
-fn params_of(id: &BuildId) -> CoreParams {
-    CoreParams {
-        axes: id.axes,
-        fifo_depth: 1 << id.fifo_depth_bits,
-        pieces: 1 << id.slot_bits,
-        step_bits: id.step_bits,
-        tick_bits: id.tick_bits,
-        radicand_bits: id.radicand_bits,
-        kernel_bits: id.kernel_bits,
-        radix_bits: id.radix_bits,
-        clock_hz: id.clock_hz as f64,
-        // the longest piece its tick bits hold (the default 0.3 s needs 24 bits at 50 MHz)
-        max_piece_s: ((1u64 << id.tick_bits.min(63)) - 1) as f64 / id.clock_hz.max(1) as f64,
-        ..CoreParams::default()
-    }
 }
 
 impl BoardBackend for FpgaBackend {
@@ -1661,7 +1643,10 @@ mod model {
                     self.session = r.data;
                     (Status::Ok, 0)
                 }
-                (0x06, false) => (Status::Ok, if self.armed { 0b1100 } else { 0 }),
+                (0x06, false) => {
+                    let armed = status_bits::PENDING | status_bits::ARMED;
+                    (Status::Ok, if self.armed { armed } else { 0 })
+                }
                 (0x13, true) => {
                     self.busy |= r.data;
                     self.armed = true;
