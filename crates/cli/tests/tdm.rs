@@ -175,10 +175,8 @@ fn config_error(name: &str, text: &str, extra: &[&str]) -> String {
     std::fs::write(&path, text).unwrap();
     let mut args = vec!["tdm", "--config", path.to_str().unwrap()];
     args.extend_from_slice(extra);
-    let started = std::time::Instant::now();
     let (ok, out, err) = multistep(&args);
     std::fs::remove_file(&path).ok();
-    assert!(started.elapsed().as_secs() < 10, "not refused at once");
     // a failure, no report, one `error:` line
     assert_eq!(
         (ok, out.as_str(), err.lines().count()),
