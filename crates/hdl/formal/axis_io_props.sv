@@ -50,6 +50,11 @@ module axis_io_props #(
         if (width == 0 && !stop_d && !kill && !kill_pin) assert(on == core_d);
         if (width != 0 && clean && !kill && !kill_pin && on_d && !on) assert(since == {1'b0, width} + SLIP);
         if (width != 0 && clean && on) assert(since < {1'b0, width});
+        // every checked case is reached (yosys-smtbmc -c)
+        cover(width > 2 && clean && !kill && !kill_pin && on_d && !on);
+        cover(width == 0 && !stop_d && !kill && !kill_pin && on);
+        cover(kill_pin && on_d);
+        cover(stop_d && on_d);
     end
 
     always @(posedge clk) begin

@@ -39,6 +39,10 @@ module fifo_props #(
         assert(full == (count == DEPTH));
         if (tracking) assert(ahead < count);
         if (tracking && ahead == 0) assert(dout == tdata);
+        // every checked case is reached (yosys-smtbmc -c)
+        cover(full);
+        cover(tracking && ahead == 0 && pop && count == DEPTH);
+        cover(passby);
     end
 
     always @(posedge clk) begin

@@ -57,6 +57,11 @@ module pulse_props #(
         if (valid && rise) assert(age == {1'b0, cur} + SLIP);
         if (valid && fall && !tail) assert(hi == {2'b0, cur[WP-1:1]});
         if (valid && fall && tail) assert(hi == {1'b0, half_last});
+        // every checked case is reached (yosys-smtbmc -c)
+        cover(valid && rise && tail == 1'b0 && age > 2);
+        cover(valid && fall && !tail && cur[WP-1:1] > 1);
+        cover(valid && fall && tail);
+        cover(halt_d && step_d);
     end
 
     always @(posedge clk) begin

@@ -1,8 +1,8 @@
 //! Formal properties of the per-axis units (`crates/hdl/formal/*.sv`), checked by yosys and
 //! yosys-smtbmc with z3 at small widths: bounded from the initial state, or proven for every
-//! depth by k-induction where it converges. Each wrapper also builds with `MUTATE`, a
-//! deliberately wrong expectation, which must fail: the checks are not vacuous. A missing
-//! tool fails the test.
+//! depth by k-induction where it converges. The checks are not vacuous: every wrapper's
+//! covers (each checked case) are reached, and each wrapper built with `MUTATE`, a
+//! deliberately wrong expectation, fails. A missing tool fails the test.
 
 use multistep_hdl::tools::find;
 use std::path::{Path, PathBuf};
@@ -15,6 +15,9 @@ enum Mode {
     Bmc(u32),
     /// k-induction at this depth (`yosys-smtbmc -i`): every reachable state.
     Induction(u32),
+    /// Every `cover` reached within this many clocks (`yosys-smtbmc -c`): each checked
+    /// case happens.
+    Cover(u32),
 }
 
 /// One wrapper: its top module, the RTL it checks and its file under `formal/`.
@@ -51,8 +54,9 @@ const AXIS_IO_DEPTH: u32 = 12;
 #[derive(Debug)]
 enum Verdict {
     Passed,
-    /// A property failed; the counterexample trace (VCD) is at this path.
-    Failed(PathBuf),
+    /// A property failed (or a cover was not reached): the trace (VCD) path and the
+    /// solver's report.
+    Failed(PathBuf, String),
 }
 
 fn manifest() -> &'static Path {
@@ -111,6 +115,10 @@ fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
             args.push("-i".into());
             d
         }
+        Mode::Cover(d) => {
+            args.push("-c".into());
+            d
+        }
     };
     args.extend(["-t".into(), depth.to_string(), "--dump-vcd".into()]);
     args.push(vcd.display().to_string());
@@ -121,7 +129,7 @@ fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
         std::fs::remove_dir_all(&dir).ok();
         Verdict::Passed
     } else if text.contains("Status: FAILED") {
-        Verdict::Failed(vcd)
+        Verdict::Failed(vcd, text.into_owned())
     } else {
         panic!(
             "yosys-smtbmc gave no verdict for {}: {text}{}",
@@ -134,8 +142,8 @@ fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
 fn holds(props: &Props, mode: Mode) {
     match check(props, mode, false) {
         Verdict::Passed => {}
-        Verdict::Failed(trace) => panic!(
-            "{} fails ({mode:?}); counterexample: {}",
+        Verdict::Failed(trace, report) => panic!(
+            "{} fails ({mode:?}); trace: {}\n{report}",
             props.top,
             trace.display()
         ),
@@ -145,17 +153,20 @@ fn holds(props: &Props, mode: Mode) {
 #[test]
 fn fifo_count_stays_in_range_and_words_leave_in_order() {
     holds(&FIFO, Mode::Bmc(FIFO_DEPTH));
+    holds(&FIFO, Mode::Cover(FIFO_DEPTH));
 }
 
 #[test]
 fn pulse_edges_are_exact_the_duty_is_half_and_halt_stops_step() {
     holds(&PULSE, Mode::Bmc(PULSE_DEPTH));
+    holds(&PULSE, Mode::Cover(PULSE_DEPTH));
 }
 
 #[test]
 fn axis_pin_estop_and_fixed_width_are_proven_by_induction() {
     holds(&AXIS_IO, Mode::Bmc(AXIS_IO_DEPTH));
     holds(&AXIS_IO, Mode::Induction(AXIS_IO_DEPTH));
+    holds(&AXIS_IO, Mode::Cover(AXIS_IO_DEPTH));
 }
 
 #[test]
@@ -166,7 +177,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&AXIS_IO, AXIS_IO_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
-            Verdict::Failed(trace) => {
+            Verdict::Failed(trace, _) => {
                 assert!(trace.is_file(), "{}: no trace at {trace:?}", props.top);
                 std::fs::remove_dir_all(trace.parent().unwrap()).ok();
             }
