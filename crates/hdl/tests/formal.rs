@@ -108,6 +108,7 @@ fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
         String::from_utf8_lossy(&out.stderr)
     );
     let vcd = dir.join("trace.vcd");
+    // unrolled: z3 took minutes on the pulse unit's first step with the default encoding
     let mut args: Vec<String> = vec!["-s".into(), "z3".into(), "--unroll".into()];
     let depth = match mode {
         Mode::Bmc(d) => d,
