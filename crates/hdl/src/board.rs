@@ -120,31 +120,20 @@ impl BoardTop {
     /// `ms_board`'s parameters and their values.
     pub fn param_list(&self) -> Result<Vec<(&'static str, u32)>, HdlError> {
         let w = self.widths()?;
-        Ok([
-            ("K", self.core.axes),
-            ("LK", w.lk),
-            ("LS", w.ls),
-            ("LF", w.lf),
-            ("WN", w.wn),
-            ("WD", w.wd),
-            ("WQ", w.wq),
-            ("WT", w.wt),
-            ("WY", w.wy),
-            ("WK", w.wk),
-            ("RB", w.rb),
-            ("MD", w.md),
-            ("AW", w.aw),
+        let board = [
             ("CLK_HZ", self.core.clock_hz as u32),
             ("BAUD", self.baud),
             ("ESTOP_ACTIVE", u32::from(self.estop_active_high)),
             ("VERSION", u32::from(crate::link::crate_version())),
             ("LB", self.stream_buffer_bits),
             ("SYNC", u32::from(self.sync)),
-        ]
-        .into_iter()
-        // CHAINS only when set: a board without chain units builds from the same text
-        .chain(self.chains.then_some(("CHAINS", 1)))
-        .collect())
+        ];
+        Ok(w.core_param_list(self.core.axes, w.lk)
+            .into_iter()
+            .chain(board)
+            // CHAINS only when set: a board without chain units builds from the same text
+            .chain(self.chains.then_some(("CHAINS", 1)))
+            .collect())
     }
 
     /// `#(.K(..), …)` for an `ms_board` instance.

@@ -104,26 +104,11 @@ fn header(p: &CoreParams, what: &str) -> String {
 
 /// `.NAME(value)` parameter list of `ms_core` for `axes` axes.
 fn core_params(w: &Widths, axes: u32, lk: u32) -> String {
-    let aw = 1 + lk + 5;
-    [
-        ("K", axes),
-        ("LK", lk),
-        ("LS", w.ls),
-        ("LF", w.lf),
-        ("WN", w.wn),
-        ("WD", w.wd),
-        ("WQ", w.wq),
-        ("WT", w.wt),
-        ("WY", w.wy),
-        ("WK", w.wk),
-        ("RB", w.rb),
-        ("MD", w.md),
-        ("AW", aw),
-    ]
-    .iter()
-    .map(|(k, v)| format!(".{k}({v})"))
-    .collect::<Vec<_>>()
-    .join(", ")
+    w.core_param_list(axes, lk)
+        .iter()
+        .map(|(k, v)| format!(".{k}({v})"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn ports(p: &CoreParams, w: &Widths) -> String {

@@ -212,6 +212,26 @@ impl CoreParams {
 }
 
 impl Widths {
+    /// `ms_core`'s parameters and their values for `axes` axes indexed by `lk` bits (the
+    /// bus address: command bit, axis index, 5 word bits).
+    pub fn core_param_list(&self, axes: u32, lk: u32) -> [(&'static str, u32); 13] {
+        [
+            ("K", axes),
+            ("LK", lk),
+            ("LS", self.ls),
+            ("LF", self.lf),
+            ("WN", self.wn),
+            ("WD", self.wd),
+            ("WQ", self.wq),
+            ("WT", self.wt),
+            ("WY", self.wy),
+            ("WK", self.wk),
+            ("RB", self.rb),
+            ("MD", self.md),
+            ("AW", 1 + lk + 5),
+        ]
+    }
+
     /// Cycles of the multiply j·dy (`ms_nmul.v`): one per digit of j.
     pub fn mul_cycles(&self) -> u32 {
         self.wn.div_ceil(self.md)

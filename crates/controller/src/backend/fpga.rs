@@ -703,7 +703,7 @@ impl FpgaBackend {
     fn stop_ramp(&self, speed: f64, amax: f64) -> Result<(IntProfile, u64), CtlError> {
         let clock = self.params.clock_hz as u64;
         let v = speed.round().max(1.0);
-        let steps = (v * v / (2.0 * amax)).ceil().max(1.0) as u64;
+        let steps = multistep_core::stop_distance(v, amax, None).ceil().max(1.0) as u64;
         let ticks = (2.0 * steps as f64 * clock as f64 / v).floor() as u64;
         let p = IntProfile::segments(
             &[IntSegment {
