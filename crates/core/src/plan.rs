@@ -50,7 +50,9 @@ impl Profile {
             }
         };
         let peak = p.peaks().0;
-        if !(peak <= clock_hz) {
+        // an integer limits move never exceeds its whole vmax, however f64 rounds the peak
+        let at_most_vmax = matches!(m, Move::Limits(l) if p.exact.is_some() && l.vmax <= clock_hz);
+        if !(peak <= clock_hz || at_most_vmax) {
             return Err(PlanError::FasterThanClock { peak, clock_hz });
         }
         Ok(p)
