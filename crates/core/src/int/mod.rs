@@ -53,6 +53,13 @@
 //! tick's upper half tick by integer forward differences, a few wide additions a tick, and
 //! the exactness test as the sign of one register. [`ChainPiece`] holds one piece's initial
 //! values and the register widths it needs.
+//!
+//! # The float planner's integer moves
+//! A trapezoid with whole speeds and whole-tick times planned by
+//! [`Profile::plan_on_clock`](crate::Profile::plan_on_clock) keeps its integer move
+//! ([`ExactMove`]): the float generator settles every step near a half tick on these
+//! pieces with the exactness test above and runs its cruises on their cruise line, so it
+//! gives this datapath's edges on every step, exact ties included.
 
 // the kernel's items are described in the module docs above; item docs to follow
 mod chain;
