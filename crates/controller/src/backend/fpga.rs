@@ -1596,6 +1596,9 @@ mod model {
         pub cut: bool,
         /// Busy axes report an underrun (a stream no host feeds).
         pub underrun: bool,
+        /// The e-stop input is active / the e-stop is latched (`Status` bits 1 and 0).
+        pub estop_input: bool,
+        pub estop_latched: bool,
         /// The `StreamSteps` written to each axis, in order.
         pub stream_steps: [Vec<u32>; 2],
         last: Option<(Vec<u8>, Reply)>,
@@ -1644,8 +1647,11 @@ mod model {
                     (Status::Ok, 0)
                 }
                 (0x06, false) => {
-                    let armed = status_bits::PENDING | status_bits::ARMED;
-                    (Status::Ok, if self.armed { armed } else { 0 })
+                    let bit = |on: bool, b: u32| if on { b } else { 0 };
+                    let s = bit(self.armed, status_bits::PENDING | status_bits::ARMED)
+                        | bit(self.estop_input, status_bits::ESTOP_INPUT)
+                        | bit(self.estop_latched, status_bits::ESTOP);
+                    (Status::Ok, s)
                 }
                 (0x13, true) => {
                     self.busy |= r.data;
@@ -1821,6 +1827,27 @@ mod exactly_once {
         m.lock().unwrap().finish();
         events(&mut b, 3);
         assert_eq!((m.lock().unwrap().starts, b.count(0)), (2, 1600));
+    }
+
+    #[test]
+    fn the_estop_input_and_the_latched_estop_are_told_apart() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        let l = launch(&b, 0, 300);
+        start(&mut b, l).unwrap();
+        m.lock().unwrap().estop_input = true;
+        assert!(
+            events(&mut b, 1).is_empty(),
+            "the input alone halts nothing here"
+        );
+        assert!(b.estop_input());
+        (
+            m.lock().unwrap().estop_input,
+            m.lock().unwrap().estop_latched,
+        ) = (false, true);
+        let ev = events(&mut b, 2);
+        assert!(matches!(ev[..], [(0, PinEvent::Estop)]), "{ev:?}");
+        assert!(!b.estop_input());
     }
 
     #[test]
