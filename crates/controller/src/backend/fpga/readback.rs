@@ -78,6 +78,38 @@ mod tests {
         assert_eq!(b.count(1), 0, "the board's count after the reset");
     }
 
+    /// A count kept partly outside the register (adopted after a restart) is folded into
+    /// the register once, at rest: later moves count from the register alone.
+    #[test]
+    fn an_offset_is_folded_in_once_at_rest() {
+        use crate::store::LinkSession;
+        const TOKEN: u32 = 0x5EED_0003;
+        let mut model = Model::default();
+        (model.session, model.busy, model.dir) = (TOKEN, 0b01, 0b01);
+        (model.position, model.steps) = ([100, 0], 700);
+        let m = Arc::new(Mutex::new(model));
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let before = LinkSession {
+            token: TOKEN,
+            offsets: vec![3600, 0],
+            streamed: 0,
+            armed: 0,
+        };
+        let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, Some(before))
+            .expect("the model answers");
+        assert_eq!(b.count(0), 3700, "the register plus the kept offset");
+        m.lock().unwrap().finish();
+        events(&mut b, 1);
+        assert_eq!((b.count(0), m.lock().unwrap().position[0]), (4400, 4400));
+        m.lock().unwrap().steps = 100;
+        let l = launch(&b, 0, 100);
+        b.start(vec![l], None, &Default::default(), 2).unwrap();
+        m.lock().unwrap().finish();
+        events(&mut b, 3);
+        assert_eq!(b.count(0), 4500);
+    }
+
     /// The whole board: a reset of an idle board leaves no axis trusted or homed.
     #[test]
     fn a_reset_board_untrusts_its_idle_axes() {
