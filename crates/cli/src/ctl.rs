@@ -424,9 +424,25 @@ impl group::GroupBoards for Boards {
     fn name(&self, board: usize) -> String {
         self.list[board].0.clone()
     }
-    fn send(&mut self, board: usize, line: &str) -> Result<Vec<String>, String> {
-        Boards::send(self, board, line).map_err(|e| format!("{e:#}"))
+    fn send(&mut self, board: usize, line: &str) -> Result<Vec<String>, group::SendError> {
+        Boards::send(self, board, line).map_err(|e| group::SendError {
+            nothing_applied: refused_by_the_service(&e),
+            text: format!("{e:#}"),
+        })
     }
+}
+
+/// The service answered `error:N` for a reason of its own: not 17 (the connection was
+/// closed) or 21 (the board's link failed), after which the line may have taken effect.
+fn refused_by_the_service(e: &anyhow::Error) -> bool {
+    let code = e
+        .downcast_ref::<multistep_controller::client::Refused>()
+        .or_else(|| match e.downcast_ref::<ClientError>() {
+            Some(ClientError::Refused(r)) => Some(r),
+            _ => None,
+        })
+        .map(|r| r.code);
+    code.is_some_and(|c| c != 17 && c != 21)
 }
 
 /// A group across boards (`multistep_controller::group`): prints each board's answer to

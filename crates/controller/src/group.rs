@@ -10,12 +10,39 @@
 
 use std::time::{Duration, Instant};
 
+/// Why a line got no answer, and whether its board certainly did nothing.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SendError {
+    pub text: String,
+    /// The service refused the line itself (a bad word, a busy axis, a board without a
+    /// SYNC line): nothing was armed, so nothing needs stopping — stopping would halt
+    /// whatever that axis is doing. False when the link failed and the line may have
+    /// taken effect.
+    pub nothing_applied: bool,
+}
+
+impl SendError {
+    /// A failure after which the line may have taken effect.
+    pub fn uncertain(text: impl Into<String>) -> SendError {
+        SendError {
+            text: text.into(),
+            nothing_applied: false,
+        }
+    }
+}
+
+impl From<SendError> for String {
+    fn from(e: SendError) -> String {
+        e.text
+    }
+}
+
 /// The boards of a group, reached by their protocol lines.
 pub trait GroupBoards {
     /// The board's name, for messages.
     fn name(&self, board: usize) -> String;
     /// Sends one protocol line; the answer's lines, or why there is none.
-    fn send(&mut self, board: usize, line: &str) -> Result<Vec<String>, String>;
+    fn send(&mut self, board: usize, line: &str) -> Result<Vec<String>, SendError>;
     /// Waits a little before polling again.
     fn pause(&mut self) {
         std::thread::sleep(Duration::from_millis(5));
@@ -110,7 +137,7 @@ pub fn start_across(
             for s in &shares[..sent] {
                 for ax in &s.axes {
                     if let Err(e) = boards.send(s.board, &format!("stop {ax}")) {
-                        not_disarmed.push((boards.name(s.board), e));
+                        not_disarmed.push((boards.name(s.board), e.text));
                         break;
                     }
                 }
@@ -129,7 +156,12 @@ fn run(
 ) -> Result<Vec<u32>, String> {
     for s in shares {
         *sent += 1;
-        let answer = boards.send(s.board, &s.line)?;
+        let answer = boards.send(s.board, &s.line).map_err(|e| {
+            if e.nothing_applied {
+                *sent -= 1;
+            }
+            e.text
+        })?;
         let name = boards.name(s.board);
         answers.extend(answer.into_iter().map(|l| format!("{name}:{l}")));
     }
@@ -180,6 +212,8 @@ mod tests {
     struct Fake {
         armed: Vec<bool>,
         cut: Vec<bool>,
+        /// Board `i` refuses every arm itself (no SYNC line).
+        no_sync: Vec<bool>,
         /// `cut` board `i` once it has been sent `n` more lines.
         cut_after: Option<(usize, usize)>,
         starts: Vec<usize>,
@@ -191,6 +225,7 @@ mod tests {
             Fake {
                 armed: vec![false; n],
                 cut: vec![false; n],
+                no_sync: vec![false; n],
                 starts: vec![0; n],
                 ..Fake::default()
             }
@@ -201,7 +236,7 @@ mod tests {
         fn name(&self, board: usize) -> String {
             ["a", "b"][board].into()
         }
-        fn send(&mut self, i: usize, line: &str) -> Result<Vec<String>, String> {
+        fn send(&mut self, i: usize, line: &str) -> Result<Vec<String>, SendError> {
             if let Some((b, n)) = self.cut_after {
                 if b == i {
                     if n == 0 {
@@ -211,7 +246,13 @@ mod tests {
                 }
             }
             if self.cut[i] {
-                return Err("link down".into());
+                return Err(SendError::uncertain("link down"));
+            }
+            if self.no_sync[i] && line.starts_with("arm") {
+                return Err(SendError {
+                    text: "error:8 this board has no SYNC line".into(),
+                    nothing_applied: true,
+                });
             }
             self.sent.push((i, line.to_string()));
             let word = line.split_whitespace().next().unwrap_or("");
@@ -278,5 +319,19 @@ mod tests {
         assert!(!f.armed[0]);
         assert_eq!(e.not_disarmed.len(), 1, "b's own stop was tried: {e}");
         assert_eq!(f.starts, [0, 0]);
+    }
+
+    /// A share the service refused outright armed nothing: its axis is not stopped, so a
+    /// move it was already making goes on; the shares armed before it are stopped.
+    #[test]
+    fn a_share_refused_by_its_service_is_not_stopped() {
+        let mut f = Fake::new(2);
+        f.no_sync[1] = true;
+        let e = start_across(&mut f, &[share(0, "X"), share(1, "Y")], ARM_PATIENCE)
+            .expect_err("b has no SYNC line");
+        assert!(e.why.contains("no SYNC line"), "{e}");
+        assert!(f.sent.contains(&(0, "stop X".into())), "{:?}", f.sent);
+        assert!(!f.sent.contains(&(1, "stop Y".into())), "{:?}", f.sent);
+        assert!(e.not_disarmed.is_empty());
     }
 }
