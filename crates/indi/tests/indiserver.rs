@@ -499,6 +499,12 @@ fn the_focuser_moves_and_agrees_with_status_and_bad_values_get_alert() {
     // abort stops a move on the way
     rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=0"));
     rig.wait(&format!("\"{abs}._STATE\"==2"));
+    // the abort goes once the focuser has left 17000, however slowly a loaded machine got
+    // the move going (an abort before the first step would rightly leave it at 17000)
+    let end = Instant::now() + Duration::from_secs(60);
+    while rig.pos("focus") == 17000 {
+        assert!(Instant::now() < end, "the move to 0 never started");
+    }
     rig.set(&format!("{F}.FOCUS_ABORT_MOTION.ABORT=On"));
     rig.wait(&format!("\"{abs}._STATE\"!=2"));
     let end = Instant::now() + Duration::from_secs(60);
