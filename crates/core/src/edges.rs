@@ -325,6 +325,12 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         self.profile.borrow()
     }
 
+    /// The integer move behind the profile, when it was planned on this generator's clock:
+    /// its ticks are not this clock's otherwise.
+    fn exact(&self) -> Option<crate::int::ExactMove> {
+        self.profile().exact.filter(|x| x.on_clock(self.clock))
+    }
+
     /// Ticks per second.
     pub fn clock(&self) -> f64 {
         self.clock
@@ -537,7 +543,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             } else {
                 self.cur_end
             };
-            let exact = self.profile().exact.is_some();
+            let exact = self.exact().is_some();
             self.ramp = Ramp::new(&self.cur, c1, c2, self.clock, i_max, exact);
             self.ramp_hi = fm::floor(self.cur_end).min(self.last_f - 1.0);
         }
@@ -545,7 +551,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         self.cruise_dev = 0.0;
         if self.cruise {
             let p = self.cur;
-            if self.profile().exact.is_some() {
+            if self.exact().is_some() {
                 let i_max = self.cur_end.max(self.last_f);
                 self.cruise_dev = DEV_ULPS * EPS * self.clock * (i_max / c1 + p.t0 + p.dur);
             }
@@ -557,7 +563,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             if lo <= hi && hi < MAX_TICKS {
                 // the integer move's own cruise line where there is one
                 let pr = self.profile();
-                self.cruise_exact = match pr.exact {
+                self.cruise_exact = match self.exact() {
                     Some(x) => x.cruise(pr, k),
                     None => float_cruise(p.t0, p.p0, c1, self.clock),
                 };
@@ -789,7 +795,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     fn settle(&mut self, k: usize, i: f64, tau: f64) -> u64 {
         self.settled += 1;
         let pr = self.profile();
-        if let Some(x) = pr.exact {
+        if let Some(x) = self.exact() {
             let guess = fm::floor((pr.piece(k).t0 + tau) * self.clock + 0.5).max(0.0);
             if let Some(e) = x.settle(pr, k, i as u64, guess as u64) {
                 return e;

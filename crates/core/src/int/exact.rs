@@ -147,6 +147,11 @@ impl ExactMove {
 
     /// The nearest tick to step i (in piece k of `profile`), an exact half tick going to
     /// the earlier tick, searched from `guess`; `None` if the integer pieces cannot say.
+    /// Whether this move's ticks are those of a `clock_hz` clock.
+    pub(crate) fn on_clock(&self, clock_hz: f64) -> bool {
+        self.clock.clock_hz as f64 == clock_hz
+    }
+
     pub(crate) fn settle(&self, profile: &Profile, k: usize, i: u64, guess: u64) -> Option<u64> {
         let phase = self.phase();
         let phase = phase.as_ref();
