@@ -828,17 +828,19 @@ fn scurve_moves_are_computed_on_a_board_with_chain_units() {
         "the board's Position registers"
     );
     let stats = link_stats(&r);
-    let kinds: Vec<(&str, u64)> = stats.iter().map(|(k, n, _)| (k.as_str(), *n)).collect();
+    // the two chained axes end together: their lines come in either order
+    let mut kinds: Vec<(&str, u64)> = stats.iter().map(|(k, n, _)| (k.as_str(), *n)).collect();
+    kinds.sort();
     assert_eq!(
         kinds,
         [
-            ("chain record", 3000),
             ("chain record", 2000),
+            ("chain record", 3000),
             ("code", 500)
         ],
         "{stats:?}"
     );
-    for (kind, steps, bytes) in &stats[..2] {
+    for (kind, steps, bytes) in stats.iter().filter(|s| s.0 == "chain record") {
         assert!(
             bytes % 219 == 0 && (*bytes as f64) < 0.8 * *steps as f64,
             "{kind}: {bytes} bytes for {steps} steps"
