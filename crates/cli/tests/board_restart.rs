@@ -6,13 +6,12 @@
 
 mod common;
 
-use common::EchoedStderr;
-use multistep_controller::client::{Client, Endpoint};
+use common::Proc;
+use multistep_controller::client::Client;
 use multistep_controller::{AxisState, AxisStatus};
 use multistep_hdl::link::{AxisReg, HostLink, Reg};
-use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_multistep");
@@ -35,47 +34,6 @@ debounce = 0.00002
 sensor_at = -300
 sensor_width = 200
 "#;
-
-/// A child process killed when dropped; its stderr echoed under a failing test.
-struct Proc {
-    child: Child,
-    stderr: EchoedStderr,
-}
-
-impl Proc {
-    /// Started; its first `lines` lines of output.
-    fn spawn(cmd: &mut Command, lines: usize) -> (Proc, Vec<String>) {
-        let mut child = cmd
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn multistep");
-        let stderr = EchoedStderr::start(child.stderr.take().unwrap());
-        let mut out = BufReader::new(child.stdout.take().unwrap());
-        let first = (0..lines)
-            .map(|_| {
-                let mut l = String::new();
-                out.read_line(&mut l).unwrap();
-                l.trim().to_string()
-            })
-            .collect();
-        (Proc { child, stderr }, first)
-    }
-
-    /// SIGKILL, and reaped.
-    fn kill9(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        self.kill9();
-        self.stderr.flush_if_failing();
-    }
-}
 
 /// The device of board-sim's `pty DEVICE` line.
 fn pty_of(line: &str) -> String {
@@ -128,19 +86,7 @@ impl Rig {
     }
 
     fn serve(dir: &Path, pty: &str) -> (Proc, Client) {
-        let (serve, first) = Proc::spawn(
-            Command::new(BIN)
-                .args(["serve", "--listen", "127.0.0.1:0", "--data"])
-                .arg(dir.join("data"))
-                .arg("--board-config")
-                .arg(dir.join("board.toml"))
-                .args(["--board-link", &format!("serial:{pty},timeout=3")]),
-            1,
-        );
-        let addr = first[0].rsplit("tcp://").next().unwrap().to_string();
-        assert!(addr.contains(':'), "serve said: {first:?}");
-        let client = Client::connect(&Endpoint::Tcp(addr)).unwrap();
-        (serve, client)
+        common::serve_on_link(BIN, dir, &format!("serial:{pty},timeout=3"))
     }
 
     /// `serve` killed with SIGKILL and started again on the same data and board.
@@ -293,11 +239,7 @@ fn a_share_left_armed_behind_a_cut_link_never_fires_with_a_later_group() {
             .arg(cache),
         2,
     );
-    let mut control = sim.child.stdin.take().unwrap();
-    let mut board = |line: &str| {
-        writeln!(control, "{line}").unwrap();
-        control.flush().unwrap();
-    };
+    let mut board = |line: &str| sim.send(line);
     let (da, db) = (dir.path().join("a"), dir.path().join("b"));
     for d in [&da, &db] {
         std::fs::create_dir(d).unwrap();

@@ -3,7 +3,10 @@
 // each test binary compiles this module and may use only part of it
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader, Read};
+use multistep_controller::client::{Client, Endpoint};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::Path;
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -40,4 +43,79 @@ impl EchoedStderr {
             let _ = self.eof.recv_timeout(Duration::from_secs(10));
         }
     }
+}
+
+/// A child process killed when dropped, its stderr echoed under a failing test; its stdin
+/// and stdout kept for control lines (board-sim's `state`, `reset`, …).
+pub struct Proc {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    stderr: EchoedStderr,
+}
+
+impl Proc {
+    /// Started; its first `lines` lines of output.
+    pub fn spawn(cmd: &mut Command, lines: usize) -> (Proc, Vec<String>) {
+        let mut child = cmd
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn multistep");
+        let stderr = EchoedStderr::start(child.stderr.take().unwrap());
+        let stdin = child.stdin.take().unwrap();
+        let mut p = Proc {
+            stdout: BufReader::new(child.stdout.take().unwrap()),
+            child,
+            stdin,
+            stderr,
+        };
+        let first = (0..lines).map(|_| p.read_line()).collect();
+        (p, first)
+    }
+
+    /// The next line of its output, trimmed ("" at its end).
+    pub fn read_line(&mut self) -> String {
+        let mut l = String::new();
+        let _ = self.stdout.read_line(&mut l);
+        l.trim().to_string()
+    }
+
+    /// Writes one line to its stdin.
+    pub fn send(&mut self, line: &str) {
+        writeln!(self.stdin, "{line}").expect("the child reads its stdin");
+        self.stdin.flush().unwrap();
+    }
+
+    /// SIGKILL, and reaped.
+    pub fn kill9(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill9();
+        self.stderr.flush_if_failing();
+    }
+}
+
+/// `bin serve` with the data and `board.toml` of `dir`, on the board link `link`
+/// (`serial:PTY,timeout=S`); and a client of it.
+pub fn serve_on_link(bin: &str, dir: &Path, link: &str) -> (Proc, Client) {
+    let (serve, first) = Proc::spawn(
+        Command::new(bin)
+            .args(["serve", "--listen", "127.0.0.1:0", "--data"])
+            .arg(dir.join("data"))
+            .arg("--board-config")
+            .arg(dir.join("board.toml"))
+            .args(["--board-link", link]),
+        1,
+    );
+    let addr = first[0].rsplit("tcp://").next().unwrap().to_string();
+    assert!(addr.contains(':'), "serve said: {first:?}");
+    let client = Client::connect(&Endpoint::Tcp(addr)).unwrap();
+    (serve, client)
 }
