@@ -22,7 +22,7 @@ use multistep_controller::{AxisState, AxisStatus};
 use multistep_hil::proxy::{FaultKind, LinkProxy, ProxyOptions};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -64,6 +64,8 @@ const AIM: std::ops::Range<i64> = 0..2500;
 /// Once the link is clean, every axis is at rest within this (wall time: the RTL runs
 /// slower than a board).
 const SETTLE: Duration = Duration::from_secs(90);
+/// The service's reply timeout on the link (s): short, so a damaged exchange costs little.
+const LINK_TIMEOUT: f64 = 0.15;
 
 /// What the harness counts.
 #[derive(Debug, Default)]
@@ -84,6 +86,9 @@ struct Tally {
     stuck: u64,
     /// `error:6` (busy) for an axis the last status showed at rest.
     busy_at_rest: u64,
+    /// Restarts of `serve` that ended at once: the damaged link gave the board's start-up
+    /// reads no intact reply (then the link is made clean and it starts again).
+    refused_starts: u64,
     recovery: Vec<Duration>,
 }
 
@@ -141,7 +146,8 @@ impl Harness {
             },
         )
         .expect("the proxy starts");
-        let (serve, client) = start_serve(dir.path(), &proxy.path);
+        let link = format!("serial:{},timeout={LINK_TIMEOUT}", proxy.path);
+        let (serve, client) = common::serve_on_link(&bin(), dir.path(), &link);
         Harness {
             dir,
             board,
@@ -293,12 +299,32 @@ impl Harness {
                     _ => {
                         self.serve.kill9();
                         self.t.serve_kills += 1;
-                        (self.serve, self.client) = start_serve(self.dir.path(), &self.proxy.path);
+                        self.restart_serve();
                     }
                 }
             }
         }
         (asked, homed)
+    }
+
+    /// `serve` started again on the damaged link; one that cannot reach the board at start
+    /// ends with one error line, by design (counted), and is started on a clean link.
+    fn restart_serve(&mut self) {
+        let link = format!("serial:{},timeout={LINK_TIMEOUT}", self.proxy.path);
+        loop {
+            match common::try_serve_on_link(&bin(), self.dir.path(), &link) {
+                Ok(s) => {
+                    (self.serve, self.client) = s;
+                    return;
+                }
+                Err(e) => {
+                    eprintln!("serve did not start on the damaged link: {e}");
+                    self.t.refused_starts += 1;
+                    assert!(self.t.refused_starts < 1000, "serve never starts");
+                    self.proxy.set_rate(0.0);
+                }
+            }
+        }
     }
 
     /// `error:6` for an axis that was at rest is an axis stuck busy.
@@ -401,6 +427,9 @@ impl Harness {
             rest = self.settle();
             self.t.steps += 1;
             self.check(&rest, &asked, homed);
+            if self.t.steps.is_multiple_of(25) {
+                eprintln!("fault harness: {}", self.report());
+            }
         }
     }
 
@@ -415,7 +444,7 @@ impl Harness {
             .map(|&k| format!("{}={}", k.name(), c.of(k)))
             .collect();
         format!(
-            "faults={} ({}) board_resets={} power_cycles={} serve_kills={} steps={} \
+            "faults={} ({}) board_resets={} power_cycles={} serve_kills={} refused_starts={} steps={} \
              commands={} answered_error={} recovery_p50_ms={:.0} recovery_p99_ms={:.0} \
              wrong_trusted={} double_moves={} short_without_fault={} stuck={} busy_at_rest={} \
              link_bytes={:?}",
@@ -424,6 +453,7 @@ impl Harness {
             self.t.board_resets,
             self.t.power_cycles,
             self.t.serve_kills,
+            self.t.refused_starts,
             self.t.steps,
             self.t.commands,
             self.t.answered_error,
@@ -441,11 +471,6 @@ impl Harness {
 
 fn at_rest(s: &AxisStatus) -> bool {
     matches!(s.state, AxisState::Idle | AxisState::Fault)
-}
-
-/// `serve` on the proxy's end of the link, with the harness's data; and a client.
-fn start_serve(dir: &Path, link: &str) -> (Proc, Client) {
-    common::serve_on_link(&bin(), dir, &format!("serial:{link},timeout=0.15"))
 }
 
 fn env_u64(name: &str, default: u64) -> u64 {

@@ -105,6 +105,12 @@ impl Drop for Proc {
 /// `bin serve` with the data and `board.toml` of `dir`, on the board link `link`
 /// (`serial:PTY,timeout=S`); and a client of it.
 pub fn serve_on_link(bin: &str, dir: &Path, link: &str) -> (Proc, Client) {
+    try_serve_on_link(bin, dir, link).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// As [`serve_on_link`]; a service that ends before it listens (a board that does not
+/// answer at start) is an error.
+pub fn try_serve_on_link(bin: &str, dir: &Path, link: &str) -> Result<(Proc, Client), String> {
     let (serve, first) = Proc::spawn(
         Command::new(bin)
             .args(["serve", "--listen", "127.0.0.1:0", "--data"])
@@ -115,7 +121,9 @@ pub fn serve_on_link(bin: &str, dir: &Path, link: &str) -> (Proc, Client) {
         1,
     );
     let addr = first[0].rsplit("tcp://").next().unwrap().to_string();
-    assert!(addr.contains(':'), "serve said: {first:?}");
-    let client = Client::connect(&Endpoint::Tcp(addr)).unwrap();
-    (serve, client)
+    if !addr.contains(':') {
+        return Err(format!("serve said: {first:?}"));
+    }
+    let client = Client::connect(&Endpoint::Tcp(addr)).map_err(|e| e.to_string())?;
+    Ok((serve, client))
 }
