@@ -61,7 +61,7 @@ const FAMILIES: [&str; 6] = [
 ];
 /// Mechanical positions random moves aim at: above the sensor, within a homing's reach.
 const AIM: std::ops::Range<i64> = 0..2500;
-/// Once the link is clean, every axis is at rest within this (wall time: the RTL runs
+/// Once the link is clean, every axis is at rest (its board reachable) within this (wall time: the RTL runs
 /// slower than a board).
 const SETTLE: Duration = Duration::from_secs(90);
 /// The service's reply timeout on the link (s): short, so a damaged exchange costs little.
@@ -469,8 +469,14 @@ impl Harness {
     }
 }
 
+/// Idle, or a fault with the board's count: not "board link … down", whose axis may still
+/// be moving on the board.
 fn at_rest(s: &AxisStatus) -> bool {
-    matches!(s.state, AxisState::Idle | AxisState::Fault)
+    match s.state {
+        AxisState::Idle => true,
+        AxisState::Fault => !s.fault.as_deref().unwrap_or("").starts_with("board link"),
+        _ => false,
+    }
 }
 
 fn env_u64(name: &str, default: u64) -> u64 {
