@@ -469,12 +469,13 @@ impl Harness {
     }
 }
 
-/// Idle, or a fault with the board's count: not "board link … down", whose axis may still
-/// be moving on the board.
+/// Idle, or a fault with the board's count: not "board link NAME down: …", whose axis may
+/// still be moving on the board.
 fn at_rest(s: &AxisStatus) -> bool {
+    let f = s.fault.as_deref().unwrap_or("");
     match s.state {
         AxisState::Idle => true,
-        AxisState::Fault => !s.fault.as_deref().unwrap_or("").starts_with("board link"),
+        AxisState::Fault => !(f.starts_with("board link ") && f.contains(" down: ")),
         _ => false,
     }
 }
