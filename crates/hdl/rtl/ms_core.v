@@ -88,19 +88,28 @@ module ms_core #(
         for (sw = 0; sw <= 16; sw = sw + 1)
             if (wr_en && !is_cmd && word == sw[4:0]) stg[32*sw +: 32] <= wr_data;
     end
-    wire [WP-1:0] stg_word = {stg[16*32 +: 2], stg[15*32 +: WN], stg[14*32 +: WT],
-                              stg[11*32 +: WK], stg[8*32 +: WK+1], stg[4*32 +: WY],
-                              stg[0 +: WY]};
+    wire [WP-WY-1:0] stg_word = {stg[16*32 +: 2], stg[15*32 +: WN], stg[14*32 +: WT],
+                                 stg[11*32 +: WK], stg[8*32 +: WK+1], stg[0 +: WY]};
     wire commit   = wr_en && is_cmd && (word == 5'd0) && ax_ok;
     wire ctl_wr   = wr_en && is_cmd && (word == 5'd1) && ax_ok;
     wire start_wr = wr_en && is_cmd && (word == 5'd2);
     // The host writes an axis's pieces only while it is idle, or slots it is not in (a
     // divert's): a read never meets a write to its own address, so synthesis needs no
-    // bypass for that case (on iCE40 a 188-bit register and its multiplexer).
+    // bypass for that case (on iCE40 a 188-bit register and its multiplexer). The piece
+    // is in block RAM on every family (on ECP5 yosys would pick distributed RAM: 1203
+    // more logic sites in the 8-axis ULX3S build, docs/HDL.md), but for dy: the
+    // multiplier takes it in the calculator's first cycle, too late after the block RAM's
+    // 5.8 ns clock-to-output at 50 MHz on ECP5, so it has its own memory (distributed RAM
+    // there) read into flip-flops.
+    (* no_rw_check, ram_style = "block" *)
+    reg [WP-WY-1:0] pmem [0:(1<<(LK+LS))-1];
     (* no_rw_check *)
-    reg [WP-1:0] pmem [0:(1<<(LK+LS))-1];
+    reg [WY-1:0]    dmem [0:(1<<(LK+LS))-1];
     always @(posedge clk) begin
-        if (commit) pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
+        if (commit) begin
+            pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
+            dmem[{wax, wr_data[LS-1:0]}] <= stg[4*32 +: WY];
+        end
     end
     reg [LS-1:0] last_slot [0:K-1];
     reg [K-1:0]  dir_r;
@@ -117,7 +126,8 @@ module ms_core #(
     reg  [LK-1:0]  m;         // axis in the calculator
     reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
     reg  [WST-1:0] cur;       // m's state, read at select
-    reg  [WP-1:0]  rd;        // m's piece, read at select
+    reg  [WP-WY-1:0] rd;      // m's piece but dy, read at select
+    reg  [WY-1:0]  rdy;       // its dy
     wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
 
@@ -154,12 +164,12 @@ module ms_core #(
     wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
 
     // the piece word in the calculator
-    wire [1:0]    k_mode  = rd[WP-1:WP-2];
-    wire [WN-1:0] k_steps = rd[WP-3:WP-2-WN];
-    wire [WT-1:0] k_t0    = rd[2*WY+2*WK+WT:2*WY+2*WK+1];
-    wire [WK-1:0] k_dv    = rd[2*WY+2*WK:2*WY+WK+1];
-    wire [WK:0]   k_k     = rd[2*WY+WK:2*WY];
-    wire [WY-1:0] k_dy    = rd[2*WY-1:WY];
+    wire [1:0]    k_mode  = rd[WP-WY-1:WP-WY-2];
+    wire [WN-1:0] k_steps = rd[WP-WY-3:WP-WY-2-WN];
+    wire [WT-1:0] k_t0    = rd[WY+2*WK+WT:WY+2*WK+1];
+    wire [WK-1:0] k_dv    = rd[WY+2*WK:WY+WK+1];
+    wire [WK:0]   k_k     = rd[WY+WK:WY];
+    wire [WY-1:0] k_dy    = rdy;
     wire [WY-1:0] k_y0    = rd[WY-1:0];
     wire [LS-1:0] c_slot  = cur[WST-1:WST-LS];
     wire [WN-1:0] c_j     = cur[WN+2*WT-1:2*WT];
@@ -175,12 +185,23 @@ module ms_core #(
         qx = {WT{1'b0}};
         qx[WQ-1:0] = q;
     end
-    wire [WT-1:0]  edge_t   = c_base + k_t0 + qx;
+    // From block RAM the piece's fields come late in the cycle (5.8 ns on ECP5), so what
+    // the period's end needs of t0 and the step count is registered in the calculator's
+    // first cycle; both hold until `done` (the inputs do not change while it runs).
+    reg [WT-1:0]   base_t0;   // c_base + k_t0
+    reg            last_j;    // the period is the piece's last
+    always @(posedge clk) begin
+        if (cstart) begin
+            base_t0 <= c_base + k_t0;
+            last_j  <= (c_j + 1'b1 == k_steps);
+        end
+    end
+    wire [WT-1:0]  edge_t   = base_t0 + qx;
     /* verilator lint_off UNUSED */  // a period is < 2^WD (checked on the host)
     wire [WT-1:0]  period   = edge_t - c_last;
     /* verilator lint_on UNUSED */
     wire [WN-1:0]  j_next   = c_j + 1'b1;
-    wire           piece_end = (j_next == k_steps);
+    wire           piece_end = last_j;
     wire           mov_end  = piece_end && (c_slot == last_slot[m]);
     assign         div_now  = done && div_req[m] && !mov_end;
     wire [WST-1:0] next_st  = div_now ? {div_slot[m*LS +: LS], {WN{1'b0}}, edge_t, edge_t}
@@ -199,6 +220,7 @@ module ms_core #(
         else if (done) st_mem[m] <= next_st;
         if (do_sel) begin
             rd  <= pmem[{pick, pick_slot}];
+            rdy <= dmem[{pick, pick_slot}];
             cur <= st_mem[pick];
         end
     end
