@@ -207,7 +207,7 @@ pub const BOARDS: [Board; 3] = [
             filter_range: 1,
         },
         max_axes: 4,
-        // two axes: 93 % of the logic cells; three do not fit (docs/HDL.md)
+        // two axes: 86 % of the logic cells; three do not fit (106 %, docs/HDL.md)
         default_axes: 2,
         baud: 1_000_000,
         core: BoardCore {
