@@ -40,9 +40,14 @@ fn parse_collected(stderr: &str) -> Option<u64> {
 
 /// `(Ir(run) − Ir(plan only)) / steps`.
 pub fn per_edge(exe: &Path, run: &[&str], plan_only: &[&str], steps: u64) -> Option<f64> {
+    per_call(exe, run, plan_only, steps)
+}
+
+/// `(Ir(run) − Ir(floor)) / n`: what each of the n calls `run` makes more than `floor` costs.
+pub fn per_call(exe: &Path, run: &[&str], floor: &[&str], n: u64) -> Option<f64> {
     let full = instructions(exe, run)?;
-    let fixed = instructions(exe, plan_only)?;
-    Some(full.saturating_sub(fixed) as f64 / steps as f64)
+    let fixed = instructions(exe, floor)?;
+    Some(full.saturating_sub(fixed) as f64 / n as f64)
 }
 
 #[cfg(test)]

@@ -12,12 +12,15 @@
 //! | `austin` | D. Austin's recurrence, as in AccelStepper ([`austin`]) |
 //! | `eiderman` | A. Eiderman's `p·(1 + m·p²)` update ([`eiderman`]) |
 //! | `ramp-maker` | the `ramp-maker` crate's trapezoid ([`rampmaker`]) |
+//!
+//! [`planning`] plans one move against Ruckig, natively and through Python.
 
 pub mod austin;
 pub mod compare;
 pub mod eiderman;
 pub mod icount;
 pub mod moves;
+pub mod planning;
 pub mod ramp;
 pub mod rampmaker;
 pub mod seed000;

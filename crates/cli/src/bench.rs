@@ -8,6 +8,9 @@ use multistep_bench::icount;
 use multistep_bench::{run, run_families, Case, FamilyCase, Impl, Options, FAMILY_MOVES, MOVES};
 use std::io::Write;
 
+#[path = "bench_planning.rs"]
+mod planning;
+
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Time each case briefly (the whole run takes a few seconds)
@@ -36,6 +39,18 @@ pub struct BenchArgs {
     /// With --run-one: plan and stop (the fixed cost subtracted from a count)
     #[arg(long, hide = true)]
     pub plan_only: bool,
+    /// Plan one move against Ruckig instead (natively and through Python; with
+    /// --instructions, counted by callgrind too)
+    #[arg(long)]
+    pub planning: bool,
+    /// Python interpreter with the multistep and ruckig packages, for --planning
+    #[arg(long, value_name = "PATH", default_value = "python3")]
+    pub python: String,
+    /// Plan one planning case --reps times and exit (what --planning --instructions counts)
+    #[arg(long, value_name = "CASE", hide = true)]
+    pub plan_one: Option<String>,
+    #[arg(long, value_name = "N", hide = true, default_value_t = 1)]
+    pub reps: u64,
 }
 
 fn options(a: &BenchArgs) -> Options {
@@ -97,8 +112,23 @@ pub fn run_bench(a: &BenchArgs) -> Result<()> {
     if let Some(name) = &a.run_one {
         return run_one(a, name);
     }
+    if let Some(name) = &a.plan_one {
+        return planning::plan_one(name, a.reps);
+    }
     if a.instructions && !icount::valgrind_present() {
         bail!("--instructions needs valgrind (apt-get install valgrind)");
+    }
+    if a.planning {
+        let rows = planning::rows(&a.python, a.instructions, a.quick)?;
+        let mut out = std::io::stdout().lock();
+        match a.format {
+            ReportFormat::Json => {
+                serde_json::to_writer_pretty(&mut out, &serde_json::json!({ "planning": rows }))?;
+                writeln!(out)?;
+            }
+            ReportFormat::Table => planning::table(&mut out, &rows)?,
+        }
+        return Ok(());
     }
     let opts = options(a);
     let mut cases = run(&MOVES, &opts);

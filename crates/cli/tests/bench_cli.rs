@@ -55,3 +55,45 @@ fn csv_is_refused_by_the_parser() {
     assert!(err.contains("invalid value 'csv'"), "{err}");
     assert!(err.contains("[possible values: table, json]"), "{err}");
 }
+
+/// `--planning --quick`: multistep's native row for every case, with a time; the Python
+/// rows (multistep and Ruckig) only where the interpreter named by MULTISTEP_PYTHON
+/// (python3 by default) imports both packages, else a note says they were left out.
+#[test]
+fn planning_quick_has_the_native_rows() {
+    let python = std::env::var("MULTISTEP_PYTHON").unwrap_or_else(|_| "python3".into());
+    let out = bench(&[
+        "--planning",
+        "--quick",
+        "--format",
+        "json",
+        "--python",
+        &python,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["planning"].as_array().unwrap();
+    let of = |case: &str, imp: &str| {
+        rows.iter()
+            .find(|r| r["case"] == case && r["impl"] == imp)
+            .cloned()
+    };
+    let left_out = err.contains("Python rows are left out");
+    for case in ["trapezoid-100k", "scurve-100k"] {
+        let native = of(case, "multistep (Rust)").expect(case);
+        assert!(native["us_per_call"].as_f64().unwrap() > 0.0, "{native}");
+        // no --instructions: nothing counted
+        assert!(native["instructions"].is_null(), "{native}");
+        for imp in ["multistep (Python)", "ruckig (Python)"] {
+            let row = of(case, imp);
+            if left_out {
+                assert!(row.is_none(), "{row:?}");
+            } else {
+                let row = row.unwrap_or_else(|| panic!("{case} {imp}: {err}"));
+                assert!(row["us_per_call"].as_f64().unwrap() > 0.0, "{row}");
+            }
+        }
+    }
+    assert_eq!(rows.len(), if left_out { 2 } else { 6 }, "{v}");
+}
