@@ -108,6 +108,9 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
         }
     };
     let ctl = Arc::new(ctl);
+    // One mount per telescope, shared by the line protocol's `mount` and the Alpaca side.
+    let section = multistep_alpaca::AlpacaSection::from_board(&config)?;
+    ctl.attach_mounts(&section.telescope).context("telescope")?;
     let listener = service::bind(&a.listen)?;
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;

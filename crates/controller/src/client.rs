@@ -273,6 +273,7 @@ impl std::fmt::Display for Command {
                 push(axis);
                 push(&amount(to));
             }
+            Command::Mount(m) => push(&m.to_string()),
         }
         f.write_str(&words.join(" "))
     }

@@ -7,13 +7,14 @@ use crate::backend::{BoardBackend, SimBackend};
 use crate::board::{Board, Halted, PlannedAxis};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
+use crate::mount::{Mount, MountConfig, MountError};
 use crate::pool::{Lane, WorkPool};
 use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
 use crate::store::Store;
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock, TryLockError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -252,6 +253,9 @@ pub struct Controller {
     pool: WorkPool,
     /// The config's `[alpaca]` section as JSON, answered by `devices`.
     devices: String,
+    /// The board's telescope mounts, opened once and shared by every protocol that
+    /// drives them (see [`Controller::attach_mounts`]).
+    mounts: OnceLock<Vec<Arc<Mount>>>,
 }
 
 impl Controller {
@@ -341,7 +345,33 @@ impl Controller {
             ticker: Some(ticker),
             pool: WorkPool::for_this_machine()?,
             devices,
+            mounts: OnceLock::new(),
         })
+    }
+
+    /// Opens the mounts of `cfgs` (each checked against the board already), starts the
+    /// thread that looks after each, and keeps them for the `mount` command; the first is
+    /// the one `mount` drives. Once per controller: later calls find the mounts already
+    /// open and return those.
+    pub fn attach_mounts(
+        self: &Arc<Self>,
+        cfgs: &[MountConfig],
+    ) -> Result<Vec<Arc<Mount>>, MountError> {
+        if let Some(m) = self.mounts.get() {
+            return Ok(m.clone());
+        }
+        let mut mounts = Vec::new();
+        for c in cfgs {
+            let m = Arc::new(Mount::open(c.clone(), self)?);
+            Mount::supervise(&m, self.clone()).map_err(|e| CtlError::Io(e.to_string()))?;
+            mounts.push(m);
+        }
+        Ok(self.mounts.get_or_init(|| mounts).clone())
+    }
+
+    /// The mounts [`Controller::attach_mounts`] opened (none before).
+    pub fn mounts(&self) -> &[Arc<Mount>] {
+        self.mounts.get().map_or(&[], Vec::as_slice)
     }
 
     /// Board tick now.
@@ -598,6 +628,14 @@ impl Controller {
                 all.iter().map(|(n, p)| named_line(n, p)).collect()
             }
             Command::Devices => vec![self.devices.clone()],
+            Command::Mount(cmd) => {
+                let m = self.mounts.get().and_then(|m| m.first()).ok_or_else(|| {
+                    CtlError::Mount(
+                        "this board has no mount (its config has no [[alpaca.telescope]])".into(),
+                    )
+                })?;
+                crate::mount::line::run(m, self, cmd)?
+            }
             Command::Forget { name } => {
                 self.with_board(|b, _| b.forget(name))?;
                 vec![]

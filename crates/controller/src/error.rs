@@ -61,6 +61,10 @@ pub enum CtlError {
     /// Too much long work (moves and previews to time) is waiting already.
     #[error("busy: {0}")]
     Overloaded(String),
+    /// The mount refused a `mount` command: a value out of range, a slew beyond its
+    /// limits, parked, or not possible in its present state.
+    #[error("mount: {0}")]
+    Mount(String),
 }
 
 impl CtlError {
@@ -90,6 +94,7 @@ impl CtlError {
             CtlError::Link(_) => 21,
             CtlError::LinkRefused(_) => 22,
             CtlError::Overloaded(_) => 23,
+            CtlError::Mount(_) => 24,
         }
     }
 

@@ -228,6 +228,8 @@ pub enum Command {
     Positions,
     /// The board config's `[alpaca]` device section as one JSON line (read-only).
     Devices,
+    /// The board's telescope mount (see [`crate::mount::line`]).
+    Mount(crate::mount::line::MountCmd),
     Forget {
         name: String,
     },
@@ -714,6 +716,7 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
             }
         }
         "positions" => Command::Positions,
+        "mount" => Command::Mount(crate::mount::line::parse(rest)?),
         "devices" => {
             none_after(0, "devices")?;
             Command::Devices
@@ -921,6 +924,7 @@ pub const HELP: &[&str] = &[
     "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
     "  save NAME [AXIS…]  goto NAME  positions  forget NAME",
     "  preset NAME opts  presets  version  info  devices  auth TOKEN",
+    "  mount [slew RA DEC|sync RA DEC|track on|off [RATE]|park|unpark|setpark|abort|pulse n|s|e|w MS]",
     "  track AXIS RATE|NAME [amax=A] [lease=S]    run at RATE steps/s (or units/s with 'u'; negative",
     "                               reverses) until stop; again while tracking: change the rate",
     "  rate NAME RATE  rates  release AXIS  energize AXIS",

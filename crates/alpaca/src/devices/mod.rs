@@ -140,8 +140,8 @@ pub struct Device {
 }
 
 /// Builds the devices of `section`; numbers count up per type in listed order. A
-/// telescope's mount reads its parked state from the board and is looked after by a
-/// thread of its own.
+/// telescope's mount is the controller's ([`Controller::attach_mounts`]), the one its
+/// `mount` command drives too.
 pub fn build(
     section: &AlpacaSection,
     board: &str,
@@ -191,10 +191,11 @@ pub fn build(
             Role::FilterWheel(w.clone()),
         );
     }
-    for (n, t) in section.telescope.iter().enumerate() {
-        let mount = Mount::open(t.clone(), ctl).map_err(|e| format!("telescope: {e}"))?;
-        let mount = Arc::new(mount);
-        Mount::supervise(&mount, ctl.clone()).map_err(|e| format!("telescope: {e}"))?;
+    // The controller's mounts, opened by `serve` for every protocol, or here if not yet.
+    let mounts = ctl
+        .attach_mounts(&section.telescope)
+        .map_err(|e| format!("telescope: {e}"))?;
+    for ((n, t), mount) in section.telescope.iter().enumerate().zip(mounts) {
         add(
             DeviceType::Telescope,
             n,

@@ -8,6 +8,7 @@
 
 pub mod config;
 pub mod coords;
+pub mod line;
 mod ops;
 pub mod rates;
 pub mod time;
@@ -135,14 +136,17 @@ impl Mount {
         })
     }
 
-    /// Runs [`Mount::tick`] every few milliseconds until the mount is dropped.
+    /// Runs [`Mount::tick`] every few milliseconds until the mount or the controller is
+    /// dropped (the controller may hold the mount: neither is kept alive from here).
     pub fn supervise(mount: &Arc<Mount>, ctl: Arc<Controller>) -> std::io::Result<()> {
         let weak: Weak<Mount> = Arc::downgrade(mount);
+        let ctl_weak = Arc::downgrade(&ctl);
+        drop(ctl);
         std::thread::Builder::new()
             .name("mount".into())
             .spawn(move || {
                 let mut said = None;
-                while let Some(m) = weak.upgrade() {
+                while let (Some(m), Some(ctl)) = (weak.upgrade(), ctl_weak.upgrade()) {
                     // A refusal here (e-stop, a limit) is the board's to report; say each once.
                     if let Err(e) = m.tick(&ctl) {
                         let e = e.to_string();
@@ -152,7 +156,7 @@ impl Mount {
                             said = Some(e);
                         }
                     }
-                    drop(m);
+                    drop((m, ctl));
                     std::thread::sleep(TICK);
                 }
             })
