@@ -1,6 +1,11 @@
 //! What the core's registers hold: per axis, the pieces of a `multistep_core::int` move
 //! that have steps, each as its per-step kernel, start tick and step count. The reference
 //! edges are the core's own (`StepKernel::local_edge`); nothing here re-derives a formula.
+//!
+//! A piece whose local edges or step count outgrow the core's tick or step bits is split
+//! at step boundaries into pieces that fit ([`PieceRegs::split_at`]): exact integer
+//! re-basing of the same kernel, so the split move's edges are the planned move's, tick
+//! for tick.
 
 use crate::{CoreParams, HdlError, Widths};
 use multistep_core::int::{IntProfile, KernelMode, StepKernel};
@@ -9,12 +14,16 @@ use multistep_core::int::{IntProfile, KernelMode, StepKernel};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PieceRegs {
     pub kernel: StepKernel,
-    /// Start tick (from the move's start) and duration.
+    /// Start tick (from the move's start) and duration (the next piece of the same
+    /// planned piece, if split, starts at `t0 + dur`). The core holds t0 only.
     pub t0: u64,
     pub dur: u64,
     /// Steps in the piece (>= 1).
     pub steps: u64,
 }
+
+/// Splitting stops past this many pieces, or the slots if more (a move far beyond them).
+const MOST_PIECES: usize = 4096;
 
 /// One axis's move: direction and its pieces with steps, in order.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -50,15 +59,6 @@ impl PieceRegs {
         if self.steps == 0 || !fits(self.steps.into(), w.wn) {
             return Err(err(format!("{} steps not in 1..2^{}", self.steps, w.wn)));
         }
-        if !fits(self.dur.into(), w.wd) {
-            return Err(err(format!(
-                "{} ticks do not fit {} tick bits",
-                self.dur, w.wd
-            )));
-        }
-        if !fits(u128::from(self.t0) + u128::from(self.dur), w.wt) {
-            return Err(err(format!("ends after tick 2^{}", w.wt)));
-        }
         let kn = &self.kernel;
         for j in [0, self.steps - 1] {
             match self.radicand(j) {
@@ -78,33 +78,180 @@ impl PieceRegs {
         if kn.k < -k_lim || kn.k >= k_lim {
             return Err(err(format!("k = {} does not fit {} bits", kn.k, w.wk + 1)));
         }
+        // the calculator's quotient is the local edge: the last one is the largest
+        let last = self.local_edge(self.steps - 1).ok_or_else(|| {
+            err(format!(
+                "the edge of step {} is not a tick of this piece",
+                self.steps - 1
+            ))
+        })?;
+        if !fits(last.into(), w.wd) {
+            return Err(err(format!(
+                "its last edge is {last} ticks after its start: more than {} tick bits",
+                w.wd
+            )));
+        }
+        if !fits(u128::from(self.t0) + u128::from(last), w.wt) {
+            return Err(err(format!("ends after tick 2^{}", w.wt)));
+        }
         Ok(())
+    }
+
+    /// The local edge of step j by the core's kernel; None past the piece's end or where
+    /// the kernel's arithmetic would leave its range (a kernel no planner made).
+    pub fn local_edge(&self, j: u64) -> Option<u64> {
+        let kn = &self.kernel;
+        let y = self.radicand(j)?;
+        // core::int's local_edge adds k to the root in i128, divides by dv and, on Decel,
+        // takes ⌊√Y⌋ from k: k ≥ ⌊√Y⌋ is (k + 1)² > Y
+        let decel_ok = || {
+            let k1 = u128::try_from(kn.k).ok()? + 1;
+            k1.checked_mul(k1).is_none_or(|sq| sq > y).then_some(())
+        };
+        if kn.dv == 0 || kn.k.unsigned_abs() >> 126 != 0 {
+            return None;
+        }
+        if kn.mode == KernelMode::Decel {
+            decel_ok()?;
+        }
+        let e = kn.local_edge(j);
+        // a negative numerator wraps to a huge quotient: not an edge of this piece
+        (e <= self.dur).then_some(e)
+    }
+
+    /// The piece from step `s` on, its time origin moved `shift` ticks later: the same
+    /// kernel with Y advanced s steps and `shift·dv` taken from the numerator, since
+    /// ⌊(n − shift·dv)/dv⌋ = ⌊n/dv⌋ − shift (the numerators of steps s.. are at least
+    /// shift·dv when shift is at most step s's local edge, so none goes negative). Step j
+    /// of the result is step s + j of `self`, its edge `t0 + shift + local` the same tick.
+    /// None if s is not inside the piece, shift is past step s's edge, or a number leaves
+    /// 128 bits.
+    pub fn split_at(&self, s: u64, shift: u64) -> Option<PieceRegs> {
+        if s >= self.steps || shift > self.local_edge(s)? {
+            return None;
+        }
+        let kn = &self.kernel;
+        let y0 = self.radicand(s)?;
+        let cut = u128::from(shift).checked_mul(kn.dv)?;
+        let kernel = match kn.mode {
+            KernelMode::Cruise => StepKernel {
+                y0: y0.checked_sub(cut)?,
+                ..*kn
+            },
+            KernelMode::Accel | KernelMode::Decel => StepKernel {
+                y0,
+                k: kn.k.checked_sub(i128::try_from(cut).ok()?)?,
+                ..*kn
+            },
+        };
+        Some(PieceRegs {
+            kernel,
+            t0: self.t0.checked_add(shift)?,
+            dur: self.dur - shift,
+            steps: self.steps - s,
+        })
+    }
+
+    /// This piece as pieces whose local edges fit `max_ticks` and whose step counts fit
+    /// `max_steps`, each as long as it can be (binary search over the monotonic edges),
+    /// appended to `out` until it holds more than `most`. A piece that fits is appended
+    /// as it is. None only if a number leaves 128 bits.
+    fn split_to_fit(
+        &self,
+        max_ticks: u64,
+        max_steps: u64,
+        out: &mut Vec<PieceRegs>,
+        most: usize,
+    ) -> Option<()> {
+        let mut rest = *self;
+        while out.len() <= most {
+            // a first edge past the ticks (the gap before it is the period's concern):
+            // the piece starts at it
+            let first = rest.local_edge(0)?;
+            if first > max_ticks {
+                rest = rest.split_at(0, first)?;
+            }
+            // the most steps from rest's first on whose edges are at most max_ticks
+            let (mut lo, mut hi) = (0u64, rest.steps.min(max_steps));
+            while lo < hi {
+                let mid = lo + (hi - lo).div_ceil(2);
+                if rest.local_edge(mid - 1)? <= max_ticks {
+                    lo = mid;
+                } else {
+                    hi = mid - 1;
+                }
+            }
+            if lo == 0 {
+                return None;
+            }
+            if lo == rest.steps {
+                out.push(rest);
+                break;
+            }
+            // the next piece starts at its first edge (local edge 0)
+            let next = rest.split_at(lo, rest.local_edge(lo)?)?;
+            out.push(PieceRegs {
+                dur: next.t0 - rest.t0,
+                steps: lo,
+                ..rest
+            });
+            rest = next;
+        }
+        Some(())
     }
 }
 
 impl AxisMove {
-    /// The pieces with steps of a planned integer move. Fails if a piece needs the software
-    /// wide path (no 128-bit kernel), or does not fit the core `p`.
+    /// The pieces with steps of a planned integer move, each split into as few pieces as
+    /// fit the core's tick and step bits ([`PieceRegs::split_at`]). Fails if a piece needs
+    /// the software wide path (no 128-bit kernel), or the move does not fit the core `p`
+    /// (its slots, or a width splitting does not change).
     pub fn from_profile(
         profile: &IntProfile,
         dir: bool,
         p: &CoreParams,
     ) -> Result<AxisMove, HdlError> {
+        let w = p.widths()?;
+        let max = |bits: u32| (1u64 << bits.min(63)) - 1;
         let mut pieces = Vec::new();
+        let mut planned = 0;
+        let most = (p.pieces as usize).max(MOST_PIECES);
         for (index, pc) in profile.pieces().iter().enumerate() {
             if pc.steps == 0 {
                 continue;
             }
+            planned += 1;
             let kernel = *pc.kernel().ok_or(HdlError::Piece {
                 index,
                 reason: "its radicand needs more than 128 bits (core::int's wide path)".into(),
             })?;
-            pieces.push(PieceRegs {
+            let whole = PieceRegs {
                 kernel,
                 t0: pc.t0,
                 dur: pc.dur,
                 steps: pc.steps,
-            });
+            };
+            whole
+                .split_to_fit(max(w.wd), max(w.wn), &mut pieces, most)
+                .ok_or_else(|| HdlError::Piece {
+                    index,
+                    reason: "splitting it leaves 128 bits".into(),
+                })?;
+        }
+        if pieces.len() > p.pieces as usize {
+            let more = if pieces.len() > most {
+                "more than "
+            } else {
+                ""
+            };
+            return Err(HdlError::Move(format!(
+                "{more}{} pieces with steps ({planned} planned, split at {} ticks and {} \
+                 steps); the core holds 1..={}",
+                pieces.len().min(most),
+                max(w.wd),
+                max(w.wn),
+                p.pieces
+            )));
         }
         let m = AxisMove { dir, pieces };
         m.check(p)?;
