@@ -6,7 +6,9 @@
 //! Newton elsewhere) together with a bound on its rounding error in ticks. When `f·t_i` lies
 //! within that bound of a half tick, the edge is settled in double-double arithmetic and
 //! checked against `p((e − ½)/f) < i ≤ p((e + ½)/f)`, so every edge is the nearest tick,
-//! not only most of them. Memory is O(1); nothing allocates.
+//! not only most of them. On the other pieces most steps skip Newton: the tick
+//! extrapolated from the last steps is proved by that same condition, computed in f64
+//! beyond a bound on its rounding (`curve_run`). Memory is O(1); nothing allocates.
 
 use core::borrow::Borrow;
 
@@ -235,8 +237,6 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     next_f: f64,
     /// N as f64: the last step, whose edge is round(f·T) by definition.
     last_f: f64,
-    /// Constants of the error bound: 2·f·ε and 8·ε.
-    k_err: f64,
     /// Current piece, a copy of it, and where it ends.
     piece: usize,
     cur: Piece,
@@ -261,6 +261,11 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     /// A bound on |acceleration| over the current (Newton) piece; NaN if none is known.
     shaped_amax: f64,
     v_prev: f64,
+    /// Predicted steps on a Newton piece ([`EdgeGenerator::curve_run`]): off in the
+    /// reference generator ([`EdgeGenerator::without_prediction`]); the margin (steps)
+    /// beyond which a computed position's sign is proved.
+    pred_off: bool,
+    pred_m: f64,
     last_edge: u64,
     settled: u64,
     /// The current piece's exact constant-speed sequence and the steps it may run
@@ -294,7 +299,6 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             next: 1,
             next_f: 1.0,
             last_f,
-            k_err: 2.0 * clock * EPS,
             piece: 0,
             cur,
             cur_end,
@@ -309,6 +313,8 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             shaped: None,
             shaped_amax: f64::NAN,
             v_prev: 0.0,
+            pred_off: false,
+            pred_m: 0.0,
             last_edge: 0,
             settled: 0,
             cruise_exact: None,
@@ -361,6 +367,16 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         self.last_edge = 0;
     }
 
+    /// The same generator without the predicted steps on curved pieces: every such step
+    /// by safeguarded Newton, as before they existed. The edges are the same (a test
+    /// compares the two); this is the reference for that test.
+    #[doc(hidden)]
+    pub fn without_prediction(mut self) -> Self {
+        self.pred_off = true;
+        self.enter(self.piece);
+        self
+    }
+
     /// Turns this edge stream into a stream of periods `edge_i − edge_{i−1}`.
     pub fn periods(self) -> Periods<P> {
         Periods {
@@ -384,7 +400,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 k += n;
                 continue;
             }
-            if self.next_f <= self.ramp_hi {
+            if self.next_f <= self.ramp_hi && self.quad {
                 let n = (self.ramp_hi - self.next_f + 1.0).min((out.len() - k) as f64) as usize;
                 let (slots, _) = out[k..].split_at_mut(n);
                 let mut it = slots.iter_mut();
@@ -396,6 +412,22 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 });
                 k += n;
                 continue;
+            }
+            if self.next_f <= self.ramp_hi && !self.quad && self.nhist == 3 {
+                let before = self.next;
+                let room = (out.len() - k) as u64;
+                let mut it = out[k..].iter_mut();
+                self.curve_run(room, 0u8, &mut |z, e| {
+                    if let Some(slot) = it.next() {
+                        *slot = e;
+                    }
+                    z
+                });
+                let n = (self.next - before) as usize;
+                k += n;
+                if n > 0 {
+                    continue;
+                }
             }
             match self.step_general() {
                 Some(e) => {
@@ -424,7 +456,11 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 self.run_left = 0;
             }
             if self.next_f <= self.ramp_hi {
-                out = self.ramp_run(out, &mut f);
+                if self.quad {
+                    out = self.ramp_run(out, &mut f);
+                } else if self.nhist == 3 {
+                    out = self.curve_run(u64::MAX, out, &mut f);
+                }
             }
             match self.step_general() {
                 Some(e) => out = f(out, e),
@@ -471,7 +507,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 any = true;
                 self.run_left = 0;
             }
-            if self.next_f <= self.ramp_hi {
+            if self.next_f <= self.ramp_hi && self.quad {
                 let f = |(lo, hi, last): (u64, u64, u64), e: u64| {
                     (lo.min(e - last), hi.max(e - last), e)
                 };
@@ -483,6 +519,19 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                     self.ramp_run((lo, hi, last), &mut { f })
                 };
                 any = true;
+            }
+            if self.next_f <= self.ramp_hi
+                && !self.quad
+                && self.nhist == 3
+                && (!PARTS || self.next < stop)
+            {
+                let f = |(lo, hi, last): (u64, u64, u64), e: u64| {
+                    (lo.min(e - last), hi.max(e - last), e)
+                };
+                let limit = if PARTS { stop - self.next } else { u64::MAX };
+                let before = self.next;
+                (lo, hi, last) = self.curve_run(limit, (lo, hi, last), &mut { f });
+                any |= self.next > before;
             }
             if PARTS && self.next >= stop {
                 return any.then_some((lo, hi, last));
@@ -535,6 +584,9 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         };
         self.ramp = Ramp::NONE;
         self.ramp_hi = 0.0;
+        if !self.quad && !self.pred_off && self.exact().is_none() {
+            self.plan_prediction();
+        }
         if self.quad && !self.cruise {
             // steps of a piece before the last are ≤ its end; the last piece's are < N
             let last_piece = k + 1 >= self.profile().len();
@@ -602,7 +654,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         mut f: impl FnMut(B, u64) -> B,
     ) -> B {
         let ramp = self.ramp;
-        let (k_err, clock) = (self.k_err, self.clock);
+        let (k_err, clock) = (self.k_err(), self.clock);
         let span = Span::of(&self.cur);
         let mut last = self.last_edge;
         // i from an integer counter (exact below 2^53): a float carried from step to step
@@ -622,6 +674,115 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         self.last_edge = last;
         self.next += n;
         self.next_f = self.next as f64;
+        out
+    }
+
+    /// Up to `limit` steps of the current Newton piece without Newton, folded into `out`:
+    /// the tick nearest to the quadratic extrapolation of the last three steps' times,
+    /// proved by the exactness condition itself, `p((e − ½)/f) < i ≤ p((e + ½)/f)`
+    /// (DESIGN.md §1), with the two positions computed in f64 and their signs taken only
+    /// beyond [`plan_prediction`](Self::plan_prediction)'s margin; where a side fails, the
+    /// tick moves by one, reusing the half tick they share (the jump-and-correct of the
+    /// integer ramps). Stops before the first step this does not prove, which Newton takes.
+    /// The law's coefficients and the history stay in local variables.
+    #[inline(always)]
+    fn curve_run<B>(&mut self, limit: u64, out: B, f: &mut impl FnMut(B, u64) -> B) -> B {
+        let w = 1.0 / self.clock;
+        match (self.shaped, self.cur.law) {
+            // one loop per formula, each with its law inlined
+            (Some(law), _) => match law.kind() {
+                0 => self.curve_loop(limit, out, f, move |s| law.advance_of::<0>(s * w)),
+                1 => self.curve_loop(limit, out, f, move |s| law.advance_of::<1>(s * w)),
+                2 => self.curve_loop(limit, out, f, move |s| law.advance_of::<2>(s * w)),
+                3 => self.curve_loop(limit, out, f, move |s| law.advance_of::<3>(s * w)),
+                4 => self.curve_loop(limit, out, f, move |s| law.advance_of::<4>(s * w)),
+                _ => self.curve_loop(limit, out, f, move |s| law.advance_of::<5>(s * w)),
+            },
+            (None, Law::Poly { c1, c2, c3, c4 }) => {
+                // the law in ticks: c_j/f^j (a few roundings of each coefficient, within the
+                // margin's 64ε of the terms)
+                let (k1, k2, k3, k4) = (c1 * w, c2 * w * w, c3 * w * w * w, c4 * w * w * w * w);
+                self.curve_loop(limit, out, f, move |s| {
+                    s * (k1 + s * (k2 + s * (k3 + s * k4)))
+                })
+            }
+            _ => out,
+        }
+    }
+
+    /// [`EdgeGenerator::curve_run`] with the law `adv` taking local time in ticks, so that
+    /// the half ticks are `e − (x0 + ½)` and that plus one (x0 = `f·t0`).
+    #[inline(always)]
+    fn curve_loop<B>(
+        &mut self,
+        limit: u64,
+        mut out: B,
+        f: &mut impl FnMut(B, u64) -> B,
+        adv: impl Fn(f64) -> f64,
+    ) -> B {
+        let steps = ((self.ramp_hi - self.next_f + 1.0) as u64).min(limit);
+        let (clock, m, p0, t0, d) = (
+            self.clock,
+            self.pred_m,
+            self.cur.p0,
+            self.cur.t0,
+            self.cur.dur,
+        );
+        let w = 1.0 / clock;
+        let x0 = t0 * clock;
+        let x0h = x0 + 0.5;
+        // a guess this far inside the piece puts both half ticks of its nearest tick inside
+        // by `inside` (the tick is within half a tick of it, the half ticks half a tick either
+        // side, each within a few ε·f·(t0 + dur) of its computed value), so that the piece's
+        // law is the profile's position there
+        let inside = 8.0 * EPS * (t0 + d + w);
+        let reach = 3.0 * w + 2.0 * inside;
+        let (glo, ghi) = (reach * clock, (d - reach) * clock);
+        let [mut h0, mut h1, mut h2] = self.hist.map(|h| h * clock);
+        let mut sa_last = 0.0;
+        let mut last = self.last_edge;
+        // i as f64, exact (< 2^53); no call in the loop, so nothing is spilled around one
+        let mut i = self.next_f;
+        let i_end = i + steps as f64;
+        while i < i_end {
+            let n = i - p0;
+            let guess = 3.0 * (h0 - h1) + h2;
+            if !(guess >= glo && guess <= ghi) {
+                break;
+            }
+            let mut y = (x0 + guess) + MAGIC;
+            let mut sa = (y - MAGIC) - x0h;
+            let (mut pa, mut pb) = (adv(sa) - n, adv(sa + 1.0) - n);
+            if !(pa < -m && pb >= m) {
+                // one move by a tick, reusing the half tick it keeps (the guess's range
+                // leaves room for it); a step that still is not proved goes to Newton
+                if pa >= m {
+                    (y, sa, pb) = (y - 1.0, sa - 1.0, pa);
+                    pa = adv(sa) - n;
+                } else if pb < -m {
+                    (y, sa, pa) = (y + 1.0, sa + 1.0, pb);
+                    pb = adv(sa + 1.0) - n;
+                }
+                if !(pa < -m && pb >= m) {
+                    break;
+                }
+            }
+            // t_i by linear interpolation between the half ticks: the next guess's history
+            (h2, h1, h0) = (h1, h0, sa + pa / (pa - pb));
+            sa_last = sa;
+            // every edge here is the nearest tick, so they never go backwards: no clamp
+            last = y.to_bits().wrapping_sub(MAGIC.to_bits());
+            out = f(out, last);
+            i += 1.0;
+        }
+        if i > self.next_f {
+            // Newton's history, h0 its lower bracket: a tick below the last proved half
+            // tick, so below that step's time whatever the conversion rounds
+            self.hist = [(sa_last - 1.0) * w, h1 * w, h2 * w];
+            self.last_edge = last;
+            self.next_f = i;
+            self.next = i as u64;
+        }
         out
     }
 
@@ -658,19 +819,69 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             let tau = (n * self.inv_c1).min(p.dur);
             let x = (p.t0 + tau) * f;
             let (tick, dist) = nearest_tick(x);
-            let bound = self.k_err * (2.0 * tau + i * self.inv_c1) + 8.0 * EPS * x + 2e-9;
+            let bound = self.k_err() * (2.0 * tau + i * self.inv_c1) + 8.0 * EPS * x + 2e-9;
             return (tau, tick, dist > bound + self.cruise_dev);
         }
         if self.quad {
             return self
                 .ramp
-                .locate_once(Span::of(p), i, self.k_err, self.clock);
+                .locate_once(Span::of(p), i, self.k_err(), self.clock);
         }
         let p = self.cur;
         let (tau, err) = self.newton(&p, n, EPS * i);
         let x = (p.t0 + tau) * f;
         let (tick, dist) = nearest_tick(x);
         (tau, tick, dist > 2.0 * (err * f + 4.0 * EPS * x) + 1e-9)
+    }
+
+    /// The margin of [`curve_run`](Self::curve_run) on the current (Newton) piece, and the
+    /// steps it may run (`ramp_hi`: inside the piece, before N).
+    ///
+    /// A tested position `adv(s) − n` is off by the evaluation's rounding (a few ε times
+    /// the terms' magnitude, as in Newton's own bound, taken 8 times over; the coefficients
+    /// rescaled to ticks add a few ε more) plus the speed times the error of the half tick
+    /// itself: `s = e − fl(fl(f·t0) + ½)` (and `s + 1`) is within `2ε·f·(t0 + dur + 1/f)`
+    /// ticks of its exact local time (four roundings), taken 4 times over. The speed is
+    /// bounded by the absolute coefficients (polynomials) or twice the larger end speed
+    /// (the shapes' speeds are monotone on a piece).
+    fn plan_prediction(&mut self) {
+        let p = self.cur;
+        let d = p.dur;
+        let vmax = match (&self.shaped, p.law) {
+            (Some(law), _) => {
+                2.0 * law
+                    .advance_velocity(0.0)
+                    .1
+                    .abs()
+                    .max(law.advance_velocity(d).1.abs())
+            }
+            (None, Law::Poly { c1, c2, c3, c4 }) => {
+                c1.abs() + d * (2.0 * c2.abs() + d * (3.0 * c3.abs() + d * 4.0 * c4.abs()))
+            }
+            _ => f64::INFINITY,
+        };
+        let t_end = p.t0 + d + self.inv_clock();
+        let n_max = (self.cur_end.max(self.last_f) - p.p0).abs() + p.p0.abs();
+        let m = 64.0 * EPS * (p.term_scale(d) + n_max) + vmax * 8.0 * EPS * t_end;
+        self.pred_m = m * (1.0 + 1e-6);
+        // runs where the piece is long enough for `curve_loop`'s range of guesses
+        if self.pred_m.is_finite()
+            && d > 6.0 * (self.inv_clock() + 16.0 * EPS * t_end)
+            && t_end * self.clock < MAX_TICKS
+        {
+            self.ramp_hi = fm::floor(self.cur_end).min(self.last_f - 1.0);
+        }
+    }
+
+    /// The error bounds' 2·f·ε (computed where used: the generator stays under 512 bytes).
+    #[inline(always)]
+    fn k_err(&self) -> f64 {
+        2.0 * self.clock * EPS
+    }
+
+    #[inline]
+    fn inv_clock(&self) -> f64 {
+        1.0 / self.clock
     }
 
     /// `(p(τ) − p0, v(τ))` of the current piece `p`.
@@ -867,6 +1078,11 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         if self.run_left > 0 {
             self.run_left -= 1;
             return Some(self.acc.next_edge());
+        }
+        if self.next_f <= self.ramp_hi && !self.quad && self.nhist == 3 {
+            if let Some(e) = self.curve_run(1, None, &mut |_, e| Some(e)) {
+                return Some(e);
+            }
         }
         self.step_general()
     }

@@ -255,6 +255,56 @@ impl ShapedLaw {
         )
     }
 
+    /// Which formula the position takes: the `K` of [`advance_of`](Self::advance_of), so
+    /// that a loop can be specialised to it.
+    pub fn kind(&self) -> u8 {
+        match (self.shape, self.mirrored) {
+            (Shape::Parabolic, false) => 0,
+            (Shape::Parabolic, true) => 1,
+            (Shape::Exponential { .. }, false) => 2,
+            (Shape::Exponential { .. }, true) => 3,
+            (Shape::Sine, false) => 4,
+            (Shape::Sine, true) => 5,
+        }
+    }
+
+    /// `p(τ) − p0` alone for a law of [`kind`](Self::kind) `K` (and only such a law): the
+    /// same operations as [`advance_velocity`](Self::advance_velocity)'s position, without
+    /// the velocity's own `expm1` or cosine.
+    #[inline(always)]
+    pub fn advance_of<const K: u8>(&self, tau: f64) -> f64 {
+        use core::f64::consts::PI;
+        let u = tau / self.dur;
+        let g = match K {
+            0 => 2.0 / 3.0 * u * fm::sqrt(u),
+            1 => {
+                let w = 1.0 - u;
+                2.0 / 3.0 * u * (3.0 - 3.0 * u + u * u) / (1.0 + w * fm::sqrt(w))
+            }
+            2 => {
+                let x = u / self.rho;
+                let tail = if x < 0.5 {
+                    exp_tail(x)
+                } else {
+                    fm::exp_m1(-x) + x
+                };
+                self.rho * tail / self.d
+            }
+            3 => {
+                let x = u / self.rho;
+                let diff = if x < 1.0 {
+                    self.e1 * fm::exp_m1(x)
+                } else {
+                    fm::exp(-((1.0 - u) / self.rho)) - self.e1
+                };
+                (u - self.rho * diff) / self.d
+            }
+            4 => sin_tail(PI * u) / (2.0 * PI),
+            _ => u * 0.5 + fm::sin(PI * u) / (2.0 * PI),
+        };
+        self.base * tau + self.span * g
+    }
+
     /// A bound on |a(τ)| over the piece where the shape's slope is bounded: `π/2` (sine)
     /// and `1/(ρD)` (exponential, at its steep end) times `span/dur²`, with a margin for
     /// rounding; `None` for the parabola, whose slope is unbounded at u = 0.
@@ -364,6 +414,15 @@ mod tests {
                 for k in 0..=2000 {
                     let tau = dur * k as f64 / 2000.0;
                     let (a, v) = law.advance_velocity(tau);
+                    let alone = match law.kind() {
+                        0 => law.advance_of::<0>(tau),
+                        1 => law.advance_of::<1>(tau),
+                        2 => law.advance_of::<2>(tau),
+                        3 => law.advance_of::<3>(tau),
+                        4 => law.advance_of::<4>(tau),
+                        _ => law.advance_of::<5>(tau),
+                    };
+                    assert_eq!(alone.to_bits(), a.to_bits(), "{s:?} {mirrored} {tau}");
                     assert_eq!(
                         a.to_bits(),
                         piece.advance(tau).to_bits(),

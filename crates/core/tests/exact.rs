@@ -10,6 +10,7 @@ mod common;
 
 use common::limits_ref::assert_feasible;
 use common::move_ref::{bf, div, lt, mul, sub, to_f64, Ctx, MoveRef};
+use common::strategies::{clock, family};
 use multistep_core::int::{IntClock, IntEdgeGenerator, IntProfile, IntRamp, IntSegment};
 use multistep_core::{
     EdgeGenerator, Family, LimitsMove, Move, Order, PhaseMove, PlanError, Profile, Segment,
@@ -216,21 +217,6 @@ fn phase_peak(r: &MoveRef) -> f64 {
         .iter()
         .map(|p| to_f64(&p.v0).max(to_f64(&p.v1)))
         .fold(0.0, f64::max)
-}
-
-fn family() -> impl Strategy<Value = Family> {
-    prop_oneof![
-        Just(Family::Trapezoid),
-        Just(Family::Parabolic),
-        (0.05f64..2.0).prop_map(|rho| Family::Exponential { rho }),
-        Just(Family::Sine),
-        (0.05f64..=0.5).prop_map(|phi| Family::SCurve { phi }),
-        (0.05f64..=0.5, 0.05f64..=0.5).prop_map(|(phi, psi)| Family::SCurve4 { phi, psi }),
-    ]
-}
-
-fn clock() -> impl Strategy<Value = f64> {
-    prop_oneof![Just(50e6), 1e5f64..1e9]
 }
 
 fn phase_time() -> impl Strategy<Value = f64> {

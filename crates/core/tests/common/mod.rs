@@ -3,3 +3,4 @@
 
 pub mod limits_ref;
 pub mod move_ref;
+pub mod strategies;
