@@ -176,15 +176,15 @@ fn most_random_moves_split() {
     assert!(split.iter().all(|&n| n >= 10), "split per kind: {split:?}");
 }
 
+/// One segment (a cruise when `steps` is `v0` over `ticks`).
+fn segment(v0: u64, ticks: u64, steps: u64) -> IntProfile {
+    IntProfile::segments(&[IntSegment { v0, ticks, steps }], CLOCK).unwrap()
+}
+
 /// A piece of more steps than the step bits hold splits too (a long fast cruise).
 #[test]
 fn a_piece_of_too_many_steps_splits() {
-    let cruise = IntSegment {
-        v0: 100_000,
-        ticks: 5_000_000,
-        steps: 10_000,
-    };
-    let p = IntProfile::segments(&[cruise], CLOCK).unwrap();
+    let p = segment(100_000, 5_000_000, 10_000);
     let m = AxisMove::from_profile(&p, true, &narrow()).unwrap();
     // a period of 500 ticks: the first piece holds the edges 500 … 65 500 (131 steps),
     // every later one starts at its first edge and holds 0 … 65 500 (132 steps)
@@ -196,12 +196,7 @@ fn a_piece_of_too_many_steps_splits() {
     assert_eq!(m.edges(), IntEdgeGenerator::new(p).collect::<Vec<_>>());
     // 10 k steps/s with 23 tick bits: 1023 steps (5.1 M ticks) fit the ticks, so the
     // step bits split it
-    let slow = IntSegment {
-        v0: 10_000,
-        ticks: 15_000_000,
-        steps: 3_000,
-    };
-    let p = IntProfile::segments(&[slow], CLOCK).unwrap();
+    let p = segment(10_000, 15_000_000, 3_000);
     let q = CoreParams {
         tick_bits: 23,
         max_piece_s: 0.1,
@@ -218,12 +213,7 @@ fn a_piece_of_too_many_steps_splits() {
 /// is some 7.6 M pieces of 16 tick bits).
 #[test]
 fn a_move_far_beyond_the_slots_is_refused_quickly() {
-    let cruise = IntSegment {
-        v0: 1_000,
-        ticks: 500_000_000_000,
-        steps: 10_000_000,
-    };
-    let p = IntProfile::segments(&[cruise], CLOCK).unwrap();
+    let p = segment(1_000, 500_000_000_000, 10_000_000);
     let e = AxisMove::from_profile(&p, true, &narrow()).unwrap_err();
     assert!(matches!(e, HdlError::Move(_)), "{e}");
     assert!(e.to_string().contains("more than 4096 pieces"), "{e}");
