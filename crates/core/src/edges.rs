@@ -190,7 +190,9 @@ impl Ramp {
         if dist * s > self.quick {
             return (tau, tick, true);
         }
-        self.exact(p, i, n, s, k_err, clock)
+        // the piece's start and length as scalars: a `Span` argument was stored to the
+        // stack on every step for this rare call
+        self.exact(p.t0, p.dur, i, n, s, k_err, clock)
     }
 
     /// [`Ramp::locate`] outside a ramp loop (a piece's first and last steps): out of line,
@@ -206,12 +208,22 @@ impl Ramp {
 
     /// Seed 000's merged closed form `τ = 2n/(c1 + √(c1² + 4c2·n))` (one root, one
     /// divide, no cancellation) with its per-step error bound.
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn exact(&self, p: Span, i: f64, n: f64, s: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+    fn exact(
+        &self,
+        t0: f64,
+        dur: f64,
+        i: f64,
+        n: f64,
+        s: f64,
+        k_err: f64,
+        clock: f64,
+    ) -> (f64, u64, bool) {
         let c1 = self.c1;
         let den = c1 + s;
-        let tau = (2.0 * n / den).min(p.dur);
-        let x = (p.t0 + tau) * clock;
+        let tau = (2.0 * n / den).min(dur);
+        let x = (t0 + tau) * clock;
         let (tick, dist) = nearest_tick(x);
         // Error bound (ticks) times s·den, so no division is needed: the radicand's
         // rounding (R = c1² + 4|c2|n, over s), the root and quotient (≤ 5 ulp, using
