@@ -11,9 +11,9 @@
 //! untrusts its axes.
 //!
 //! On a board with replay units (`ms_stream`) every other move — any family, non-whole
-//! speeds, pieces longer than the tick width — and tracking run streamed: the host codes
-//! the exact edges of `plan` (or of the tracker) and keeps each axis's buffer fed from
-//! the poll loop ([`stream::Feed`]).
+//! speeds, more pieces than slots once split to the tick width — and tracking run
+//! streamed: the host codes the exact edges of `plan` (or of the tracker) and keeps each
+//! axis's buffer fed from the poll loop ([`stream::Feed`]).
 
 mod stream;
 
@@ -927,6 +927,10 @@ impl FpgaBackend {
         if l.stop_on_sensor == Some(true) {
             let slot = self.params.pieces - 1;
             if m.pieces.len() as u32 > slot {
+                // its pieces, split to the tick width, take every slot: stream it
+                if self.streams {
+                    return self.load_streamed(l, now);
+                }
                 return Err(CtlError::Setting(format!(
                     "a homing move of {} pieces leaves no slot for the stop ramp",
                     m.pieces.len()
@@ -1056,7 +1060,8 @@ fn halts_within_amax(speed: f64, amax: f64) -> bool {
 /// Why a board refuses what only streaming runs.
 const NO_REPLAY: &str = "the board has no replay units for streamed moves (its build has \
     no stream buffers: a bulk write answers status 7), so it runs only trapezoids of \
-    whole-number speeds whose pieces fit its tick width, and no tracking";
+    whole-number speeds whose pieces, split to its tick width, fit its slots, and no \
+    tracking";
 
 /// Checks that every period of `plan`'s edges of `mv` at `clock_hz` fits the replay
 /// unit (2 to 2^tick_bits − 1 ticks), before anything starts.
