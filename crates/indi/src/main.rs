@@ -39,9 +39,20 @@ fn run() -> Result<(), String> {
     let token = std::env::var("MULTISTEP_INDI_TOKEN")
         .ok()
         .filter(|t| !t.is_empty());
+    let timeout = match std::env::var("MULTISTEP_INDI_TIMEOUT") {
+        Err(_) => link::DEFAULT_TIMEOUT,
+        Ok(t) => match t.trim().parse::<f64>() {
+            Ok(s) if (0.1..=600.0).contains(&s) => Duration::from_secs_f64(s),
+            _ => {
+                return Err(format!(
+                    "MULTISTEP_INDI_TIMEOUT: '{t}' is not a number of seconds from 0.1 to 600"
+                ))
+            }
+        },
+    };
     // The devices are the controller's: wait for it, saying why on stderr (indiserver's log).
     let driver = loop {
-        let link = Link::new(endpoint.clone(), token.clone());
+        let link = Link::new(endpoint.clone(), token.clone(), timeout);
         match Driver::discover(link, Box::new(std::io::stdout())) {
             Ok(d) => break d,
             Err(driver::DriverError::Link(e @ link::LinkError::Down { .. })) => {

@@ -45,6 +45,8 @@ fn indi_present() -> bool {
 struct Relay {
     port: u16,
     cut: Arc<AtomicBool>,
+    /// Connections are accepted and held open, never answered.
+    mute: Arc<AtomicBool>,
     open: Arc<Mutex<Vec<TcpStream>>>,
 }
 
@@ -53,12 +55,18 @@ impl Relay {
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let port = l.local_addr().unwrap().port();
         let cut = Arc::new(AtomicBool::new(false));
+        let mute = Arc::new(AtomicBool::new(false));
         let open: Arc<Mutex<Vec<TcpStream>>> = Arc::default();
-        let (c, o) = (cut.clone(), open.clone());
+        let (c, m, o) = (cut.clone(), mute.clone(), open.clone());
         std::thread::spawn(move || {
+            let mut held = Vec::new();
             for s in l.incoming().flatten() {
                 if c.load(Ordering::SeqCst) {
                     continue; // dropped: closed at once
+                }
+                if m.load(Ordering::SeqCst) {
+                    held.push(s);
+                    continue;
                 }
                 let Ok(up) = TcpStream::connect(("127.0.0.1", to)) else {
                     continue;
@@ -70,7 +78,23 @@ impl Relay {
                 pipe(up, s);
             }
         });
-        Relay { port, cut, open }
+        Relay {
+            port,
+            cut,
+            mute,
+            open,
+        }
+    }
+
+    /// Mute: the connections under way are closed and new ones are held open but never
+    /// answered (a controller that accepts and hangs).
+    fn set_mute(&self, mute: bool) {
+        self.mute.store(mute, Ordering::SeqCst);
+        if mute {
+            for s in self.open.lock().unwrap().drain(..) {
+                let _ = s.shutdown(Shutdown::Both);
+            }
+        }
     }
 
     fn set_cut(&self, cut: bool) {
@@ -119,6 +143,11 @@ impl Rig {
 
     /// The same, on the board config `text`.
     fn start_with(text: &str) -> Rig {
+        Rig::start_env(text, &[])
+    }
+
+    /// The same, with `env` added to the driver's environment.
+    fn start_env(text: &str, env: &[(&str, &str)]) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = BoardConfig::parse(text).unwrap();
         let ctl = Arc::new(Controller::open(&config, &dir.path().join("d"), 1.0).unwrap());
@@ -129,11 +158,11 @@ impl Rig {
             ..Default::default()
         };
         std::thread::spawn(move || service::serve_tcp_with(ctl, l, opts));
-        Rig::around(dir, ctl_port)
+        Rig::around(dir, ctl_port, env)
     }
 
     /// indiserver and the driver for the controller listening on `ctl_port`.
-    fn around(dir: tempfile::TempDir, ctl_port: u16) -> Rig {
+    fn around(dir: tempfile::TempDir, ctl_port: u16, env: &[(&str, &str)]) -> Rig {
         let relay = Relay::start(ctl_port);
         let port = TcpListener::bind("127.0.0.1:0")
             .unwrap()
@@ -150,6 +179,7 @@ impl Rig {
                 "MULTISTEP_INDI_CONTROLLER",
                 format!("tcp://127.0.0.1:{}", relay.port),
             )
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -619,6 +649,54 @@ fn the_driver_reports_the_controller_going_away_and_comes_back() {
 }
 
 #[test]
+fn a_controller_that_never_answers_puts_the_properties_in_alert_saying_so() {
+    if !indi_present() {
+        return;
+    }
+    let text = std::fs::read_to_string(CONFIG).unwrap();
+    let rig = Rig::start_env(&text, &[("MULTISTEP_INDI_TIMEOUT", "1")]);
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    // A client of indiserver that sees every message of the focuser, with its text.
+    let mut watch = TcpStream::connect(("127.0.0.1", rig.port)).unwrap();
+    write!(watch, "<getProperties version=\"1.7\" device=\"{F}\"/>").unwrap();
+    watch
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    rig.relay.set_mute(true);
+    rig.wait(&format!(
+        "\"{abs}._STATE\"==3 && \"{W}.FILTER_SLOT._STATE\"==3"
+    ));
+    // A move asked for meanwhile gets its Alert too, and the driver still answers.
+    rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=1000"));
+    let mut seen = Vec::new();
+    let end = Instant::now() + Duration::from_secs(60);
+    // The reconnect's `auth` (its token not shown) or the request, unanswered (the
+    // quotes are XML's `&apos;`).
+    let says = |s: &str| s.contains("no answer to &apos;") && s.contains(" within 1 s");
+    while !says(&String::from_utf8_lossy(&seen)) {
+        assert!(Instant::now() < end, "{}", String::from_utf8_lossy(&seen));
+        let mut buf = [0u8; 4096];
+        match watch.read(&mut buf) {
+            Ok(n) => seen.extend_from_slice(&buf[..n]),
+            Err(e) => assert!(
+                matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ),
+                "{e}"
+            ),
+        }
+    }
+    let seen = String::from_utf8_lossy(&seen);
+    assert!(seen.contains("state=\"Alert\""), "{seen}");
+    assert!(rig.get(&format!("{F}.CONNECTION.CONNECT")).is_some());
+    // Answered again: back to Ok, and the move never reached the controller.
+    rig.relay.set_mute(false);
+    rig.wait(&format!("\"{abs}._STATE\"==1"));
+    assert_eq!(rig.pos("focus"), 0);
+}
+
+#[test]
 fn the_devices_command_answers_the_boards_alpaca_section_as_json() {
     let dir = tempfile::tempdir().unwrap();
     let config = BoardConfig::load(std::path::Path::new(CONFIG)).unwrap();
@@ -690,7 +768,7 @@ fn under_multistep_serve_the_focuser_moves_to_where_status_says() {
         .unwrap()
         .parse()
         .expect(&first);
-    let rig = Rig::around(dir, port);
+    let rig = Rig::around(dir, port, &[]);
     let abs = format!("{F}.ABS_FOCUS_POSITION");
     rig.set(&format!("{abs}.FOCUS_ABSOLUTE_POSITION=2500"));
     rig.wait(&format!(
