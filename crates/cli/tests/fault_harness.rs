@@ -469,13 +469,15 @@ impl Harness {
     }
 }
 
-/// Idle, or a fault with the board's count: not "board link NAME down: …", whose axis may
-/// still be moving on the board.
+/// Idle, or a fault with the board's count: not "board link NAME down: …" (the link's
+/// state now, whose axis may still be moving on the board; "… is down: …" is an error a
+/// command met, kept on an axis at rest).
 fn at_rest(s: &AxisStatus) -> bool {
     let f = s.fault.as_deref().unwrap_or("");
+    let down = f.starts_with("board link ") && f.contains(" down: ") && !f.contains(" is down: ");
     match s.state {
         AxisState::Idle => true,
-        AxisState::Fault => !(f.starts_with("board link ") && f.contains(" down: ")),
+        AxisState::Fault => !down,
         _ => false,
     }
 }

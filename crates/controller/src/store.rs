@@ -74,6 +74,19 @@ pub struct LinkSession {
     pub streamed: u32,
     /// Axes of a group armed for the SYNC line.
     pub armed: u32,
+    /// An offset being folded into an idle axis's `Position` register: kept before the
+    /// register is written, so a host killed between the two knows which it holds.
+    #[serde(default)]
+    pub folding: Option<Fold>,
+}
+
+/// An idle axis's offset on its way into the board's counter ([`LinkSession::folding`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Fold {
+    pub axis: usize,
+    /// The `Position` register before the fold (after it: this plus the offset).
+    pub register: u32,
+    pub offset: i64,
 }
 
 /// A named set of axis positions (seed 002: stored line-centre positions).
@@ -679,6 +692,7 @@ mod tests {
             offsets: vec![0, -3600],
             streamed: 0b10,
             armed: 0b01,
+            folding: None,
         };
         {
             let s = Store::open(dir.path()).unwrap();

@@ -199,6 +199,10 @@ pub struct FpgaBackend {
     setup_due: bool,
     /// Set while a halt waits for the board: a poll lets go of the link (see `HostLink`).
     urgent: Option<Arc<AtomicBool>>,
+    /// Idle axes whose offset is folded into the board's counter at the next poll (an
+    /// adopted board's: once its session can be kept), and a fold under way.
+    fold_due: u32,
+    folding: Option<crate::store::Fold>,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -302,6 +306,8 @@ impl FpgaBackend {
             arm_lifetime: ARM_LIFETIME,
             setup_due: false,
             urgent: None,
+            fold_due: 0,
+            folding: None,
         };
         if let Some(before) = &before {
             b.resume(before).map_err(link_err)?;
@@ -566,14 +572,9 @@ impl FpgaBackend {
                 let ax = &mut self.axes[i];
                 ax.running = None;
                 ax.speed = 0.0;
-                if ax.offset != 0 {
-                    // at rest: the board's counter takes the wrapped count
-                    l.write(
-                        Reg::Axis(a, AxisReg::Position),
-                        readback::register(ax.count),
-                    )?;
-                    ax.offset = 0;
-                }
+                // at rest: the board's counter takes the wrapped count
+                self.fold_offset(i)?;
+                let ax = &mut self.axes[i];
                 let feed = ax.feed.take();
                 self.events.push_back((i, PinEvent::End { end: self.now }));
                 if let Some(f) = &feed {
@@ -1388,7 +1389,11 @@ impl BoardBackend for FpgaBackend {
             self.keep_session_now();
             return Ok(());
         }
-        let to = ax.count + delta;
+        if ax.offset != 0 {
+            // the write below sets the whole count
+            self.fold_offset(axis).map_err(|e| self.failed(e))?;
+        }
+        let to = self.axes[axis].count + delta;
         let v = i32::try_from(to).map_err(|_| {
             CtlError::Setting(format!("the board's 32-bit counter cannot hold {to}"))
         })?;

@@ -95,9 +95,12 @@ mod tests {
             offsets: vec![3600, 0],
             streamed: 0,
             armed: 0,
+            folding: None,
         };
         let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, Some(before))
             .expect("the model answers");
+        // as the board connects it to its store
+        b.keep_session(Box::new(|_| Ok(())));
         assert_eq!(b.count(0), 3700, "the register plus the kept offset");
         m.lock().unwrap().finish();
         events(&mut b, 1);
@@ -137,6 +140,7 @@ mod tests {
             offsets: vec![0, 0],
             streamed: 0,
             armed: 0,
+            folding: None,
         };
         store.put_link_session(&kept).unwrap();
         let mut model = Model::default();

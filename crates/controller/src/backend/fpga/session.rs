@@ -13,7 +13,7 @@
 
 use super::{FpgaBackend, Running};
 use crate::backend::PinEvent;
-use crate::store::LinkSession;
+use crate::store::{Fold, LinkSession};
 use multistep_hdl::link::{status_bits, AxisReg, BoardReg, LinkError, Reg};
 use std::time::{Duration, Instant};
 
@@ -35,6 +35,7 @@ impl FpgaBackend {
             offsets: self.axes.iter().map(|a| a.offset).collect(),
             streamed,
             armed: self.armed | armed,
+            folding: self.folding,
         };
         for (i, a) in self.axes.iter().enumerate() {
             if a.running.is_some() && a.feed.is_some() {
@@ -47,6 +48,16 @@ impl FpgaBackend {
     /// Keeps the session when it changed; `streamed` and `armed`: axes of a start about to
     /// go, kept before it goes (a host killed right after still knows what they run).
     pub(super) fn keep_session_with(&mut self, streamed: u32, armed: u32) {
+        // A board claimed anew (its counts lost) is kept only once the loss is told, and
+        // so stored by the board: a host killed between the two would find its own token
+        // at the next start and trust counts the board lost.
+        if self
+            .events
+            .iter()
+            .any(|(_, e)| matches!(e, PinEvent::Lost { .. }))
+        {
+            return;
+        }
         let r = self.session_record(streamed, armed);
         if self.kept.as_ref() == Some(&r) {
             return;
@@ -118,8 +129,13 @@ impl FpgaBackend {
             let a = i as u32;
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let st = l.axis_state(a)?;
-            let offset = before.offsets.get(i).copied().unwrap_or(0);
-            let count = super::readback::count(l.read(Reg::Axis(a, AxisReg::Position))?, offset);
+            let register = l.read(Reg::Axis(a, AxisReg::Position))?;
+            let offset = match before.folding {
+                // the host died folding this axis's offset in: done if the register moved
+                Some(f) if f.axis == i && register != f.register => 0,
+                _ => before.offsets.get(i).copied().unwrap_or(0),
+            };
+            let count = super::readback::count(register, offset);
             let ax = &mut self.axes[i];
             ax.count = count;
             ax.offset = offset;
@@ -145,9 +161,8 @@ impl FpgaBackend {
                 continue;
             }
             if ax.offset != 0 {
-                // at rest: the board's counter takes the offset
-                l.write(Reg::Axis(a, AxisReg::Position), count as i32 as u32)?;
-                self.axes[i].offset = 0;
+                // at rest: folded into the board's counter once the session can be kept
+                self.fold_due |= 1 << i;
             }
         }
         if armed != 0 {
@@ -249,7 +264,50 @@ impl FpgaBackend {
         if let Err(e) = self.halt_starved_adoptions() {
             self.failed(e);
         }
+        for i in 0..self.axes.len() {
+            let ready = self.keep.is_some() || !self.adopted;
+            if ready && self.fold_due >> i & 1 == 1 && self.axes[i].running.is_none() {
+                if let Err(e) = self.fold_offset(i) {
+                    self.failed(e);
+                    return;
+                }
+            }
+        }
         self.keep_session_now();
+    }
+
+    /// An idle axis's offset folded into the board's `Position` register, so the register
+    /// holds the count. Crash-safe: the fold is kept in the session before the register is
+    /// written and cleared after, so a host killed between the two reads which one the
+    /// board holds (`adopt`). An adopted board's waits until the session can be kept
+    /// (the store is connected after the board); a backend with no store folds at once.
+    pub(super) fn fold_offset(&mut self, i: usize) -> Result<(), LinkError> {
+        let ax = &self.axes[i];
+        if ax.offset == 0 {
+            self.fold_due &= !(1 << i);
+            return Ok(());
+        }
+        if self.keep.is_none() && self.adopted {
+            self.fold_due |= 1 << i;
+            return Ok(());
+        }
+        let (count, offset) = (ax.count, ax.offset);
+        self.folding = Some(Fold {
+            axis: i,
+            register: super::readback::register(count - offset),
+            offset,
+        });
+        self.keep_session_now();
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        l.write(
+            Reg::Axis(i as u32, AxisReg::Position),
+            super::readback::register(count),
+        )?;
+        self.axes[i].offset = 0;
+        self.folding = None;
+        self.fold_due &= !(1 << i);
+        self.keep_session_now();
+        Ok(())
     }
 
     /// An adopted motion that underruns is a stream no host feeds (its kept mask was
@@ -271,14 +329,9 @@ impl FpgaBackend {
             let ax = &mut self.axes[i];
             ax.count =
                 super::readback::count(l.read(Reg::Axis(i as u32, AxisReg::Position))?, ax.offset);
-            if ax.offset != 0 {
-                l.write(
-                    Reg::Axis(i as u32, AxisReg::Position),
-                    super::readback::register(ax.count),
-                )?;
-                ax.offset = 0;
-            }
             ax.running = None;
+            self.fold_offset(i)?;
+            let ax = &mut self.axes[i];
             ax.speed = 0.0;
             self.events.push_back((i, PinEvent::End { end: self.now }));
             let why = "host_restarted: the adopted motion ran out of steps to make (a stream \
@@ -314,6 +367,7 @@ mod tests {
             offsets: vec![0, 0],
             streamed,
             armed: 0,
+            folding: None,
         }
     }
 
@@ -369,7 +423,16 @@ mod tests {
         let m = Arc::new(Mutex::new(Model::default()));
         let (mut b, log) = resume(&m, Some(kept(0)));
         assert!(!b.adopted());
-        let ev = events(&mut b);
+        let token = m.lock().unwrap().session;
+        assert!(token != 0 && token != TOKEN, "claimed anew");
+        // the new token is kept only once the loss is told (and so stored by the board)
+        let kept_new = || log.lock().unwrap().iter().any(|s| s.token == token);
+        b.begin_advance();
+        let first = b.poll(1).expect("the loss is told");
+        assert!(!kept_new(), "kept before the loss was told");
+        let ev: Vec<_> = std::iter::once(first)
+            .chain(std::iter::from_fn(|| b.poll(1)))
+            .collect();
         let lost: Vec<usize> = ev
             .iter()
             .filter_map(|(i, e)| match e {
@@ -378,9 +441,80 @@ mod tests {
             })
             .collect();
         assert_eq!(lost, [0, 1], "{ev:?}");
-        let token = m.lock().unwrap().session;
-        assert!(token != 0 && token != TOKEN, "claimed anew");
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !kept_new() {
+            assert!(Instant::now() < deadline, "the claim was never kept");
+            events(&mut b);
+            std::thread::yield_now();
+        }
         assert_eq!(log.lock().unwrap().last().map(|s| s.token), Some(token));
+    }
+
+    /// A host killed while folding an idle axis's offset into the board's counter, before
+    /// or after the register write: the next one adopts the same count either way.
+    #[test]
+    fn a_host_killed_mid_fold_adopts_the_count_whichever_write_the_board_got() {
+        for register in [100, 3700] {
+            let m = model(|m| {
+                m.session = TOKEN;
+                m.position = [register, 5];
+            });
+            let mut before = kept(0);
+            before.offsets = vec![3600, 0];
+            before.folding = Some(Fold {
+                axis: 0,
+                register: 100,
+                offset: 3600,
+            });
+            let (mut b, log) = resume(&m, Some(before));
+            assert!(b.adopted());
+            assert_eq!(b.count(0), 3700, "register {register}");
+            events(&mut b);
+            assert_eq!(m.lock().unwrap().position[0], 3700, "folded in once");
+            assert_eq!(b.count(0), 3700);
+            let last = log.lock().unwrap().last().cloned().unwrap();
+            assert_eq!((last.offsets, last.folding), (vec![0, 0], None));
+        }
+    }
+
+    /// An idle axis adopted with an offset: the fold is kept before the register is
+    /// written (a host that dies before it could keep anything leaves the offset kept).
+    #[test]
+    fn an_adopted_idle_offset_is_folded_in_only_once_the_session_is_kept() {
+        let m = model(|m| {
+            m.session = TOKEN;
+            m.position = [100, 5];
+        });
+        let mut before = kept(0);
+        before.offsets = vec![3600, 0];
+        let port = m.clone();
+        let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+        let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, Some(before))
+            .expect("the model answers");
+        assert_eq!(b.count(0), 3700);
+        events(&mut b);
+        assert_eq!(
+            m.lock().unwrap().position[0],
+            100,
+            "no session kept: not folded"
+        );
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let l = log.clone();
+        b.keep_session(Box::new(move |s| {
+            l.lock().unwrap().push(s.clone());
+            Ok(())
+        }));
+        poll_until(&mut b, &m, |m| m.position[0] == 3700);
+        assert_eq!(b.count(0), 3700);
+        let log = log.lock().unwrap();
+        let fold = log.iter().position(|s| s.folding.is_some());
+        let done = log
+            .iter()
+            .rposition(|s| s.folding.is_none() && s.offsets[0] == 0);
+        assert!(
+            fold.is_some() && done > fold,
+            "kept before and after: {log:?}"
+        );
     }
 
     #[test]
