@@ -118,7 +118,7 @@ impl WorkPool {
 }
 
 fn worker(inner: &Inner) {
-    lower_priority();
+    lower_priority(WORKER_NICE);
     loop {
         let job = {
             let mut q = inner.queues();
@@ -137,20 +137,25 @@ fn worker(inner: &Inner) {
     }
 }
 
-/// Lowers the calling thread's scheduling priority to [`WORKER_NICE`]. On Linux the nice
-/// value is per thread (setpriority(2) on the thread's id); elsewhere this does nothing.
-fn lower_priority() {
+/// Lowers the calling thread's scheduling priority to `nice` (it cannot be raised again
+/// without privileges). On Linux the nice value is per thread (setpriority(2) on the
+/// thread's id); elsewhere this does nothing.
+pub(crate) fn lower_priority(nice: i32) {
     #[cfg(target_os = "linux")]
     // SAFETY: plain system calls on this thread's own id; no memory is shared.
     unsafe {
-        let tid = libc::gettid();
-        if libc::setpriority(libc::PRIO_PROCESS, tid as libc::id_t, WORKER_NICE) != 0 {
+        let tid = libc::gettid() as libc::id_t;
+        // never raised: a service started at a lower priority keeps it
+        let nice = nice.max(libc::getpriority(libc::PRIO_PROCESS, tid));
+        if libc::setpriority(libc::PRIO_PROCESS, tid, nice) != 0 {
             eprintln!(
-                "warning: cannot lower a timing thread's priority: {}",
+                "warning: cannot lower a thread's priority: {}",
                 std::io::Error::last_os_error()
             );
         }
     }
+    #[cfg(not(target_os = "linux"))]
+    let _ = nice;
 }
 
 impl Drop for WorkPool {

@@ -154,6 +154,40 @@ pub fn serve_tcp_with(
     Ok(())
 }
 
+/// A client that sends more than this many lines a second without pause (a poller) is
+/// served at a lower OS priority from then on, so on a loaded machine the scheduler
+/// prefers the thread of a client that sends `estop` now and then.
+const POLLER_LINES_PER_S: u32 = 200;
+/// The nice value a poller's thread gets (0 is a normal thread's; the timing pool's is 10).
+const POLLER_NICE: i32 = 5;
+
+/// Counts a connection's lines per second and lowers its thread's priority, once, when it
+/// polls faster than [`POLLER_LINES_PER_S`].
+#[derive(Default)]
+struct Pace {
+    since: Option<Instant>,
+    lines: u32,
+    lowered: bool,
+}
+
+impl Pace {
+    fn line(&mut self, now: Instant) {
+        if self.lowered {
+            return;
+        }
+        let since = *self.since.get_or_insert(now);
+        if now.duration_since(since) >= Duration::from_secs(1) {
+            self.since = Some(now);
+            self.lines = 0;
+        }
+        self.lines += 1;
+        if self.lines > POLLER_LINES_PER_S {
+            crate::pool::lower_priority(POLLER_NICE);
+            self.lowered = true;
+        }
+    }
+}
+
 /// A client's place in the count; given back when its thread ends.
 struct Slot(Arc<AtomicUsize>);
 
@@ -181,6 +215,7 @@ fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std:
     let mut lines = LineReader::new();
     let mut authed = opts.token.is_none();
     let mut last_line = Instant::now();
+    let mut pace = Pace::default();
     loop {
         let (deadline, why) = match lines.partial_since() {
             Some(t) => (
@@ -207,6 +242,7 @@ fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std:
             Err(e) => return Err(e),
         };
         last_line = Instant::now();
+        pace.line(last_line);
         let token = match &line {
             Line::Text(b) => auth_token(b),
             _ => None,
@@ -379,4 +415,45 @@ pub fn check_listen(addr: &str, allow_remote: bool, token: Option<&str>) -> Resu
             Refusal::Unresolved(e) => format!("cannot listen on {addr}: {e}"),
         })
     })
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::*;
+
+    /// This thread's nice value.
+    fn nice() -> i32 {
+        // SAFETY: reads this thread's own nice value.
+        unsafe { libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t) }
+    }
+
+    #[test]
+    fn a_client_polling_without_pause_is_served_at_the_lower_priority() {
+        let t0 = Instant::now();
+        let polled = std::thread::spawn(move || {
+            let mut p = Pace::default();
+            let start = nice();
+            // a line every 10 ms: 100 a second, for 3 s
+            for i in 0..300 {
+                p.line(t0 + Duration::from_millis(10 * i));
+            }
+            let slow = nice();
+            for i in 0..=POLLER_LINES_PER_S {
+                p.line(t0 + Duration::from_secs(3) + Duration::from_micros(u64::from(i)));
+            }
+            (start, slow - start, nice() - start)
+        })
+        .join()
+        .unwrap();
+        let (start, slow, fast) = polled;
+        assert_eq!(
+            slow, 0,
+            "a client polling 100 times a second keeps its priority"
+        );
+        if start < POLLER_NICE {
+            assert_eq!(start + fast, POLLER_NICE, "a poller's thread is lowered");
+        } else {
+            assert_eq!(fast, 0, "a thread already lower is never raised");
+        }
+    }
 }
