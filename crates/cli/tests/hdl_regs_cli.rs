@@ -4,7 +4,7 @@
 use multistep_core::int::{IntClock, IntPhaseMove, IntProfile};
 use multistep_hdl::boards::Board;
 use multistep_hdl::link::{move_writes, start_write, BoardReg, Command, Reg, Request};
-use multistep_hdl::AxisMove;
+use multistep_hdl::{AxisMove, CoreParams};
 use std::process::Command as Process;
 
 fn multistep(args: &[&str]) -> std::process::Output {
@@ -31,6 +31,24 @@ fn rows(text: &str) -> Vec<(u8, u16, u32, Request)> {
             )
         })
         .collect()
+}
+
+/// A phase trapezoid (phase ticks, start speed) as the registers of `board`'s core
+/// (its default axes), moving forward.
+fn planned(board: &str, steps: u64, ticks: [u64; 3], start_speed: u64) -> (CoreParams, AxisMove) {
+    let b = Board::by_name(board).unwrap();
+    let p = b.params(b.default_axes).unwrap();
+    let m = IntPhaseMove {
+        steps,
+        accel_ticks: ticks[0],
+        cruise_ticks: ticks[1],
+        decel_ticks: ticks[2],
+        start_speed,
+        end_speed: 0,
+    };
+    let prof = IntProfile::phase(&m, IntClock::hz(p.clock_hz as u64)).unwrap();
+    let am = AxisMove::from_profile(&prof, true, &p).unwrap();
+    (p, am)
 }
 
 #[test]
@@ -60,18 +78,7 @@ fn frames_are_the_link_librarys_writes() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8(o.stdout).unwrap();
     let got = rows(&text);
-    let b = Board::by_name("ulx3s-25f").unwrap();
-    let p = b.params(b.default_axes).unwrap();
-    let m = IntPhaseMove {
-        steps: 1000,
-        accel_ticks: 500_000,
-        cruise_ticks: 500_000,
-        decel_ticks: 500_000,
-        start_speed: 500,
-        end_speed: 0,
-    };
-    let prof = IntProfile::phase(&m, IntClock::hz(p.clock_hz as u64)).unwrap();
-    let am = AxisMove::from_profile(&prof, true, &p).unwrap();
+    let (p, am) = planned("ulx3s-25f", 1000, [500_000; 3], 500);
     let mut want = vec![(Reg::Board(BoardReg::PulseWidth), 10)];
     want.extend(
         move_writes(&p, 2, &am, 10)
@@ -111,6 +118,43 @@ fn segments_and_limits_moves_list_too() {
         );
         assert!(rows(&String::from_utf8(o.stdout).unwrap()).len() > 18);
     }
+}
+
+/// The iCEBreaker's 20 tick bits: a 5000-step move with 0.1 s ramps (1.8 M ticks each)
+/// is loaded as four pieces, split by the host; with a 0.1 s cruise too it needs six, more
+/// than the four slots.
+#[test]
+fn ramps_longer_than_the_tick_bits_are_split() {
+    let ramps = [
+        "--steps",
+        "5000",
+        "--accel-time",
+        "0.1",
+        "--decel-time",
+        "0.1",
+    ];
+    let mut a = vec!["hdl", "regs", "--board", "icebreaker"];
+    a.extend(ramps);
+    let o = multistep(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let got = rows(&text);
+    let (p, am) = planned("icebreaker", 5000, [1_800_000, 0, 1_800_000], 0);
+    assert_eq!(am.pieces.len(), 4);
+    let mut want: Vec<(u16, u32)> = move_writes(&p, 0, &am, 0)
+        .unwrap()
+        .iter()
+        .map(|w| (w.reg.addr(), w.data))
+        .collect();
+    let s = start_write(1);
+    want.push((s.reg.addr(), s.data));
+    let got: Vec<(u16, u32)> = got.iter().map(|r| (r.1, r.2)).collect();
+    assert_eq!(got, want, "{text}");
+    a.extend(["--cruise-time", "0.1"]);
+    let o = multistep(&a);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("6 pieces with steps"), "{err}");
 }
 
 #[test]
