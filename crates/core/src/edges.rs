@@ -751,12 +751,11 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         let reach = 3.0 * w + 2.0 * inside;
         let (glo, ghi) = (reach * clock, (d - reach) * clock);
         let [mut h0, mut h1, mut h2] = self.hist.map(|h| h * clock);
-        let mut sa_last = 0.0;
         let mut last = self.last_edge;
         // i as f64, exact (< 2^53); no call in the loop, so nothing is spilled around one
         let mut i = self.next_f;
         let i_end = i + steps as f64;
-        while i < i_end {
+        'run: while i < i_end {
             let n = i - p0;
             let guess = 3.0 * (h0 - h1) + h2;
             if !(guess >= glo && guess <= ghi) {
@@ -776,21 +775,26 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                     pb = adv(sa + 1.0) - n;
                 }
                 if !(pa < -m && pb >= m) {
-                    break;
+                    break 'run;
                 }
+                (h2, h1, h0) = (h1, h0, sa + pa / (pa - pb));
+                last = y.to_bits().wrapping_sub(MAGIC.to_bits());
+                out = f(out, last);
+                i += 1.0;
+                continue 'run;
             }
             // t_i by linear interpolation between the half ticks: the next guess's history
             (h2, h1, h0) = (h1, h0, sa + pa / (pa - pb));
-            sa_last = sa;
             // every edge here is the nearest tick, so they never go backwards: no clamp
             last = y.to_bits().wrapping_sub(MAGIC.to_bits());
             out = f(out, last);
             i += 1.0;
         }
         if i > self.next_f {
-            // Newton's history, h0 its lower bracket: a tick below the last proved half
-            // tick, so below that step's time whatever the conversion rounds
-            self.hist = [(sa_last - 1.0) * w, h1 * w, h2 * w];
+            // Newton's history, h0 its lower bracket: two ticks below the last step's
+            // interpolated time (within a tick above its lower half tick), so below that
+            // step's time whatever the conversion rounds
+            self.hist = [(h0 - 2.0) * w, h1 * w, h2 * w];
             self.last_edge = last;
             self.next_f = i;
             self.next = i as u64;
