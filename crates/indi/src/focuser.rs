@@ -1,6 +1,10 @@
 //! Focuser: an absolute focuser on a soft-limited axis. The position is the counted
 //! position (the `pos` of `status`), FOCUS_MAX the axis's soft_max, as the Alpaca Focuser.
 //! FOCUS_SYNC renames the idle axis's position without moving (the controller's `setpos`).
+//! FOCUS_BACKLASH: the controller has no backlash of its own for an axis, so the driver
+//! takes it up: with it on, a move inward (toward smaller counts) first goes the backlash
+//! past its target, then out to it, so every move ends turning outward and the gears mesh
+//! the same way at every position (the mount's slews end the same way).
 
 use crate::device::{abort, fault, moving, number_of, Props, Values};
 use crate::link::{Link, LinkError};
@@ -11,11 +15,18 @@ use multistep_controller::AxisStatus;
 #[derive(Default)]
 pub struct Focuser {
     max: i64,
+    /// Backlash steps taken up while FOCUS_BACKLASH_TOGGLE is on.
+    backlash: Option<i64>,
+    /// A move that goes past its target: (the first leg's end, the target), the target
+    /// to be moved on to once the axis rests at the first leg's end.
+    then: Option<(i64, i64)>,
 }
 
 const ABS: &str = "ABS_FOCUS_POSITION";
 const REL: &str = "REL_FOCUS_POSITION";
 const SYNC: &str = "FOCUS_SYNC";
+const BL_TOGGLE: &str = "FOCUS_BACKLASH_TOGGLE";
+const BL_STEPS: &str = "FOCUS_BACKLASH_STEPS";
 
 impl Focuser {
     pub fn build(
@@ -48,6 +59,7 @@ impl Focuser {
             )],
         );
         abs.state = State::Ok;
+        let on = self.backlash.is_some();
         Ok(vec![
             abs,
             Vector::new(
@@ -98,6 +110,30 @@ impl Focuser {
                     "FOCUS_MAX_VALUE",
                     "Steps",
                     self.max as f64,
+                    steps(self.max),
+                )],
+            ),
+            Vector::new(
+                dev,
+                BL_TOGGLE,
+                "Backlash",
+                g,
+                Perm::Rw,
+                vec![
+                    Element::switch("INDI_ENABLED", "Enabled", on),
+                    Element::switch("INDI_DISABLED", "Disabled", !on),
+                ],
+            ),
+            Vector::new(
+                dev,
+                BL_STEPS,
+                "Backlash",
+                g,
+                Perm::Rw,
+                vec![Element::number(
+                    "FOCUS_BACKLASH_VALUE",
+                    "Steps",
+                    self.backlash.unwrap_or(0) as f64,
                     steps(self.max),
                 )],
             ),
@@ -152,8 +188,44 @@ impl Focuser {
                 v.state = State::Ok;
                 vec![v.set(None)]
             }
+            BL_TOGGLE => {
+                let Some(v) = p.get_mut(name) else {
+                    return vec![];
+                };
+                for (e, t) in values {
+                    if t.trim() == "On" && v.element(e).is_some() {
+                        v.set_switch(e, true);
+                    }
+                }
+                let steps = p
+                    .get(BL_STEPS)
+                    .map_or(0.0, |v| v.number("FOCUS_BACKLASH_VALUE"));
+                let on = p.get(name).is_some_and(|v| v.switch("INDI_ENABLED"));
+                self.backlash = on.then_some(steps as i64);
+                p.state(name, State::Ok, None)
+            }
+            BL_STEPS => match number_of(values, "FOCUS_BACKLASH_VALUE") {
+                Ok(n) if n.fract() == 0.0 && (0.0..=self.max as f64).contains(&n) => {
+                    if let Some(b) = &mut self.backlash {
+                        *b = n as i64;
+                    }
+                    if let Some(v) = p.get_mut(name) {
+                        v.set_number("FOCUS_BACKLASH_VALUE", n);
+                    }
+                    p.state(name, State::Ok, None)
+                }
+                Ok(n) => p.alert(
+                    name,
+                    &format!(
+                        "backlash {n} is not a whole number of steps in 0..={}",
+                        self.max
+                    ),
+                ),
+                Err(e) => p.alert(name, &e),
+            },
             "FOCUS_ABORT_MOTION" => match link.request(&format!("stop {axis}")) {
                 Ok(_) => {
+                    self.then = None;
                     let mut out = p.state(name, State::Ok, None);
                     for n in [ABS, REL] {
                         if p.get(n).is_some_and(|v| v.state == State::Busy) {
@@ -168,16 +240,34 @@ impl Focuser {
         }
     }
 
-    /// An absolute move to `to` steps, reported on property `prop`.
-    fn move_to(&self, p: &mut Props, link: &mut Link, axis: &str, prop: &str, to: f64) -> Vec<Out> {
+    /// An absolute move to `to` steps, reported on property `prop`; with backlash on and
+    /// `to` inward of where it is, first to `to` − backlash (at least 0).
+    fn move_to(
+        &mut self,
+        p: &mut Props,
+        link: &mut Link,
+        axis: &str,
+        prop: &str,
+        to: f64,
+    ) -> Vec<Out> {
         if to.fract() != 0.0 || !(0.0..=self.max as f64).contains(&to) {
             return p.alert(
                 prop,
                 &format!("position {to} is outside 0..={} (FOCUS_MAX)", self.max),
             );
         }
-        match link.request(&format!("moveto {axis} {}", to as i64)) {
+        let to = to as i64;
+        let at = p
+            .get(ABS)
+            .map_or(0, |v| v.number("FOCUS_ABSOLUTE_POSITION") as i64);
+        let (first, then) = match self.backlash {
+            Some(b) if b > 0 && to < at => ((to - b).max(0), Some(to)),
+            _ => (to, None),
+        };
+        self.then = None;
+        match link.request(&format!("moveto {axis} {first}")) {
             Ok(_) => {
+                self.then = then.filter(|&t| t != first).map(|t| (first, t));
                 let mut out = Vec::new();
                 if prop == REL {
                     out.extend(p.state(REL, State::Busy, None));
@@ -211,10 +301,31 @@ impl Focuser {
         out
     }
 
-    pub fn poll(&mut self, p: &mut Props, st: &AxisStatus) -> Vec<Out> {
+    pub fn poll(
+        &mut self,
+        p: &mut Props,
+        link: &mut Link,
+        axis: &str,
+        st: &AxisStatus,
+    ) -> Vec<Out> {
         let mut out = Vec::new();
-        let busy = moving(st);
+        let mut busy = moving(st);
         let why = fault(st);
+        // The first leg of a backlash move ended: out to the target. Resting anywhere
+        // else, it was stopped on the way (an abort, a fault): the move ends there.
+        if let Some((first, to)) = self.then.filter(|_| !busy) {
+            self.then = None;
+            if why.is_none() && st.position == first {
+                if let Err(e) = link.request(&format!("moveto {axis} {to}")) {
+                    let mut out = p.alert(ABS, &e.to_string());
+                    if p.get(REL).is_some_and(|v| v.state == State::Busy) {
+                        out.extend(p.alert(REL, &e.to_string()));
+                    }
+                    return out;
+                }
+                busy = true;
+            }
+        }
         for name in [ABS, REL] {
             let Some(v) = p.get_mut(name) else { continue };
             let was = v.state;

@@ -300,11 +300,53 @@ impl Rig {
         trail(&out, &angle)
     }
 
+    /// A raw INDI client of `device`'s messages, registered (its properties defined to
+    /// it) when this returns.
+    fn watch(&self, device: &str) -> Watch {
+        let mut s = TcpStream::connect(("127.0.0.1", self.port)).unwrap();
+        write!(s, "<getProperties version=\"1.7\" device=\"{device}\"/>").unwrap();
+        let text: Arc<Mutex<String>> = Arc::default();
+        let t = text.clone();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n @ 1..) = s.read(&mut buf) {
+                t.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        });
+        let end = Instant::now() + Duration::from_secs(60);
+        while !text.lock().unwrap().contains("defNumberVector") {
+            assert!(Instant::now() < end, "no definitions for {device}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        Watch(text)
+    }
+
     fn client(&self) -> Client {
         let at = Endpoint::Tcp(format!("127.0.0.1:{}", self.ctl_port));
         let mut c = Client::connect(&at).unwrap();
         c.authenticate(TOKEN).unwrap();
         c
+    }
+}
+
+/// What indiserver sends one client about a device, collected from the moment
+/// [`Rig::watch`] returns (a client registered before the change it looks at).
+struct Watch(Arc<Mutex<String>>);
+
+impl Watch {
+    /// Every value `element` was given by a `setNumberVector`, in order.
+    fn numbers(&self, element: &str) -> Vec<f64> {
+        let key = format!("<oneNumber name=\"{element}\"");
+        let text = self.0.lock().unwrap().clone();
+        text.split("<setNumberVector")
+            .skip(1)
+            .filter_map(|m| {
+                let (_, r) = m.split_once(&key)?;
+                r.split_once('>')?.1.split('<').next()?.trim().parse().ok()
+            })
+            .collect()
     }
 }
 
@@ -322,7 +364,7 @@ fn every_property_is_listed_with_its_type_and_permission() {
     }
     let rig = Rig::start();
     // (device, property, perm, element names, kind)
-    let want: [(&str, &str, &str, &[&str], char); 19] = [
+    let want: [(&str, &str, &str, &[&str], char); 21] = [
         (F, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (
             F,
@@ -360,6 +402,20 @@ fn every_property_is_listed_with_its_type_and_permission() {
         (F, "FOCUS_ABORT_MOTION", "rw", &["ABORT"], 's'),
         (F, "FOCUS_SYNC", "rw", &["FOCUS_SYNC_VALUE"], 'n'),
         (F, "FOCUS_MAX", "ro", &["FOCUS_MAX_VALUE"], 'n'),
+        (
+            F,
+            "FOCUS_BACKLASH_TOGGLE",
+            "rw",
+            &["INDI_ENABLED", "INDI_DISABLED"],
+            's',
+        ),
+        (
+            F,
+            "FOCUS_BACKLASH_STEPS",
+            "rw",
+            &["FOCUS_BACKLASH_VALUE"],
+            'n',
+        ),
         (R, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (R, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
         (R, "ABS_ROTATOR_ANGLE", "rw", &["ANGLE"], 'n'),
@@ -544,6 +600,74 @@ fn the_focuser_moves_and_agrees_with_status_and_bad_values_get_alert() {
     let at = rig.pos("focus");
     assert!(at > 0 && at < 17000, "aborted at {at}");
     rig.wait(&format!("\"{abs}.FOCUS_ABSOLUTE_POSITION\"=={at}"));
+}
+
+#[test]
+fn with_backlash_on_an_inward_move_goes_past_its_target_and_ends_moving_outward() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start();
+    let abs = format!("{F}.ABS_FOCUS_POSITION");
+    let pos = format!("{abs}.FOCUS_ABSOLUTE_POSITION");
+    // The positions shown on the way to `n`.
+    let to = |n: i64| {
+        let w = rig.watch(F);
+        rig.set(&format!("{pos}={n}"));
+        rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"=={n}"));
+        assert_eq!(rig.pos("focus"), n);
+        w.numbers("FOCUS_ABSOLUTE_POSITION")
+    };
+    let steps = format!("{F}.FOCUS_BACKLASH_STEPS");
+    assert_eq!(
+        rig.get(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_DISABLED"))
+            .as_deref(),
+        Some("On")
+    );
+    rig.set(&format!("{steps}.FOCUS_BACKLASH_VALUE=300"));
+    rig.wait(&format!(
+        "\"{steps}._STATE\"==1 && \"{steps}.FOCUS_BACKLASH_VALUE\"==300"
+    ));
+    // Off: an inward move stops at its target.
+    to(3000);
+    let t = to(2000);
+    assert!(t.iter().all(|&x| x >= 2000.0), "{t:?}");
+    rig.set(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_ENABLED=On"));
+    rig.wait(&format!("\"{F}.FOCUS_BACKLASH_TOGGLE._STATE\"==1"));
+    // On: inward goes 300 past (the driver moves on once it sees the axis rest there),
+    // outward goes straight.
+    let t = to(1000);
+    assert!(t.contains(&700.0), "{t:?}");
+    let t = to(1500);
+    assert!(t.iter().all(|&x| x >= 1000.0), "{t:?}");
+    // Near 0 the overshoot stops at 0; a relative move inward takes it up too.
+    let t = to(100);
+    assert!(t.contains(&0.0), "{t:?}");
+    rig.set(&format!("{F}.FOCUS_MOTION.FOCUS_OUTWARD=On"));
+    rig.set(&format!(
+        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=900"
+    ));
+    rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"==1000"));
+    rig.set(&format!("{F}.FOCUS_MOTION.FOCUS_INWARD=On"));
+    let w = rig.watch(F);
+    rig.set(&format!(
+        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=500"
+    ));
+    rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"==500"));
+    let t = w.numbers("FOCUS_ABSOLUTE_POSITION");
+    assert!(t.contains(&200.0), "{t:?}");
+    assert_eq!(rig.pos("focus"), 500);
+    // Steps beyond FOCUS_MAX or a fraction: Alert, the value stays.
+    for bad in ["40000", "2.5", "-1"] {
+        rig.set(&format!("{steps}.FOCUS_BACKLASH_VALUE={bad}"));
+        rig.wait(&format!("\"{steps}._STATE\"==3"));
+        assert_eq!(rig.num(&format!("{steps}.FOCUS_BACKLASH_VALUE")), 300.0);
+    }
+    // Off again: straight in.
+    rig.set(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_DISABLED=On"));
+    rig.wait(&format!("\"{F}.FOCUS_BACKLASH_TOGGLE._STATE\"==1"));
+    let t = to(400);
+    assert!(t.iter().all(|&x| x >= 400.0), "{t:?}");
 }
 
 #[test]
