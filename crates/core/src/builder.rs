@@ -62,39 +62,16 @@ impl Builder {
         Ok(())
     }
 
-    /// Appends a run of polynomial pieces from speed `v` with zero acceleration and jerk,
-    /// where each entry `(duration, x)` sets the acceleration (order 2), jerk (order 3) or
-    /// snap (order 4) on its piece and lower derivatives carry over.
+    /// Appends a run of polynomial pieces from speed `v` with zero acceleration and jerk
+    /// ([`schedule`]).
     pub(crate) fn push_schedule(
         &mut self,
         order: u8,
         v: f64,
         entries: &[(f64, f64)],
     ) -> Result<(), PlanError> {
-        let (mut v, mut a, mut j) = (v, 0.0, 0.0);
-        for &(d, x) in entries {
-            let s = match order {
-                2 => {
-                    a = x;
-                    j = 0.0;
-                    0.0
-                }
-                3 => {
-                    j = x;
-                    0.0
-                }
-                _ => x,
-            };
-            let law = Law::Poly {
-                c1: v,
-                c2: a / 2.0,
-                c3: j / 6.0,
-                c4: s / 24.0,
-            };
+        for (d, law) in schedule(order, v, entries) {
             self.push(d, law, None)?;
-            v += d * (a + d * (j / 2.0 + d * s / 6.0));
-            a += d * (j + d * s / 2.0);
-            j += d * s;
         }
         Ok(())
     }
@@ -143,6 +120,55 @@ impl Builder {
     }
 }
 
+/// The laws of a run of polynomial pieces from speed `v` with zero acceleration and jerk,
+/// where each entry `(duration, x)` sets the acceleration (order 2), jerk (order 3) or
+/// snap (order 4) on its piece and lower derivatives carry over.
+fn schedule(order: u8, v: f64, entries: &[(f64, f64)]) -> impl Iterator<Item = (f64, Law)> + '_ {
+    let (mut v, mut a, mut j) = (v, 0.0, 0.0);
+    entries.iter().map(move |&(d, x)| {
+        let s = match order {
+            2 => {
+                a = x;
+                j = 0.0;
+                0.0
+            }
+            3 => {
+                j = x;
+                0.0
+            }
+            _ => x,
+        };
+        let law = Law::Poly {
+            c1: v,
+            c2: a / 2.0,
+            c3: j / 6.0,
+            c4: s / 24.0,
+        };
+        v += d * (a + d * (j / 2.0 + d * s / 6.0));
+        a += d * (j + d * s / 2.0);
+        j += d * s;
+        (d, law)
+    })
+}
+
+/// Where [`Builder::push_schedule`] on an empty builder ends, bit for bit, without a
+/// builder (whose piece arrays cost more to set up than the sums).
+pub(crate) fn schedule_end(order: u8, v: f64, entries: &[(f64, f64)]) -> f64 {
+    let mut p = 0.0;
+    for (dur, law) in schedule(order, v, entries) {
+        if dur > 0.0 {
+            let piece = Piece {
+                t0: 0.0,
+                dur,
+                p0: p,
+                law,
+            };
+            p = piece.end().max(p);
+        }
+    }
+    p
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -159,5 +185,39 @@ mod tests {
             b.finish(10),
             Err(PlanError::MissesLastStep { steps: 10, .. })
         ));
+    }
+
+    /// (order, start speed, schedule)
+    type Run<'a> = (u8, f64, &'a [(f64, f64)]);
+
+    #[test]
+    fn schedule_end_is_where_a_builder_ends() {
+        let runs: [Run; 4] = [
+            (2, 3.0, &[(0.7, -2.5)]),
+            (3, 0.0, &[(0.1, 1e6), (0.0, 0.0), (0.1, -1e6)]),
+            (3, 1e4, &[(0.013, -7e5), (0.2, 0.0), (0.013, 7e5)]),
+            (
+                4,
+                5.0,
+                &[
+                    (0.01, 3e9),
+                    (0.02, 0.0),
+                    (0.01, -3e9),
+                    (0.3, 0.0),
+                    (0.01, -3e9),
+                    (0.02, 0.0),
+                    (0.01, 3e9),
+                ],
+            ),
+        ];
+        for (order, v, entries) in runs {
+            let mut b = Builder::new();
+            b.push_schedule(order, v, entries).unwrap();
+            assert!(b.position() > 0.0);
+            assert_eq!(
+                schedule_end(order, v, entries).to_bits(),
+                b.position().to_bits()
+            );
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
 //! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
 
-use crate::builder::Builder;
+use crate::builder::{schedule_end, Builder};
 use crate::dd::Dd;
 use crate::edges::MAX_TICKS;
 use crate::error::{non_negative, positive, PlanError};
@@ -360,10 +360,9 @@ fn build(
     // ends on N to the rounding of its pieces, not of the closed-form distances)
     let mut b = Builder::new();
     b.push_schedule(order, vs, &up.entries[..up.len])?;
-    let mut tail = Builder::new();
-    tail.push_schedule(order, vp, &down.entries[..down.len])?;
+    let tail = schedule_end(order, vp, &down.entries[..down.len]);
     let cruise = if vp > 0.0 {
-        ((n - b.position() - tail.position()) / vp).max(0.0)
+        ((n - b.position() - tail) / vp).max(0.0)
     } else {
         0.0
     };
