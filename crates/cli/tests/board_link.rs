@@ -849,8 +849,9 @@ fn scurve_moves_are_computed_on_a_board_with_chain_units() {
 }
 
 #[test]
-fn a_cruise_longer_than_a_piece_streams_edge_exact() {
-    // 90 steps at 250 steps/s: a 0.36 s cruise, longer than the board's 2^24-tick piece
+fn a_cruise_longer_than_a_piece_is_split_edge_exact() {
+    // 90 steps at 250 steps/s: a 0.35 s cruise, longer than the board's 2^24-tick piece;
+    // the host splits it in two and the board computes the move (docs/HDL.md)
     let got = on_both(|pins| {
         let mut r = Rig::new(pins);
         r.req("move X 90 vmax=250");
