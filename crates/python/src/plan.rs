@@ -8,6 +8,7 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
+use std::borrow::Borrow;
 use std::sync::Mutex;
 
 /// Plans one move, exactly as `multistep plan` does, and returns a `Plan`.
@@ -48,9 +49,14 @@ pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan
     let spec = mv.spec();
     let m = spec.resolve().map_err(|e| plan_err(py, e))?;
     let profile = Profile::plan_on_clock(&m, clock).map_err(|e| plan_err(py, e))?;
-    let gen = EdgeGenerator::new(profile, clock).map_err(|e| plan_err(py, e))?;
+    // the generator's own checks (ticks within range) raise here, not at the first read
+    let last_edge_tick = EdgeGenerator::new(&profile, clock)
+        .map_err(|e| plan_err(py, e))?
+        .last_edge_tick();
     Ok(Plan {
-        gen,
+        profile: Box::new(profile),
+        clock,
+        last_edge_tick,
         mode: MoveName::of(&m),
         edges: PyOnceLock::new(),
         periods: PyOnceLock::new(),
@@ -61,8 +67,11 @@ pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan
 /// A planned move. Edges are clock ticks (at `clock_hz`) from the start of the move.
 #[pyclass(module = "multistep", frozen)]
 pub struct Plan {
-    /// A generator at step 1; every read clones it.
-    gen: EdgeGenerator,
+    /// Boxed: the profile is kilobytes, which Python would zero and Rust copy on every
+    /// call; a read makes its generator from it (edges are only made when read).
+    profile: Box<Profile>,
+    clock: f64,
+    last_edge_tick: u64,
     mode: MoveName,
     edges: PyOnceLock<Py<PyArray1<u64>>>,
     periods: PyOnceLock<Py<PyArray1<u64>>>,
@@ -97,9 +106,9 @@ pub const SLICE_EDGES: usize = 1 << 18;
 /// Fills `out` with the next edges of `gen` (or their periods after `last`, updating it);
 /// returns how many were written. Runs without the GIL, a slice at a time, and lets
 /// Ctrl-C in between slices (then `gen` and `last` are part way: the caller drops them).
-fn fill(
+fn fill<P: Borrow<Profile> + Send>(
     py: Python<'_>,
-    gen: &mut EdgeGenerator,
+    gen: &mut EdgeGenerator<P>,
     out: &mut [u64],
     mut periods: Option<&mut u64>,
 ) -> PyResult<usize> {
@@ -128,7 +137,11 @@ fn fill(
 
 /// `PlanSummary::run`'s summary, its edges a slice at a time without the GIL and Python's
 /// signal handlers between slices (a summary of 10¹² steps takes minutes).
-fn summarise(py: Python<'_>, mode: MoveName, mut gen: EdgeGenerator) -> PyResult<PlanSummary> {
+fn summarise(
+    py: Python<'_>,
+    mode: MoveName,
+    mut gen: EdgeGenerator<&Profile>,
+) -> PyResult<PlanSummary> {
     let (mut min_p, mut max_p, mut last) = (u64::MAX, 0, 0);
     let part = SLICE_EDGES as u64;
     while let Some((lo, hi, l)) = py.detach(|| gen.period_extremes_for(last, part)) {
@@ -163,8 +176,13 @@ fn read_only(a: &Bound<'_, PyArray1<u64>>) -> PyResult<()> {
 use pyo3::types::IntoPyDict;
 
 impl Plan {
+    /// A generator at step 1 on the plan's profile.
+    fn gen(&self) -> PyResult<EdgeGenerator<&Profile>> {
+        EdgeGenerator::new(&*self.profile, self.clock).map_err(|e| value_err(e.to_string()))
+    }
+
     fn whole(&self, py: Python<'_>, periods: bool) -> PyResult<Py<PyArray1<u64>>> {
-        let mut gen = self.gen.clone();
+        let mut gen = self.gen()?;
         let n = gen.remaining();
         let arr = empty_u64(py, n)?;
         {
@@ -213,8 +231,10 @@ impl Plan {
             None => 1 << 20,
         };
         let size = size as usize;
+        let gen = EdgeGenerator::new(Profile::clone(&self.profile), self.clock)
+            .map_err(|e| value_err(e.to_string()))?;
         Ok(Chunks {
-            state: Mutex::new((self.gen.clone(), 0)),
+            state: Mutex::new((gen, 0)),
             size,
             periods,
         })
@@ -226,7 +246,7 @@ impl Plan {
         let s = self
             .summary
             .get_or_try_init(py, || -> PyResult<Py<PyAny>> {
-                let s = summarise(py, self.mode, self.gen.clone())?;
+                let s = summarise(py, self.mode, self.gen()?)?;
                 let text = serde_json::to_string(&s).map_err(|e| value_err(e.to_string()))?;
                 Ok(py.import("json")?.call_method1("loads", (text,))?.unbind())
             })?;
@@ -237,19 +257,19 @@ impl Plan {
     /// Duration T of the move (s): the last step happens at T.
     #[getter]
     fn duration_s(&self) -> f64 {
-        self.gen.profile().duration()
+        self.profile.duration()
     }
 
     /// Number of steps (edges).
     #[getter]
     fn steps(&self) -> u64 {
-        self.gen.profile().steps()
+        self.profile.steps()
     }
 
     /// Clock the edges are counted in (Hz).
     #[getter]
     fn clock_hz(&self) -> f64 {
-        self.gen.clock()
+        self.clock
     }
 
     /// Mode and family, as in the summary: `trapezoid (phases)`, `scurve (limits)`, …
@@ -261,30 +281,30 @@ impl Plan {
     /// Tick of the last edge, `round(clock·T)`.
     #[getter]
     fn last_edge_tick(&self) -> u64 {
-        self.gen.last_edge_tick()
+        self.last_edge_tick
     }
 
     /// Commanded speed at time `t` (steps/s; 0 outside the move).
     fn velocity(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.gen.profile().velocity(number("t", t)?))
+        Ok(self.profile.velocity(number("t", t)?))
     }
 
     /// Commanded position at time `t` (steps; 0 before the move, `steps` after it).
     fn position(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.gen.profile().position(number("t", t)?))
+        Ok(self.profile.position(number("t", t)?))
     }
 
     fn __len__(&self) -> usize {
-        usize::try_from(self.gen.profile().steps()).unwrap_or(usize::MAX)
+        usize::try_from(self.profile.steps()).unwrap_or(usize::MAX)
     }
 
     fn __repr__(&self) -> String {
         format!(
             "Plan({}, steps={}, duration_s={}, clock_hz={})",
             self.mode,
-            self.gen.profile().steps(),
-            self.gen.profile().duration(),
-            self.gen.clock()
+            self.profile.steps(),
+            self.profile.duration(),
+            self.clock
         )
     }
 }
