@@ -5,11 +5,14 @@ use crate::focuser::Focuser;
 use crate::link::{Link, LinkError};
 use crate::props::{Element, Perm, State, Vector};
 use crate::rotator::Rotator;
+use crate::telescope::Telescope;
 use crate::wheel::Wheel;
 use crate::xml::Out;
 use multistep_controller::{AxisState, AxisStatus};
 
 /// INDI's driver interface bits (DRIVER_INFO.DRIVER_INTERFACE).
+pub const TELESCOPE_INTERFACE: u32 = 1 << 0;
+pub const GUIDER_INTERFACE: u32 = 1 << 2;
 pub const FOCUSER_INTERFACE: u32 = 1 << 3;
 pub const FILTER_INTERFACE: u32 = 1 << 4;
 pub const ROTATOR_INTERFACE: u32 = 1 << 12;
@@ -18,6 +21,8 @@ pub enum Role {
     Focuser(Focuser),
     Rotator(Rotator),
     Wheel(Wheel),
+    /// The board's mount; its axis is the polar one.
+    Telescope(Telescope),
 }
 
 /// The properties of a connected device, found by name.
@@ -113,6 +118,7 @@ impl Device {
             Role::Focuser(_) => FOCUSER_INTERFACE,
             Role::Rotator(_) => ROTATOR_INTERFACE,
             Role::Wheel(_) => FILTER_INTERFACE,
+            Role::Telescope(_) => TELESCOPE_INTERFACE | GUIDER_INTERFACE,
         };
         let connection = Vector::new(
             &name,
@@ -202,6 +208,7 @@ impl Device {
     fn build(&mut self, link: &mut Link) -> Result<Vec<Vector>, LinkError> {
         let st = axis_status(link, &self.axis)?;
         match &mut self.role {
+            Role::Telescope(t) => t.build(&self.name, link),
             Role::Focuser(f) => f.build(&self.name, link, &self.axis, &st),
             Role::Rotator(r) => r.build(&self.name, link, &self.axis, &st),
             Role::Wheel(w) => w.build(&self.name, link, &self.axis, &st),
@@ -218,6 +225,7 @@ impl Device {
             Role::Focuser(f) => f.on_new(&mut self.props, link, &axis, name, values),
             Role::Rotator(r) => r.on_new(&mut self.props, link, &axis, name, values),
             Role::Wheel(w) => w.on_new(&mut self.props, link, &axis, name, values),
+            Role::Telescope(t) => t.on_new(&mut self.props, link, name, values),
         }
     }
 
@@ -252,6 +260,7 @@ impl Device {
             Role::Focuser(f) => f.poll(&mut self.props, link, &axis, st),
             Role::Rotator(r) => r.poll(&mut self.props, link, &axis, st),
             Role::Wheel(w) => w.poll(&mut self.props, link, &axis, st),
+            Role::Telescope(t) => t.poll(&mut self.props, link),
         });
         out
     }

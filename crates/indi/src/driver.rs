@@ -5,6 +5,7 @@ use crate::device::{Device, Role};
 use crate::focuser::Focuser;
 use crate::link::{Link, LinkError};
 use crate::rotator::Rotator;
+use crate::telescope::Telescope;
 use crate::wheel::Wheel;
 use crate::xml::{Node, Out};
 use multistep_alpaca::AlpacaSection;
@@ -22,7 +23,7 @@ pub enum DriverError {
     Link(#[from] LinkError),
     #[error("the controller's `devices` answer: {0}")]
     Devices(String),
-    #[error("the controller names no focuser, rotator or filter wheel (its board config has no [alpaca] devices)")]
+    #[error("the controller names no focuser, rotator, filter wheel or telescope (its board config has no [alpaca] devices)")]
     NoDevices,
 }
 
@@ -66,6 +67,12 @@ impl Driver {
             let n = name(&w.name, "filterwheel", &w.axis);
             let role = Role::Wheel(Wheel::new(w.slots.clone()));
             devices.push(Device::new(n, w.axis.clone(), role));
+        }
+        // The line protocol's `mount` drives the section's first telescope.
+        if let Some(t) = section.telescope.first() {
+            let n = name(&t.name, "telescope", &t.ra_axis);
+            let role = Role::Telescope(Telescope::default());
+            devices.push(Device::new(n, t.ra_axis.clone(), role));
         }
         if devices.is_empty() {
             return Err(DriverError::NoDevices);

@@ -7,6 +7,7 @@ mod focuser;
 mod link;
 mod props;
 mod rotator;
+mod telescope;
 mod wheel;
 mod xml;
 

@@ -19,6 +19,11 @@ const CONFIG: &str = concat!(
 );
 /// The controller wants it first on every connection, the driver's too.
 const TOKEN: &str = "indi-test-token-0123456789";
+/// The same optics beside a German equatorial mount, "Mount".
+const MOUNT_CONFIG: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/telescope-mount.toml"
+);
 const F: &str = "Focus";
 const R: &str = "Field rotator";
 const W: &str = "Line filters";
@@ -151,6 +156,9 @@ impl Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = BoardConfig::parse(text).unwrap();
         let ctl = Arc::new(Controller::open(&config, &dir.path().join("d"), 1.0).unwrap());
+        // As `serve` does: the mount opened once, for the `mount` command.
+        let section = multistep_alpaca::AlpacaSection::from_board(&config).unwrap();
+        ctl.attach_mounts(&section.telescope).unwrap();
         let l = TcpListener::bind("127.0.0.1:0").unwrap();
         let ctl_port = l.local_addr().unwrap().port();
         let opts = service::TcpOptions {
@@ -668,6 +676,110 @@ fn with_backlash_on_an_inward_move_goes_past_its_target_and_ends_moving_outward(
     rig.wait(&format!("\"{F}.FOCUS_BACKLASH_TOGGLE._STATE\"==1"));
     let t = to(400);
     assert!(t.iter().all(|&x| x >= 400.0), "{t:?}");
+}
+
+#[test]
+fn the_telescope_slews_aborts_tracks_guides_and_parks() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start_env(&std::fs::read_to_string(MOUNT_CONFIG).unwrap(), &[]);
+    const M: &str = "Mount";
+    rig.set(&format!("{M}.CONNECTION.CONNECT=On"));
+    rig.wait(&format!("\"{M}.CONNECTION._STATE\"==1"));
+    assert_eq!(
+        rig.get(&format!("{M}.DRIVER_INFO.DRIVER_INTERFACE"))
+            .as_deref(),
+        Some("5")
+    );
+    // The site is the config's, read-only.
+    assert_eq!(
+        rig.get(&format!("{M}.GEOGRAPHIC_COORD._PERM")).as_deref(),
+        Some("ro")
+    );
+    for (e, want) in [("LAT", 52.1), ("LONG", 4.4), ("ELEV", 10.0)] {
+        let got = rig.num(&format!("{M}.GEOGRAPHIC_COORD.{e}"));
+        assert!((got - want).abs() < 1e-9, "{e}={got}");
+    }
+    let on = |spec: &str| rig.get(&format!("{M}.{spec}")).as_deref() == Some("On");
+    assert!(on("TELESCOPE_TRACK_STATE.TRACK_OFF") && on("TELESCOPE_PARK.UNPARK"));
+    let mount = |k: &str| -> String {
+        let l = rig.line("mount").join(" ");
+        let v = l
+            .split(' ')
+            .find_map(|kv| kv.strip_prefix(&format!("{k}=")));
+        v.expect(&l).to_string()
+    };
+    // One hour west of the meridian at Dec 30°: ON_COORD_SET TRACK slews and tracks.
+    let lst: f64 = mount("lst").parse().unwrap();
+    let ra = (lst - 1.0).rem_euclid(24.0);
+    let eod = format!("{M}.EQUATORIAL_EOD_COORD");
+    rig.set(&format!("{eod}.RA;DEC={ra};30"));
+    rig.wait(&format!(
+        "\"{eod}._STATE\"==1 && abs(\"{eod}.DEC\"-30)<0.001 && abs(\"{eod}.RA\"-{ra})<0.0001"
+    ));
+    assert!(on("TELESCOPE_TRACK_STATE.TRACK_ON"));
+    assert_eq!(mount("tracking"), "1");
+    let dec: f64 = mount("dec").parse().unwrap();
+    assert!((dec - 30.0).abs() < 1.0 / 3600.0, "{dec}");
+
+    // Abort on the way to Dec −20°: it stops short.
+    rig.set(&format!("{eod}.RA;DEC={ra};-20"));
+    rig.wait(&format!("\"{eod}._STATE\"==2 && \"{eod}.DEC\"<29"));
+    rig.set(&format!("{M}.TELESCOPE_ABORT_MOTION.ABORT=On"));
+    rig.wait(&format!("\"{eod}._STATE\"!=2"));
+    let end = Instant::now() + Duration::from_secs(60);
+    while mount("slewing") == "1" {
+        assert!(Instant::now() < end, "the abort did not stop the slew");
+    }
+    let dec: f64 = mount("dec").parse().unwrap();
+    assert!(dec < 29.0 && dec > -15.0, "{dec}");
+
+    // Guiding: Busy for the pulse, Ok after, the duration back at 0.
+    let ns = format!("{M}.TELESCOPE_TIMED_GUIDE_NS");
+    rig.set(&format!("{ns}.TIMED_GUIDE_N;TIMED_GUIDE_S=1500;0"));
+    rig.wait(&format!("\"{ns}._STATE\"==2"));
+    rig.wait(&format!("\"{ns}._STATE\"==1 && \"{ns}.TIMED_GUIDE_N\"==0"));
+    assert_eq!(mount("guiding"), "0");
+
+    // Track mode and state.
+    rig.set(&format!("{M}.TELESCOPE_TRACK_MODE.TRACK_LUNAR=On"));
+    rig.wait(&format!("\"{M}.TELESCOPE_TRACK_MODE._STATE\"==1"));
+    assert_eq!(mount("rate"), "lunar");
+    rig.set(&format!("{M}.TELESCOPE_TRACK_STATE.TRACK_OFF=On"));
+    rig.wait(&format!("\"{M}.TELESCOPE_TRACK_STATE._STATE\"==1"));
+    assert_eq!(mount("tracking"), "0");
+
+    // ON_COORD_SET SLEW: there, then tracking off.
+    rig.set(&format!("{M}.ON_COORD_SET.SLEW=On"));
+    rig.set(&format!("{eod}.RA;DEC={ra};40"));
+    rig.wait(&format!(
+        "\"{eod}._STATE\"==1 && abs(\"{eod}.DEC\"-40)<0.001"
+    ));
+    let end = Instant::now() + Duration::from_secs(60);
+    while mount("tracking") == "1" {
+        assert!(Instant::now() < end, "tracking stayed on after SLEW");
+    }
+    rig.wait(&format!("\"{M}.TELESCOPE_TRACK_STATE.TRACK_OFF\"==1"));
+
+    // A target below the horizon: Alert, nothing moves.
+    rig.set(&format!("{M}.ON_COORD_SET.TRACK=On"));
+    rig.set(&format!(
+        "{eod}.RA;DEC={};-50",
+        (lst - 6.0).rem_euclid(24.0)
+    ));
+    rig.wait(&format!("\"{eod}._STATE\"==3"));
+    assert_eq!(mount("slewing"), "0");
+
+    // Park, then unpark.
+    let park = format!("{M}.TELESCOPE_PARK");
+    rig.set(&format!("{park}.PARK=On"));
+    rig.wait(&format!("\"{park}._STATE\"==1 && \"{park}.PARK\"==1"));
+    assert_eq!(mount("parked"), "1");
+    assert_eq!(mount("tracking"), "0");
+    rig.set(&format!("{park}.UNPARK=On"));
+    rig.wait(&format!("\"{park}._STATE\"==1 && \"{park}.UNPARK\"==1"));
+    assert_eq!(mount("parked"), "0");
 }
 
 #[test]
