@@ -1,5 +1,6 @@
-//! `indi_multistep`: an INDI driver for the multistep controller's focuser, rotator and
-//! filter wheel, run by indiserver with no arguments (see docs/INDI.md).
+//! `indi_multistep`: an INDI driver for the multistep controller's telescope mount,
+//! focuser, rotator and filter wheel, run by indiserver with no arguments (see
+//! docs/INDI.md).
 
 mod device;
 mod driver;
