@@ -18,11 +18,14 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
+mod clock;
 mod driver;
 mod homing;
 mod preview;
 mod sync;
 mod tracking;
+
+pub use clock::ClockState;
 use homing::HomePhase;
 pub use preview::{PlannedAxis, PreviewPlan};
 
@@ -142,6 +145,8 @@ pub struct Board {
     /// The tick of a halt asked for and not yet applied (`u64::MAX`: none): time does not
     /// advance past it meanwhile (see [`Board::set_halt_tick`]).
     halt_tick: Arc<AtomicU64>,
+    /// The board's crystal against host time, and the tracking rates corrected by it.
+    clock: clock::BoardClock,
 }
 
 /// The stored settings of an axis, brought into range; `None` (use the board config) if
@@ -291,6 +296,7 @@ impl Board {
             pins,
             arming: false,
             halt_tick: Arc::new(AtomicU64::new(u64::MAX)),
+            clock: clock::BoardClock::new(clock_hz),
         })
     }
 

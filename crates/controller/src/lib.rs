@@ -12,6 +12,7 @@ pub mod axis;
 pub mod backend;
 pub mod board;
 pub mod client;
+pub mod clock_rate;
 pub mod config;
 pub mod controller;
 pub mod error;

@@ -25,6 +25,12 @@ pub(crate) struct TrackState {
 }
 
 impl TrackState {
+    /// The rate (steps a host second) of a motion that runs on at it: none while a
+    /// reversal waits for its stop.
+    pub(super) fn cruising(&self) -> Option<Rate> {
+        (self.then.is_none() && !self.rate.is_zero()).then_some(self.rate)
+    }
+
     /// The rate as status shows it (signed steps/s).
     pub(crate) fn signed_rate(&self) -> f64 {
         let v = self.rate.to_f64();
@@ -114,7 +120,8 @@ impl Board {
     ) -> Result<(), CtlError> {
         let dir = if negative { -1 } else { 1 };
         let ready = self.energize_for_motion([i])?.max(at);
-        let src = TrackSource::new(self.clock_hz, limits, rate, ready)?;
+        // the tracker runs in board ticks, at the rate that keeps host time
+        let src = TrackSource::new(self.clock_hz, limits, self.tracker_rate(rate)?, ready)?;
         self.check_room(i, dir, src.stop_steps_bound())?;
         // The tracker is the step source the backend runs; its open end counts no steps.
         self.launch_source(i, 0, dir, Purpose::Move, ready)?;
@@ -180,6 +187,7 @@ impl Board {
         accel: Option<f64>,
         lease: Option<u64>,
     ) -> Result<(), CtlError> {
+        let board = self.tracker_rate(rate)?;
         let ax = &mut self.axes[i];
         let name = ax.name.clone();
         let Some(m) = ax.motion.as_mut() else {
@@ -209,9 +217,9 @@ impl Board {
         // a stream at rest may already be closed by the backend: a new rate starts a new
         // one once this one ends, as a reversal does
         let forward = (!src.at_rest() && (dir < 0) == negative) || rate.is_zero();
-        let step_rate = if forward { rate } else { Rate::ZERO };
+        let step_rate = if forward { board } else { Rate::ZERO };
         // a reversal's rate is checked now, not when the stop ends
-        src.check_rate(rate)?;
+        src.check_rate(board)?;
         // one step may be taken already (the board looks one edge ahead)
         let bound = (src.stop_bound_after(step_rate)? + 1).saturating_add(ahead);
         self.check_room(i, dir, bound)?;

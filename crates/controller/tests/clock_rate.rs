@@ -1,0 +1,288 @@
+//! Tracking kept to host time on two simulated boards whose crystals are 50 ppm fast and
+//! 50 ppm slow, in virtual time: the host reads each board's tick counter every 10 s over
+//! a jittery link (0.2 to 1.2 ms round trips, every ninth reading held up to 2 s), fits the
+//! crystal and gives the trackers the corrected rate. For 24 hours at the sidereal, solar
+//! and lunar rates every sampled position is within one step of the ideal computed from
+//! host time, and the two boards' axes within one step of each other. The pointing drift
+//! against host time is printed (docs/PROTOCOL.md) and asserted below 0.1″ an hour.
+
+use multistep_controller::clock_rate::Reading;
+use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
+use multistep_controller::protocol::{RateArg, SignedRate, TrackOpts};
+use multistep_controller::store::Store;
+use multistep_controller::{AxisSettings, Board};
+use multistep_core::{Rate, TrackLimits, Tracker};
+
+const F: u64 = 50_000_000;
+const AMAX: f64 = 200.0;
+const S: u64 = 1_000_000_000;
+/// Sidereal 15.041″/s, solar 15″/s and lunar 14.685″/s at 4,000,000 microsteps per
+/// 1,296,000″.
+const RATES: [(&str, &str); 3] = [
+    ("sidereal", "15041/324"),
+    ("solar", "1250/27"),
+    ("lunar", "4895/108"),
+];
+/// Arcseconds per step.
+const ARCSEC: f64 = 1.296e6 / 4e6;
+
+/// The board's tick at host time `t_ns` on a crystal `ppm` off (exact, floored).
+fn tick(t_ns: u64, ppm: i64) -> u64 {
+    (t_ns as i128 * F as i128 * (1_000_000 + ppm as i128) / (S as i128 * 1_000_000)) as u64
+}
+
+struct Sim {
+    board: Board,
+    ppm: i64,
+    seed: u64,
+    readings: u64,
+    _dir: tempfile::TempDir,
+}
+
+impl Sim {
+    fn new(ppm: i64, seed: u64) -> Sim {
+        let dir = tempfile::tempdir().unwrap();
+        let axes = RATES
+            .iter()
+            .map(|(name, _)| AxisConfig {
+                name: name.to_string(),
+                settings: AxisSettings {
+                    vmax: 40_000.0,
+                    amax: AMAX,
+                    steps_per_unit: 4e6 / 1.296e6,
+                    ..AxisSettings::default()
+                },
+            })
+            .collect();
+        let c = BoardConfig {
+            board: BoardSection {
+                name: format!("b{ppm}"),
+                clock_hz: F as f64,
+                fifo_depth: 4,
+                link: None,
+                sync_line: None,
+            },
+            axes,
+            alpaca: None,
+        };
+        let board = Board::open(&c, Store::open(dir.path()).unwrap()).unwrap();
+        Sim {
+            board,
+            ppm,
+            seed,
+            readings: 0,
+            _dir: dir,
+        }
+    }
+
+    fn random(&mut self) -> u64 {
+        self.seed = self
+            .seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        self.seed >> 24
+    }
+
+    /// One reading of the counter asked for at host time `t`.
+    fn read(&mut self, t: u64) {
+        self.readings += 1;
+        let mut rtt = 200_000 + self.random() % 1_000_000;
+        let latched = t + self.random() % rtt;
+        if self.readings % 9 == 4 {
+            rtt += self.random() % (2 * S);
+        }
+        let r = Reading {
+            sent_ns: t,
+            recv_ns: t + rtt,
+            tick: tick(latched, self.ppm),
+        };
+        self.board.clock_reading(r).unwrap();
+    }
+
+    fn position(&mut self, axis: &str, t: u64) -> i64 {
+        let now = tick(t, self.ppm);
+        self.board.status(&[axis.into()], now).unwrap()[0].position
+    }
+}
+
+/// The reference: the exact tracker on host time from `start_ns`; `count(t)` is its edges
+/// up to host time `t`, `edge(n)` the host time of step `n` (ns, fractional).
+struct Ideal {
+    tracker: Tracker,
+    start: u64,
+    taken: u64,
+    ahead: Option<u64>,
+    edges: Vec<u64>,
+}
+
+impl Ideal {
+    fn new(rate: &str, start_ns: u64) -> Ideal {
+        let limits = TrackLimits {
+            amax: AMAX,
+            jmax: None,
+        };
+        let mut tracker = Tracker::new(F as f64, limits, 0.0, Rate::parse(rate).unwrap()).unwrap();
+        let ahead = tracker.next();
+        Ideal {
+            tracker,
+            start: start_ns / (S / F),
+            taken: 0,
+            ahead,
+            edges: Vec::new(),
+        }
+    }
+
+    fn count(&mut self, t_ns: u64) -> i64 {
+        let h = t_ns / (S / F);
+        while let Some(e) = self.ahead.filter(|&e| self.start + e <= h) {
+            self.taken += 1;
+            self.edges.push(e);
+            if self.edges.len() > 64 {
+                self.edges.remove(0);
+            }
+            self.ahead = self.tracker.next();
+        }
+        self.taken as i64
+    }
+
+    /// Host time (s) of step `n` (1-based), among the last edges counted.
+    fn edge_s(&self, n: u64) -> f64 {
+        let back = (self.taken - n) as usize;
+        let e = self.edges[self.edges.len() - 1 - back];
+        (self.start + e) as f64 / F as f64
+    }
+}
+
+/// The host time (s) at which `sim`'s `axis` reaches step `n`, to within 20 µs, stepping
+/// the board forward from host time `t`.
+fn reaches(sim: &mut Sim, axis: &str, n: i64, mut t: u64) -> f64 {
+    while sim.position(axis, t) < n {
+        t += 20_000;
+    }
+    t as f64 / S as f64
+}
+
+#[test]
+fn a_day_on_two_boards_50_ppm_apart_follows_host_time() {
+    let mut boards = [Sim::new(50, 1), Sim::new(-50, 2)];
+    let start = 600 * S;
+    let day = 24 * 3600 * S;
+    let mut t = 0;
+    // ten minutes of readings before tracking starts
+    while t < start {
+        for b in &mut boards {
+            b.read(t);
+        }
+        t += 10 * S;
+    }
+    for b in &mut boards {
+        let fit = b.board.clock_state();
+        let ppm = fit.ppm.unwrap();
+        assert!((ppm - b.ppm as f64).abs() < 0.5, "{ppm} vs {}", b.ppm);
+        assert!(fit.correcting);
+        let now = tick(start, b.ppm);
+        for (axis, rate) in RATES {
+            let r = RateArg::Value(SignedRate::parse(rate).unwrap().unwrap());
+            b.board
+                .track(axis, &r, &TrackOpts::default(), None, now)
+                .unwrap();
+        }
+    }
+    let mut ideal: Vec<Ideal> = RATES.iter().map(|(_, r)| Ideal::new(r, start)).collect();
+    let (mut samples, mut worst) = (0u64, 0i64);
+    let mut lag = Vec::new();
+    let mut next_read = start;
+    let mut k = 0u64;
+    loop {
+        k += 1;
+        // every minute, at an odd offset so samples fall anywhere between edges
+        let at = (start + k * 60 * S + k * 12_347_891 % S).min(start + day);
+        while next_read <= at {
+            for b in &mut boards {
+                b.read(next_read);
+            }
+            next_read += 10 * S;
+        }
+        for (j, (axis, _)) in RATES.iter().enumerate() {
+            let want = ideal[j].count(at);
+            let a = boards[0].position(axis, at);
+            let b = boards[1].position(axis, at);
+            let off = (a - want).abs().max((b - want).abs());
+            worst = worst.max(off);
+            assert!(off <= 1, "{axis} at {at} ns: {a} and {b}, ideal {want}");
+            assert!((a - b).abs() <= 1, "{axis} at {at} ns: {a} vs {b}");
+        }
+        samples += 1;
+        // after the first hour and at the end: when each board's sidereal axis makes
+        // its next step, against the ideal's
+        if k == 60 || at == start + day {
+            let n = ideal[0].count(at) + 1;
+            let want_t = {
+                let mut probe = at;
+                while ideal[0].count(probe) < n {
+                    probe += 20_000;
+                }
+                ideal[0].edge_s(n as u64)
+            };
+            let got: Vec<f64> = boards
+                .iter_mut()
+                .map(|b| reaches(b, "sidereal", n, at) - want_t)
+                .collect();
+            lag.push((at, got));
+        }
+        if at == start + day {
+            break;
+        }
+    }
+    assert!(samples >= 1440, "{samples}");
+    let hours = (lag[1].0 - lag[0].0) as f64 / 3600e9;
+    for (i, b) in boards.iter().enumerate() {
+        let drift = (lag[1].1[i] - lag[0].1[i]) / hours * 15.041;
+        let c = b.board.clock_state();
+        println!(
+            "board at {:+} ppm: fitted {:+.4} ppm, trackers on {:+.3} ppm; sidereal step \
+             {:+.0} µs from host time after 1 h, {:+.0} µs after 24 h: drift {:+.4}″/h; \
+             worst sample {worst} step ({ARCSEC}″/step)",
+            b.ppm,
+            c.ppm.unwrap(),
+            c.applied_ppm,
+            lag[0].1[i] * 1e6,
+            lag[1].1[i] * 1e6,
+            drift,
+        );
+        assert!(drift.abs() <= 0.1, "{drift}″/h");
+    }
+}
+
+/// Without the correction the same board runs on its crystal: 50 ppm of 46.4 steps/s is
+/// 8.4 steps (2.7″) an hour ahead of host time.
+#[test]
+fn without_the_correction_a_board_follows_its_crystal() {
+    let mut b = Sim::new(50, 3);
+    b.board.set_clock_correction(false);
+    let start = 600 * S;
+    let mut t = 0;
+    while t < start {
+        b.read(t);
+        t += 10 * S;
+    }
+    let c = b.board.clock_state();
+    assert!(
+        !c.correcting && c.applied_ppm == 0.0 && c.ppm.is_some(),
+        "{c:?}"
+    );
+    let r = RateArg::Value(SignedRate::parse(RATES[0].1).unwrap().unwrap());
+    b.board
+        .track("sidereal", &r, &TrackOpts::default(), None, tick(start, 50))
+        .unwrap();
+    let mut ideal = Ideal::new(RATES[0].1, start);
+    let at = start + 3600 * S;
+    let ahead = b.position("sidereal", at) - ideal.count(at);
+    assert!((8..=9).contains(&ahead), "{ahead} steps ahead");
+    // turned on, the rate follows host time from then on (the steps ahead stay ahead)
+    b.board.set_clock_correction(true);
+    assert!(b.board.clock_state().correcting);
+    let later = at + 3600 * S;
+    let more = b.position("sidereal", later) - ideal.count(later);
+    assert!((ahead - 1..=ahead + 1).contains(&more), "{more} vs {ahead}");
+}
