@@ -10,7 +10,7 @@ use crate::error::CtlError;
 use crate::hall::FilteredEdge;
 use crate::motion::StepSource;
 use crate::protocol::{Amount, MoveOpts};
-use crate::store::{AxisRecord, MovingMarker, NamedPosition, Store};
+use crate::store::{AxisRecord, MountRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::int::IntProfile;
 use multistep_core::tdm::TdmConfig;
 use multistep_core::{MoveSpec, Profile};
@@ -1260,6 +1260,14 @@ impl Board {
             .into_iter()
             .map(|(a, p)| (a, Amount::Steps(p)))
             .collect())
+    }
+
+    /// A telescope mount's stored record (sync offsets), by the mount's key.
+    pub fn mount_record(&self, key: &str) -> Result<Option<MountRecord>, CtlError> {
+        self.store.mount(key)
+    }
+    pub fn put_mount_record(&mut self, key: &str, r: &MountRecord) -> Result<(), CtlError> {
+        self.store.put_mount(key, r)
     }
 
     pub fn named_positions(&self) -> Result<BTreeMap<String, NamedPosition>, CtlError> {

@@ -628,14 +628,7 @@ impl Controller {
                 all.iter().map(|(n, p)| named_line(n, p)).collect()
             }
             Command::Devices => vec![self.devices.clone()],
-            Command::Mount(cmd) => {
-                let m = self.mounts.get().and_then(|m| m.first()).ok_or_else(|| {
-                    CtlError::Mount(
-                        "this board has no mount (its config has no [[alpaca.telescope]])".into(),
-                    )
-                })?;
-                crate::mount::line::run(m, self, cmd)?
-            }
+            Command::Mount(cmd) => crate::mount::line::run(self.mounts(), self, cmd)?,
             Command::Forget { name } => {
                 self.with_board(|b, _| b.forget(name))?;
                 vec![]

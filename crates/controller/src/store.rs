@@ -37,7 +37,9 @@ const NAMED: Table = TableDefinition::new("named_positions");
 const RATES: Table = TableDefinition::new("rates");
 /// The FPGA board's link session ([`LinkSession`]), under [`LINK_SESSION`].
 const LINK: Table = TableDefinition::new("link");
-const TABLES: [Table; 6] = [SETTINGS, AXES, PRESETS, NAMED, RATES, LINK];
+/// Telescope mounts' sync offsets ([`MountRecord`]), keyed by the mount's polar axis.
+const MOUNTS: Table = TableDefinition::new("mounts");
+const TABLES: [Table; 7] = [SETTINGS, AXES, PRESETS, NAMED, RATES, LINK, MOUNTS];
 const LINK_SESSION: &str = "session";
 
 /// How often [`Store::check`] opens a failing database again.
@@ -87,6 +89,13 @@ pub struct Fold {
     /// The `Position` register before the fold (after it: this plus the offset).
     pub register: u32,
     pub offset: i64,
+}
+
+/// What a telescope mount keeps across restarts beside its park position.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MountRecord {
+    /// Degrees added to each axis's counted angle by sync, [polar, dec].
+    pub sync: [f64; 2],
 }
 
 /// A named set of axis positions (seed 002: stored line-centre positions).
@@ -628,6 +637,12 @@ impl Store {
     }
     pub fn put_rate(&self, name: &str, rate: &str) -> Result<(), CtlError> {
         self.put(RATES, name, &rate)
+    }
+    pub fn mount(&self, key: &str) -> Result<Option<MountRecord>, CtlError> {
+        self.get(MOUNTS, key)
+    }
+    pub fn put_mount(&self, key: &str, r: &MountRecord) -> Result<(), CtlError> {
+        self.put(MOUNTS, key, r)
     }
     pub fn link_session(&self) -> Result<Option<LinkSession>, CtlError> {
         self.get(LINK, LINK_SESSION)

@@ -133,6 +133,20 @@ pub fn alt_az(ha: f64, dec: f64, lat: f64) -> (f64, f64) {
     (alt.to_degrees(), az.to_degrees().rem_euclid(360.0))
 }
 
+/// Hour angle (degrees in [−180, 180)) and declination of altitude `alt`, azimuth `az`
+/// (from north through east) at latitude `lat`: the inverse of [`alt_az`]. The horizontal
+/// and equatorial frames are turned into each other by the same rotation about the east
+/// point (Meeus, "Astronomical Algorithms", ch. 13), so these are eq. 13.5 and 13.6 with
+/// (HA, Dec) and (Az, Alt) exchanged.
+pub fn ha_dec(alt: f64, az: f64, lat: f64) -> (f64, f64) {
+    let (h, a, p) = (alt.to_radians(), az.to_radians(), lat.to_radians());
+    let dec = (p.sin() * h.sin() + p.cos() * h.cos() * a.cos())
+        .clamp(-1.0, 1.0)
+        .asin();
+    let ha = (-h.cos() * a.sin()).atan2(h.sin() * p.cos() - h.cos() * p.sin() * a.cos());
+    (wrap180(ha.to_degrees()), dec.to_degrees())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,5 +236,25 @@ mod tests {
         // The celestial equator rises due east at HA −90°.
         let (alt, az) = alt_az(-90.0, 0.0, 50.0);
         assert!(close(alt, 0.0) && close(az, 90.0));
+    }
+
+    #[test]
+    fn hour_angle_and_declination_invert_altitude_and_azimuth() {
+        for lat in [52.0, -33.9, 0.0] {
+            for ha in [-179.0, -120.0, -45.5, 0.0, 0.25, 60.0, 179.5] {
+                for dec in [-80.0, -30.0, 0.0, 45.0, 89.0] {
+                    let (alt, az) = alt_az(ha, dec, lat);
+                    let (h2, d2) = ha_dec(alt, az, lat);
+                    assert!(close(wrap180(h2 - ha), 0.0), "{lat} {ha} {dec}: {h2}");
+                    assert!(close(d2, dec), "{lat} {ha} {dec}: {d2}");
+                }
+            }
+        }
+        // Due south at the co-latitude is the celestial equator on the meridian; the
+        // zenith is the latitude's declination.
+        let (ha, dec) = ha_dec(40.0, 180.0, 50.0);
+        assert!(close(ha, 0.0) && close(dec, 0.0));
+        let (ha, dec) = ha_dec(90.0, 0.0, 50.0);
+        assert!(close(ha, 0.0) && close(dec, 50.0));
     }
 }

@@ -1,14 +1,25 @@
-//! The mount on the line protocol: `mount …` commands, parsed here and run on the
-//! board's mount (the first `[[alpaca.telescope]]` of its config), so clients other than
-//! Alpaca ones (the INDI driver, scripts) drive the same mount the Alpaca side serves.
+//! The mount on the line protocol: `mount [TELESCOPE] …` commands, parsed here and run on
+//! one of the board's mounts (its `[[alpaca.telescope]]` entries: the first unless one is
+//! named), so clients other than Alpaca ones (the INDI driver, scripts) drive the same
+//! mounts the Alpaca side serves.
 
 use super::{DriveRate, Mount, MountError, PierSide, MAX_PULSE_MS};
 use crate::error::CtlError;
 use crate::Controller;
+use std::sync::Arc;
 
-/// One `mount` command.
+/// One `mount` line: which telescope (None: the first) and what to do.
 #[derive(Clone, Debug, PartialEq)]
-pub enum MountCmd {
+pub struct MountCmd {
+    /// Its number (0, 1, … in config order, as Alpaca numbers them), its polar axis's
+    /// name, or its one-word name.
+    pub telescope: Option<String>,
+    pub op: MountOp,
+}
+
+/// What a `mount` line asks.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MountOp {
     /// Where it points and what it does.
     Status,
     /// To RA (hours) and Dec (degrees).
@@ -19,6 +30,22 @@ pub enum MountCmd {
     Sync {
         ra: f64,
         dec: f64,
+    },
+    /// To altitude and azimuth (degrees, azimuth from north through east); tracking off.
+    SlewAltAz {
+        alt: f64,
+        az: f64,
+    },
+    SyncAltAz {
+        alt: f64,
+        az: f64,
+    },
+    /// A German mount's pier flip to this side.
+    Side(PierSide),
+    /// MoveAxis: axis 0 (polar) or 1 (dec) at degrees per second; 0 ends it.
+    Move {
+        axis: usize,
+        rate: f64,
     },
     Track {
         on: bool,
@@ -36,8 +63,27 @@ pub enum MountCmd {
     },
 }
 
-const USAGE: &str = "mount [slew RA DEC|sync RA DEC|track on|off [sidereal|lunar|solar|king]|\
-                     park|unpark|setpark|abort|pulse n|s|e|w MS]";
+const USAGE: &str = "mount [TELESCOPE] [slew RA DEC|sync RA DEC|slewaltaz ALT AZ|\
+                     syncaltaz ALT AZ|side east|west|move ra|dec DEG_PER_S|\
+                     track on|off [sidereal|lunar|solar|king]|park|unpark|setpark|abort|\
+                     pulse n|s|e|w MS]";
+
+/// The words that start a mount command (any other first word names a telescope).
+const VERBS: [&str; 13] = [
+    "status",
+    "slew",
+    "sync",
+    "slewaltaz",
+    "syncaltaz",
+    "side",
+    "move",
+    "track",
+    "park",
+    "unpark",
+    "setpark",
+    "abort",
+    "pulse",
+];
 
 fn syntax(m: String) -> CtlError {
     CtlError::Syntax(format!("{m}; usage: {USAGE}"))
@@ -82,33 +128,56 @@ fn side_word(s: PierSide) -> &'static str {
 /// The line [`parse`] reads back as the same command (`mount …`).
 impl std::fmt::Display for MountCmd {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match *self {
-            MountCmd::Status => write!(f, "mount"),
-            MountCmd::Slew { ra, dec } => write!(f, "mount slew {ra} {dec}"),
-            MountCmd::Sync { ra, dec } => write!(f, "mount sync {ra} {dec}"),
-            MountCmd::Track { on, rate } => {
-                write!(f, "mount track {}", if on { "on" } else { "off" })?;
+        write!(f, "mount")?;
+        if let Some(t) = &self.telescope {
+            write!(f, " {t}")?;
+        }
+        match self.op {
+            MountOp::Status => Ok(()),
+            MountOp::Slew { ra, dec } => write!(f, " slew {ra} {dec}"),
+            MountOp::Sync { ra, dec } => write!(f, " sync {ra} {dec}"),
+            MountOp::SlewAltAz { alt, az } => write!(f, " slewaltaz {alt} {az}"),
+            MountOp::SyncAltAz { alt, az } => write!(f, " syncaltaz {alt} {az}"),
+            MountOp::Side(s) => write!(f, " side {}", side_word(s)),
+            MountOp::Move { axis, rate } => {
+                write!(f, " move {} {rate}", if axis == 0 { "ra" } else { "dec" })
+            }
+            MountOp::Track { on, rate } => {
+                write!(f, " track {}", if on { "on" } else { "off" })?;
                 match rate {
                     Some(r) => write!(f, " {}", rate_word(r)),
                     None => Ok(()),
                 }
             }
-            MountCmd::Park => write!(f, "mount park"),
-            MountCmd::Unpark => write!(f, "mount unpark"),
-            MountCmd::SetPark => write!(f, "mount setpark"),
-            MountCmd::Abort => write!(f, "mount abort"),
-            MountCmd::Pulse { dir, ms } => {
+            MountOp::Park => write!(f, " park"),
+            MountOp::Unpark => write!(f, " unpark"),
+            MountOp::SetPark => write!(f, " setpark"),
+            MountOp::Abort => write!(f, " abort"),
+            MountOp::Pulse { dir, ms } => {
                 let d = ["n", "s", "e", "w"].get(dir as usize).unwrap_or(&"?");
-                write!(f, "mount pulse {d} {ms}")
+                write!(f, " pulse {d} {ms}")
             }
         }
     }
 }
 
-/// Parses the words after `mount`.
+/// Parses the words after `mount`: a first word that is no command names the telescope.
 pub fn parse(rest: &[&str]) -> Result<MountCmd, CtlError> {
+    let (telescope, rest) = match rest.split_first() {
+        Some((w, tail)) if !VERBS.contains(&w.to_ascii_lowercase().as_str()) => {
+            (Some(w.to_string()), tail)
+        }
+        _ => (None, rest),
+    };
+    Ok(MountCmd {
+        telescope,
+        op: parse_op(rest)?,
+    })
+}
+
+fn parse_op(rest: &[&str]) -> Result<MountOp, CtlError> {
     let Some((&verb, args)) = rest.split_first() else {
-        return Ok(MountCmd::Status);
+        return Ok(MountOp::Status);
     };
     let verb = verb.to_ascii_lowercase();
     let count = |n: usize| {
@@ -124,16 +193,43 @@ pub fn parse(rest: &[&str]) -> Result<MountCmd, CtlError> {
     Ok(match verb.as_str() {
         "status" => {
             count(0)?;
-            MountCmd::Status
+            MountOp::Status
         }
         "slew" | "sync" => {
             count(2)?;
             let (ra, dec) = (number(args[0], "RA")?, number(args[1], "Dec")?);
             if verb == "slew" {
-                MountCmd::Slew { ra, dec }
+                MountOp::Slew { ra, dec }
             } else {
-                MountCmd::Sync { ra, dec }
+                MountOp::Sync { ra, dec }
             }
+        }
+        "slewaltaz" | "syncaltaz" => {
+            count(2)?;
+            let (alt, az) = (number(args[0], "altitude")?, number(args[1], "azimuth")?);
+            if verb == "slewaltaz" {
+                MountOp::SlewAltAz { alt, az }
+            } else {
+                MountOp::SyncAltAz { alt, az }
+            }
+        }
+        "side" => {
+            count(1)?;
+            match args[0].to_ascii_lowercase().as_str() {
+                "east" | "e" => MountOp::Side(PierSide::East),
+                "west" | "w" => MountOp::Side(PierSide::West),
+                w => return Err(syntax(format!("'{w}' is neither east nor west"))),
+            }
+        }
+        "move" => {
+            count(2)?;
+            let axis = match args[0].to_ascii_lowercase().as_str() {
+                "ra" | "primary" => 0,
+                "dec" | "secondary" => 1,
+                w => return Err(syntax(format!("'{w}' is neither ra nor dec"))),
+            };
+            let rate = number(args[1], "rate")?;
+            MountOp::Move { axis, rate }
         }
         "track" => {
             if args.is_empty() || args.len() > 2 {
@@ -150,23 +246,23 @@ pub fn parse(rest: &[&str]) -> Result<MountCmd, CtlError> {
                     syntax(format!("'{w}' is not sidereal, lunar, solar or king"))
                 })?),
             };
-            MountCmd::Track { on, rate }
+            MountOp::Track { on, rate }
         }
         "park" => {
             count(0)?;
-            MountCmd::Park
+            MountOp::Park
         }
         "unpark" => {
             count(0)?;
-            MountCmd::Unpark
+            MountOp::Unpark
         }
         "setpark" => {
             count(0)?;
-            MountCmd::SetPark
+            MountOp::SetPark
         }
         "abort" => {
             count(0)?;
-            MountCmd::Abort
+            MountOp::Abort
         }
         "pulse" => {
             count(2)?;
@@ -187,7 +283,7 @@ pub fn parse(rest: &[&str]) -> Result<MountCmd, CtlError> {
                         args[1]
                     ))
                 })?;
-            MountCmd::Pulse { dir, ms }
+            MountOp::Pulse { dir, ms }
         }
         w => return Err(syntax(format!("unknown mount command '{w}'"))),
     })
@@ -202,23 +298,69 @@ impl From<MountError> for CtlError {
     }
 }
 
-/// Runs `cmd` on `mount`; its data lines.
-pub fn run(mount: &Mount, ctl: &Controller, cmd: &MountCmd) -> Result<Vec<String>, CtlError> {
-    match *cmd {
-        MountCmd::Status => return Ok(vec![status(mount, ctl)?]),
-        MountCmd::Slew { ra, dec } => mount.slew(ctl, ra, dec)?,
-        MountCmd::Sync { ra, dec } => mount.sync(ctl, ra, dec)?,
-        MountCmd::Track { on, rate } => {
+/// The mount `telescope` names among `mounts` (None: the first).
+pub fn select<'m>(
+    mounts: &'m [Arc<Mount>],
+    telescope: Option<&str>,
+) -> Result<&'m Arc<Mount>, CtlError> {
+    let none = || {
+        CtlError::Mount("this board has no mount (its config has no [[alpaca.telescope]])".into())
+    };
+    let Some(t) = telescope else {
+        return mounts.first().ok_or_else(none);
+    };
+    if mounts.is_empty() {
+        return Err(none());
+    }
+    let found = match t.parse::<usize>() {
+        Ok(k) => mounts.get(k),
+        Err(_) => mounts.iter().find(|m| {
+            m.cfg.ra_axis == t
+                || m.cfg
+                    .name
+                    .as_deref()
+                    .is_some_and(|n| n.eq_ignore_ascii_case(t))
+        }),
+    };
+    found.ok_or_else(|| {
+        let names: Vec<String> = mounts
+            .iter()
+            .enumerate()
+            .map(|(k, m)| format!("{k} ({})", m.cfg.ra_axis))
+            .collect();
+        CtlError::Mount(format!(
+            "no telescope '{t}' on this board; its telescopes are {}",
+            names.join(", ")
+        ))
+    })
+}
+
+/// Runs `cmd` on the mount it names among `mounts`; its data lines.
+pub fn run(
+    mounts: &[Arc<Mount>],
+    ctl: &Controller,
+    cmd: &MountCmd,
+) -> Result<Vec<String>, CtlError> {
+    let mount = select(mounts, cmd.telescope.as_deref())?;
+    match cmd.op {
+        MountOp::Status => return Ok(vec![status(mount, ctl)?]),
+        MountOp::Slew { ra, dec } => mount.slew(ctl, ra, dec)?,
+        MountOp::Sync { ra, dec } => mount.sync(ctl, ra, dec)?,
+        MountOp::SlewAltAz { alt, az } => mount.slew_alt_az(ctl, alt, az)?,
+        MountOp::SyncAltAz { alt, az } => mount.sync_alt_az(ctl, alt, az)?,
+        MountOp::Side(s) => mount.set_pier_side(ctl, s)?,
+        MountOp::Move { axis, rate } => mount.move_axis(ctl, axis, rate)?,
+        MountOp::Track { on, rate } => {
             if let Some(r) = rate {
                 mount.set_drive_rate(ctl, r)?;
             }
             mount.set_tracking(ctl, on)?;
         }
-        MountCmd::Park => mount.park(ctl)?,
-        MountCmd::Unpark => mount.unpark(ctl)?,
-        MountCmd::SetPark => mount.set_park(ctl)?,
-        MountCmd::Abort => mount.abort(ctl)?,
-        MountCmd::Pulse { dir, ms } => mount.pulse(ctl, dir, ms)?,
+        MountOp::Park => mount.park(ctl)?,
+        MountOp::Unpark => mount.unpark(ctl)?,
+        MountOp::SetPark => mount.set_park(ctl)?,
+        MountOp::Abort => mount.abort(ctl)?,
+        MountOp::Pulse { dir, ms } => mount.pulse(ctl, dir, ms)?,
     }
     Ok(vec![])
 }
@@ -230,7 +372,8 @@ fn status(m: &Mount, ctl: &Controller) -> Result<String, CtlError> {
     let b = |x: bool| x as u8;
     Ok(format!(
         "mount ra={:.6} dec={:.6} ha={:.6} lst={:.6} alt={:.6} az={:.6} side={} \
-         tracking={} rate={} slewing={} parked={} guiding={} lat={lat} lon={lon} elevation={elevation}",
+         tracking={} rate={} slewing={} parked={} guiding={} lat={lat} lon={lon} elevation={elevation} \
+         utc={}",
         p.ra,
         p.dec,
         p.ha,
@@ -243,6 +386,7 @@ fn status(m: &Mount, ctl: &Controller) -> Result<String, CtlError> {
         b(m.slewing()),
         b(m.at_park()),
         b(m.is_pulse_guiding()),
+        m.utc_date(),
     ))
 }
 
@@ -250,44 +394,84 @@ fn status(m: &Mount, ctl: &Controller) -> Result<String, CtlError> {
 mod tests {
     use super::*;
 
-    fn p(line: &str) -> Result<MountCmd, CtlError> {
+    fn p(line: &str) -> Result<MountOp, CtlError> {
         let w: Vec<&str> = line.split_whitespace().collect();
-        parse(&w)
+        parse(&w).map(|c| {
+            assert_eq!(c.telescope, None, "{line}");
+            c.op
+        })
     }
 
     #[test]
     fn each_command_parses_to_what_it_names() {
-        assert_eq!(p("").unwrap(), MountCmd::Status);
+        assert_eq!(p("").unwrap(), MountOp::Status);
         assert_eq!(
             p("slew 5.5 -12.25").unwrap(),
-            MountCmd::Slew {
+            MountOp::Slew {
                 ra: 5.5,
                 dec: -12.25
             }
         );
         assert_eq!(
             p("SYNC 0 90").unwrap(),
-            MountCmd::Sync { ra: 0.0, dec: 90.0 }
+            MountOp::Sync { ra: 0.0, dec: 90.0 }
         );
         assert_eq!(
             p("track on lunar").unwrap(),
-            MountCmd::Track {
+            MountOp::Track {
                 on: true,
                 rate: Some(DriveRate::Lunar)
             }
         );
         assert_eq!(
             p("track off").unwrap(),
-            MountCmd::Track {
+            MountOp::Track {
                 on: false,
                 rate: None
             }
         );
         assert_eq!(
             p("pulse W 250").unwrap(),
-            MountCmd::Pulse { dir: 3, ms: 250 }
+            MountOp::Pulse { dir: 3, ms: 250 }
         );
-        assert_eq!(p("setpark").unwrap(), MountCmd::SetPark);
+        assert_eq!(p("setpark").unwrap(), MountOp::SetPark);
+        assert_eq!(
+            p("slewaltaz 45 180.5").unwrap(),
+            MountOp::SlewAltAz {
+                alt: 45.0,
+                az: 180.5
+            }
+        );
+        assert_eq!(p("side W").unwrap(), MountOp::Side(PierSide::West));
+        assert_eq!(
+            p("move dec -1.5").unwrap(),
+            MountOp::Move {
+                axis: 1,
+                rate: -1.5
+            }
+        );
+    }
+
+    #[test]
+    fn a_first_word_that_is_no_command_names_the_telescope() {
+        let w = |l: &str| parse(&l.split_whitespace().collect::<Vec<_>>()).unwrap();
+        assert_eq!(
+            w("1 park"),
+            MountCmd {
+                telescope: Some("1".into()),
+                op: MountOp::Park
+            }
+        );
+        assert_eq!(
+            w("ha2"),
+            MountCmd {
+                telescope: Some("ha2".into()),
+                op: MountOp::Status
+            }
+        );
+        // A telescope and a wrong command: the command's error.
+        let e = parse(&["1", "fly"]).unwrap_err();
+        assert!(e.to_string().contains("unknown mount command 'fly'"), "{e}");
     }
 
     #[test]
@@ -303,9 +487,17 @@ mod tests {
             "mount setpark",
             "mount abort",
             "mount pulse e 1500",
+            "mount slewaltaz 45 180.5",
+            "mount syncaltaz -5 0",
+            "mount side east",
+            "mount move ra 2.5",
+            "mount move dec 0",
+            "mount 1 slew 5.5 -12.25",
+            "mount ha2 side west",
+            "mount 0",
         ] {
-            let cmd = p(line.strip_prefix("mount").unwrap()).unwrap();
-            assert_eq!(cmd.to_string(), line);
+            let w: Vec<&str> = line.split_whitespace().skip(1).collect();
+            assert_eq!(parse(&w).unwrap().to_string(), line);
         }
     }
 
@@ -321,7 +513,12 @@ mod tests {
             ("pulse n 600001", "'600001'"),
             ("pulse n -1", "'-1'"),
             ("park now", "takes 0 arguments"),
-            ("fly", "unknown mount command 'fly'"),
+            ("slewaltaz 45", "takes 2 arguments"),
+            ("syncaltaz 45 north", "azimuth 'north'"),
+            ("side up", "'up' is neither east nor west"),
+            ("move x 1", "'x' is neither ra nor dec"),
+            ("move ra fast", "rate 'fast'"),
+            ("1 fly", "unknown mount command 'fly'"),
         ] {
             let e = p(line).unwrap_err();
             assert_eq!(e.code(), 3, "{line}");

@@ -60,6 +60,9 @@ struct Slew {
     /// The equatorial target, aimed at again once when the first move ends (the sky
     /// turned while it ran).
     target: Option<(f64, f64)>,
+    /// The pier side the target is reached from (a pier flip); else the side a slew
+    /// there takes.
+    side: Option<PierSide>,
     park: bool,
     /// Counts to move on to once the first move ends: the last stretch of a park,
     /// approached from the side that takes up the backlash.
@@ -78,8 +81,11 @@ struct State {
     dec_rate: f64,
     /// Guide rates, degrees per second.
     guide: [f64; 2],
-    /// Added to the axes' counted angles (degrees): set by sync.
+    /// Added to the axes' counted angles (degrees): set by sync, kept in the store.
     sync: Axes,
+    /// The mount's clock less the host's UTC, seconds: set through UTCDate, not stored
+    /// (a restart reads the host's clock again).
+    utc_offset: f64,
     target: (Option<f64>, Option<f64>),
     slew: Option<Slew>,
     parked: bool,
@@ -101,11 +107,23 @@ const TICK: Duration = Duration::from_millis(5);
 pub const MAX_PULSE_MS: i64 = 600_000;
 
 impl Mount {
-    /// The mount of `cfg` (checked), parked if it was parked when the board last ran.
+    /// The mount of `cfg` (checked), parked if it was parked when the board last ran,
+    /// with the sync offsets it last had.
     pub fn open(cfg: MountConfig, ctl: &Controller) -> Result<Mount, MountError> {
         let parked = ctl
             .with_board(|b, _| b.named_positions())?
             .contains_key(&cfg.parked_name());
+        let kept = ctl
+            .with_board(|b, _| b.mount_record(&cfg.ra_axis))?
+            .unwrap_or_default();
+        // A record from a mount configured otherwise (no dec axis now) keeps only its
+        // polar offset; a value that is not finite is not used.
+        let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
+        let dec_sync = if cfg.dec_axis.is_some() {
+            finite(kept.sync[1])
+        } else {
+            0.0
+        };
         let sidereal_deg = rates::SIDEREAL / 3600.0;
         let state = State {
             lat: cfg.latitude,
@@ -120,9 +138,10 @@ impl Mount {
                 cfg.guide_rate_dec * sidereal_deg,
             ],
             sync: Axes {
-                polar: 0.0,
-                dec: 0.0,
+                polar: finite(kept.sync[0]),
+                dec: dec_sync,
             },
+            utc_offset: 0.0,
             target: (None, None),
             slew: None,
             parked,
@@ -223,8 +242,32 @@ impl Mount {
         Ok(self.pointing_of(&st, &s))
     }
 
+    /// The mount's UTC now: the host's plus the offset UTCDate set (seconds since 1970).
+    fn now(st: &State) -> f64 {
+        time::unix_now() + st.utc_offset
+    }
+
+    /// Local sidereal time (degrees) by the mount's clock.
+    fn lst(st: &State) -> f64 {
+        time::lst_deg(Self::now(st), st.lon)
+    }
+
+    /// UTCDate: the mount's UTC as ISO 8601 text.
+    pub fn utc_date(&self) -> String {
+        time::iso8601(Self::now(&self.lock()))
+    }
+
+    /// Sets UTCDate (ISO 8601, see [`time::parse_iso8601`]): the mount's clock keeps the
+    /// difference from the host's UTC and reads sidereal time from it.
+    pub fn set_utc_date(&self, text: &str) -> Result<(), MountError> {
+        let t = time::parse_iso8601(text).map_err(MountError::Invalid)?;
+        // The axes' rates do not depend on the time: nothing to redo.
+        self.lock().utc_offset = t - time::unix_now();
+        Ok(())
+    }
+
     fn pointing_of(&self, st: &State, s: &[AxisStatus]) -> Pointing {
-        let lst = time::lst_deg(time::unix_now(), st.lon);
+        let lst = Self::lst(st);
         let (ha, dec, side) =
             self.cfg
                 .mount
@@ -243,7 +286,7 @@ impl Mount {
 
     /// Local sidereal time now, hours.
     pub fn sidereal_time(&self) -> f64 {
-        time::lst_deg(time::unix_now(), self.lock().lon) / 15.0
+        Self::lst(&self.lock()) / 15.0
     }
 
     /// A slew, park or homing under way, or an axis moved by MoveAxis.

@@ -1,11 +1,11 @@
 //! What a client asks of the mount: tracking, rates, slews, sync, park, homing, MoveAxis
 //! and pulses; and the tick that ends pulses and slews.
 
-use super::coords::{alt_az, wrap180, Axes, PierSide};
+use super::coords::{alt_az, ha_dec, wrap180, Axes, Geometry, PierSide};
 use super::rates::{
     micro_arcsec, step_rate, DriveRate, ARCSEC_PER_RA_SECOND, SI_PER_SIDEREAL_SECOND,
 };
-use super::{time, Mount, MountError, Slew, State, MAX_PULSE_MS};
+use super::{Mount, MountError, Slew, State, MAX_PULSE_MS};
 use crate::axis::AxisState;
 use crate::error::CtlError;
 use crate::protocol::{Amount, MoveOpts, RateArg, TrackOpts};
@@ -26,6 +26,17 @@ fn check_ra_dec(ra: f64, dec: f64) -> Result<(), MountError> {
     }
     if !(-90.0..=90.0).contains(&dec) {
         return invalid(format!("declination {dec}° is outside [−90, 90]"));
+    }
+    Ok(())
+}
+
+/// SlewToAltAz's and SyncToAltAz's ranges (ASCOM ITelescopeV4).
+fn check_alt_az(alt: f64, az: f64) -> Result<(), MountError> {
+    if !(-90.0..=90.0).contains(&alt) {
+        return invalid(format!("altitude {alt}° is outside [−90, 90]"));
+    }
+    if !(0.0..360.0).contains(&az) {
+        return invalid(format!("azimuth {az}° is outside [0, 360)"));
     }
     Ok(())
 }
@@ -124,31 +135,51 @@ impl Mount {
         Ok(())
     }
 
-    /// The side a slew to (`ra` hours, `dec`) would end on.
+    /// Hour angle (degrees) of right ascension `ra` (hours) now, by the mount's clock.
+    fn ha_of(st: &State, ra: f64) -> f64 {
+        wrap180(Self::lst(st) - ra * 15.0)
+    }
+
+    /// The side a slew to (`ra` hours, `dec`) would end on: the side [`Mount::slew`]
+    /// takes (the limits are not checked here: a slew beyond them is refused).
     pub fn destination_side(&self, ra: f64, dec: f64) -> Result<PierSide, MountError> {
         check_ra_dec(ra, dec)?;
         let st = self.lock();
-        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
-        Ok(self.cfg.mount.side_for(ha, st.lat))
+        Ok(self.cfg.mount.side_for(Self::ha_of(&st, ra), st.lat))
     }
 
-    /// The axis angles for (`ra`, `dec`) now, refused beyond the limits.
-    fn aim(&self, st: &State, ra: f64, dec: f64) -> Result<Axes, MountError> {
+    /// The axis angles for (`ra`, `dec`) now from `side` (None: the side a slew takes),
+    /// refused beyond the limits.
+    fn aim(
+        &self,
+        st: &State,
+        ra: f64,
+        dec: f64,
+        side: Option<PierSide>,
+    ) -> Result<Axes, MountError> {
         check_ra_dec(ra, dec)?;
+        self.aim_ha(st, Self::ha_of(st, ra), dec, side)
+    }
+
+    /// The axis angles for hour angle `ha` and `dec` from `side` (None: the side a slew
+    /// takes), refused beyond ha_limit or below the horizon limit.
+    fn aim_ha(
+        &self,
+        st: &State,
+        ha: f64,
+        dec: f64,
+        side: Option<PierSide>,
+    ) -> Result<Axes, MountError> {
         let g = self.cfg.mount;
-        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
-        if g == super::Geometry::Coelostat && (dec - self.cfg.coelostat_dec).abs() > 1e-6 {
+        if g == Geometry::Coelostat && (dec - self.cfg.coelostat_dec).abs() > 1e-6 {
             return invalid(format!(
                 "a coelostat's declination is set by hand ({}°); {dec}° cannot be reached",
                 self.cfg.coelostat_dec
             ));
         }
-        let a = g.to_axes(ha, dec, g.side_for(ha, st.lat), st.lat);
-        let swing = if g == super::Geometry::German {
-            a.polar
-        } else {
-            ha
-        };
+        let side = side.unwrap_or_else(|| g.side_for(ha, st.lat));
+        let a = g.to_axes(ha, dec, side, st.lat);
+        let swing = if g == Geometry::German { a.polar } else { ha };
         if swing.abs() > self.cfg.ha_limit {
             return invalid(format!(
                 "slew refused: the polar axis would be {:.2}° from its centre, beyond ha_limit {}°",
@@ -175,13 +206,115 @@ impl Mount {
                 "equatorial slews need Tracking = True".into(),
             ));
         }
-        let a = self.aim(&st, ra, dec)?;
+        let a = self.aim(&st, ra, dec, None)?;
         st.target = (Some(ra), Some(dec));
         // The catch-up move (see `tick`) makes the last stretch, backlash included.
         let steps = self.approach(&st, self.steps_of(&st, a));
         self.move_axes(ctl, &mut st, steps)?;
         st.slew = Some(Slew {
             target: Some((ra, dec)),
+            side: None,
+            park: false,
+            then: None,
+        });
+        Ok(())
+    }
+
+    /// SlewToAltAzAsync: needs tracking off (ASCOM ITelescopeV4), so the point stays put
+    /// in altitude and azimuth; the same limits as an equatorial slew.
+    pub fn slew_alt_az(&self, ctl: &Controller, alt: f64, az: f64) -> Result<(), MountError> {
+        check_alt_az(alt, az)?;
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if st.tracking {
+            return Err(MountError::NotNow(
+                "altitude-azimuth slews need Tracking = False".into(),
+            ));
+        }
+        let (ha, dec) = ha_dec(alt, az, st.lat);
+        let a = self.aim_ha(&st, ha, dec, None)?;
+        let at = self.steps_of(&st, a);
+        let first = self.approach(&st, at);
+        self.move_axes(ctl, &mut st, first)?;
+        st.slew = Some(Slew {
+            target: None,
+            side: None,
+            park: false,
+            then: (first != at).then_some(at),
+        });
+        Ok(())
+    }
+
+    /// Waits until the slew under way ends (a synchronous slew); false if it is still
+    /// under way after `limit`.
+    pub fn wait_slew(&self, limit: Duration) -> bool {
+        let end = Instant::now() + limit;
+        while self.slewing() {
+            if Instant::now() > end {
+                return false;
+            }
+            // The supervising thread ends the slew; look as often as it ticks.
+            std::thread::sleep(super::TICK);
+        }
+        true
+    }
+
+    /// SyncToAltAz: needs tracking off (ASCOM ITelescopeV4).
+    pub fn sync_alt_az(&self, ctl: &Controller, alt: f64, az: f64) -> Result<(), MountError> {
+        check_alt_az(alt, az)?;
+        if self.cfg.mount == Geometry::Coelostat {
+            return invalid(format!(
+                "a coelostat's declination is set by hand ({}°): sync it in right ascension",
+                self.cfg.coelostat_dec
+            ));
+        }
+        let s = self.axes_status(ctl)?;
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if st.tracking {
+            return Err(MountError::NotNow(
+                "altitude-azimuth syncs need Tracking = False".into(),
+            ));
+        }
+        let (ha, dec) = ha_dec(alt, az, st.lat);
+        self.sync_to(ctl, &mut st, &s, ha, dec)
+    }
+
+    /// SideOfPier set, a German mount's pier flip: the same coordinates from `side`,
+    /// refused beyond ha_limit (the counterweight rises on the other side). Nothing moves
+    /// when the mount is on `side` already.
+    pub fn set_pier_side(&self, ctl: &Controller, side: PierSide) -> Result<(), MountError> {
+        if self.cfg.mount != Geometry::German {
+            return Err(MountError::NotNow(
+                "only a German equatorial mount has two pier sides".into(),
+            ));
+        }
+        if side == PierSide::Unknown {
+            return invalid("SideOfPier is set to east (0) or west (1)".into());
+        }
+        let s = self.axes_status(ctl)?;
+        let mut st = self.lock();
+        Self::unparked(&st)?;
+        if st.slew.is_some() || st.moving != [0.0; 2] {
+            return Err(MountError::NotNow("a slew is under way".into()));
+        }
+        let p = self.pointing_of(&st, &s);
+        if p.side == side {
+            return Ok(());
+        }
+        let a = self.aim_ha(&st, p.ha, p.dec, Some(side))?;
+        let at = self.steps_of(&st, a);
+        // Tracking: a catch-up aims at the same sky coordinates again from that side.
+        let target = st.tracking.then_some((p.ra, p.dec));
+        let first = if target.is_some() {
+            self.approach(&st, at)
+        } else {
+            at
+        };
+        self.move_axes(ctl, &mut st, first)?;
+        st.slew = Some(Slew {
+            target,
+            side: Some(side),
             park: false,
             then: None,
         });
@@ -199,15 +332,36 @@ impl Mount {
         if st.slew.is_some() {
             return Err(MountError::NotNow("cannot sync while slewing".into()));
         }
-        let now = self.angles(&st, &s);
-        let side = self.pointing_of(&st, &s).side;
-        let ha = wrap180(time::lst_deg(time::unix_now(), st.lon) - ra * 15.0);
-        let want = self.cfg.mount.to_axes(ha, dec, side, st.lat);
-        st.sync.polar += want.polar - now.polar;
-        if self.cfg.dec_axis.is_some() {
-            st.sync.dec += want.dec - now.dec;
-        }
+        let ha = Self::ha_of(&st, ra);
+        self.sync_to(ctl, &mut st, &s, ha, dec)?;
         st.target = (Some(ra), Some(dec));
+        Ok(())
+    }
+
+    /// Sync offsets that make the axes read (`ha`, `dec`) on their present pier side;
+    /// stored, so a restart keeps them.
+    fn sync_to(
+        &self,
+        ctl: &Controller,
+        st: &mut State,
+        s: &[crate::axis::AxisStatus],
+        ha: f64,
+        dec: f64,
+    ) -> Result<(), MountError> {
+        let now = self.angles(st, s);
+        let side = self.pointing_of(st, s).side;
+        let want = self.cfg.mount.to_axes(ha, dec, side, st.lat);
+        let mut sync = st.sync;
+        sync.polar += want.polar - now.polar;
+        if self.cfg.dec_axis.is_some() {
+            sync.dec += want.dec - now.dec;
+        }
+        let rec = crate::store::MountRecord {
+            sync: [sync.polar, sync.dec],
+        };
+        // Kept first: a sync the store refused is not taken.
+        ctl.with_board(|b, _| b.put_mount_record(&self.cfg.ra_axis, &rec))?;
+        st.sync = sync;
         Ok(())
     }
 
@@ -228,6 +382,7 @@ impl Mount {
         self.move_axes(ctl, &mut st, first)?;
         st.slew = Some(Slew {
             target: None,
+            side: None,
             park: true,
             then: (first != park).then_some(park),
         });
@@ -270,6 +425,7 @@ impl Mount {
         }
         st.slew = Some(Slew {
             target: None,
+            side: None,
             park: false,
             then: None,
         });
@@ -286,6 +442,7 @@ impl Mount {
         // The tick resumes tracking once the axes are at rest.
         st.slew = st.slew.map(|_| Slew {
             target: None,
+            side: None,
             park: false,
             then: None,
         });
@@ -376,7 +533,9 @@ impl Mount {
                 changed = true;
                 // The sky turned during the slew: one short move to catch up (unless the
                 // target has meanwhile crossed a limit; tracking then resumes where it is).
-                let aim = slew.target.map(|(ra, dec)| self.aim(&st, ra, dec));
+                let aim = slew
+                    .target
+                    .map(|(ra, dec)| self.aim(&st, ra, dec, slew.side));
                 if let Some(Ok(a)) = aim {
                     let steps = self.steps_of(&st, a);
                     self.move_axes(ctl, &mut st, steps)?;

@@ -151,3 +151,174 @@ fn slews_and_parks_end_approaching_from_one_side_by_the_backlash() {
     assert_eq!((s[0].position, s[1].position), (0, 0));
     assert!(min_dec < -500, "{min_dec}");
 }
+
+/// The hour angle and declination the mount points at.
+fn ha_dec_now(ctl: &Controller, m: &Mount) -> (f64, f64) {
+    let p = m.pointing(ctl).unwrap();
+    (p.ha, p.dec)
+}
+
+#[test]
+fn an_alt_az_slew_ends_there_with_tracking_off_and_syncs_to_alt_az() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (ctl, m) = mount(
+        "dec_axis = \"dec\"\ndec_steps_per_rev = 1296000\nhorizon = 10.0\n",
+        tmp.path(),
+    );
+    // Tracking on: refused (the point would not stay put in altitude and azimuth).
+    m.set_tracking(&ctl, true).unwrap();
+    assert!(matches!(
+        m.slew_alt_az(&ctl, 40.0, 200.0),
+        Err(MountError::NotNow(_))
+    ));
+    m.set_tracking(&ctl, false).unwrap();
+    for (alt, az, says) in [
+        (90.5, 10.0, "altitude"),
+        (45.0, 360.0, "azimuth"),
+        (45.0, -0.1, "azimuth"),
+        (5.0, 180.0, "horizon"),
+    ] {
+        match m.slew_alt_az(&ctl, alt, az) {
+            Err(MountError::Invalid(e)) => assert!(e.contains(says), "{alt} {az}: {e}"),
+            r => panic!("{alt} {az}: {r:?}"),
+        }
+    }
+    m.slew_alt_az(&ctl, 40.0, 200.0).unwrap();
+    assert!(m.slewing());
+    until(&ctl, &m, "alt-az slew ends", |s| {
+        !m.slewing() && s.iter().all(|a| a.state == AxisState::Idle)
+    });
+    let p = m.pointing(&ctl).unwrap();
+    // One step is 1″.
+    assert!((p.alt - 40.0).abs() * 3600.0 < 2.0, "{p:?}");
+    assert!((p.az - 200.0).abs() * 3600.0 < 4.0, "{p:?}");
+    // West of the meridian: pier east.
+    assert_eq!(p.side, PierSide::East);
+    assert!(!m.tracking());
+    // Sync to a point 0.5° higher: the axes stay, the reading moves.
+    let before = m.axes_status(&ctl).unwrap()[0].position;
+    m.sync_alt_az(&ctl, 40.5, 200.0).unwrap();
+    let p = m.pointing(&ctl).unwrap();
+    assert!(
+        (p.alt - 40.5).abs() < 1e-9 && (p.az - 200.0).abs() < 1e-9,
+        "{p:?}"
+    );
+    assert_eq!(m.axes_status(&ctl).unwrap()[0].position, before);
+    assert!(matches!(
+        m.sync_alt_az(&ctl, 91.0, 0.0),
+        Err(MountError::Invalid(_))
+    ));
+}
+
+#[test]
+fn a_pier_flip_points_at_the_same_place_from_the_other_side_within_the_limit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (ctl, m) = mount(
+        "dec_axis = \"dec\"\ndec_steps_per_rev = 1296000\nha_limit = 120.0\n",
+        tmp.path(),
+    );
+    // HA 20° west: the counterweight side is east; from the west the polar axis turns
+    // 110° from its centre (within 120°).
+    m.set_tracking(&ctl, false).unwrap();
+    let (lat, _, _) = m.site();
+    let (alt, az) = coords::alt_az(20.0, 30.0, lat);
+    m.slew_alt_az(&ctl, alt, az).unwrap();
+    until(&ctl, &m, "slew ends", |_| !m.slewing());
+    assert_eq!(m.pointing(&ctl).unwrap().side, PierSide::East);
+    let before = ha_dec_now(&ctl, &m);
+    // Already east: nothing moves.
+    m.set_pier_side(&ctl, PierSide::East).unwrap();
+    assert!(!m.slewing());
+    m.set_pier_side(&ctl, PierSide::West).unwrap();
+    assert!(m.slewing());
+    until(&ctl, &m, "flip ends", |_| !m.slewing());
+    let p = m.pointing(&ctl).unwrap();
+    assert_eq!(p.side, PierSide::West);
+    let s = m.axes_status(&ctl).unwrap();
+    assert_eq!(s[0].position, 110 * 3600);
+    assert!(
+        (wrap(p.ha - before.0)).abs() * 3600.0 < 2.0,
+        "{p:?} {before:?}"
+    );
+    assert!((p.dec - before.1).abs() * 3600.0 < 2.0, "{p:?} {before:?}");
+    // At HA 40° the west side is 130° out: refused, nothing moves.
+    let (alt, az) = coords::alt_az(40.0, 30.0, lat);
+    m.set_pier_side(&ctl, PierSide::East).unwrap();
+    until(&ctl, &m, "flip back ends", |_| !m.slewing());
+    m.slew_alt_az(&ctl, alt, az).unwrap();
+    until(&ctl, &m, "slew ends", |_| !m.slewing());
+    match m.set_pier_side(&ctl, PierSide::West) {
+        Err(MountError::Invalid(e)) => assert!(e.contains("ha_limit"), "{e}"),
+        r => panic!("{r:?}"),
+    }
+    assert!(!m.slewing());
+    assert!(matches!(
+        m.set_pier_side(&ctl, PierSide::Unknown),
+        Err(MountError::Invalid(_))
+    ));
+}
+
+fn wrap(x: f64) -> f64 {
+    coords::wrap180(x)
+}
+
+#[test]
+fn a_fork_has_one_pier_side() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (ctl, m) = mount(
+        "mount = \"fork\"\ndec_axis = \"dec\"\ndec_steps_per_rev = 1296000\n",
+        tmp.path(),
+    );
+    assert!(matches!(
+        m.set_pier_side(&ctl, PierSide::West),
+        Err(MountError::NotNow(_))
+    ));
+}
+
+#[test]
+fn sync_offsets_are_kept_across_a_reopening_and_utc_date_is_not() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = "dec_axis = \"dec\"\ndec_steps_per_rev = 1296000\n";
+    let synced = {
+        let (ctl, m) = mount(cfg, tmp.path());
+        m.set_tracking(&ctl, true).unwrap();
+        let lst = m.sidereal_time();
+        let ra = (lst - 1.0).rem_euclid(24.0);
+        m.sync(&ctl, ra, 40.0).unwrap();
+        m.set_tracking(&ctl, false).unwrap();
+        until(&ctl, &m, "at rest", |s| {
+            s.iter().all(|a| a.state == AxisState::Idle)
+        });
+        // A clock set 2 h ahead: sidereal time runs 2 h (and 19.7 s) ahead.
+        let host = m.sidereal_time();
+        let later = time::iso8601(time::unix_now() + 7200.0);
+        m.set_utc_date(&later).unwrap();
+        let ahead = (m.sidereal_time() - host).rem_euclid(24.0);
+        assert!(
+            (ahead - 7200.0 * 1.002_737_909 / 3600.0).abs() < 1e-3,
+            "{ahead}"
+        );
+        let read = time::parse_iso8601(&m.utc_date()).unwrap();
+        assert!(
+            (read - time::unix_now() - 7200.0).abs() < 1.0,
+            "{}",
+            m.utc_date()
+        );
+        assert!(matches!(
+            m.set_utc_date("2026-01-01T00:00:00"),
+            Err(MountError::Invalid(_))
+        ));
+        ha_dec_now(&ctl, &m)
+    };
+    let (ctl, m) = mount(cfg, tmp.path());
+    // The host's clock again: the same hour angle, 2 h apart from the offset clock's.
+    let (ha, dec) = ha_dec_now(&ctl, &m);
+    assert!((dec - synced.1).abs() < 1e-9, "{dec} {synced:?}");
+    assert!((wrap(ha - synced.0)).abs() < 1e-9, "{ha} {synced:?}");
+    assert!((dec - 40.0).abs() < 1e-9, "{dec}");
+    drop((ctl, m));
+    // Another data directory: no offsets, the home pose looks at the pole.
+    let other = tempfile::tempdir().unwrap();
+    let (ctl, m) = mount(cfg, other.path());
+    assert!((ha_dec_now(&ctl, &m).1 - 90.0).abs() < 1e-9);
+}
