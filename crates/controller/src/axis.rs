@@ -537,6 +537,13 @@ pub struct AxisStatus {
     /// The rate a tracking axis runs at or ramps towards (steps/s, signed; none otherwise).
     #[serde(default)]
     pub rate: Option<f64>,
+    /// The board's crystal error as the host fitted it from readings of its tick counter
+    /// (ppm), once it has; the same on every axis of the board.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock_ppm: Option<f64>,
+    /// Tracking rates are corrected by `clock_ppm`: they follow host time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock_fix: Option<bool>,
     /// The driver is energized.
     #[serde(default = "energized")]
     pub enabled: bool,
@@ -596,6 +603,11 @@ impl AxisStatus {
                 let _ = write!(out, "{r}");
             }
             None => out.push_str("none"),
+        }
+        // a board whose clock the host has fitted only: other boards' lines are as before
+        if let Some(p) = self.clock_ppm {
+            let _ = write!(out, " clock_ppm={p:.4}");
+            flag(out, " clock_fix=", self.clock_fix.unwrap_or(false));
         }
         flag(out, " en=", self.enabled);
         let _ = write!(out, " num={}", self.number);
@@ -684,6 +696,8 @@ mod tests {
             sim_position: 0,
             dir_level: false,
             rate: Some(1e-7),
+            clock_ppm: None,
+            clock_fix: None,
             enabled: false,
             enable_level: false,
             store: "fail ing\n".into(),

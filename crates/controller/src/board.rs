@@ -1179,6 +1179,8 @@ impl Board {
                     sim_position: self.pins.sim_position(i),
                     dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                     rate: track.map(|t| t.signed_rate()),
+                    clock_ppm: self.clock_state().ppm,
+                    clock_fix: self.clock_fix(),
                     enabled: ax.driver.enabled,
                     enable_level: ax.driver.enabled == ax.settings.enable_active_high,
                     store: store.into(),

@@ -5,6 +5,7 @@
 use crate::axis::AxisStatus;
 use crate::backend::{BoardBackend, SimBackend};
 use crate::board::{Board, Halted, PlannedAxis};
+use crate::clock_rate::{check_ppm, Reading};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::mount::{Mount, MountConfig, MountError};
@@ -29,7 +30,22 @@ impl SimClock {
     fn now(&self) -> u64 {
         (self.t0.elapsed().as_secs_f64() * self.ticks_per_s) as u64
     }
+
+    /// A simulated board's counter read now, stamped with host time (wall time × time
+    /// scale): read and answered at once.
+    fn reading(&self, time_scale: f64) -> Reading {
+        let t = self.t0.elapsed().as_secs_f64();
+        let host = (t * time_scale * 1e9) as u64;
+        Reading {
+            sent_ns: host,
+            recv_ns: host,
+            tick: (t * self.ticks_per_s) as u64,
+        }
+    }
 }
+
+/// How often the host reads a simulated board's counter (host time).
+pub const CLOCK_READ_PERIOD: Duration = Duration::from_secs(1);
 
 /// Most simulation work (steps plus sensor events) one lock of the board may do: a few
 /// milliseconds. Past it the simulated clock falls behind, and no command waits long.
@@ -283,12 +299,45 @@ impl Controller {
         Controller::open_backend(config, store, time_scale, Box::new(sim))
     }
 
+    /// A simulated board whose crystal is `ppm` off (in [`crate::clock_rate::PPM_RANGE`]):
+    /// its ticks come `clock·(1 + ppm·10⁻⁶)` a host second (its SYNC line's falls too).
+    /// The host reads its counter every [`CLOCK_READ_PERIOD`] and corrects tracking by
+    /// the fit (see [`Board::clock_reading`]).
+    pub fn open_sim(
+        config: &BoardConfig,
+        store: Store,
+        time_scale: f64,
+        ppm: f64,
+    ) -> Result<Controller, CtlError> {
+        check_time_scale(time_scale)?;
+        check_ppm(ppm)?;
+        let crystal = 1.0 + ppm * 1e-6;
+        let mut sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        if let Some(line) = &config.board.sync_line {
+            crate::backend::check_line_path(line, store.dir())?;
+            sim = sim.with_sync_line(line, config.board.clock_hz * time_scale * crystal);
+        }
+        Controller::open_pins(config, store, time_scale, Box::new(sim), Some(crystal))
+    }
+
     /// Runs the board on the given pins; hardware runs in real time (time scale 1).
     pub fn open_backend(
         config: &BoardConfig,
         store: Store,
         time_scale: f64,
         pins: Box<dyn BoardBackend>,
+    ) -> Result<Controller, CtlError> {
+        Controller::open_pins(config, store, time_scale, pins, None)
+    }
+
+    /// [`Controller::open_backend`]; `crystal`: a simulated board's ticks per nominal
+    /// tick, whose counter the host reads.
+    fn open_pins(
+        config: &BoardConfig,
+        store: Store,
+        time_scale: f64,
+        pins: Box<dyn BoardBackend>,
+        crystal: Option<f64>,
     ) -> Result<Controller, CtlError> {
         check_time_scale(time_scale)?;
         if pins.clock_hz().is_some() && time_scale != 1.0 {
@@ -305,7 +354,7 @@ impl Controller {
         board.set_work_budget(Some(WORK_BUDGET));
         let clock = SimClock {
             t0: Instant::now(),
-            ticks_per_s: board.clock_hz() * time_scale,
+            ticks_per_s: board.clock_hz() * time_scale * crystal.unwrap_or(1.0),
         };
         let clock_hz = board.clock_hz();
         let halts = Halts::default();
@@ -322,9 +371,16 @@ impl Controller {
                 .name("board-ticker".into())
                 .spawn(move || {
                     let mut saved = Instant::now();
+                    let mut read: Option<Instant> = None;
+                    let read_every = CLOCK_READ_PERIOD.div_f64(time_scale);
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = shared.lock();
+                        if crystal.is_some() && read.is_none_or(|r| r.elapsed() >= read_every) {
+                            read = Some(Instant::now());
+                            // in order, each once: the fit cannot refuse it
+                            let _ = b.clock_reading(clock.reading(time_scale));
+                        }
                         if b.needs_polling() {
                             b.advance(clock.now());
                             if saved.elapsed() >= SIM_SAVE_PERIOD && b.is_simulated() {

@@ -10,8 +10,9 @@ use multistep_controller::clock_rate::Reading;
 use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
 use multistep_controller::protocol::{RateArg, SignedRate, TrackOpts};
 use multistep_controller::store::Store;
-use multistep_controller::{AxisSettings, Board};
+use multistep_controller::{AxisSettings, Board, Controller};
 use multistep_core::{Rate, TrackLimits, Tracker};
+use std::time::{Duration, Instant};
 
 const F: u64 = 50_000_000;
 const AMAX: f64 = 200.0;
@@ -285,4 +286,63 @@ fn without_the_correction_a_board_follows_its_crystal() {
     let later = at + 3600 * S;
     let more = b.position("sidereal", later) - ideal.count(later);
     assert!((ahead - 1..=ahead + 1).contains(&more), "{more} vs {ahead}");
+}
+
+/// `status` says what the host fitted and whether tracking follows it, on every axis of
+/// the board, once there is a fit; a board without one shows neither.
+#[test]
+fn status_shows_the_fitted_crystal() {
+    let mut b = Sim::new(-50, 4);
+    let before = b.board.status(&[], 0).unwrap();
+    assert!(before.iter().all(|s| s.clock_ppm.is_none()));
+    assert!(!before[0].line().contains("clock"), "{}", before[0].line());
+    for k in 0..60 {
+        b.read(k * 10 * S);
+    }
+    let all = b.board.status(&[], tick(600 * S, -50)).unwrap();
+    for s in &all {
+        let ppm = s.clock_ppm.unwrap();
+        assert!((ppm + 50.0).abs() < 0.5, "{ppm}");
+        assert_eq!(s.clock_fix, Some(true));
+        let line = s.line();
+        let shown = format!(" clock_ppm={ppm:.4} clock_fix=1 en=");
+        assert!(line.contains(&shown), "{line}");
+        let json = serde_json::to_string(s).unwrap();
+        assert!(json.contains(r#""clock_fix":true"#), "{json}");
+    }
+    b.board.set_clock_correction(false);
+    let s = b.board.status(&[], tick(600 * S, -50)).unwrap().remove(0);
+    assert_eq!(s.clock_fix, Some(false));
+    assert!(s.line().contains(" clock_fix=0 en="), "{}", s.line());
+}
+
+/// `serve --ppm`: the simulated board's ticks run off host time (the scaled wall clock)
+/// and the host's fit of its counter finds the error.
+#[test]
+fn a_simulated_board_with_a_crystal_error_is_fitted() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = || Store::open(dir.path()).unwrap();
+    let c = BoardConfig::default();
+    for bad in [1000.5, -2000.0, f64::NAN] {
+        let e = Controller::open_sim(&c, store(), 1000.0, bad)
+            .err()
+            .unwrap();
+        assert!(
+            e.to_string().contains("ppm must be in [-1000, 1000]"),
+            "{e}"
+        );
+    }
+    let ctl = Controller::open_sim(&c, store(), 1000.0, 200.0).unwrap();
+    let end = Instant::now() + Duration::from_secs(60);
+    let s = loop {
+        let s = ctl.status(&["X".into()]).unwrap().remove(0);
+        if s.clock_ppm.is_some() {
+            break s;
+        }
+        assert!(Instant::now() < end, "no fit: {s:?}");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let ppm = s.clock_ppm.unwrap();
+    assert!((ppm - 200.0).abs() < 0.01, "{ppm}");
+    assert_eq!(s.clock_fix, Some(true));
 }

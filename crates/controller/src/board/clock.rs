@@ -66,6 +66,12 @@ impl Board {
         }
     }
 
+    /// Whether tracking is corrected, once the clock is fitted (`status`'s `clock_fix`).
+    pub(super) fn clock_fix(&self) -> Option<bool> {
+        let c = self.clock_state();
+        c.ppm.map(|_| c.correcting)
+    }
+
     /// The board's counter restarted (a reset board): its readings so far are forgotten.
     pub fn clock_restarted(&mut self) {
         self.clock.estimator.restart();
