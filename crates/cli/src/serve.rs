@@ -34,6 +34,11 @@ pub struct ServeArgs {
     /// (below 1: slower); 1 with a board link
     #[arg(long, value_name = "X", default_value_t = 1.0)]
     pub time_scale: f64,
+    /// The simulated board's crystal error in ppm, -1000 to 1000 (negative: slow): its
+    /// ticks run that much off host time; the host fits it from readings of the board's
+    /// counter and keeps tracking to host time (not with a board link)
+    #[arg(long, value_name = "PPM", allow_hyphen_values = true)]
+    pub ppm: Option<f64>,
     #[command(flatten)]
     pub http: multistep_web::HttpArgs,
     #[command(flatten)]
@@ -96,9 +101,18 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     if link.is_some() && a.time_scale != 1.0 {
         bail!("--time-scale: a board on a link runs in real time (1)");
     }
+    if let Some(p) = a.ppm {
+        if link.is_some() {
+            bail!("--ppm: only a simulated board takes a crystal error; a board on a link has its own");
+        }
+        multistep_controller::clock_rate::check_ppm(p).context("--ppm")?;
+    }
     let store = open_store(&a.data, l.reset_damaged_data)?;
     let ctl = match &link {
-        None => Controller::open_store(&config, store, a.time_scale)?,
+        None => match a.ppm {
+            Some(p) => Controller::open_sim(&config, store, a.time_scale, p)?,
+            None => Controller::open_store(&config, store, a.time_scale)?,
+        },
         Some(spec) => {
             // the session this data directory's host kept: the board may still run it
             let before = store.link_session()?;

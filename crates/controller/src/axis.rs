@@ -24,6 +24,10 @@ pub struct AxisSettings {
     pub soft_max: Option<i64>,
     /// Periodic axis: its period in microsteps (seed 002: a wave plate repeats every 90°).
     pub period: Option<u64>,
+    /// Play between motor and load (microsteps): a move that reverses turns the motor this
+    /// much further, in the same profile, before the load follows (docs/PROTOCOL.md,
+    /// "Backlash").
+    pub backlash: u64,
     /// Counted position given to the sensor edge by homing.
     pub home_offset: i64,
     /// Homing direction: -1 or +1.
@@ -103,6 +107,7 @@ impl Default for AxisSettings {
             soft_min: None,
             soft_max: None,
             period: None,
+            backlash: 0,
             home_offset: 0,
             home_dir: -1,
             debounce: 0.002,
@@ -182,6 +187,11 @@ pub const RANGES: &[Range] = &[
         key: "period",
         min: 1.0,
         max: P,
+    },
+    Range {
+        key: "backlash",
+        min: 0.0,
+        max: 1e6,
     },
     Range {
         key: "home_offset",
@@ -294,6 +304,7 @@ impl AxisSettings {
             ("soft_min", self.soft_min.map(|x| x as f64)),
             ("soft_max", self.soft_max.map(|x| x as f64)),
             ("period", self.period.map(|x| x as f64)),
+            ("backlash", Some(self.backlash as f64)),
             ("home_offset", Some(self.home_offset as f64)),
             ("home_dir", Some(self.home_dir as f64)),
             ("debounce", Some(self.debounce)),
@@ -520,6 +531,10 @@ pub struct AxisStatus {
     pub speed: f64,
     /// Debounced Hall-sensor level.
     pub sensor: bool,
+    /// Motor minus load position (microsteps, 0 … `backlash`): `backlash` once the slack is
+    /// taken up by a move forward, 0 once by a move backward.
+    #[serde(default)]
+    pub slack: i64,
     /// Counted minus expected position at the last pass over the sensor edge.
     pub drift: Option<i64>,
     /// Sensor passes checked during normal moves.
@@ -688,6 +703,7 @@ mod tests {
             target: Some(99),
             speed: -2500.04999,
             sensor: true,
+            slack: 0,
             drift: None,
             drift_checks: 0,
             move_start: None,

@@ -68,7 +68,12 @@ enum Purpose {
 
 struct Motion {
     dir: i64,
+    /// The load's position at the end (see [`Axis::slack`]).
     target: i64,
+    /// Motor count and slack where the motion began: the slack at any later count of
+    /// this (monotone) motion is [`slack_after`] of them.
+    motor0: i64,
+    slack0: i64,
     purpose: Purpose,
     /// Set by a controlled stop or a homing trigger: the plan was replaced by a stop ramp.
     stopping: bool,
@@ -81,8 +86,13 @@ struct Motion {
 struct Axis {
     name: String,
     settings: AxisSettings,
-    /// The backend's count, as of the last advance.
+    /// The load's position as of the last advance: the backend's (motor) count minus
+    /// `slack`.
     count: i64,
+    /// Motor minus load, in [0, backlash]: the play between them is a dead band the motor
+    /// crosses before the load follows, so `backlash` after a move forward, 0 after one
+    /// backward.
+    slack: i64,
     homed: bool,
     trusted: bool,
     state: AxisState,
@@ -110,12 +120,42 @@ impl Axis {
             trusted: self.trusted,
             moving,
             sim_position,
+            slack: self.slack,
         }
+    }
+
+    fn backlash(&self) -> i64 {
+        self.settings.backlash as i64
+    }
+
+    /// The slack once the motor count reads `motor` (the motion under way, if any).
+    fn slack_at(&self, motor: i64) -> i64 {
+        match &self.motion {
+            Some(m) => slack_after(m.slack0, motor - m.motor0, self.backlash()),
+            None => self.slack,
+        }
+    }
+
+    /// Motor steps a move of `d` steps of the load makes: |d| plus the slack still to
+    /// take up in its direction (none for a move that goes on the same way).
+    fn motor_steps(&self, d: i64) -> u64 {
+        let take_up = match d.signum() {
+            1 => self.backlash() - self.slack,
+            -1 => self.slack,
+            _ => return 0,
+        };
+        d.unsigned_abs() + take_up.max(0) as u64
     }
 
     fn period(&self) -> Option<i64> {
         self.settings.period.map(|p| p as i64)
     }
+}
+
+/// The slack after the motor moved `moved` steps (one way) from slack `slack0`: the
+/// motor crosses the dead band [0, backlash] before it drives the load.
+fn slack_after(slack0: i64, moved: i64, backlash: i64) -> i64 {
+    slack0.saturating_add(moved).clamp(0, backlash.max(0))
 }
 
 /// `x` reduced to the shortest signed way around a period: (-P/2, P/2].
@@ -209,10 +249,12 @@ impl Board {
             };
             let rec = store.axis(&ac.name)?.unwrap_or_default();
             let mut sim_pos = rec.sim_position;
+            let slack = rec.slack.clamp(0, settings.backlash as i64);
             let mut axis = Axis {
                 name: ac.name.clone(),
                 settings,
                 count: rec.position,
+                slack,
                 homed: rec.homed,
                 trusted: rec.trusted,
                 state: AxisState::Idle,
@@ -232,9 +274,16 @@ impl Board {
             if let Some(dir) = pins.adopted_motion(i).filter(|_| adopted) {
                 axis.last_dir = dir;
                 axis.state = AxisState::Moving;
+                // the record was written as the motion began: its position and slack
+                let from = rec.moving.as_ref().map_or(rec.position, |m| m.from);
                 axis.motion = Some(Motion {
                     dir,
-                    target: rec.moving.as_ref().map_or(pins.count(i), |m| m.target),
+                    target: rec
+                        .moving
+                        .as_ref()
+                        .map_or(pins.count(i) - slack, |m| m.target),
+                    motor0: from + slack,
+                    slack0: slack,
                     purpose: Purpose::Move,
                     stopping: false,
                     edge: None,
@@ -244,7 +293,9 @@ impl Board {
             if let Some(m) = rec.moving.clone().filter(|_| adopted) {
                 // The host died mid-move, the board did not: the count is the board's.
                 pins.configure(i, &axis.settings);
-                axis.count = pins.count(i);
+                let motor = pins.count(i);
+                axis.slack = axis.slack_at(motor);
+                axis.count = motor - axis.slack;
                 if axis.motion.is_some() {
                     axis.marked = true;
                     axis.marker = Some((m.from, m.target));
@@ -266,14 +317,15 @@ impl Board {
                 store.put_axis(&axis.name, &axis.record(None, sim_pos))?;
             }
             pins.configure(i, &axis.settings);
-            pins.attach(i, axis.count, sim_pos);
+            pins.attach(i, axis.count + axis.slack, sim_pos);
             let read = pins.count(i);
-            if read != axis.count && !axis.marked {
+            if read != axis.count + axis.slack && !axis.marked {
                 warnings.push(format!(
                     "axis {}: the board counts {read}, the store says {}; untrusted until homed",
-                    axis.name, axis.count
+                    axis.name,
+                    axis.count + axis.slack
                 ));
-                axis.count = read;
+                axis.count = read - axis.slack;
                 axis.homed = false;
                 axis.trusted = false;
                 store.put_axis(&axis.name, &axis.record(None, pins.sim_position(i)))?;
@@ -332,7 +384,7 @@ impl Board {
             let mut sim = SimBackend::new(self.clock_hz, self.axes.len()).without_simulation();
             for (i, ax) in self.axes.iter().enumerate() {
                 sim.configure(i, &ax.settings);
-                sim.attach(i, ax.count, self.pins.sim_position(i));
+                sim.attach(i, ax.count + ax.slack, self.pins.sim_position(i));
             }
             self.pins = Box::new(sim);
         }
@@ -410,7 +462,7 @@ impl Board {
             // A jog lease lapsing first: run up to it, then stop that axis there.
             let until = self.next_lease().map_or(now, |l| l.min(now));
             while let Some((i, ev)) = self.pins.poll(until) {
-                self.axes[i].count = self.pins.count(i);
+                self.sync_count(i);
                 self.on_event(i, ev);
             }
             self.now = self.pins.now().max(self.now);
@@ -419,10 +471,28 @@ impl Board {
             }
         }
         for i in 0..self.axes.len() {
-            self.axes[i].count = self.pins.count(i);
+            self.sync_count(i);
             self.track_wrap(i);
         }
         self.release_idle();
+    }
+
+    /// The axis's slack and load position from the backend's (motor) count.
+    fn sync_count(&mut self, i: usize) {
+        let motor = self.pins.count(i);
+        let ax = &mut self.axes[i];
+        ax.slack = ax.slack_at(motor);
+        ax.count = motor - ax.slack;
+    }
+
+    /// Shifts axis `i`'s count by `delta` (motor and load alike: the slack is kept).
+    pub(super) fn rebase(&mut self, i: usize, delta: i64, mechanics: bool) -> Result<(), CtlError> {
+        self.pins.rebase(i, delta, mechanics)?;
+        if let Some(m) = self.axes[i].motion.as_mut() {
+            m.motor0 += delta;
+        }
+        self.sync_count(i);
+        Ok(())
     }
 
     fn on_event(&mut self, i: usize, ev: PinEvent) {
@@ -472,10 +542,16 @@ impl Board {
         let ax = &mut self.axes[i];
         let Some(m) = ax.motion.as_mut() else { return };
         let h = ax.settings.home_dir as i64;
-        if m.purpose == Purpose::Move && ev.active && m.dir == h && !m.stopping {
+        let b = ax.settings.backlash as i64;
+        let slack = slack_after(m.slack0, ev.count_at_start - m.motor0, b);
+        // Homing takes its edge with the slack taken up towards home_dir: only such a pass
+        // is compared, and then motor and load are a fixed distance apart, whichever of
+        // them the sensor sees.
+        let taken_up = slack == if h > 0 { b } else { 0 };
+        if m.purpose == Purpose::Move && ev.active && m.dir == h && !m.stopping && taken_up {
             // Closed-loop check (seed 002 §2.3): entering the sensor in the homing
             // direction, the count must read home_offset at the edge.
-            let mut d = ev.count_at_start - ax.settings.home_offset;
+            let mut d = ev.count_at_start - slack - ax.settings.home_offset;
             if let Some(p) = ax.settings.period {
                 d = shortest(d, p as i64);
             }
@@ -491,7 +567,7 @@ impl Board {
         if let Some(target) = triggered {
             m.edge = Some(ev);
             m.stopping = true;
-            m.target = target;
+            m.target = target - slack_after(m.slack0, target - m.motor0, b);
         }
     }
 
@@ -525,10 +601,10 @@ impl Board {
         if shift == 0 {
             return;
         }
-        if let Err(e) = self.pins.rebase(i, shift, true) {
-            self.warnings.push(format!("axis {}: {e}", ax.name));
+        if let Err(e) = self.rebase(i, shift, true) {
+            let name = &self.axes[i].name;
+            self.warnings.push(format!("axis {name}: {e}"));
         }
-        self.axes[i].count = self.pins.count(i);
     }
 
     /// Writes the axis record. While a sequence of moves runs (homing phases, the park
@@ -645,8 +721,8 @@ impl Board {
         }
     }
 
-    /// The bookkeeping of a move of `steps` on axis `i` from `start`; the moving marker
-    /// is written first (once per sequence of moves).
+    /// The bookkeeping of a move of `steps` motor steps on axis `i` from `start`; the
+    /// moving marker is written first (once per sequence of moves).
     fn launch_source(
         &mut self,
         i: usize,
@@ -657,7 +733,8 @@ impl Board {
     ) -> Result<(), CtlError> {
         let sim_pos = self.pins.sim_position(i);
         let ax = &mut self.axes[i];
-        let target = ax.count + dir * steps as i64;
+        let moved = dir * steps as i64;
+        let target = ax.count + ax.slack + moved - slack_after(ax.slack, moved, ax.backlash());
         if !ax.marked {
             let rec = ax.record(
                 Some(MovingMarker {
@@ -673,6 +750,8 @@ impl Board {
         ax.motion = Some(Motion {
             dir,
             target,
+            motor0: ax.count + ax.slack,
+            slack0: ax.slack,
             purpose,
             stopping: false,
             edge: None,
@@ -1002,7 +1081,7 @@ impl Board {
                     );
                     (p.start_speed, p.end_speed) = (None, None);
                 }
-                self.datapath(&self.spec(i, d.unsigned_abs(), &o))
+                self.datapath(&self.spec(i, self.axes[i].motor_steps(d), &o))
             })
             .collect()
     }
@@ -1025,7 +1104,7 @@ impl Board {
                 (Some(ta * s), Some(tb * s), Some(tc * s));
             (p.start_speed, p.end_speed) = (None, None);
             Ok(self
-                .spec(i, d.unsigned_abs(), &o)
+                .spec(i, self.axes[i].motor_steps(d), &o)
                 .plan_on_clock(self.clock_hz)?)
         };
         let mut scale: f64 = if opts.has_phase_times() { 1.0 } else { 0.0 };
@@ -1057,11 +1136,13 @@ impl Board {
             if self.stop_tracking(i) {
                 continue;
             }
+            let b = self.axes[i].backlash();
             if let Some(m) = self.axes[i].motion.as_mut() {
                 m.purpose = Purpose::Move;
                 if !m.stopping {
                     m.stopping = true;
-                    m.target = self.pins.stop(i, self.now)?;
+                    let motor = self.pins.stop(i, self.now)?;
+                    m.target = motor - slack_after(m.slack0, motor - m.motor0, b);
                 }
                 self.axes[i].state = AxisState::Moving;
             }
@@ -1167,6 +1248,7 @@ impl Board {
                         .map(|m| m.target),
                     speed,
                     sensor: self.pins.sensor(i),
+                    slack: ax.slack,
                     drift: ax.drift,
                     drift_checks: ax.drift_checks,
                     move_start: ax.move_start,
@@ -1210,7 +1292,16 @@ impl Board {
         let name = self.axes[i].name.clone();
         self.store.put_settings(&name, &s)?;
         self.pins.configure(i, &s);
+        let ax = &self.axes[i];
+        let slack = new_slack(ax.slack, ax.backlash(), s.backlash as i64, ax.last_dir);
+        let renamed = slack - ax.slack;
         self.axes[i].settings = s;
+        if renamed != 0 {
+            // The load stays where it is, the motor too: only its count is renamed.
+            self.axes[i].slack = slack;
+            self.rebase(i, renamed, true)?;
+            self.persist(i);
+        }
         // a new period applies at once: the position is read in [0, period) from now on
         if key == "period" && self.axes[i].period().is_some() {
             self.wrap_into_period(i);
@@ -1311,9 +1402,8 @@ impl Board {
         if let Some(p) = self.axes[i].period() {
             to = to.rem_euclid(p);
         }
-        self.pins.rebase(i, to - count, true)?;
+        self.rebase(i, to - count, true)?;
         let ax = &mut self.axes[i];
-        ax.count = self.pins.count(i);
         ax.homed = false;
         self.persist(i);
         Ok(self.axes[i].count)
@@ -1365,6 +1455,16 @@ impl Board {
     /// Whether the store's writes reach the disk (checked now, see [`Store::check`]).
     pub fn store_health(&self) -> crate::store::StoreHealth {
         self.store.check()
+    }
+}
+
+/// The slack kept when the backlash changes from `old` to `new`: the same side (all or
+/// none of the band), or, from no backlash, the side of the last move.
+fn new_slack(slack: i64, old: i64, new: i64, last_dir: i64) -> i64 {
+    if (old > 0 && slack == old) || (old == 0 && last_dir > 0) {
+        new
+    } else {
+        slack.min(new)
     }
 }
 

@@ -56,6 +56,10 @@ pub struct AxisRecord {
     pub moving: Option<MovingMarker>,
     /// Simulation only: the mechanical position (the simulated world, kept with the board).
     pub sim_position: i64,
+    /// Motor minus load position (0 … the axis's backlash): which side the slack is taken
+    /// up on (see [`crate::axis::AxisSettings::backlash`]).
+    #[serde(default)]
+    pub slack: i64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -666,6 +670,7 @@ mod tests {
             trusted: true,
             moving: Some(MovingMarker { from: 1, target: 2 }),
             sim_position: 5,
+            slack: 3,
         };
         {
             let s = Store::open(dir.path()).unwrap();

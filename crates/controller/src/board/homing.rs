@@ -20,6 +20,9 @@ pub(super) enum HomePhase {
     Backoff,
     /// Slow re-approach: this edge becomes the home position.
     Approach,
+    /// With backlash: past home against the homing direction by the backlash, so that the
+    /// last move onto home is in the homing direction and leaves the slack on its side.
+    Park,
 }
 
 impl HomePhase {
@@ -28,7 +31,7 @@ impl HomePhase {
         match self {
             HomePhase::Clear => Some(false),
             HomePhase::Seek | HomePhase::Approach => Some(true),
-            HomePhase::Backoff => None,
+            HomePhase::Backoff | HomePhase::Park => None,
         }
     }
 }
@@ -113,12 +116,14 @@ impl Board {
                 let Some(edge) = m.edge else {
                     return Err(fail("sensor not found within home_search steps"));
                 };
-                let over = (ax.count - edge.count_at_start).unsigned_abs();
+                // motor counts both; the slack is crossed as well, so that the
+                // re-approach meets the edge with it taken up towards home_dir
+                let over = (self.pins.count(i) - edge.count_at_start).unsigned_abs();
                 self.home_move(
                     i,
                     HomePhase::Backoff,
                     -h,
-                    over + s.home_backoff,
+                    over + s.home_backoff + s.backlash,
                     s.home_speed,
                     end,
                 )
@@ -127,7 +132,7 @@ impl Board {
                 if self.pins.sensor(i) {
                     return Err(fail("sensor still active after backing off"));
                 }
-                let reach = 2 * s.home_backoff + 16;
+                let reach = 2 * s.home_backoff + 16 + 2 * s.backlash;
                 self.home_move(
                     i,
                     HomePhase::Approach,
@@ -141,21 +146,36 @@ impl Board {
                 let Some(edge) = m.edge else {
                     return Err(fail("sensor lost on the slow re-approach"));
                 };
-                // The edge is home: re-reference the count, then park on it.
-                self.pins
-                    .rebase(i, s.home_offset - edge.count_at_start, false)?;
+                // The edge is home: re-reference the load's count, then park on it.
+                let b = s.backlash as i64;
+                let slack = super::slack_after(m.slack0, edge.count_at_start - m.motor0, b);
+                self.rebase(i, s.home_offset - (edge.count_at_start - slack), false)?;
                 let ax = &mut self.axes[i];
-                ax.count = self.pins.count(i);
                 ax.homed = true;
                 ax.trusted = true;
                 ax.drift = None;
                 let back = s.home_offset - ax.count;
-                if back != 0 {
-                    let (p, dp) = self.home_profile(i, back.unsigned_abs(), s.home_speed)?;
-                    self.launch(i, p, dp, back.signum(), Purpose::Move, end)?;
+                if b > 0 && back.signum() == -h {
+                    let steps = ax.motor_steps(back - h * b);
+                    return self.home_move(i, HomePhase::Park, -h, steps, s.home_speed, end);
                 }
-                Ok(())
+                self.park(i, back, end)
+            }
+            HomePhase::Park => {
+                let back = s.home_offset - ax.count;
+                self.park(i, back, end)
             }
         }
+    }
+
+    /// The last move of homing: `back` steps onto home.
+    fn park(&mut self, i: usize, back: i64, end: u64) -> Result<(), CtlError> {
+        if back != 0 {
+            let steps = self.axes[i].motor_steps(back);
+            let speed = self.axes[i].settings.home_speed;
+            let (p, dp) = self.home_profile(i, steps, speed)?;
+            self.launch(i, p, dp, back.signum(), Purpose::Move, end)?;
+        }
+        Ok(())
     }
 }

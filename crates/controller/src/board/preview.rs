@@ -42,7 +42,10 @@ impl Board {
             plan.push((i, self.delta(i, *amount, absolute)?));
         }
         // The TDM engine times every edge of the group before it starts: bound that work.
-        let total: u128 = plan.iter().map(|p| p.1.unsigned_abs() as u128).sum();
+        let total: u128 = plan
+            .iter()
+            .map(|&(i, d)| self.axes[i].motor_steps(d) as u128)
+            .sum();
         if total > super::MAX_TIMED_STEPS as u128 {
             return Err(CtlError::Timing(format!(
                 "the move is {total} steps in all, more than the {} one move or group may have; split it",
@@ -57,7 +60,7 @@ impl Board {
                     if d == 0 {
                         Ok(None)
                     } else {
-                        self.plan(i, d.unsigned_abs(), opts).map(Some)
+                        self.plan(i, self.axes[i].motor_steps(d), opts).map(Some)
                     }
                 })
                 .collect::<Result<Vec<_>, _>>()?

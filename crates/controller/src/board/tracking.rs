@@ -153,10 +153,12 @@ impl Board {
             return None;
         }
         let s = &ax.settings;
+        // in motor steps: the slack still to take up that way moves no load
         Some(if dir > 0 {
-            s.soft_max.unwrap_or(MAX_POSITION).min(MAX_POSITION) - ax.count
+            s.soft_max.unwrap_or(MAX_POSITION).min(MAX_POSITION) - ax.count + ax.backlash()
+                - ax.slack
         } else {
-            ax.count - s.soft_min.unwrap_or(-MAX_POSITION).max(-MAX_POSITION)
+            ax.count - s.soft_min.unwrap_or(-MAX_POSITION).max(-MAX_POSITION) + ax.slack
         })
     }
 

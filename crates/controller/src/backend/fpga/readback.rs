@@ -132,6 +132,7 @@ mod tests {
                 trusted: true,
                 moving: None,
                 sim_position: 0,
+                slack: 0,
             };
             store.put_axis(name, &rec).unwrap();
         }

@@ -658,6 +658,7 @@ mod tests {
                 target: 800,
             }),
             sim_position: 0,
+            slack: 0,
         };
         store.put_axis("X", &rec).unwrap();
         store.put_link_session(&kept(0)).unwrap();
