@@ -182,8 +182,17 @@ impl AlpacaSection {
                 _ => {}
             }
         }
-        for t in &self.telescope {
+        for (k, t) in self.telescope.iter().enumerate() {
             t.validate(config).map_err(ConfigError)?;
+            // INDI names a device by its name: two telescopes need two names.
+            if let Some(n) = &t.name {
+                if self.telescope[..k]
+                    .iter()
+                    .any(|u| u.name.as_ref() == Some(n))
+                {
+                    return err(format!("two telescopes are named '{n}'"));
+                }
+            }
         }
         for r in &self.rotator {
             r.travel()?;
@@ -322,6 +331,10 @@ mod tests {
             ("[[alpaca.telescope]]\nmount = \"coelostat\"\nra_axis = \"F\"\n\
               ra_steps_per_rev = 10\nlatitude = 0.0\nlongitude = 0.0\n[[alpaca.focuser]]\naxis = \"F\"\n", "two devices"),
             ("[[alpaca.focuser]]\naxis = \"F\"\nmicrons_per_unit = -1.0\n", "positive"),
+            ("[[axis]]\nname = \"A\"\n[[alpaca.telescope]]\nname = \"T\"\nmount = \"coelostat\"\n\
+              ra_axis = \"F\"\nra_steps_per_rev = 10\nlatitude = 0.0\nlongitude = 0.0\n\
+              [[alpaca.telescope]]\nname = \"T\"\nmount = \"coelostat\"\nra_axis = \"A\"\n\
+              ra_steps_per_rev = 10\nlatitude = 0.0\nlongitude = 0.0\n", "two telescopes are named 'T'"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"\", position = 0 }]\n", "non-empty"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = 9223372036854775807 }]\n", "outside [-1000000000000000, 1000000000000000]"),
             ("[[alpaca.filterwheel]]\naxis = \"W\"\nslots = [{ name = \"a\", position = -9223372036854775808 }]\n", "outside"),

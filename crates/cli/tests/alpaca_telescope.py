@@ -4,8 +4,9 @@ against ITelescopeV4 as docs/ALPACA.md writes it down.
 Run by crates/cli/tests/alpaca_telescope.rs:
     python3 alpaca_telescope.py first|restart ALPACA_HOST:PORT LINE_PROTOCOL_HOST:PORT TOKEN
 
-`first` checks every member and ends parked; `restart` (a new serve on the same data)
-checks the mount is still parked and unparks. Every check is counted; the run prints
+`first` checks every member and ends parked, printing where it points; `restart` (a new
+serve on the same data, given that line's numbers) checks the mount is still parked,
+points there (the sync offsets were kept) and reads the host's clock again, and unparks. Every check is counted; the run prints
 "telescope: N checks, F failures" and exits non-zero when F > 0.
 """
 
@@ -148,10 +149,10 @@ def first(t):
     for name, want in [
         ("CanFindHome", True), ("CanPark", True), ("CanPulseGuide", True),
         ("CanSetDeclinationRate", True), ("CanSetGuideRates", True), ("CanSetPark", True),
-        ("CanSetPierSide", False), ("CanSetRightAscensionRate", True),
-        ("CanSetTracking", True), ("CanSlew", False), ("CanSlewAltAz", False),
-        ("CanSlewAltAzAsync", False), ("CanSlewAsync", True), ("CanSync", True),
-        ("CanSyncAltAz", False), ("CanUnpark", True), ("DoesRefraction", False),
+        ("CanSetPierSide", True), ("CanSetRightAscensionRate", True),
+        ("CanSetTracking", True), ("CanSlew", False), ("CanSlewAltAz", True),
+        ("CanSlewAltAzAsync", True), ("CanSlewAsync", True), ("CanSync", True),
+        ("CanSyncAltAz", True), ("CanUnpark", True), ("DoesRefraction", False),
     ]:
         check(getattr(t, name) == want, f"{name} is {want}")
     check(t.AlignmentMode == AlignmentModes.algGermanPolar, "AlignmentMode German polar")
@@ -161,17 +162,10 @@ def first(t):
         expect(NotImplementedException, lambda n=name: getattr(t, n), name)
     expect(NotImplementedException, lambda: setattr(t, "DoesRefraction", True),
            "DoesRefraction = True")
-    expect(NotImplementedException, lambda: setattr(t, "SideOfPier", PierSide.pierWest),
-           "SideOfPier set")
-    expect(NotImplementedException, lambda: setattr(t, "UTCDate", "2026-01-01T00:00:00Z"),
-           "UTCDate set")
     # alpyca refuses the synchronous slews itself; sent raw, the server answers 0x400.
     for method, args in [
         ("slewtocoordinates", {"RightAscension": 1.0, "Declination": 10.0}),
         ("slewtotarget", {}),
-        ("slewtoaltaz", {"Azimuth": 180.0, "Altitude": 45.0}),
-        ("slewtoaltazasync", {"Azimuth": 180.0, "Altitude": 45.0}),
-        ("synctoaltaz", {"Azimuth": 180.0, "Altitude": 45.0}),
     ]:
         expect(NotImplementedException, lambda m=method, a=args: t._put(m, **a), method)
 
@@ -215,6 +209,9 @@ def first(t):
     expect(ValueNotSetException, lambda: t.TargetRightAscension, "TargetRightAscension unset")
     expect(ValueNotSetException, lambda: t.TargetDeclination, "TargetDeclination unset")
     expect(ValueNotSetException, lambda: t.SlewToTargetAsync(), "SlewToTargetAsync unset")
+
+    # Altitude and azimuth, with tracking off (so the point stays put).
+    alt_az(t)
 
     # Tracking.
     check(not t.Tracking, "Tracking off at start")
@@ -367,7 +364,68 @@ def first(t):
           f"DeviceState {sorted(state)}")
     t.Park()
     check(t.AtPark, "Park when parked is no error")
+    utc_date(t)
     return park
+
+
+def alt_az(t):
+    for alt, az, what, says in [
+        (91.0, 100.0, "SlewToAltAzAsync altitude 91", "altitude"),
+        (45.0, 360.0, "SlewToAltAzAsync azimuth 360", "azimuth"),
+        (-5.0, 250.0, "SlewToAltAzAsync below the horizon", "horizon"),
+    ]:
+        expect(InvalidValueException, lambda a=alt, z=az: t.SlewToAltAzAsync(z, a), what, says)
+    # West of the meridian, 40 degrees up: pier east.
+    t.SlewToAltAzAsync(200.0, 40.0)
+    check(t.Slewing, "Slewing right after SlewToAltAzAsync")
+    poll(lambda: not t.Slewing, "the alt-az slew ends")
+    # One step is 3.6"; Az spreads by 1/cos(Alt).
+    check(abs(t.Altitude - 40.0) * 3600 < 8, f"Altitude {t.Altitude} ~ 40")
+    check(abs(t.Azimuth - 200.0) * 3600 < 12, f"Azimuth {t.Azimuth} ~ 200")
+    check(t.SideOfPier == PierSide.pierEast, "SideOfPier east after the alt-az slew")
+    check(not t.Tracking, "tracking stays off")
+    # Synchronous (alpyca refuses to send it; sent raw): it returns once there.
+    t._put("slewtoaltaz", tmo=DEADLINE, Azimuth=150.0, Altitude=30.0)
+    check(not t.Slewing, "SlewToAltAz returns once the slew ends")
+    check(abs(t.Altitude - 30.0) * 3600 < 8 and abs(t.Azimuth - 150.0) * 3600 < 12,
+          f"SlewToAltAz reaches 30/150: {t.Altitude} {t.Azimuth}")
+    check(t.SideOfPier == PierSide.pierWest, "SideOfPier west east of the meridian")
+    # A pier flip: already west is no move; east would put the polar axis past ha_limit.
+    t.SideOfPier = PierSide.pierWest
+    check(not t.Slewing, "SideOfPier set to the side it is on moves nothing")
+    expect(InvalidValueException, lambda: setattr(t, "SideOfPier", PierSide.pierEast),
+           "a pier flip beyond ha_limit", "ha_limit")
+    expect(InvalidValueException, lambda: t._put("sideofpier", SideOfPier=2), "SideOfPier 2")
+    # Sync 0.5 degrees higher: the axes stay, the reading moves (and is kept: see restart).
+    ha_pos = axis("ha")["position"]
+    t.SyncToAltAz(150.0, 30.5)
+    check(abs(t.Altitude - 30.5) < 1e-6 and abs(t.Azimuth - 150.0) < 1e-6,
+          f"SyncToAltAz: {t.Altitude} {t.Azimuth}")
+    check(axis("ha")["position"] == ha_pos, "SyncToAltAz moves nothing")
+    expect(InvalidValueException, lambda: t.SyncToAltAz(10.0, -91.0), "SyncToAltAz altitude -91")
+    t.Tracking = True
+    expect(InvalidOperationException, lambda: t.SlewToAltAzAsync(150.0, 30.0),
+           "SlewToAltAzAsync while tracking")
+    expect(InvalidOperationException, lambda: t.SyncToAltAz(150.0, 30.0),
+           "SyncToAltAz while tracking")
+    t.Tracking = False
+    poll(lambda: axis("ha")["state"] == "idle", "the polar axis rests")
+
+
+def utc_date(t):
+    """UTCDate set: the mount's clock runs an hour ahead, and its sidereal time with it."""
+    ahead = datetime.fromtimestamp(time.time() + 3600.0, timezone.utc)
+    t.UTCDate = ahead
+    check(abs((t.UTCDate - ahead).total_seconds()) < 5, f"UTCDate set to {ahead}: {t.UTCDate}")
+    check(hours_apart(t.SiderealTime, lst_hours() + 1.0027379) < 1e-3,
+          f"SiderealTime {t.SiderealTime} an hour (sidereal) ahead of {lst_hours()}")
+    t.UTCDate = "2026-06-01T12:00:00.5Z"
+    check(t.UTCDate == datetime(2026, 6, 1, 12, 0, 0, 500000, timezone.utc)
+          or abs((t.UTCDate - datetime(2026, 6, 1, 12, 0, 0, 500000, timezone.utc))
+                 .total_seconds()) < 5, f"UTCDate as text: {t.UTCDate}")
+    for bad in ["2026-06-01 12:00:00Z", "2026-06-01T12:00:00", "2026-02-30T00:00:00Z"]:
+        expect(InvalidValueException, lambda b=bad: setattr(t, "UTCDate", b), f"UTCDate {bad}")
+    t.UTCDate = ahead
 
 
 def parked_refusals(t):
@@ -380,10 +438,21 @@ def parked_refusals(t):
     expect(ParkedException, lambda: t.FindHome(), "FindHome while parked")
 
 
-def restart(t):
+def pointing(t):
+    """Declination and hour angle (degrees) by the mount's own clock."""
+    return t.Declination, ((t.SiderealTime - t.RightAscension + 12.0) % 24.0 - 12.0) * 15.0
+
+
+def restart(t, dec0, ha0):
     t.Connected = True
     check(t.AtPark, "still parked after the restart")
     check(not t.Tracking, "not tracking after the restart")
+    dec, ha = pointing(t)
+    check(abs(dec - dec0) < 1e-6 and abs(ha - ha0) * 3600 < 1,
+          f"the sync offsets are kept: Dec {dec} HA {ha} (before: {dec0} {ha0})")
+    utc = t.UTCDate
+    check(abs((utc - datetime.now(timezone.utc)).total_seconds()) < 5,
+          f"UTCDate is the host's again: {utc}")
     parked_refusals(t)
     t.Unpark()
     check(not t.AtPark, "Unpark")
@@ -396,8 +465,10 @@ t = Telescope(f"alpyca:{token}@{addr}", 0)
 if mode == "first":
     park = first(t)
     print(f"park position {park[0]} {park[1]}")
+    dec0, ha0 = pointing(t)
+    print(f"pointing {dec0!r} {ha0!r}")
 else:
-    restart(t)
+    restart(t, float(sys.argv[5]), float(sys.argv[6]))
 t.Connected = False
 print(f"telescope: {checks} checks, {len(failures)} failures")
 for f in failures:

@@ -1,6 +1,7 @@
 //! The Alpaca Telescope of `multistep serve --alpaca`, driven by alpyca through
 //! crates/cli/tests/alpaca_telescope.py: every ITelescopeV4 member against the checks
-//! docs/ALPACA.md lists, then parking across a restart of the service on the same data.
+//! docs/ALPACA.md lists, then parking and sync offsets across a restart of the service on
+//! the same data.
 
 mod common;
 
@@ -105,10 +106,11 @@ fn serve(dir: &Path, cfg: &Path) -> (Serve, String, String) {
     (Serve { child, stderr }, http, tcp)
 }
 
-fn run(mode: &str, http: &str, tcp: &str) -> String {
+fn run(mode: &str, http: &str, tcp: &str, extra: &[&str]) -> String {
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/alpaca_telescope.py");
     let out = Command::new("python3")
         .args([script, mode, http, tcp, TOKEN])
+        .args(extra)
         .output()
         .unwrap();
     let (so, se) = (
@@ -132,15 +134,18 @@ fn alpyca_checks_every_telescope_member_and_parking_survives_a_restart() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = tmp.path().join("board.toml");
     std::fs::write(&cfg, CONFIG).unwrap();
-    let parked = {
+    let (parked, pointing) = {
         let (_serve, http, tcp) = serve(tmp.path(), &cfg);
-        let so = run("first", &http, &tcp);
-        let line = so.lines().find(|l| l.starts_with("park position")).unwrap();
-        line.to_string()
+        let so = run("first", &http, &tcp, &[]);
+        let line = |p: &str| so.lines().find(|l| l.starts_with(p)).unwrap().to_string();
+        (line("park position"), line("pointing "))
     };
-    // The service stopped; a new one on the same data finds the mount parked.
+    // The service stopped; a new one on the same data finds the mount parked, pointing
+    // where it did (the sync offsets kept).
     let (_serve, http, tcp) = serve(tmp.path(), &cfg);
-    let so = run("restart", &http, &tcp);
+    let at: Vec<&str> = pointing.split(' ').skip(1).collect();
+    assert_eq!(at.len(), 2, "{pointing}");
+    let so = run("restart", &http, &tcp, &at);
     assert!(so.contains("telescope: "), "{so}");
     assert!(parked.starts_with("park position "), "{parked}");
 }

@@ -65,7 +65,12 @@ fn serve(dir: &Path, config: &str, alpaca: bool) -> (Serve, Client, Option<Strin
 
 /// `mount`'s status line as key → value.
 fn status(c: &mut Client) -> std::collections::HashMap<String, String> {
-    let lines = c.request("mount").unwrap();
+    status_of(c, "mount")
+}
+
+/// The status line `line` (`mount`, `mount 1`, …) answers, as key → value.
+fn status_of(c: &mut Client, line: &str) -> std::collections::HashMap<String, String> {
+    let lines = c.request(line).unwrap();
     assert_eq!(lines.len(), 1, "{lines:?}");
     let rest = lines[0].strip_prefix("mount ").expect(&lines[0]);
     rest.split(' ')
@@ -104,12 +109,19 @@ fn until(
     }
 }
 
-/// One Alpaca request (HTTP/1.0, the answer's JSON `Value`).
+/// One Alpaca request to telescope 0 (HTTP/1.0, the answer's JSON `Value`).
 fn alpaca(http: &str, method: &str, path: &str, body: &str) -> String {
+    let v = alpaca_to(http, 0, method, path, body);
+    assert_eq!(v["ErrorNumber"], 0, "{path}: {v}");
+    v["Value"].to_string()
+}
+
+/// One Alpaca request to telescope `n`: the whole answer.
+fn alpaca_to(http: &str, n: usize, method: &str, path: &str, body: &str) -> serde_json::Value {
     let mut s = TcpStream::connect(http).unwrap();
     write!(
         s,
-        "{method} /api/v1/telescope/0/{path}?ClientID=1&ClientTransactionID=1 HTTP/1.0\r\nHost: {http}\r\n\
+        "{method} /api/v1/telescope/{n}/{path}?ClientID=1&ClientTransactionID=1 HTTP/1.0\r\nHost: {http}\r\n\
          Content-Type: application/x-www-form-urlencoded\r\nContent-Length: {}\r\n\r\n{body}",
         body.len()
     )
@@ -117,9 +129,7 @@ fn alpaca(http: &str, method: &str, path: &str, body: &str) -> String {
     let mut out = String::new();
     s.read_to_string(&mut out).unwrap();
     let json = out.split("\r\n\r\n").nth(1).expect(&out);
-    let v: serde_json::Value = serde_json::from_str(json).expect(json);
-    assert_eq!(v["ErrorNumber"], 0, "{path}: {v}");
-    v["Value"].to_string()
+    serde_json::from_str(json).expect(json)
 }
 
 /// Hours between two right ascensions, across 0 h.
@@ -244,4 +254,81 @@ fn a_board_without_a_telescope_refuses_mount() {
     assert!(msg.contains("no mount"), "{msg}");
     // The syntax is checked first, on any board.
     assert_eq!(refused(&mut c, "mount slew 1").0, 3);
+}
+
+/// The solar telescope's German mount and a guide scope's fork on one board.
+const TWO: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/two-telescopes.toml"
+);
+
+#[test]
+fn two_telescopes_answer_by_number_and_name_on_both_sides() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = std::fs::read_to_string(TWO).unwrap();
+    let (_serve, mut c, http) = serve(tmp.path(), &config, true);
+    let http = http.unwrap();
+    // Alpaca numbers them in config order.
+    for (n, name, german) in [(0, "Mount", true), (1, "Guide scope", false)] {
+        let v = alpaca_to(&http, n, "GET", "name", "");
+        assert_eq!(v["Value"], name, "{v}");
+        let v = alpaca_to(&http, n, "PUT", "connected", "Connected=True");
+        assert_eq!(v["ErrorNumber"], 0, "{v}");
+        let v = alpaca_to(&http, n, "GET", "cansetpierside", "");
+        assert_eq!(v["Value"], german, "{n}: {v}");
+    }
+    let dec = |c: &mut Client, line: &str| num(&status_of(c, line), "dec");
+    // `mount` alone, `mount 0` and `mount ha` are the first; `mount 1` and `mount gha`
+    // the guide scope, by number or by its polar axis.
+    c.request("mount gha track on").unwrap();
+    let lst = num(&status_of(&mut c, "mount 1"), "lst");
+    let ra = (lst - 1.0).rem_euclid(24.0);
+    c.request(&format!("mount 1 slew {ra} 20")).unwrap();
+    let end = Instant::now() + Duration::from_secs(60);
+    while status_of(&mut c, "mount gha")["slewing"] == "1" {
+        assert!(Instant::now() < end, "the guide scope's slew did not end");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!((dec(&mut c, "mount 1") - 20.0).abs() < 1.0 / 3600.0);
+    for line in ["mount", "mount 0", "mount ha"] {
+        assert_eq!(dec(&mut c, line), 90.0, "{line}");
+    }
+    let v = alpaca_to(&http, 1, "GET", "declination", "");
+    assert!(
+        (v["Value"].as_f64().unwrap() - 20.0).abs() < 1.0 / 3600.0,
+        "{v}"
+    );
+    let v = alpaca_to(&http, 0, "GET", "declination", "");
+    assert_eq!(v["Value"].as_f64(), Some(90.0), "{v}");
+    // The guide scope in altitude and azimuth through Alpaca, tracking off.
+    c.request("mount 1 track off").unwrap();
+    let v = alpaca_to(
+        &http,
+        1,
+        "PUT",
+        "slewtoaltazasync",
+        "Altitude=45&Azimuth=200",
+    );
+    assert_eq!(v["ErrorNumber"], 0, "{v}");
+    let end = Instant::now() + Duration::from_secs(60);
+    while status_of(&mut c, "mount 1")["slewing"] == "1" {
+        assert!(Instant::now() < end, "the alt-az slew did not end");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let s = status_of(&mut c, "mount 1");
+    assert!((num(&s, "alt") - 45.0).abs() * 3600.0 < 3.0, "{s:?}");
+    assert!((num(&s, "az") - 200.0).abs() * 3600.0 < 5.0, "{s:?}");
+    // A fork has one side; a German mount's flip from the home pose is past ha_limit.
+    let v = alpaca_to(&http, 1, "PUT", "sideofpier", "SideOfPier=1");
+    assert_eq!(v["ErrorNumber"], 0x400, "{v}");
+    for (line, says) in [
+        ("mount 1 side west", "only a German"),
+        ("mount side west", "ha_limit"),
+        ("mount 2", "no telescope '2'"),
+        ("mount guide park", "no telescope 'guide'"),
+    ] {
+        let (code, msg) = refused(&mut c, line);
+        assert_eq!(code, 24, "{line}: {msg}");
+        assert!(msg.contains(says), "{line}: {msg}");
+    }
 }

@@ -68,10 +68,16 @@ impl Driver {
             let role = Role::Wheel(Wheel::new(w.slots.clone()));
             devices.push(Device::new(n, w.axis.clone(), role));
         }
-        // The line protocol's `mount` drives the section's first telescope.
-        if let Some(t) = section.telescope.first() {
+        // One device per telescope; with several, `mount K …` names the K-th.
+        let several = section.telescope.len() > 1;
+        for (k, t) in section.telescope.iter().enumerate() {
             let n = name(&t.name, "telescope", &t.ra_axis);
-            let role = Role::Telescope(Telescope::default());
+            let mount = if several {
+                format!("mount {k}")
+            } else {
+                "mount".to_string()
+            };
+            let role = Role::Telescope(Telescope::new(mount));
             devices.push(Device::new(n, t.ra_axis.clone(), role));
         }
         if devices.is_empty() {

@@ -32,17 +32,19 @@ const MODES: [(&str, &str); 4] = [
 /// The longest pulse, ms (the `mount pulse` limit).
 const MAX_PULSE_MS: f64 = 600_000.0;
 
-#[derive(Default)]
 pub struct Telescope {
+    /// The line that starts its commands: `mount`, or `mount K` for the K-th of several
+    /// telescopes.
+    mount: String,
     /// Tracking off once the slew under way ends (ON_COORD_SET SLEW).
     stop_after: bool,
     /// A park under way (TELESCOPE_PARK Busy until `parked=1`).
     parking: bool,
 }
 
-/// The `mount` status line as key → value.
-pub fn mount_status(link: &mut Link) -> Result<HashMap<String, String>, LinkError> {
-    let data = link.request("mount")?;
+/// The status line of `mount` (a `mount` line) as key → value.
+pub fn mount_status(link: &mut Link, mount: &str) -> Result<HashMap<String, String>, LinkError> {
+    let data = link.request(mount)?;
     let line = data.first().map(String::as_str).unwrap_or("");
     let rest = line
         .strip_prefix("mount ")
@@ -124,8 +126,22 @@ fn set_switches(p: &mut Props, name: &str, values: &Values) {
 }
 
 impl Telescope {
+    /// The telescope that `mount` lines starting with `mount` drive.
+    pub fn new(mount: String) -> Telescope {
+        Telescope {
+            mount,
+            stop_after: false,
+            parking: false,
+        }
+    }
+
+    /// `mount[ K] words`.
+    fn line(&self, words: &str) -> String {
+        format!("{} {words}", self.mount)
+    }
+
     pub fn build(&mut self, dev: &str, link: &mut Link) -> Result<Vec<Vector>, LinkError> {
-        let s = mount_status(link)?;
+        let s = mount_status(link, &self.mount)?;
         let g = "Main Control";
         let dms = |min, max| range(min, max, "%010.6m");
         let mut eod = numbers(
@@ -271,7 +287,7 @@ impl Telescope {
                 set_switches(p, name, values);
                 p.state(name, State::Ok, None)
             }
-            ABORT => match link.request("mount abort") {
+            ABORT => match link.request(&self.line("abort")) {
                 Ok(_) => {
                     self.stop_after = false;
                     self.parking = false;
@@ -289,11 +305,7 @@ impl Telescope {
                 let on = values.iter().any(|(e, t)| {
                     (e == "TRACK_ON" && t.trim() == "On") || (e == "TRACK_OFF" && t.trim() == "Off")
                 });
-                match link.request(if on {
-                    "mount track on"
-                } else {
-                    "mount track off"
-                }) {
+                match link.request(&self.line(if on { "track on" } else { "track off" })) {
                     Ok(_) => {
                         if let Some(v) = p.get_mut(name) {
                             v.set_switch(if on { "TRACK_ON" } else { "TRACK_OFF" }, true);
@@ -311,7 +323,7 @@ impl Telescope {
                     return p.alert(name, "no track mode set On");
                 };
                 let on = p.get(TRACK_STATE).is_some_and(|v| v.switch("TRACK_ON"));
-                let line = format!("mount track {} {rate}", if on { "on" } else { "off" });
+                let line = self.line(&format!("track {} {rate}", if on { "on" } else { "off" }));
                 match link.request(&line) {
                     Ok(_) => {
                         if let Some(v) = p.get_mut(name) {
@@ -324,7 +336,7 @@ impl Telescope {
             }
             PARK => {
                 let park = values.iter().any(|(e, t)| e == "PARK" && t.trim() == "On");
-                match link.request(if park { "mount park" } else { "mount unpark" }) {
+                match link.request(&self.line(if park { "park" } else { "unpark" })) {
                     Ok(_) => {
                         self.parking = park;
                         self.stop_after = false;
@@ -348,13 +360,13 @@ impl Telescope {
         let tracking = p.get(TRACK_STATE).is_some_and(|v| v.switch("TRACK_ON"));
         let mut lines = Vec::new();
         if !tracking {
-            lines.push("mount track on".to_string());
+            lines.push(self.line("track on"));
         }
         let verb = if how == "SYNC" { "sync" } else { "slew" };
-        lines.push(format!("mount {verb} {ra} {dec}"));
+        lines.push(self.line(&format!("{verb} {ra} {dec}")));
         // A sync leaves tracking as it was.
         if how == "SYNC" && !tracking {
-            lines.push("mount track off".to_string());
+            lines.push(self.line("track off"));
         }
         for l in &lines {
             if let Err(e) = link.request(l) {
@@ -413,7 +425,7 @@ impl Telescope {
         let Some((e, d, ms)) = pulse else {
             return p.state(name, State::Ok, None);
         };
-        match link.request(&format!("mount pulse {d} {}", ms as i64)) {
+        match link.request(&self.line(&format!("pulse {d} {}", ms as i64))) {
             Ok(_) => {
                 if let Some(v) = p.get_mut(name) {
                     v.set_number(e, ms);
@@ -427,7 +439,7 @@ impl Telescope {
     /// Reads `mount` and reports what changed: coordinates, the end of slews, parks and
     /// pulses, tracking, pier side.
     pub fn poll(&mut self, p: &mut Props, link: &mut Link) -> Vec<Out> {
-        let s = match mount_status(link) {
+        let s = match mount_status(link, &self.mount) {
             Ok(s) => s,
             Err(e) => return p.alert(EOD, &e.to_string()),
         };
@@ -437,7 +449,7 @@ impl Telescope {
         let parked = flag(&s, "parked");
         if !slewing && self.stop_after {
             self.stop_after = false;
-            if let Err(e) = link.request("mount track off") {
+            if let Err(e) = link.request(&self.line("track off")) {
                 out.extend(p.alert(TRACK_STATE, &e.to_string()));
             }
         }

@@ -6,10 +6,14 @@ use super::{val, Answer, Device};
 use crate::errors::{code, Fault};
 use crate::params::Params;
 use multistep_controller::mount::{
-    rates::DRIVE_RATES, time, DriveRate, Mount, MountError, PierSide,
+    rates::DRIVE_RATES, DriveRate, Geometry, Mount, MountError, PierSide,
 };
 use multistep_controller::Controller;
 use serde_json::{json, Value};
+use std::time::Duration;
+
+/// Longest a synchronous SlewToAltAz waits for its slew to end.
+const SYNC_SLEW_LIMIT: Duration = Duration::from_secs(600);
 
 /// ASCOM InvalidWhileParked.
 const INVALID_WHILE_PARKED: u16 = 0x408;
@@ -144,6 +148,7 @@ impl Device {
         p: &Params,
     ) -> Answer {
         let two_axes = m.cfg.dec_axis.is_some();
+        let german = m.geometry() == Geometry::German;
         let ni = |what: &str| Err(Fault::not_implemented(what));
         match (method, put) {
             ("alignmentmode", _) => val(m.geometry().alignment_mode()),
@@ -152,7 +157,22 @@ impl Device {
             ("declination", _) => val(m.pointing(ctl)?.dec),
             ("rightascension", _) => val(m.pointing(ctl)?.ra),
             ("sideofpier", false) => val(side(m.pointing(ctl)?.side)),
-            ("sideofpier", true) => ni("setting SideOfPier"),
+            ("sideofpier", true) if !german => {
+                ni("setting SideOfPier (only a German equatorial mount has two sides)")
+            }
+            ("sideofpier", true) => {
+                let s = match p.i32("SideOfPier")? {
+                    0 => PierSide::East,
+                    1 => PierSide::West,
+                    n => {
+                        return Err(Fault::invalid_value(format!(
+                            "SideOfPier {n} is not 0 (east) or 1 (west)"
+                        )))
+                    }
+                };
+                m.set_pier_side(ctl, s)?;
+                Ok(None)
+            }
             ("siderealtime", _) => val(m.sidereal_time()),
             ("aperturearea", _) | ("aperturediameter", _) | ("focallength", _) => {
                 ni("reporting the optics' size")
@@ -165,8 +185,10 @@ impl Device {
             }
             ("cansetrightascensionrate", _) => val(true),
             ("cansetdeclinationrate", _) => val(two_axes),
-            ("cansetpierside" | "canslew" | "canslewaltaz" | "canslewaltazasync", _) => val(false),
-            ("cansyncaltaz", _) => val(false),
+            ("cansetpierside", _) => val(german),
+            ("canslew", _) => val(false),
+            // A coelostat reaches one declination only.
+            ("canslewaltaz" | "canslewaltazasync" | "cansyncaltaz", _) => val(two_axes),
             ("declinationrate", false) => val(m.rate_offsets().1),
             ("declinationrate", true) => {
                 m.set_rate_offset(ctl, true, p.f64("DeclinationRate")?)?;
@@ -259,8 +281,14 @@ impl Device {
                 Ok(None)
             }
             ("trackingrates", _) => val(DRIVE_RATES.map(|r| r as i32)),
-            ("utcdate", false) => val(time::iso8601(time::unix_now())),
-            ("utcdate", true) => ni("setting UTCDate (the mount reads the host's UTC)"),
+            ("utcdate", false) => val(m.utc_date()),
+            ("utcdate", true) => {
+                let text = p
+                    .get("UTCDate")
+                    .ok_or_else(|| Fault::BadRequest("missing parameter UTCDate".into()))?;
+                m.set_utc_date(text)?;
+                Ok(None)
+            }
             ("abortslew", _) => {
                 m.abort(ctl)?;
                 Ok(None)
@@ -337,8 +365,22 @@ impl Device {
                     "synchronous slews are not implemented; use SlewToCoordinatesAsync or SlewToTargetAsync",
                 ))
             }
+            ("slewtoaltaz" | "slewtoaltazasync" | "synctoaltaz", _) if !two_axes => {
+                ni("slewing or syncing a coelostat in altitude and azimuth")
+            }
             ("slewtoaltaz" | "slewtoaltazasync" | "synctoaltaz", _) => {
-                ni("slewing or syncing in altitude and azimuth")
+                let (alt, az) = (p.f64("Altitude")?, p.f64("Azimuth")?);
+                match method {
+                    "synctoaltaz" => m.sync_alt_az(ctl, alt, az)?,
+                    _ => m.slew_alt_az(ctl, alt, az)?,
+                }
+                if method == "slewtoaltaz" && !m.wait_slew(SYNC_SLEW_LIMIT) {
+                    return Err(Fault::invalid_operation(format!(
+                        "the slew did not end within {} s; it goes on",
+                        SYNC_SLEW_LIMIT.as_secs()
+                    )));
+                }
+                Ok(None)
             }
             _ => Err(Fault::BadRequest(format!("unknown method {method}"))),
         }
@@ -360,7 +402,7 @@ impl Device {
             item("SiderealTime", json!(pt.lst)),
             item("Slewing", json!(m.slewing())),
             item("Tracking", json!(m.tracking())),
-            item("UTCDate", json!(time::iso8601(time::unix_now()))),
+            item("UTCDate", json!(m.utc_date())),
         ])
     }
 }
