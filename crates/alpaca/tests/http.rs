@@ -462,6 +462,38 @@ fn rotator_takes_the_short_way_across_the_wrap_and_syncs() {
     assert_eq!(r.ok_get(&format!("{rot}/mechanicalposition")), 30.0);
 }
 
+/// The focuser and rotator with the controller's backlash: every reversal ends on its
+/// target (the load's position), the motor turning the backlash more in the same move.
+#[test]
+fn focuser_and_rotator_reversals_end_on_their_targets_with_backlash() {
+    let config = CONFIG
+        .replace("name = \"F\"\n", "name = \"F\"\nbacklash = 250\n")
+        .replace("name = \"R\"\n", "name = \"R\"\nbacklash = 90\n");
+    let r = rig_on(&config, "127.0.0.1:0", false, None, 1.0).unwrap();
+    r.connect_all();
+    // the simulated mechanics are the motor: less the slack, a constant from the start
+    let motor = |s: &AxisStatus| s.sim_position - s.slack;
+    let f = "/api/v1/focuser/0";
+    let f0 = motor(&r.status("F")) - r.status("F").position;
+    for (to, slack) in [(1500, 250), (1000, 0), (1200, 250), (1300, 250), (200, 0)] {
+        r.ok_put(&format!("{f}/move"), &format!("Position={to}"));
+        let s = r.wait_idle("F");
+        assert_eq!((s.position, s.slack), (to, slack));
+        assert_eq!(motor(&s) - s.position, f0);
+        assert_eq!(r.ok_get(&format!("{f}/position")), to);
+    }
+    let rot = "/api/v1/rotator/0";
+    let r0 = motor(&r.status("R")) - r.status("R").position;
+    // 350° down from 0, 10° up across the wrap, 5° down: each a reversal
+    for (to, pos, slack) in [(350.0, 35000, 0), (10.0, 1000, 90), (5.0, 500, 0)] {
+        r.ok_put(&format!("{rot}/moveabsolute"), &format!("Position={to}"));
+        let s = r.wait_idle("R");
+        assert_eq!((s.position, s.slack), (pos, slack));
+        assert_eq!(r.ok_get(&format!("{rot}/position")), to);
+        assert_eq!((motor(&s) - s.position - r0).rem_euclid(36000), 0);
+    }
+}
+
 #[test]
 fn rotator_with_a_travel_refuses_the_wrap_and_turns_the_long_way() {
     let config = CONFIG.replace(

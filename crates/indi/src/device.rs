@@ -257,7 +257,7 @@ impl Device {
         }
         let axis = self.axis.clone();
         out.extend(match &mut self.role {
-            Role::Focuser(f) => f.poll(&mut self.props, link, &axis, st),
+            Role::Focuser(f) => f.poll(&mut self.props, st),
             Role::Rotator(r) => r.poll(&mut self.props, link, &axis, st),
             Role::Wheel(w) => w.poll(&mut self.props, link, &axis, st),
             Role::Telescope(t) => t.poll(&mut self.props, link),

@@ -1,10 +1,9 @@
 //! Focuser: an absolute focuser on a soft-limited axis. The position is the counted
 //! position (the `pos` of `status`), FOCUS_MAX the axis's soft_max, as the Alpaca Focuser.
 //! FOCUS_SYNC renames the idle axis's position without moving (the controller's `setpos`).
-//! FOCUS_BACKLASH: the controller has no backlash of its own for an axis, so the driver
-//! takes it up: with it on, a move inward (toward smaller counts) first goes the backlash
-//! past its target, then out to it, so every move ends turning outward and the gears mesh
-//! the same way at every position (the mount's slews end the same way).
+//! FOCUS_BACKLASH is the axis's `backlash` setting in the controller, which takes the
+//! play up inside every move that reverses (docs/PROTOCOL.md, "Backlash"): the toggle
+//! off sets it to 0, on to FOCUS_BACKLASH_VALUE.
 
 use crate::device::{abort, fault, moving, number_of, Props, Values};
 use crate::link::{Link, LinkError};
@@ -15,12 +14,13 @@ use multistep_controller::AxisStatus;
 #[derive(Default)]
 pub struct Focuser {
     max: i64,
-    /// Backlash steps taken up while FOCUS_BACKLASH_TOGGLE is on.
-    backlash: Option<i64>,
-    /// A move that goes past its target: (the first leg's end, the target), the target
-    /// to be moved on to once the axis rests at the first leg's end.
-    then: Option<(i64, i64)>,
+    /// FOCUS_BACKLASH_VALUE: the controller's `backlash` while the toggle is on, kept by
+    /// the driver while it is off.
+    backlash: i64,
 }
+
+/// The controller's range of `backlash` (microsteps).
+const MAX_BACKLASH: f64 = 1e6;
 
 const ABS: &str = "ABS_FOCUS_POSITION";
 const REL: &str = "REL_FOCUS_POSITION";
@@ -59,7 +59,15 @@ impl Focuser {
             )],
         );
         abs.state = State::Ok;
-        let on = self.backlash.is_some();
+        let set = link.setting(axis, "backlash")?.unwrap_or(0.0) as i64;
+        let on = set > 0;
+        if on {
+            self.backlash = set;
+        }
+        let backlash_range = Range {
+            max: MAX_BACKLASH,
+            ..steps(0)
+        };
         Ok(vec![
             abs,
             Vector::new(
@@ -133,8 +141,8 @@ impl Focuser {
                 vec![Element::number(
                     "FOCUS_BACKLASH_VALUE",
                     "Steps",
-                    self.backlash.unwrap_or(0) as f64,
-                    steps(self.max),
+                    self.backlash as f64,
+                    backlash_range,
                 )],
             ),
         ])
@@ -189,26 +197,32 @@ impl Focuser {
                 vec![v.set(None)]
             }
             BL_TOGGLE => {
-                let Some(v) = p.get_mut(name) else {
+                let Some(on) = values
+                    .iter()
+                    .find(|(_, t)| t.trim() == "On")
+                    .map(|(e, _)| e == "INDI_ENABLED")
+                else {
                     return vec![];
                 };
-                for (e, t) in values {
-                    if t.trim() == "On" && v.element(e).is_some() {
-                        v.set_switch(e, true);
-                    }
+                let b = if on { self.backlash } else { 0 };
+                if let Err(e) = link.request(&format!("set {axis} backlash {b}")) {
+                    return p.alert(name, &e.to_string());
                 }
-                let steps = p
-                    .get(BL_STEPS)
-                    .map_or(0.0, |v| v.number("FOCUS_BACKLASH_VALUE"));
-                let on = p.get(name).is_some_and(|v| v.switch("INDI_ENABLED"));
-                self.backlash = on.then_some(steps as i64);
+                if let Some(v) = p.get_mut(name) {
+                    let e = if on { "INDI_ENABLED" } else { "INDI_DISABLED" };
+                    v.set_switch(e, true);
+                }
                 p.state(name, State::Ok, None)
             }
             BL_STEPS => match number_of(values, "FOCUS_BACKLASH_VALUE") {
-                Ok(n) if n.fract() == 0.0 && (0.0..=self.max as f64).contains(&n) => {
-                    if let Some(b) = &mut self.backlash {
-                        *b = n as i64;
+                Ok(n) if n.fract() == 0.0 && (0.0..=MAX_BACKLASH).contains(&n) => {
+                    let on = p.get(BL_TOGGLE).is_some_and(|v| v.switch("INDI_ENABLED"));
+                    if on {
+                        if let Err(e) = link.request(&format!("set {axis} backlash {n}")) {
+                            return p.alert(name, &e.to_string());
+                        }
                     }
+                    self.backlash = n as i64;
                     if let Some(v) = p.get_mut(name) {
                         v.set_number("FOCUS_BACKLASH_VALUE", n);
                     }
@@ -216,16 +230,12 @@ impl Focuser {
                 }
                 Ok(n) => p.alert(
                     name,
-                    &format!(
-                        "backlash {n} is not a whole number of steps in 0..={}",
-                        self.max
-                    ),
+                    &format!("backlash {n} is not a whole number of steps in 0..=1000000"),
                 ),
                 Err(e) => p.alert(name, &e),
             },
             "FOCUS_ABORT_MOTION" => match link.request(&format!("stop {axis}")) {
                 Ok(_) => {
-                    self.then = None;
                     let mut out = p.state(name, State::Ok, None);
                     for n in [ABS, REL] {
                         if p.get(n).is_some_and(|v| v.state == State::Busy) {
@@ -240,34 +250,17 @@ impl Focuser {
         }
     }
 
-    /// An absolute move to `to` steps, reported on property `prop`; with backlash on and
-    /// `to` inward of where it is, first to `to` − backlash (at least 0).
-    fn move_to(
-        &mut self,
-        p: &mut Props,
-        link: &mut Link,
-        axis: &str,
-        prop: &str,
-        to: f64,
-    ) -> Vec<Out> {
+    /// An absolute move to `to` steps, reported on property `prop` (the controller takes
+    /// up the backlash within the move).
+    fn move_to(&self, p: &mut Props, link: &mut Link, axis: &str, prop: &str, to: f64) -> Vec<Out> {
         if to.fract() != 0.0 || !(0.0..=self.max as f64).contains(&to) {
             return p.alert(
                 prop,
                 &format!("position {to} is outside 0..={} (FOCUS_MAX)", self.max),
             );
         }
-        let to = to as i64;
-        let at = p
-            .get(ABS)
-            .map_or(0, |v| v.number("FOCUS_ABSOLUTE_POSITION") as i64);
-        let (first, then) = match self.backlash {
-            Some(b) if b > 0 && to < at => ((to - b).max(0), Some(to)),
-            _ => (to, None),
-        };
-        self.then = None;
-        match link.request(&format!("moveto {axis} {first}")) {
+        match link.request(&format!("moveto {axis} {}", to as i64)) {
             Ok(_) => {
-                self.then = then.filter(|&t| t != first).map(|t| (first, t));
                 let mut out = Vec::new();
                 if prop == REL {
                     out.extend(p.state(REL, State::Busy, None));
@@ -301,31 +294,10 @@ impl Focuser {
         out
     }
 
-    pub fn poll(
-        &mut self,
-        p: &mut Props,
-        link: &mut Link,
-        axis: &str,
-        st: &AxisStatus,
-    ) -> Vec<Out> {
+    pub fn poll(&mut self, p: &mut Props, st: &AxisStatus) -> Vec<Out> {
         let mut out = Vec::new();
-        let mut busy = moving(st);
+        let busy = moving(st);
         let why = fault(st);
-        // The first leg of a backlash move ended: out to the target. Resting anywhere
-        // else, it was stopped on the way (an abort, a fault): the move ends there.
-        if let Some((first, to)) = self.then.filter(|_| !busy) {
-            self.then = None;
-            if why.is_none() && st.position == first {
-                if let Err(e) = link.request(&format!("moveto {axis} {to}")) {
-                    let mut out = p.alert(ABS, &e.to_string());
-                    if p.get(REL).is_some_and(|v| v.state == State::Busy) {
-                        out.extend(p.alert(REL, &e.to_string()));
-                    }
-                    return out;
-                }
-                busy = true;
-            }
-        }
         for name in [ABS, REL] {
             let Some(v) = p.get_mut(name) else { continue };
             let was = v.state;

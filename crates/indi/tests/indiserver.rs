@@ -611,13 +611,21 @@ fn the_focuser_moves_and_agrees_with_status_and_bad_values_get_alert() {
 }
 
 #[test]
-fn with_backlash_on_an_inward_move_goes_past_its_target_and_ends_moving_outward() {
+fn focus_backlash_is_the_controllers_setting_and_every_move_ends_on_its_target() {
     if !indi_present() {
         return;
     }
     let rig = Rig::start();
     let abs = format!("{F}.ABS_FOCUS_POSITION");
     let pos = format!("{abs}.FOCUS_ABSOLUTE_POSITION");
+    let toggle = format!("{F}.FOCUS_BACKLASH_TOGGLE");
+    // The focuser as the controller has it: load position, slack, motor (simulated).
+    let focus = || {
+        let s = rig.client().status().unwrap();
+        let s = s.into_iter().find(|s| s.axis == "focus").unwrap();
+        (s.position, s.slack, s.sim_position)
+    };
+    let backlash = || rig.line("get focus backlash")[0].clone();
     // The positions shown on the way to `n`.
     let to = |n: i64| {
         let w = rig.watch(F);
@@ -628,54 +636,59 @@ fn with_backlash_on_an_inward_move_goes_past_its_target_and_ends_moving_outward(
     };
     let steps = format!("{F}.FOCUS_BACKLASH_STEPS");
     assert_eq!(
-        rig.get(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_DISABLED"))
-            .as_deref(),
+        rig.get(&format!("{toggle}.INDI_DISABLED")).as_deref(),
         Some("On")
     );
     rig.set(&format!("{steps}.FOCUS_BACKLASH_VALUE=300"));
     rig.wait(&format!(
         "\"{steps}._STATE\"==1 && \"{steps}.FOCUS_BACKLASH_VALUE\"==300"
     ));
-    // Off: an inward move stops at its target.
+    // Off: the controller's backlash stays 0.
+    assert_eq!(backlash(), "backlash=0");
     to(3000);
+    rig.set(&format!("{toggle}.INDI_ENABLED=On"));
+    rig.wait(&format!("\"{toggle}._STATE\"==1"));
+    assert_eq!(backlash(), "backlash=300");
+    // On: a move that reverses turns the motor 300 more within the one move; the
+    // position shown never leaves the stretch between start and target.
+    let (_, slack, m0) = focus();
+    assert_eq!(slack, 300, "from no backlash the side is the last move's");
     let t = to(2000);
-    assert!(t.iter().all(|&x| x >= 2000.0), "{t:?}");
-    rig.set(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_ENABLED=On"));
-    rig.wait(&format!("\"{F}.FOCUS_BACKLASH_TOGGLE._STATE\"==1"));
-    // On: inward goes 300 past (the driver moves on once it sees the axis rest there),
-    // outward goes straight.
-    let t = to(1000);
-    assert!(t.contains(&700.0), "{t:?}");
-    let t = to(1500);
-    assert!(t.iter().all(|&x| x >= 1000.0), "{t:?}");
-    // Near 0 the overshoot stops at 0; a relative move inward takes it up too.
-    let t = to(100);
-    assert!(t.contains(&0.0), "{t:?}");
-    rig.set(&format!("{F}.FOCUS_MOTION.FOCUS_OUTWARD=On"));
-    rig.set(&format!(
-        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=900"
-    ));
-    rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"==1000"));
+    assert!(t.iter().all(|&x| (2000.0..=3000.0).contains(&x)), "{t:?}");
+    let (at, slack, m1) = focus();
+    assert_eq!((at, slack, m0 - m1), (2000, 0, 1300));
+    let t = to(2500);
+    assert!(t.iter().all(|&x| (2000.0..=2500.0).contains(&x)), "{t:?}");
+    let (_, slack, m2) = focus();
+    assert_eq!((slack, m2 - m1), (300, 800));
+    // the same way again: exactly the distance
+    let _ = to(2600);
+    assert_eq!(focus(), (2600, 300, m2 + 100));
+    // a relative move inward reverses too
     rig.set(&format!("{F}.FOCUS_MOTION.FOCUS_INWARD=On"));
-    let w = rig.watch(F);
     rig.set(&format!(
-        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=500"
+        "{F}.REL_FOCUS_POSITION.FOCUS_RELATIVE_POSITION=600"
     ));
-    rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"==500"));
-    let t = w.numbers("FOCUS_ABSOLUTE_POSITION");
-    assert!(t.contains(&200.0), "{t:?}");
-    assert_eq!(rig.pos("focus"), 500);
-    // Steps beyond FOCUS_MAX or a fraction: Alert, the value stays.
-    for bad in ["40000", "2.5", "-1"] {
+    rig.wait(&format!("\"{abs}._STATE\"==1 && \"{pos}\"==2000"));
+    assert_eq!(focus(), (2000, 0, m2 + 100 - 900));
+    // Beyond the controller's range, a fraction, negative: Alert, the value stays.
+    for bad in ["1000001", "2.5", "-1"] {
         rig.set(&format!("{steps}.FOCUS_BACKLASH_VALUE={bad}"));
         rig.wait(&format!("\"{steps}._STATE\"==3"));
         assert_eq!(rig.num(&format!("{steps}.FOCUS_BACKLASH_VALUE")), 300.0);
+        assert_eq!(backlash(), "backlash=300");
     }
-    // Off again: straight in.
-    rig.set(&format!("{F}.FOCUS_BACKLASH_TOGGLE.INDI_DISABLED=On"));
-    rig.wait(&format!("\"{F}.FOCUS_BACKLASH_TOGGLE._STATE\"==1"));
-    let t = to(400);
-    assert!(t.iter().all(|&x| x >= 400.0), "{t:?}");
+    // A new value goes to the controller while on.
+    rig.set(&format!("{steps}.FOCUS_BACKLASH_VALUE=120"));
+    rig.wait(&format!("\"{steps}._STATE\"==1"));
+    assert_eq!(backlash(), "backlash=120");
+    // Off again: the controller's backlash is 0, moves are their distance.
+    rig.set(&format!("{toggle}.INDI_DISABLED=On"));
+    rig.wait(&format!("\"{toggle}._STATE\"==1"));
+    assert_eq!(backlash(), "backlash=0");
+    let (_, _, m3) = focus();
+    let _ = to(2400);
+    assert_eq!(focus(), (2400, 0, m3 + 400));
 }
 
 #[test]
@@ -780,54 +793,6 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     rig.set(&format!("{park}.UNPARK=On"));
     rig.wait(&format!("\"{park}._STATE\"==1 && \"{park}.UNPARK\"==1"));
     assert_eq!(mount("parked"), "0");
-}
-
-/// The solar telescope's mount and a guide scope's fork on one board.
-const TWO_TELESCOPES: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../examples/two-telescopes.toml"
-);
-
-#[test]
-fn two_telescopes_are_two_devices_each_driving_its_own_mount() {
-    if !indi_present() {
-        return;
-    }
-    let rig = Rig::start_env(&std::fs::read_to_string(TWO_TELESCOPES).unwrap(), &[]);
-    const M: &str = "Mount";
-    const G: &str = "Guide scope";
-    for d in [M, G] {
-        rig.set(&format!("{d}.CONNECTION.CONNECT=On"));
-        rig.wait(&format!("\"{d}.CONNECTION._STATE\"==1"));
-        assert_eq!(
-            rig.get(&format!("{d}.DRIVER_INFO.DRIVER_INTERFACE"))
-                .as_deref(),
-            Some("5"),
-            "{d}"
-        );
-    }
-    let status = |k: usize, key: &str| -> f64 {
-        let l = rig.line(&format!("mount {k}")).join(" ");
-        let v = l
-            .split(' ')
-            .find_map(|kv| kv.strip_prefix(&format!("{key}=")));
-        v.and_then(|v| v.parse().ok()).expect(&l)
-    };
-    // The guide scope slews to one hour west at Dec 20°; the main mount stays home.
-    let lst = status(1, "lst");
-    let ra = (lst - 1.0).rem_euclid(24.0);
-    let eod = format!("{G}.EQUATORIAL_EOD_COORD");
-    rig.set(&format!("{eod}.RA;DEC={ra};20"));
-    rig.wait(&format!(
-        "\"{eod}._STATE\"==1 && abs(\"{eod}.DEC\"-20)<0.001"
-    ));
-    assert!((status(1, "dec") - 20.0).abs() < 1.0 / 3600.0);
-    assert_eq!(status(0, "dec"), 90.0);
-    assert_eq!((rig.pos("ha"), rig.pos("dec")), (0, 0));
-    assert_ne!(rig.pos("gdec"), 0);
-    // Each device reads its own mount.
-    assert!((rig.num(&format!("{M}.EQUATORIAL_EOD_COORD.DEC")) - 90.0).abs() < 1e-6);
-    assert!((rig.num(&format!("{eod}.DEC")) - 20.0).abs() < 0.001);
 }
 
 #[test]
