@@ -1,7 +1,7 @@
 //! The service's long CPU-bound work (a group's or a preview's TDM timing) on a few
-//! threads of their own, at a lower OS priority, with a bounded queue: however many
-//! clients ask for it, the threads that answer `estop`, `stop` and `status` (and the
-//! board's ticker) keep a core and the scheduler's preference.
+//! threads of their own, at the lowest OS priority (Linux `SCHED_IDLE`), with a bounded
+//! queue: however many clients ask for it, the threads that answer `estop`, `stop` and
+//! `status` (and the board's ticker) keep a core and preempt the timing at once.
 
 use crate::error::CtlError;
 use std::collections::VecDeque;
@@ -16,7 +16,7 @@ pub const WORKER_NICE: i32 = 10;
 /// [`CtlError::Overloaded`].
 pub const DEFAULT_QUEUE: usize = 32;
 
-/// Which queue a job waits in: moves are taken before previews.
+/// Which queue and workers a job has: moves and previews never share a worker.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Lane {
     Move,
@@ -40,7 +40,8 @@ impl Queues {
 
 struct Inner {
     queues: Mutex<Queues>,
-    ready: Condvar,
+    moves_ready: Condvar,
+    previews_ready: Condvar,
 }
 
 impl Inner {
@@ -57,18 +58,28 @@ pub struct WorkPool {
 }
 
 impl WorkPool {
-    /// `threads` workers (at least one) and at most `cap` jobs waiting.
+    /// `threads` workers for moves (at nice [`WORKER_NICE`]) and as many for previews (in
+    /// the idle class, [`idle_class`]), at least one each, and at most `cap` jobs waiting.
+    /// Moves never wait behind previews; previews take only CPU time nothing else wants.
     pub fn new(threads: usize, cap: usize) -> Result<WorkPool, CtlError> {
         let inner = Arc::new(Inner {
             queues: Mutex::default(),
-            ready: Condvar::new(),
+            moves_ready: Condvar::new(),
+            previews_ready: Condvar::new(),
         });
-        let threads = (0..threads.max(1))
-            .map(|i| {
+        let n = threads.max(1);
+        let threads = [Lane::Move, Lane::Preview]
+            .into_iter()
+            .flat_map(|lane| (0..n).map(move |i| (lane, i)))
+            .map(|(lane, i)| {
                 let inner = inner.clone();
+                let name = match lane {
+                    Lane::Move => format!("timing-{i}"),
+                    Lane::Preview => format!("preview-{i}"),
+                };
                 std::thread::Builder::new()
-                    .name(format!("timing-{i}"))
-                    .spawn(move || worker(&inner))
+                    .name(name)
+                    .spawn(move || worker(&inner, lane))
                     .map_err(|e| CtlError::Io(format!("cannot start a timing thread: {e}")))
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -79,15 +90,16 @@ impl WorkPool {
         })
     }
 
-    /// The default for this machine: one worker per two cores (at least one), so that
-    /// on a small machine a core stays free for the threads that answer halts.
+    /// The default for this machine: one move worker and one preview worker per two
+    /// cores (at least one each), so that on a small machine a core stays free for the
+    /// threads that answer halts.
     pub fn for_this_machine() -> Result<WorkPool, CtlError> {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         WorkPool::new(cores / 2, DEFAULT_QUEUE)
     }
 
-    /// Runs `f` on a worker and waits for its result; refused at once when `cap` jobs
-    /// already wait.
+    /// Runs `f` on a worker of `lane` and waits for its result; refused at once when
+    /// `cap` jobs already wait.
     pub fn run<R: Send + 'static>(
         &self,
         lane: Lane,
@@ -110,15 +122,27 @@ impl WorkPool {
                 Lane::Preview => q.previews.push_back(job),
             }
         }
-        self.inner.ready.notify_one();
+        match lane {
+            Lane::Move => self.inner.moves_ready.notify_one(),
+            Lane::Preview => self.inner.previews_ready.notify_one(),
+        }
         // A job that panicked drops its sender.
         rx.recv()
             .map_err(|_| CtlError::Io("timing the move failed (a worker panicked)".into()))
     }
 }
 
-fn worker(inner: &Inner) {
+fn worker(inner: &Inner, lane: Lane) {
     lower_priority(WORKER_NICE);
+    // A preview holds no lock a halt or a move needs, so it can wait for an idle CPU; a
+    // move's timing stays in the normal class so that moves still start on a busy host.
+    if lane == Lane::Preview {
+        idle_class();
+    }
+    let ready = match lane {
+        Lane::Move => &inner.moves_ready,
+        Lane::Preview => &inner.previews_ready,
+    };
     loop {
         let job = {
             let mut q = inner.queues();
@@ -126,10 +150,14 @@ fn worker(inner: &Inner) {
                 if q.quit {
                     return;
                 }
-                if let Some(j) = q.moves.pop_front().or_else(|| q.previews.pop_front()) {
+                let next = match lane {
+                    Lane::Move => q.moves.pop_front(),
+                    Lane::Preview => q.previews.pop_front(),
+                };
+                if let Some(j) = next {
                     break j;
                 }
-                q = inner.ready.wait(q).unwrap_or_else(|p| p.into_inner());
+                q = ready.wait(q).unwrap_or_else(|p| p.into_inner());
             }
         };
         // A panic ends that job only (its caller gets an error), not the worker.
@@ -158,10 +186,34 @@ pub(crate) fn lower_priority(nice: i32) {
     let _ = nice;
 }
 
+/// Moves the calling thread to Linux's `SCHED_IDLE` class (sched(7)): it runs only on a
+/// CPU no normal thread wants, and a normal thread that wakes preempts it at once (a
+/// nice value only weighs its share). Needs no privilege and is never a raise: it is the
+/// lowest class, a thread already in it is left there, and one at `SCHED_BATCH` or real time
+/// priority is lowered to it. Elsewhere this does nothing.
+pub(crate) fn idle_class() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: plain system calls on this thread's own id with a parameter on the stack.
+    unsafe {
+        let tid = libc::gettid();
+        if libc::sched_getscheduler(tid) == libc::SCHED_IDLE {
+            return;
+        }
+        let p = libc::sched_param { sched_priority: 0 };
+        if libc::sched_setscheduler(tid, libc::SCHED_IDLE, &p) != 0 {
+            eprintln!(
+                "warning: cannot move a thread to SCHED_IDLE: {}",
+                std::io::Error::last_os_error()
+            );
+        }
+    }
+}
+
 impl Drop for WorkPool {
     fn drop(&mut self) {
         self.inner.queues().quit = true;
-        self.inner.ready.notify_all();
+        self.inner.moves_ready.notify_all();
+        self.inner.previews_ready.notify_all();
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
@@ -174,11 +226,10 @@ mod tests {
     use std::sync::Barrier;
 
     #[test]
-    fn a_full_queue_refuses_at_once_and_moves_go_before_previews() {
+    fn a_full_queue_refuses_at_once_and_moves_never_wait_behind_previews() {
         let pool = Arc::new(WorkPool::new(1, 2).unwrap());
-        // hold the one worker until the queue is filled
+        // hold the one preview worker until the queue is filled
         let (held, release) = (Arc::new(Barrier::new(2)), Arc::new(Barrier::new(2)));
-        let order = Arc::new(Mutex::new(Vec::new()));
         let blocker = {
             let (pool, held, release) = (pool.clone(), held.clone(), release.clone());
             std::thread::spawn(move || {
@@ -189,15 +240,13 @@ mod tests {
             })
         };
         held.wait();
-        let queued: Vec<_> = [(Lane::Preview, "preview"), (Lane::Move, "move")]
-            .into_iter()
-            .map(|(lane, name)| {
-                let (p, order) = (pool.clone(), order.clone());
-                let t = std::thread::spawn(move || {
-                    p.run(lane, move || order.lock().unwrap().push(name))
-                });
-                // each waits in the queue before the next is asked for
-                while pool.inner.queues().len() < 1 + (lane == Lane::Move) as usize {
+        // a move is timed while the previews' worker is taken
+        assert_eq!(pool.run(Lane::Move, || 5).unwrap(), 5);
+        let queued: Vec<_> = (1..=2)
+            .map(|n| {
+                let p = pool.clone();
+                let t = std::thread::spawn(move || p.run(Lane::Preview, move || n));
+                while pool.inner.queues().len() < n {
                     std::thread::yield_now();
                 }
                 t
@@ -207,10 +256,11 @@ mod tests {
         assert_eq!(e.code(), 23, "{e}");
         release.wait();
         blocker.join().unwrap().unwrap();
-        for t in queued {
-            t.join().unwrap().unwrap();
-        }
-        assert_eq!(*order.lock().unwrap(), ["move", "preview"]);
+        let done: Vec<usize> = queued
+            .into_iter()
+            .map(|t| t.join().unwrap().unwrap())
+            .collect();
+        assert_eq!(done, [1, 2]);
     }
 
     #[test]
@@ -226,11 +276,35 @@ mod tests {
     fn workers_run_at_the_lower_priority() {
         let pool = WorkPool::new(1, 4).unwrap();
         // SAFETY: reads this thread's own nice value.
-        let nice = pool
-            .run(Lane::Preview, || unsafe {
-                libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t)
-            })
-            .unwrap();
-        assert!(nice >= WORKER_NICE, "nice {nice}");
+        let nice =
+            || unsafe { libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t) };
+        for lane in [Lane::Move, Lane::Preview] {
+            let n = pool.run(lane, nice).unwrap();
+            assert!(n >= WORKER_NICE, "{lane:?}: nice {n}");
+        }
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn workers_run_in_the_idle_class_and_it_is_never_left() {
+        let pool = WorkPool::new(1, 4).unwrap();
+        // SAFETY: reads and sets this thread's own policy.
+        let policy = || unsafe { libc::sched_getscheduler(libc::gettid()) };
+        let own = policy();
+        assert_ne!(own, libc::SCHED_IDLE, "run the tests in a normal class");
+        assert_eq!(pool.run(Lane::Preview, policy).unwrap(), libc::SCHED_IDLE);
+        // a move's timing stays in the caller's class
+        assert_eq!(pool.run(Lane::Move, policy).unwrap(), own);
+        // again on a thread already idle: it stays there (no raise back to normal)
+        let again = std::thread::spawn(move || {
+            idle_class();
+            idle_class();
+            policy()
+        })
+        .join()
+        .unwrap();
+        assert_eq!(again, libc::SCHED_IDLE);
+        // the caller of a job keeps its own class
+        assert_eq!(policy(), own);
     }
 }
