@@ -795,6 +795,54 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     assert_eq!(mount("parked"), "0");
 }
 
+/// The solar telescope's mount and a guide scope's fork on one board.
+const TWO_TELESCOPES: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/two-telescopes.toml"
+);
+
+#[test]
+fn two_telescopes_are_two_devices_each_driving_its_own_mount() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::start_env(&std::fs::read_to_string(TWO_TELESCOPES).unwrap(), &[]);
+    const M: &str = "Mount";
+    const G: &str = "Guide scope";
+    for d in [M, G] {
+        rig.set(&format!("{d}.CONNECTION.CONNECT=On"));
+        rig.wait(&format!("\"{d}.CONNECTION._STATE\"==1"));
+        assert_eq!(
+            rig.get(&format!("{d}.DRIVER_INFO.DRIVER_INTERFACE"))
+                .as_deref(),
+            Some("5"),
+            "{d}"
+        );
+    }
+    let status = |k: usize, key: &str| -> f64 {
+        let l = rig.line(&format!("mount {k}")).join(" ");
+        let v = l
+            .split(' ')
+            .find_map(|kv| kv.strip_prefix(&format!("{key}=")));
+        v.and_then(|v| v.parse().ok()).expect(&l)
+    };
+    // The guide scope slews to one hour west at Dec 20°; the main mount stays home.
+    let lst = status(1, "lst");
+    let ra = (lst - 1.0).rem_euclid(24.0);
+    let eod = format!("{G}.EQUATORIAL_EOD_COORD");
+    rig.set(&format!("{eod}.RA;DEC={ra};20"));
+    rig.wait(&format!(
+        "\"{eod}._STATE\"==1 && abs(\"{eod}.DEC\"-20)<0.001"
+    ));
+    assert!((status(1, "dec") - 20.0).abs() < 1.0 / 3600.0);
+    assert_eq!(status(0, "dec"), 90.0);
+    assert_eq!((rig.pos("ha"), rig.pos("dec")), (0, 0));
+    assert_ne!(rig.pos("gdec"), 0);
+    // Each device reads its own mount.
+    assert!((rig.num(&format!("{M}.EQUATORIAL_EOD_COORD.DEC")) - 90.0).abs() < 1e-6);
+    assert!((rig.num(&format!("{eod}.DEC")) - 20.0).abs() < 0.001);
+}
+
 #[test]
 fn the_rotator_turns_inside_its_travel_and_the_wheel_changes_filter() {
     if !indi_present() {
