@@ -161,7 +161,8 @@ pub enum BoardReg {
     Session = 0x05,
     /// R: bit 0 e-stop latched, 1 e-stop input active, 2 group pending, 3 the pending group
     /// is armed (waits for SYNC), 4 the SYNC edge came before the armed group was ready,
-    /// 5 the SYNC line (synchronized), 6 the armed group is ready, 31:16 bad frames.
+    /// 5 the SYNC line (synchronized), 6 the armed group is ready, 7 an armed group was cut
+    /// by [`BoardReg::ArmTimeout`] (until the next `Arm`), 31:16 bad frames.
     Status = 0x06,
     /// R: busy axes.
     Busy = 0x07,
@@ -204,6 +205,10 @@ pub enum BoardReg {
     /// R: the bytes of a chain record ([`crate::chain::ChainLayout::record_bytes`]) on a
     /// board with a chain unit per axis (`AxisReg::ChainSteps`); status 3 without them.
     Chains = 0x18,
+    /// R/W (boards built with SYNC): clocks an armed group may wait for the SYNC edge
+    /// after its `Arm` write, 0 (the reset value) for no bound. Past it the group is cut
+    /// (its axes halted, never started) and `Status` bit 7 is set until the next `Arm`.
+    ArmTimeout = 0x19,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).
@@ -805,6 +810,9 @@ pub mod status_bits {
     pub const SYNC_LINE: u32 = 1 << 5;
     /// The armed group is ready (prefilled, past its DIR setup).
     pub const READY: u32 = 1 << 6;
+    /// An armed group waited past `ArmTimeout` without a SYNC edge and was cut (until the
+    /// next `Arm`).
+    pub const ARM_EXPIRED: u32 = 1 << 7;
 }
 
 /// Each board's clock relative to the first board's at one instant (the SYNC edge): board

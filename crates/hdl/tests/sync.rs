@@ -239,7 +239,7 @@ fn two_boards_at_different_rates_fired_from_the_second() {
     eprintln!("sync-rate: start skew {skew} ps, {d0} and {d1} ticks between the fires");
 }
 
-/// A board built without the SYNC line answers Arm, Fire and SyncTick with "unknown
+/// A board built without the SYNC line answers Arm, Fire, SyncTick and ArmTimeout with "unknown
 /// register" and starts nothing; a board with it refuses an empty Arm mask.
 #[test]
 fn boards_without_sync_refuse_arm_fire_and_sync_tick() {
@@ -257,6 +257,8 @@ fn boards_without_sync_refuse_arm_fire_and_sync_tick() {
         h.write(0, Reg::Board(BoardReg::Arm), 1),
         h.write(0, Reg::Board(BoardReg::Fire), 1),
         h.read(0, Reg::Board(BoardReg::SyncTick)),
+        h.write(0, Reg::Board(BoardReg::ArmTimeout), 1),
+        h.read(0, Reg::Board(BoardReg::ArmTimeout)),
     ];
     let empty = h.write(1, Reg::Board(BoardReg::Arm), 0);
     let beyond = h.write(1, Reg::Board(BoardReg::Arm), 0b10);
@@ -342,4 +344,83 @@ fn a_fire_before_ready_starts_late_and_a_stop_cancels_an_armed_group() {
         .collect();
     assert_eq!(log.rises(0, 0), want, "{name}: rises after the late start");
     assert!(g.ps > *fall, "{name}");
+}
+
+/// ArmTimeout bounds how long a group stays armed: past it, with no SYNC edge, the group
+/// is cut (the board goes idle with nothing started), Status bit 7 says so, and a later
+/// fire starts nothing; the next Arm clears the bit, and with no bound a fire starts it.
+#[test]
+fn an_armed_group_past_its_arm_timeout_is_cut_and_a_later_fire_starts_nothing() {
+    let name = "sync-arm-timeout";
+    let p = params(1);
+    let clock = SimClock {
+        period_ps: 20_000,
+        start_ps: 0,
+    };
+    let boards = [(BoardTop::new(p.clone(), 12_500_000), clock)];
+    let mut rng = Rng(0x5_1c04);
+    let (im, m) = random_move(&mut rng, &p, 100_000, 8_000);
+    let mut h = Host::new(1);
+    // 5000 clocks: 100 us at 50 MHz
+    h.write(0, Reg::Board(BoardReg::ArmTimeout), 5_000);
+    let timeout = h.read(0, Reg::Board(BoardReg::ArmTimeout));
+    for w in move_writes(&p, 0, &m, 0).unwrap() {
+        h.write(0, w.reg, w.data);
+    }
+    h.write(0, Reg::Board(BoardReg::Arm), 1);
+    h.s.sync().delay_ns(40_000);
+    let armed = h.read(0, Reg::Board(BoardReg::Status));
+    h.s.sync().idle(0);
+    let cut = h.read(0, Reg::Board(BoardReg::Status));
+    let busy = h.read(0, Reg::Board(BoardReg::Busy));
+    h.write(0, Reg::Board(BoardReg::Fire), 1);
+    h.s.sync().delay_ns(2_000);
+    let after_fire = h.read(0, Reg::Board(BoardReg::Status));
+    // no bound: armed again, the bit cleared, and the fire starts it
+    h.write(0, Reg::Board(BoardReg::ArmTimeout), 0);
+    for w in move_writes(&p, 0, &m, 0).unwrap() {
+        h.write(0, w.reg, w.data);
+    }
+    h.write(0, Reg::Board(BoardReg::Arm), 1);
+    h.s.sync().delay_ns(200_000);
+    let rearmed = h.read(0, Reg::Board(BoardReg::Status));
+    h.write(0, Reg::Board(BoardReg::Fire), 1);
+    h.s.sync().idle(0);
+    h.read(0, Reg::Board(BoardReg::Status));
+    h.s.sync();
+    let log = run(&boards, &h.s, name);
+    let rep = answers(&log, &h, 0, name);
+    for (i, r) in rep.iter().enumerate() {
+        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
+    }
+    assert_eq!(rep[timeout].data, 5_000, "{name}: ArmTimeout reads back");
+    // bits 7 expired, 3 armed, 2 pending
+    assert_eq!(
+        rep[armed].data & 0x8C,
+        0x0C,
+        "{name}: armed within the bound"
+    );
+    assert_eq!(rep[cut].data & 0x8C, 0x80, "{name}: cut past it");
+    assert_eq!(rep[busy].data, 0, "{name}: no axis busy after the cut");
+    assert_eq!(
+        rep[after_fire].data & 0x8C,
+        0x80,
+        "{name}: the fire started nothing"
+    );
+    assert_eq!(rep[rearmed].data & 0x8C, 0x0C, "{name}: Arm clears the bit");
+    assert_eq!(log.sync_falls.len(), 2, "{name}: two fires");
+    assert_eq!(log.go[0].len(), 1, "{name}: only the second group starts");
+    let g = log.go[0][0];
+    assert!(
+        g.ps > log.sync_falls[1].0,
+        "{name}: started by the second fire"
+    );
+    assert!(
+        log.rises(0, 0).iter().all(|&t| t > g.ps),
+        "{name}: no step before it"
+    );
+    let want: Vec<u64> = IntEdgeGenerator::new(im.profile())
+        .map(|t| g.ps + (t + 1) * clock.period_ps)
+        .collect();
+    assert_eq!(log.rises(0, 0), want, "{name}: rises of the second group");
 }

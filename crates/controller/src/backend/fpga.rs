@@ -851,6 +851,9 @@ impl FpgaBackend {
             reg: Reg::Board(BoardReg::HallStop),
             data: self.hall_stop,
         });
+        if self.arming {
+            writes.push(self.arm_timeout_write());
+        }
         // `Start`, or `Arm` for a cross-board start (sync.rs)
         let go = self.go_write(mask);
         let no_link = || LinkError::Io("no link".into());
@@ -1604,6 +1607,10 @@ mod model {
         pub dir: u32,
         /// The link is cut: nothing reaches the board.
         pub cut: bool,
+        /// `ArmTimeout` as written; the armed axes; the board cut an armed group.
+        pub arm_timeout: Option<u32>,
+        pub arm_mask: u32,
+        pub arm_expired: bool,
         /// Busy axes report an underrun (a stream no host feeds).
         pub underrun: bool,
         /// The e-stop input is active / the e-stop is latched (`Status` bits 1 and 0).
@@ -1634,6 +1641,15 @@ mod model {
             }
         }
 
+        /// The armed group waited past `ArmTimeout`: the board cuts it.
+        pub fn arm_expire(&mut self) {
+            if self.armed && self.arm_timeout.is_some_and(|t| t > 0) {
+                self.armed = false;
+                self.busy &= !self.arm_mask;
+                self.arm_expired = true;
+            }
+        }
+
         /// Power off and on: every register at its power-up value.
         pub fn power_cycle(&mut self) {
             *self = Model {
@@ -1660,12 +1676,14 @@ mod model {
                     let bit = |on: bool, b: u32| if on { b } else { 0 };
                     let s = bit(self.armed, status_bits::PENDING | status_bits::ARMED)
                         | bit(self.estop_input, status_bits::ESTOP_INPUT)
-                        | bit(self.estop_latched, status_bits::ESTOP);
+                        | bit(self.estop_latched, status_bits::ESTOP)
+                        | bit(self.arm_expired, status_bits::ARM_EXPIRED);
                     (Status::Ok, s)
                 }
                 (0x13, true) => {
                     self.busy |= r.data;
                     self.armed = true;
+                    (self.arm_mask, self.arm_expired) = (r.data, false);
                     (Status::Ok, 0)
                 }
                 (0x07, false) => (Status::Ok, self.busy),
@@ -1678,6 +1696,10 @@ mod model {
                 (0x0A, true) => {
                     self.armed = false;
                     self.busy &= !r.data;
+                    (Status::Ok, 0)
+                }
+                (0x19, true) => {
+                    self.arm_timeout = Some(r.data);
                     (Status::Ok, 0)
                 }
                 (0x0E, true) => {

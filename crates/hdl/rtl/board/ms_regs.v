@@ -1,12 +1,16 @@
 // ms_regs: the board's registers behind the host link (docs/HDL.md, "Host link"). A
 // request {req_wr, req_addr, req_data} is executed in its clock; its status and read data
 // are valid in the next. A request that fails a check changes nothing.
-//   0x0000-0x0017  board registers     0x1000 | a  the core's bus word a (write only)
+//   0x0000-0x0019  board registers     0x1000 | a  the core's bus word a (write only)
 //   0x2000 | axis << 4 | r              axis registers
 // Cross-board start (SYNC = 1): Arm loads a group as Start does but holds its go until the
 // shared SYNC line falls (sync_line, synchronized); Fire pulls the line low for SP clocks.
 // Every board, the firing one too, sees the edge through its own synchronizer, so all
-// start at the same edge; SyncTick latches the free-running count there.
+// start at the same edge; SyncTick latches the free-running count there. ArmTimeout
+// (nonzero) bounds how long a group stays armed: that many clocks after its Arm write,
+// with no SYNC edge yet, the group is cut (its axes halted before they ever go) and
+// Status bit 7 is set until the next Arm, so a host that died between Arm and Fire never
+// leaves a share that a later SYNC edge starts stale.
 // A bulk write (req_bulk, req_data = its length) goes only to an axis's StreamData (r = 7):
 // its bytes went to the axis's replay unit (ms_stream) as they arrived; here it is
 // committed if it fit, and the reply's data is the free bytes left.
@@ -118,6 +122,10 @@ module ms_regs #(
     reg          sync_prev;
     reg [7:0]    fire_cnt;
     reg [31:0]   sync_tick;    // free at the last SYNC edge
+    reg [31:0]   arm_timeout;  // clocks an armed group may wait for SYNC (0: no bound)
+    reg [K-1:0]  arm_mask;     // the armed group's axes
+    reg          arm_expired;  // an armed group was cut by ArmTimeout (until the next Arm)
+    reg          arm_cut;      // one clock: the cut group's axes halt, and it must not go
     initial begin
         dir_inv = {K{1'b0}};
         en_low = {K{1'b0}};
@@ -127,6 +135,10 @@ module ms_regs #(
         sync_prev = 1'b1;
         fire_cnt = 8'd0;
         sync_tick = 32'd0;
+        arm_timeout = 32'd0;
+        arm_mask = {K{1'b0}};
+        arm_expired = 1'b0;
+        arm_cut = 1'b0;
         free = 32'd0;
         session = 32'd0;
         estop = 1'b0;
@@ -152,6 +164,10 @@ module ms_regs #(
     wire       sync_edge  = sync_en && sync_prev && !sync_line;
     wire       ready_now  = core_ready && (setup_cnt >= setup_need);
     wire       sync_ready = armed && ready_now;
+    // setup_cnt counts clocks from the Arm write (no start write is accepted while armed)
+    wire       arm_expire = armed && !sync_hit && !sync_edge && arm_timeout != 32'd0 &&
+                            setup_cnt >= arm_timeout;
+    wire [K-1:0] cut_mask = arm_expire ? arm_mask : {K{1'b0}};
 
     // ---- decode ----
     wire        is_board = (req_addr[15:12] == 4'h0);
@@ -195,7 +211,7 @@ module ms_regs #(
                 8'h03: rd = CLK_HZ;
                 8'h04: rd = BAUD;
                 8'h05: rd = session;
-                8'h06: rd = {bad_frames, 9'd0, sync_ready, sync_line, sync_late, armed,
+                8'h06: rd = {bad_frames, 8'd0, arm_expired, sync_ready, sync_line, sync_late, armed,
                              core_pending, estop_in, estop};
                 8'h07: rd = {{(32-K){1'b0}}, core_busy};
                 8'h08: rd = {31'd0, estop};
@@ -210,6 +226,7 @@ module ms_regs #(
                 8'h16: rd = {{(32-K){1'b0}}, dir_inv};
                 8'h17: rd = {{(32-K){1'b0}}, en_low};
                 8'h18: begin rd = CHAINS; rd_ok = (CHAINS != 0); end
+                8'h19: begin rd = arm_timeout; rd_ok = sync_en; end
                 default: rd_ok = 1'b0;
             endcase
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;
@@ -245,7 +262,7 @@ module ms_regs #(
                 8'h08: wst = (req_data[0] == 1'b0 && estop_in) ? E_ESTOP : OK;
                 8'h09: wst = start_st;
                 8'h13: wst = sync_en ? start_st : E_ADDR;
-                8'h14: wst = sync_en ? OK : E_ADDR;
+                8'h14, 8'h19: wst = sync_en ? OK : E_ADDR;
                 8'h0A, 8'h0E, 8'h10, 8'h11, 8'h12, 8'h17:
                     wst = ((req_data & ~AXES_MASK) != 32'd0) ? E_VALUE : OK;
                 // a running axis's DIR pin must not flip
@@ -279,7 +296,8 @@ module ms_regs #(
         start_ax <= {K{1'b0}};
         pos_wr   <= {K{1'b0}};
         hall_clr <= {K{1'b0}};
-        stop_req <= {K{1'b0}};
+        stop_req <= cut_mask;
+        arm_cut  <= arm_expire;
         divert   <= hall_edge & hall_stop & core_busy;
         s_arm    <= {K{1'b0}};
         s_retarget <= {K{1'b0}};
@@ -295,6 +313,10 @@ module ms_regs #(
         if (go || estop || estop_in) begin
             armed    <= 1'b0;
             sync_hit <= 1'b0;
+        end
+        if (arm_expire) begin
+            armed       <= 1'b0;
+            arm_expired <= 1'b1;
         end
         if (req) begin
             rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
@@ -320,6 +342,8 @@ module ms_regs #(
             sync_hit     <= 1'b0;
             sync_late    <= 1'b0;
             fire_cnt     <= 8'd0;
+            arm_timeout  <= 32'd0;
+            arm_expired  <= 1'b0;
             for (i = 0; i < K; i = i + 1) slot[i] <= {LS{1'b0}};
         end else begin
             if (bad_frame && bad_frames != 16'hFFFF) bad_frames <= bad_frames + 1'b1;
@@ -332,6 +356,10 @@ module ms_regs #(
                 case (breg)
                     8'h09, 8'h13: begin
                         armed      <= (breg == 8'h13);
+                        if (breg == 8'h13) begin
+                            arm_mask    <= mask;
+                            arm_expired <= 1'b0;
+                        end
                         sync_hit   <= 1'b0;
                         sync_late  <= 1'b0;
                         core_wr    <= 1'b1;
@@ -345,7 +373,7 @@ module ms_regs #(
                     end
                     8'h0A: begin
                         armed    <= 1'b0;   // a stop cancels a group waiting for SYNC
-                        stop_req <= mask;
+                        stop_req <= mask | cut_mask;
                         stopped  <= stopped | (mask & core_busy);
                     end
                     8'h05: session     <= req_data;
@@ -364,6 +392,7 @@ module ms_regs #(
                         estopped <= estopped & ~mask;
                     end
                     8'h14: fire_cnt <= SP;
+                    8'h19: arm_timeout <= req_data;
                     default: ;
                 endcase
             end
@@ -394,7 +423,7 @@ module ms_regs #(
         else if (setup_cnt != 32'hFFFF_FFFF) setup_cnt <= setup_cnt + 1'b1;
     end
     assign sync_oe = sync_en && (fire_cnt != 8'd0);
-    assign go = ready_now && !estop && !estop_in && (!armed || sync_hit || sync_edge);
+    assign go = ready_now && !estop && !estop_in && !arm_cut && (!armed || sync_hit || sync_edge);
     assign halt = (rst || estop || estop_in) ? {K{1'b1}}
                  : (stop_req | (limit_edge & limit_stop) | (hall_edge & hall_stop & s_more));
 endmodule

@@ -9,7 +9,9 @@
 //!
 //! A group armed for the SYNC line lives no longer than its group: it is disarmed when it
 //! is not fired within [`ARM_LIFETIME`], when the link comes back after a failure and
-//! when a restarted host finds it (the group's `ctl` has given up on it by then).
+//! when a restarted host finds it (the group's `ctl` has given up on it by then). The
+//! board bounds it too (`ArmTimeout`, written with every `Arm`, sync.rs), for a host that
+//! dies: a share it cut is told as the fault `arm_expired` when the host next reads it.
 
 use super::{FpgaBackend, Running};
 use crate::backend::PinEvent;
@@ -23,6 +25,20 @@ pub type SessionKeeper = Box<dyn FnMut(&LinkSession) -> Result<(), String> + Sen
 /// The longest a share of a cross-board group stays armed: `ctl group` fires within its
 /// 10 s wait for every board to be ready, so an older share belongs to a group that failed.
 pub const ARM_LIFETIME: Duration = Duration::from_secs(30);
+
+/// How much longer than the host's [`ARM_LIFETIME`] the board keeps a share armed
+/// (`ArmTimeout`): the host normally disarms first and says why; the board's bound is for a
+/// host that died or stalled.
+pub(super) const BOARD_ARM_MARGIN: f64 = 1.5;
+
+/// The fault of an axis whose share the board cut after its `ArmTimeout`.
+fn arm_expired_why(lifetime: Duration) -> String {
+    format!(
+        "arm_expired: the board cut the axis's share of a cross-board group armed over {} s \
+         without a SYNC edge (the host did not fire or disarm it); it never started",
+        lifetime.as_secs_f64() * BOARD_ARM_MARGIN
+    )
+}
 
 /// The end tick of a motion adopted from the host before a restart: not known.
 pub(super) const UNKNOWN_END: u64 = u64::MAX;
@@ -121,6 +137,14 @@ impl FpgaBackend {
         } else {
             0
         };
+        // the board cut the group armed before the restart itself (`ArmTimeout`)
+        let expired = if status & (status_bits::ARM_EXPIRED | status_bits::ARMED)
+            == status_bits::ARM_EXPIRED
+        {
+            before.armed & mask
+        } else {
+            0
+        };
         let halt = armed | (before.streamed & busy & mask);
         if halt != 0 {
             l.write(Reg::Board(BoardReg::Stop), halt)?;
@@ -143,6 +167,9 @@ impl FpgaBackend {
                 let why = "disarmed: the host restarted while the axis's share of a \
                            cross-board group was armed; it never started"
                     .to_string();
+                self.events.push_back((i, PinEvent::Late { why }));
+            } else if expired >> i & 1 == 1 {
+                let why = arm_expired_why(self.arm_lifetime);
                 self.events.push_back((i, PinEvent::Late { why }));
             } else if before.streamed >> i & 1 == 1 && busy >> i & 1 == 1 {
                 let why = "host_restarted: the host restarted mid-stream, so the rest of \
@@ -185,7 +212,9 @@ impl FpgaBackend {
         if status & status_bits::ARMED == 0 && self.armed_at.is_none() {
             return Ok(());
         }
-        if status & status_bits::ARMED != 0 {
+        if status & status_bits::ARMED == 0 && status & status_bits::ARM_EXPIRED != 0 {
+            self.tell_arm_expired(armed & all);
+        } else if status & status_bits::ARMED != 0 {
             let busy = l.read(Reg::Board(BoardReg::Busy))?;
             let mask = match armed & busy {
                 0 => busy & all,
@@ -196,19 +225,8 @@ impl FpgaBackend {
                 "warning: board link {}: the armed group was disarmed: {why}",
                 self.name
             );
-            for i in 0..self.axes.len() {
-                if mask >> i & 1 == 0 {
-                    continue;
-                }
-                let ax = &mut self.axes[i];
-                ax.feed = None;
-                ax.speed = 0.0;
-                if ax.running.take().is_some() {
-                    self.events.push_back((i, PinEvent::End { end: self.now }));
-                }
-                let why = format!("disarmed: {why}; the axis's share of the group never started");
-                self.events.push_back((i, PinEvent::Late { why }));
-            }
+            let why = format!("disarmed: {why}; the axis's share of the group never started");
+            self.end_share(mask, &why);
         }
         self.armed = 0;
         self.armed_at = None;
@@ -222,8 +240,12 @@ impl FpgaBackend {
             return Ok(());
         };
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
-        if l.read(Reg::Board(BoardReg::Status))? & status_bits::ARMED == 0 {
-            // fired, stopped or reset: nothing waits any more
+        let status = l.read(Reg::Board(BoardReg::Status))?;
+        if status & status_bits::ARMED == 0 {
+            // fired, stopped, reset or cut by the board: nothing waits any more
+            if status & status_bits::ARM_EXPIRED != 0 {
+                self.tell_arm_expired(self.armed & self.mask());
+            }
             self.armed = 0;
             self.armed_at = None;
             return Ok(());
@@ -341,6 +363,34 @@ impl FpgaBackend {
             self.events.push_back((i, PinEvent::Late { why }));
         }
         Ok(())
+    }
+
+    /// The board cut the group armed on `mask` (its `ArmTimeout`): each axis ends there
+    /// with the fault `arm_expired`.
+    fn tell_arm_expired(&mut self, mask: u32) {
+        eprintln!(
+            "warning: board link {}: the board cut the armed group (axes {mask:#b}) after its \
+             ArmTimeout",
+            self.name
+        );
+        self.end_share(mask, &arm_expired_why(self.arm_lifetime));
+    }
+
+    /// The axes of `mask`, whose share of a group never started, end there with `why`.
+    fn end_share(&mut self, mask: u32, why: &str) {
+        for i in 0..self.axes.len() {
+            if mask >> i & 1 == 0 {
+                continue;
+            }
+            let ax = &mut self.axes[i];
+            ax.feed = None;
+            ax.speed = 0.0;
+            if ax.running.take().is_some() {
+                self.events.push_back((i, PinEvent::End { end: self.now }));
+            }
+            let why = why.to_string();
+            self.events.push_back((i, PinEvent::Late { why }));
+        }
     }
 
     /// A group was armed now on `mask`.
@@ -607,6 +657,51 @@ mod tests {
                 if why.contains("not fired within")),
             "{ev:?}"
         );
+    }
+
+    /// Every `Arm` goes with the board's own bound (the host's lifetime and half again, in
+    /// the board's clocks); a share the board cut is told as `arm_expired` on its axes,
+    /// and a later fire from another board starts nothing here.
+    #[test]
+    fn a_share_the_board_cut_after_its_arm_timeout_is_told_as_arm_expired() {
+        let m = Arc::new(Mutex::new(Model::default()));
+        let (mut b, _) = resume(&m, None);
+        let l = launch(&b, 1, 300);
+        b.arm(vec![l], 0).unwrap();
+        // 30 s * 1.5 at the model's 50 MHz
+        assert_eq!(m.lock().unwrap().arm_timeout, Some(2_250_000_000));
+        assert!(events(&mut b).is_empty(), "armed, nothing told yet");
+        m.lock().unwrap().arm_expire();
+        assert_eq!(m.lock().unwrap().busy, 0, "the board cut the share");
+        let ev = events(&mut b);
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::End { .. }), (1, PinEvent::Late { why })]
+                if why.starts_with("arm_expired") && why.contains("45 s")),
+            "{ev:?}"
+        );
+        assert!(events(&mut b).is_empty(), "told once");
+        let starts = m.lock().unwrap().starts;
+        m.lock().unwrap().sync_fall();
+        assert_eq!(m.lock().unwrap().starts, starts);
+        // a lifetime past what the register holds asks for its largest bound
+        b.arm_lifetime = Duration::from_secs(3600);
+        let l = launch(&b, 0, 300);
+        b.arm(vec![l], 0).unwrap();
+        assert_eq!(m.lock().unwrap().arm_timeout, Some(u32::MAX));
+    }
+
+    #[test]
+    fn a_restarted_host_tells_a_share_the_board_cut_meanwhile_as_arm_expired() {
+        let m = model(|m| (m.session, m.arm_expired) = (TOKEN, true));
+        let mut before = kept(0);
+        before.armed = 0b10;
+        let (mut b, _) = resume(&m, Some(before));
+        let ev = events(&mut b);
+        assert!(
+            matches!(&ev[..], [(1, PinEvent::Late { why })] if why.starts_with("arm_expired")),
+            "{ev:?}"
+        );
+        assert_eq!(b.end_tick(1), None, "not moving");
     }
 
     #[test]

@@ -18,6 +18,17 @@ impl FpgaBackend {
         }
     }
 
+    /// The board's own bound on the group armed next (`ArmTimeout`, docs/HDL.md), in its
+    /// clocks: the host's arm lifetime times [`super::session::BOARD_ARM_MARGIN`], at most
+    /// 2^32 − 1 (86 s at 50 MHz), at least 1.
+    pub(super) fn arm_timeout_write(&self) -> link::RegWrite {
+        let s = self.arm_lifetime.as_secs_f64() * super::session::BOARD_ARM_MARGIN;
+        link::RegWrite {
+            reg: Reg::Board(BoardReg::ArmTimeout),
+            data: (s * self.params.clock_hz).clamp(1.0, f64::from(u32::MAX)) as u32,
+        }
+    }
+
     /// Loads `moves` as a start does and arms them. Until the SYNC fall the board reports
     /// the group pending, so the axes count as moving.
     pub(super) fn arm_moves(
