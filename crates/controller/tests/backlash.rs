@@ -363,3 +363,42 @@ proptest! {
         run_sequence(backlash, &moves);
     }
 }
+
+#[test]
+fn a_tracking_reversal_takes_the_slack_up_in_its_ramp_and_the_load_never_jumps() {
+    use multistep_controller::protocol::{RateArg, SignedRate, TrackOpts};
+    let (_dir, mut b) = fresh();
+    let rate = |r: &str| RateArg::Value(SignedRate::parse(r).unwrap().unwrap());
+    let opts = TrackOpts::default();
+    // forward at 2000 steps/s: the slack goes to the + side
+    b.track("M", &rate("2000"), &opts, None, 0).unwrap();
+    let s = status(&mut b, "M", 1_000_000);
+    assert_eq!((s.slack, motor(&s) - s.position), (BACKLASH, BACKLASH));
+    // the other way: through a stop, then a ramp whose first steps cross the band
+    b.track("M", &rate("-2000"), &opts, None, 1_000_000)
+        .unwrap();
+    let mut now = 1_000_000;
+    let mut last = s.position;
+    let mut seen_inside = false;
+    loop {
+        now += 2_000;
+        let s = status(&mut b, "M", now);
+        // the load moves one way, then the other, and never by more than the motor did
+        assert_eq!(motor(&s) - s.position, s.slack, "{s:?}");
+        assert!(s.slack >= 0 && s.slack <= BACKLASH);
+        if s.slack > 0 && s.slack < BACKLASH {
+            // inside the band the load stands still
+            assert_eq!(s.position, last, "{s:?}");
+            seen_inside = true;
+        }
+        last = s.position;
+        if s.slack == 0 && s.speed < -1999.0 {
+            break;
+        }
+        assert!(now < 10_000_000, "no reversal: {s:?}");
+    }
+    assert!(seen_inside);
+    b.stop(Some("M"), now).unwrap();
+    let (s, _) = settle(&mut b, "M", now);
+    assert_eq!((s.slack, motor(&s)), (0, s.position));
+}
