@@ -113,6 +113,60 @@ scenario('page loads and shows every axis of both boards', async ({ page }) => {
   await waitAxis(page, 'X', (s) => s.state === 'idle', 'first status');
 });
 
+// The telescope panel: what `mount 0` reads, driven by its buttons. Waits until the
+// panel shows `pred`: {state, tracking, dec: [lo, hi]}, each optional.
+async function waitMount(page, pred, what) {
+  try {
+    // Conditions, not code: the page's CSP forbids evaluating strings.
+    await page.waitForFunction((w) => {
+      const d = document.getElementById('panel-mount').dataset;
+      return (w.state === undefined || d.state === w.state)
+        && (w.tracking === undefined || d.tracking === w.tracking)
+        && (w.dec === undefined || (Number(d.dec) >= w.dec[0] && Number(d.dec) <= w.dec[1]));
+    }, pred, { timeout: T });
+  } catch (e) {
+    const d = await page.evaluate(() => ({ ...document.getElementById('panel-mount').dataset }));
+    throw new Error(`${what}: ${JSON.stringify(d)} (${e.message.split('\n')[0]})`);
+  }
+}
+
+scenario('the telescope panel reads the mount, tracks, slews, guides, aborts and parks', async ({ page }) => {
+  await page.locator('#panel-mount:not([hidden])').waitFor({ timeout: T });
+  await waitMount(page, { state: 'still', dec: [90, 90] }, 'the home pose looks at the pole');
+  if ((await text(page, '#mount-dec')) !== '+90:00:00.0') throw new Error('Dec shows ' + (await text(page, '#mount-dec')));
+  if ((await text(page, '#mount-side')) !== 'east') throw new Error('pier ' + (await text(page, '#mount-side')));
+  // Slew one hour west of the meridian to Dec 30: tracking goes on first.
+  const lst = Number(await page.evaluate(() => document.getElementById('panel-mount').dataset.lst));
+  const ra = (((lst - 1) % 24) + 24) % 24;
+  await page.locator('#mount-ra-in').fill(ra.toFixed(6));
+  await page.locator('#mount-dec-in').fill('30');
+  await page.locator('#mount-slew').click();
+  await waitMount(page, { tracking: '1', state: 'still', dec: [29.999, 30.001] }, 'the slew ends at Dec 30, tracking');
+  if (!(await text(page, '#mount-tracking')).startsWith('tracking sidereal')) throw new Error('tracking badge');
+  // A 1.5 s guide pulse north.
+  await page.locator('#mount-guide-ms').fill('1500');
+  await page.locator('.mount-guide[data-dir="n"]').click();
+  await waitMount(page, { state: 'guiding' }, 'guiding');
+  await waitMount(page, { state: 'still' }, 'the pulse ends');
+  // A refused slew shows the mount's reason.
+  await page.locator('#mount-dec-in').fill('95');
+  await page.locator('#mount-slew').click();
+  await page.waitForFunction(() => document.getElementById('err-mount').textContent.includes('declination'), null, { timeout: T });
+  // Abort a long slew on its way.
+  await page.locator('#mount-dec-in').fill('-20');
+  await page.locator('#mount-slew').click();
+  await waitMount(page, { state: 'slewing' }, 'the long slew starts');
+  await page.locator('#mount-abort').click();
+  await waitMount(page, { state: 'still', dec: [-19, 29.9] }, 'abort stops it on the way');
+  // Track off, park (home counts: back at the pole), unpark.
+  await page.locator('#mount-track-off').click();
+  await waitMount(page, { tracking: '0' }, 'tracking off');
+  await page.locator('#mount-park').click();
+  await waitMount(page, { state: 'parked', dec: [90, 90] }, 'parked at the pole');
+  await page.locator('#mount-unpark').click();
+  await waitMount(page, { state: 'still' }, 'unparked');
+});
+
 scenario('a move is followed live until its position arrives', async ({ page }) => {
   await moveAxis(page, 'X', 6000);
   await waitAxis(page, 'X', (s) => s.state === 'moving', 'moving');
