@@ -259,7 +259,8 @@ impl Rig {
             .unwrap_or_else(|e| panic!("{:?}: {line}: {e}", self.pins))
     }
 
-    /// The axis's status; on the board a trusted position is checked against its counter.
+    /// The axis's status; on the board a trusted position is checked against its counter
+    /// (the motor's: the load's position plus the slack of its backlash).
     fn status(&mut self, axis: &str) -> AxisStatus {
         let s = self
             .client
@@ -269,7 +270,7 @@ impl Rig {
             .find(|s| s.axis == axis)
             .unwrap();
         if s.state == AxisState::Idle {
-            self.last[s.number] = Some((s.position, s.trusted));
+            self.last[s.number] = Some((s.position + s.slack, s.trusted));
         }
         s
     }
@@ -427,6 +428,28 @@ fn moves_and_groups_give_the_same_positions_on_both_backends() {
         (x.position, x2.position, y.position, x2.state, y.state)
     });
     assert_eq!(got, (1200, 900, 700, AxisState::Idle, AxisState::Idle));
+}
+
+#[test]
+fn a_reversal_with_backlash_is_one_longer_move_on_both_backends() {
+    let text = config().replacen("name = \"X\"", "name = \"X\"\nbacklash = 250", 1);
+    let got = on_both(|pins| {
+        let mut r = Rig::with_config(pins, &text);
+        let mut seen = Vec::new();
+        // out (taking the slack up from a fresh axis), back, out again
+        for d in [1000, -400, 100] {
+            r.req(&format!("move X {d}"));
+            let s = r.wait_idle("X");
+            seen.push((s.position, s.slack));
+        }
+        // the board's counter is the motor: 700 + 250 (checked against it on the board)
+        let counters = r.check_counters();
+        if pins == Pins::Hil {
+            assert_eq!(counters[0], 950);
+        }
+        seen
+    });
+    assert_eq!(got, vec![(1000, 250), (600, 0), (700, 250)]);
 }
 
 #[test]
