@@ -17,6 +17,7 @@
 mod common;
 
 use common::Proc;
+use multistep_controller::axis::Link;
 use multistep_controller::client::{Client, ClientError};
 use multistep_controller::{AxisState, AxisStatus};
 use multistep_hil::proxy::{FaultKind, LinkProxy, ProxyOptions};
@@ -469,15 +470,12 @@ impl Harness {
     }
 }
 
-/// Idle, or a fault with the board's count: not "board link NAME down: …" (the link's
-/// state now, whose axis may still be moving on the board; "… is down: …" is an error a
-/// command met, kept on an axis at rest).
+/// Idle, or a fault with the board's count: not with the link down (whose axis may still
+/// be moving on the board; an error a command met is kept on an axis at rest).
 fn at_rest(s: &AxisStatus) -> bool {
-    let f = s.fault.as_deref().unwrap_or("");
-    let down = f.starts_with("board link ") && f.contains(" down: ") && !f.contains(" is down: ");
     match s.state {
         AxisState::Idle => true,
-        AxisState::Fault => !down,
+        AxisState::Fault => s.link != Some(Link::Down),
         _ => false,
     }
 }

@@ -569,6 +569,30 @@ pub struct AxisStatus {
     /// replaced); the same on every axis.
     #[serde(default = "store_ok")]
     pub store: String,
+    /// A board reached over a link (`serve --board-link`): whether it answers now. The
+    /// rest of the line is the board as last read, `age_ms` ago.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<Link>,
+    /// Milliseconds since the board's registers shown were read (a board with a link).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub age_ms: Option<u64>,
+}
+
+/// The state of a board's link in `status` (`link=up|down`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Link {
+    Up,
+    Down,
+}
+
+impl Link {
+    pub fn name(self) -> &'static str {
+        match self {
+            Link::Up => "up",
+            Link::Down => "down",
+        }
+    }
 }
 
 fn store_ok() -> String {
@@ -626,6 +650,14 @@ impl AxisStatus {
         }
         flag(out, " en=", self.enabled);
         let _ = write!(out, " num={}", self.number);
+        // a board with a link only: other boards' lines are as before
+        if let Some(l) = self.link {
+            out.push_str(" link=");
+            out.push_str(l.name());
+        }
+        if let Some(a) = self.age_ms {
+            let _ = write!(out, " age_ms={a}");
+        }
     }
 }
 
@@ -717,6 +749,8 @@ mod tests {
             enabled: false,
             enable_level: false,
             store: "fail ing\n".into(),
+            link: None,
+            age_ms: None,
         };
         let a = s.line();
         assert_eq!(a, reference(&s));
@@ -729,5 +763,13 @@ mod tests {
         assert_eq!(text, format!("{a}\nok\n"));
         (s.fault, s.rate, s.target, s.drift) = (None, None, None, Some(-4));
         assert_eq!(s.line(), reference(&s));
+        let json = serde_json::to_string(&s).unwrap();
+        assert!(!json.contains("link") && !json.contains("age_ms"), "{json}");
+        // a board with a link: the two fields after the others, in both forms
+        (s.link, s.age_ms) = (Some(Link::Down), Some(12));
+        assert_eq!(s.line(), format!("{} link=down age_ms=12", reference(&s)));
+        let json = serde_json::to_string(&s).unwrap();
+        assert!(json.contains(r#""link":"down","age_ms":12"#), "{json}");
+        assert_eq!(serde_json::from_str::<AxisStatus>(&json).unwrap(), s);
     }
 }

@@ -37,6 +37,15 @@ pub struct Launch {
     pub resync_sensor: bool,
 }
 
+/// A backend's link to its board ([`BoardBackend::link_state`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkState {
+    /// The board answers.
+    pub up: bool,
+    /// When the board's registers were last read in full.
+    pub read_at: Option<std::time::Instant>,
+}
+
 /// What an axis did, reported by [`BoardBackend::poll`] in time order per axis.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PinEvent {
@@ -204,6 +213,10 @@ pub trait BoardBackend: Send {
     }
     /// Why the backend cannot reach this axis now (a link failure), if it cannot.
     fn fault(&self, _axis: usize) -> Option<String> {
+        None
+    }
+    /// The state of the link to the board (`None`: the backend has none).
+    fn link_state(&self) -> Option<LinkState> {
         None
     }
     /// Limits the work of one advance (see [`crate::Board::set_work_budget`]).

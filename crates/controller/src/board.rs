@@ -3,7 +3,7 @@
 //! Time is explicit — every method takes the board tick `now` — so the same code runs in
 //! real time under [`crate::Controller`] and in virtual time in tests.
 
-use crate::axis::{AxisSettings, AxisState, AxisStatus, MAX_POSITION};
+use crate::axis::{AxisSettings, AxisState, AxisStatus, Link, MAX_POSITION};
 use crate::backend::{BoardBackend, Launch, PinEvent, SimBackend};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
@@ -18,6 +18,7 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
+mod adopt;
 mod clock;
 mod driver;
 mod homing;
@@ -242,6 +243,7 @@ impl Board {
         let mut axes = Vec::new();
         let mut warnings = Vec::new();
         let sim = store.sim();
+        let homings = adopt::stored_homings(&store, config);
         for ac in &config.axes {
             let settings = match stored_settings(&store, &ac.name, &mut warnings) {
                 Some(s) => s,
@@ -331,6 +333,9 @@ impl Board {
                 store.put_axis(&axis.name, &axis.record(None, pins.sim_position(i)))?;
             }
             axes.push(axis);
+        }
+        if adopted {
+            adopt::end_adopted_homings(&mut axes, pins.as_mut(), &store, &mut warnings, &homings)?;
         }
         let kept = store.clone();
         pins.keep_session(Box::new(move |s| {
@@ -617,6 +622,7 @@ impl Board {
         let marker = ax.motion.as_ref().map(|m| MovingMarker {
             from: ax.count,
             target: m.target,
+            homing: matches!(m.purpose, Purpose::Home(_)),
         });
         ax.marked = marker.is_some();
         ax.marker = marker.as_ref().map(|m| (m.from, m.target));
@@ -740,6 +746,7 @@ impl Board {
                 Some(MovingMarker {
                     from: ax.count,
                     target,
+                    homing: matches!(purpose, Purpose::Home(_)),
                 }),
                 sim_pos,
             );
@@ -1215,8 +1222,14 @@ impl Board {
 
     pub fn status(&mut self, axes: &[String], now: u64) -> Result<Vec<AxisStatus>, CtlError> {
         self.advance(now);
+        self.status_now(axes)
+    }
+
+    /// [`Board::status`] as last advanced, without advancing (no link exchange).
+    pub fn status_now(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
         let idx = self.indices(axes)?;
         let store = self.store.check().word();
+        let link_state = self.pins.link_state();
         Ok(idx
             .into_iter()
             .map(|i| {
@@ -1266,9 +1279,18 @@ impl Board {
                     enabled: ax.driver.enabled,
                     enable_level: ax.driver.enabled == ax.settings.enable_active_high,
                     store: store.into(),
+                    link: link_state.map(|l| if l.up { Link::Up } else { Link::Down }),
+                    age_ms: link_state
+                        .and_then(|l| l.read_at)
+                        .map(|t| t.elapsed().as_millis() as u64),
                 }
             })
             .collect())
+    }
+
+    /// The board is reached over a link ([`BoardBackend::link_state`]).
+    pub fn has_link(&self) -> bool {
+        self.pins.link_state().is_some()
     }
 
     pub fn settings(&self, axis: &str) -> Result<&AxisSettings, CtlError> {
@@ -1484,7 +1506,7 @@ fn sync_phases(o: &MoveOpts) -> (f64, f64, f64) {
 }
 
 /// A motor number: plain decimal digits (no sign, no leading zeros), as in `move 3 100`.
-fn axis_number(word: &str) -> Option<usize> {
+pub(crate) fn axis_number(word: &str) -> Option<usize> {
     let plain = word.bytes().all(|b| b.is_ascii_digit()) && (word == "0" || !word.starts_with('0'));
     if plain && word.len() <= 4 {
         word.parse().ok()

@@ -182,6 +182,44 @@ impl Halts {
 struct Shared {
     board: Mutex<Board>,
     halts: Halts,
+    /// A board with a link: its status as each holder of the board left it, answered by
+    /// `status` without the board's lock, which a link exchange may hold for long (a
+    /// faulty link's retransmissions and timeouts). `None` for other boards.
+    seen: Option<Mutex<Seen>>,
+}
+
+/// Every axis's status as the last holder of the board left it.
+struct Seen {
+    all: Vec<AxisStatus>,
+    at: Instant,
+}
+
+impl Seen {
+    /// The axes `axes` (names, else numbers; all when empty), their ages as of now.
+    fn pick(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
+        let later = self.at.elapsed().as_millis() as u64;
+        let one = |w: &String| {
+            self.all
+                .iter()
+                .find(|s| &s.axis == w)
+                .or_else(|| {
+                    self.all
+                        .iter()
+                        .find(|s| crate::board::axis_number(w) == Some(s.number))
+                })
+                .cloned()
+                .ok_or_else(|| CtlError::UnknownAxis(w.clone()))
+        };
+        let mut v = if axes.is_empty() {
+            self.all.clone()
+        } else {
+            axes.iter().map(one).collect::<Result<Vec<_>, _>>()?
+        };
+        for s in &mut v {
+            s.age_ms = s.age_ms.map(|a| a + later);
+        }
+        Ok(v)
+    }
 }
 
 /// The board locked. Halts asked for meanwhile are applied when it is let go, by the
@@ -189,6 +227,7 @@ struct Shared {
 struct Locked<'a> {
     board: MutexGuard<'a, Board>,
     halts: &'a Halts,
+    seen: Option<&'a Mutex<Seen>>,
 }
 
 impl std::ops::Deref for Locked<'_> {
@@ -207,6 +246,19 @@ impl std::ops::DerefMut for Locked<'_> {
 impl Drop for Locked<'_> {
     fn drop(&mut self) {
         self.halts.apply(&mut self.board);
+        if let Some(seen) = self.seen {
+            publish(seen, &self.board);
+        }
+    }
+}
+
+/// Keeps the board's status for `status` (see [`Shared::seen`]).
+fn publish(seen: &Mutex<Seen>, b: &Board) {
+    if let Ok(all) = b.status_now(&[]) {
+        *seen.lock().unwrap_or_else(|p| p.into_inner()) = Seen {
+            all,
+            at: Instant::now(),
+        };
     }
 }
 
@@ -219,6 +271,7 @@ impl Shared {
         Locked {
             board: b,
             halts: &self.halts,
+            seen: self.seen.as_ref(),
         }
     }
 
@@ -240,6 +293,9 @@ impl Shared {
                 Some(mut b) => {
                     drop(q);
                     self.halts.apply(&mut b);
+                    if let Some(seen) = &self.seen {
+                        publish(seen, &b);
+                    }
                 }
                 // Woken when a holder applies it; the timeout retries the lock in case
                 // the holder let go without locking again.
@@ -360,9 +416,16 @@ impl Controller {
         let halts = Halts::default();
         board.set_halt_tick(halts.tick.clone());
         board.set_halt_flag(halts.pending.clone());
+        let seen = board.has_link().then(|| {
+            Mutex::new(Seen {
+                all: board.status_now(&[]).unwrap_or_default(),
+                at: Instant::now(),
+            })
+        });
         let shared = Arc::new(Shared {
             board: Mutex::new(board),
             halts,
+            seen,
         });
         let quit = Arc::new(AtomicBool::new(false));
         let ticker = {
@@ -473,8 +536,14 @@ impl Controller {
             .unwrap_or_else(|p| p.into_inner())
     }
 
+    /// Each axis's status. A board with a link answers from its state as the last
+    /// holder of the board left it (the ticker's within a millisecond, unless a link
+    /// exchange takes longer: `age_ms` says how old), never waiting for the board.
     pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
-        self.with_board(|b, now| b.status(axes, now))
+        match &self.shared.seen {
+            Some(seen) => seen.lock().unwrap_or_else(|p| p.into_inner()).pick(axes),
+            None => self.with_board(|b, now| b.status(axes, now)),
+        }
     }
     pub fn move_axis(
         &self,

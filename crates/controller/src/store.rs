@@ -66,6 +66,10 @@ pub struct AxisRecord {
 pub struct MovingMarker {
     pub from: i64,
     pub target: i64,
+    /// The motion is a homing (any phase, or the park after it): a host restarted while
+    /// it runs cannot finish it.
+    #[serde(default)]
+    pub homing: bool,
 }
 
 /// What a restarted host needs to adopt the FPGA board it left running: the token it
@@ -668,7 +672,11 @@ mod tests {
             position: -1234,
             homed: true,
             trusted: true,
-            moving: Some(MovingMarker { from: 1, target: 2 }),
+            moving: Some(MovingMarker {
+                from: 1,
+                target: 2,
+                homing: false,
+            }),
             sim_position: 5,
             slack: 3,
         };

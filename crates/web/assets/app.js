@@ -206,6 +206,13 @@ function updateCard(card, a, now) {
   badge(q('.state'), a.state, a.state === 'fault' ? 'bad' : a.state === 'idle' ? '' : 'busy');
   badge(q('.homed'), a.homed ? 'homed' : 'not homed', a.homed ? 'ok' : 'warn');
   badge(q('.trusted'), a.trusted ? 'trusted' : 'untrusted', a.trusted ? 'ok' : 'bad');
+  // a board over a link (serve --board-link): whether it answers, and how old the reading is
+  const link = q('.link');
+  link.hidden = !a.link;
+  if (a.link) {
+    badge(link, 'link ' + a.link, a.link === 'up' ? 'ok' : 'bad');
+    link.title = a.age_ms === undefined ? '' : `the board was read ${a.age_ms} ms ago`;
+  }
   const drift = q('.drift');
   drift.hidden = !(a.drift !== null && a.drift !== 0);
   drift.textContent = `drift ${a.drift} steps`;

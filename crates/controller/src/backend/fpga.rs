@@ -17,7 +17,7 @@
 
 mod stream;
 
-use super::{BoardBackend, Launch, PinEvent, SyncState};
+use super::{BoardBackend, Launch, LinkState, PinEvent, SyncState};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
@@ -175,6 +175,8 @@ pub struct FpgaBackend {
     /// The axes whose ENABLE the host wants on (the Enable register, 0x0E).
     enabled: u32,
     last_poll: Option<Instant>,
+    /// When the board was last read in full (`read_board`).
+    read_at: Option<Instant>,
     polled: bool,
     /// The board has replay units for streamed moves.
     streams: bool,
@@ -293,6 +295,7 @@ impl FpgaBackend {
             hall_stop: 0,
             enabled: ((1u64 << axes) - 1) as u32,
             last_poll: None,
+            read_at: None,
             polled: false,
             streams: false,
             buffer: 0,
@@ -324,6 +327,7 @@ impl FpgaBackend {
                 .map_err(link_err)?;
         }
         b.read_board().map_err(link_err)?;
+        b.read_at = Some(Instant::now());
         Ok(b)
     }
 
@@ -1271,8 +1275,11 @@ impl BoardBackend for FpgaBackend {
                 // a halt waiting for the link goes first; the board is read next poll
                 let urgent = self.link.as_ref().is_some_and(|l| l.urgent());
                 if self.link.is_some() && !urgent {
-                    if let Err(e) = self.read_board() {
-                        self.failed(e);
+                    match self.read_board() {
+                        Ok(()) => self.read_at = Some(Instant::now()),
+                        Err(e) => {
+                            self.failed(e);
+                        }
                     }
                 }
                 self.after_read();
@@ -1433,6 +1440,13 @@ impl BoardBackend for FpgaBackend {
         self.down
             .as_ref()
             .map(|d| format!("board link {} down: {d}", self.name))
+    }
+
+    fn link_state(&self) -> Option<LinkState> {
+        Some(LinkState {
+            up: self.down.is_none(),
+            read_at: self.read_at,
+        })
     }
 
     fn polls_when_idle(&self) -> bool {
@@ -1946,3 +1960,6 @@ mod track_feed;
 
 #[cfg(test)]
 mod preempt;
+
+#[cfg(test)]
+mod link_status;

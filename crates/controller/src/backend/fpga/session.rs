@@ -751,6 +751,7 @@ mod tests {
             moving: Some(MovingMarker {
                 from: 100,
                 target: 800,
+                homing: false,
             }),
             sim_position: 0,
             slack: 0,
@@ -779,6 +780,63 @@ mod tests {
             (AxisState::Idle, 800, true, true),
             "{x:?}"
         );
+    }
+
+    /// A host killed mid-homing: the restarted one cannot finish it (its phases lived in
+    /// the host that died), so the axis is halted and untrusted, never trusted at a count
+    /// no homing re-referenced; between two phases (the board idle) as well.
+    #[test]
+    fn a_homing_adopted_from_the_host_before_is_halted_and_untrusted() {
+        use crate::axis::AxisState;
+        use crate::store::{AxisRecord, MovingMarker, Store};
+        use crate::{Board, BoardConfig};
+        for running in [true, false] {
+            let dir = tempfile::tempdir().unwrap();
+            let config = BoardConfig::parse(
+                "[board]\nname = \"t\"\n[[axis]]\nname = \"X\"\n[[axis]]\nname = \"Y\"\n",
+            )
+            .unwrap();
+            let store = Store::open(dir.path()).unwrap();
+            // as homing writes it: trusted from before, not homed, the marker a homing's
+            let rec = AxisRecord {
+                position: 100,
+                homed: false,
+                trusted: true,
+                moving: Some(MovingMarker {
+                    from: 100,
+                    target: -3900,
+                    homing: true,
+                }),
+                ..AxisRecord::default()
+            };
+            store.put_axis("X", &rec).unwrap();
+            store.put_link_session(&kept(0)).unwrap();
+            let m = model(|m| {
+                (m.session, m.busy, m.dir) = (TOKEN, running as u32, 0);
+                (m.position, m.steps) = ([40, 0], 4000);
+            });
+            let port = m.clone();
+            let open: Opener =
+                Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
+            let before = store.link_session().unwrap();
+            let pins = FpgaBackend::with_opener_resuming("model".into(), open, 2, before).unwrap();
+            let mut board = Board::open_with(&config, store, Box::new(pins)).unwrap();
+            assert_eq!(m.lock().unwrap().busy, 0, "halted (running: {running})");
+            let x = board.status(&["X".into()], 1).unwrap().remove(0);
+            assert_eq!(
+                (x.state, x.position, x.trusted, x.homed),
+                (AxisState::Fault, 40, false, false),
+                "running: {running}: {x:?}"
+            );
+            let why = x.fault.unwrap_or_default();
+            assert!(
+                why.starts_with("host_restarted") && why.contains("homing"),
+                "{why}"
+            );
+            assert!(board.warnings().iter().any(|w| w.contains("mid-homing")));
+            let y = board.status(&["Y".into()], 2).unwrap().remove(0);
+            assert_eq!(y.state, AxisState::Idle, "the other axis untouched");
+        }
     }
 
     #[test]
