@@ -1616,3 +1616,118 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
     assert!(sim < 0.2, "{sim} s simulated for 100 reads");
     l.write(Reg::Board(BoardReg::Stop), 1).unwrap();
 }
+
+/// `estop` under load on the board (a benchmark, docs/BENCHMARKS.md; run with
+/// `--ignored`): 8 clients poll `status` without pause while X and Y run a streamed group
+/// (scurve4, about 33 000 steps/s each at cruise). Each trial, in the cruise, reads
+/// board-sim's cycle, sends `estop` on a connection of its own and times the answer;
+/// board-sim's record of the ENABLE fall (the e-stop drops ENABLE a clock after it
+/// latches) is when the board took it, in its clocks, and its STEP counts give the steps
+/// after the ask. No STEP may rise after the latch.
+#[test]
+#[ignore]
+fn estop_under_load_on_the_board_with_a_streamed_group() {
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+    use std::sync::Arc;
+    let trials: usize = std::env::var("MULTISTEP_ESTOP_TRIALS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
+    let mut r = Rig::with_config(Pins::Hil, &fast_config());
+    let quit = Arc::new(AtomicBool::new(false));
+    let polls = Arc::new(AtomicU64::new(0));
+    let pollers: Vec<_> = (0..8)
+        .map(|_| {
+            let (quit, polls) = (quit.clone(), polls.clone());
+            let mut c = Client::connect(&Endpoint::Tcp(r.server.addr.clone())).unwrap();
+            std::thread::spawn(move || {
+                while !quit.load(Ordering::Relaxed) {
+                    c.request("status").unwrap();
+                    polls.fetch_add(1, Ordering::Relaxed);
+                }
+            })
+        })
+        .collect();
+    let mut asker = Client::connect(&Endpoint::Tcp(r.server.addr.clone())).unwrap();
+    let rises = |s: &serde_json::Value| -> u64 {
+        (0..2)
+            .map(|a| s["axes"][a]["step_rises"].as_u64().unwrap())
+            .sum()
+    };
+    let (mut answer_ms, mut applied_ms, mut after) = (Vec::new(), Vec::new(), Vec::new());
+    let started = (Instant::now(), r.board.as_mut().unwrap().state());
+    for k in 0..trials {
+        let d = if k % 2 == 0 { 1 } else { -1 };
+        r.req(&format!(
+            "group move X={} Y={} profile=scurve4 accel=0.02 cruise=0.1 decel=0.02",
+            4000 * d,
+            -3000 * d
+        ));
+        let b = r.board.as_mut().unwrap();
+        // into the cruise, at a different phase each time
+        let x0 = b.state()["axes"][0]["step_rises"].as_u64().unwrap();
+        let want = 1500 + (k as u64 * 137) % 1000;
+        let asked = loop {
+            let s = b.state();
+            if s["axes"][0]["step_rises"].as_u64().unwrap() - x0 >= want {
+                break s;
+            }
+        };
+        let t = Instant::now();
+        asker.request("estop").unwrap();
+        answer_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        r.wait_idle("X");
+        r.wait_idle("Y");
+        let b = r.board.as_mut().unwrap();
+        let end = b.state();
+        let (t0, latched) = (
+            asked["ticks"].as_u64().unwrap(),
+            end["enable_changed"].as_u64().unwrap(),
+        );
+        assert!(
+            latched > t0,
+            "trial {k}: the e-stop latched at {latched}, asked at {t0}"
+        );
+        applied_ms.push((latched - t0) as f64 / 50e3);
+        after.push((rises(&end) - rises(&asked)) as f64);
+        let late: Vec<_> = edges_log(&r)
+            .1
+            .into_iter()
+            .filter(|&(_, c)| c > latched)
+            .collect();
+        assert!(
+            late.is_empty(),
+            "trial {k}: STEP after the e-stop: {late:?}"
+        );
+        r.req("reset");
+    }
+    let wall = started.0.elapsed().as_secs_f64();
+    let sim = r.board.as_mut().unwrap().state()["seconds"]
+        .as_f64()
+        .unwrap()
+        - started.1["seconds"].as_f64().unwrap();
+    quit.store(true, Ordering::Relaxed);
+    for p in pollers {
+        p.join().unwrap();
+    }
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    eprintln!(
+        "{trials} trials in {wall:.1} s wall, {sim:.2} s simulated; {} status replies; loadavg {}",
+        polls.load(Ordering::Relaxed),
+        load.trim()
+    );
+    for (name, unit, v) in [
+        ("estop answer, host side (wall)", "ms", &mut answer_ms),
+        ("ask to e-stop latched (board clock)", "ms", &mut applied_ms),
+        ("STEPs after the ask (X and Y)", "steps", &mut after),
+    ] {
+        v.sort_by(f64::total_cmp);
+        let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+        eprintln!(
+            "{name:<40} p50 {:>8.3}  p99 {:>8.3}  max {:>8.3} {unit}",
+            q(0.5),
+            q(0.99),
+            q(1.0)
+        );
+    }
+}

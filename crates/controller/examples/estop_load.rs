@@ -6,7 +6,9 @@
 //! against what the stop rule allows. Previews refused as busy (`error:23`, the timing
 //! pool's queue full) are counted.
 //!
-//! `cargo run --release -p multistep-controller --example estop_load -- [TRIALS]`
+//! `cargo run --release -p multistep-controller --example estop_load -- [TRIALS]`; with
+//! `ESTOP_LOAD_RAW=FILE` each e-stop trial's answer (ms), application (ms) and steps after
+//! are appended to FILE, one line each, to pool interleaved runs.
 
 use multistep_controller::config::{AxisConfig, BoardConfig, BoardSection};
 use multistep_controller::protocol::{Amount, MoveOpts};
@@ -223,6 +225,17 @@ fn main() {
         refused.load(Ordering::Relaxed),
         load.trim()
     );
+    // every e-stop trial's samples, for pooling runs (`ESTOP_LOAD_RAW=FILE`, appended)
+    if let Ok(path) = std::env::var("ESTOP_LOAD_RAW") {
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .expect("ESTOP_LOAD_RAW");
+        for i in 0..estop_ms.len() {
+            writeln!(f, "{} {} {}", estop_ms[i], applied_ms[i], estop_steps[i]).expect("write");
+        }
+    }
     summary("estop answer, host side", "ms", &mut estop_ms);
     summary(
         "estop applied to the board, host side",

@@ -153,6 +153,10 @@ pub struct SimState {
     pub cut: bool,
     /// Bytes the host has sent the board over the link since the start.
     pub host_bytes: u64,
+    /// The cycle at which an ENABLE pin last changed (0: none yet). The e-stop drops every
+    /// ENABLE a clock after it latches (`Levels` bit 5, set at reset), so after an e-stop
+    /// this is when the board took it: the `Estop` write's arrival, or the input.
+    pub enable_changed: u64,
     pub axes: Vec<AxisReport>,
 }
 
@@ -424,6 +428,8 @@ struct World {
     realtime: Option<Instant>,
     /// The watch word after the last run.
     last: u64,
+    /// The cycle of the last ENABLE change ([`SimState::enable_changed`]).
+    enable_changed: u64,
     quit: bool,
     /// The SYNC line's level (boards run together: [`multi`]).
     sync_in: bool,
@@ -501,6 +507,7 @@ impl World {
             host: Vec::new(),
             realtime: opts.realtime.then(Instant::now),
             last: 0,
+            enable_changed: 0,
             quit: false,
             sync_in: true,
         };
@@ -594,6 +601,7 @@ impl World {
             estop: self.estop,
             cut: self.cut,
             host_bytes: self.host_bytes,
+            enable_changed: self.enable_changed,
             axes: self.axes.iter().map(SimAxis::report).collect(),
         }
     }
@@ -726,6 +734,9 @@ impl World {
             if let Some(f) = self.edges.as_mut() {
                 let _ = writeln!(f, "# go {}", now + 1);
             }
+        }
+        if changed & watch::ENABLE != 0 {
+            self.enable_changed = now;
         }
         let (step_pins, dir_pins, en_pins) = (out.step(), out.dir(), out.enable());
         for (a, ax) in self.axes.iter_mut().enumerate() {
