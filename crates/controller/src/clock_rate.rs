@@ -87,6 +87,7 @@ pub struct ClockEstimator {
     clock_hz: f64,
     readings: VecDeque<Reading>,
     fit: Option<ClockFit>,
+    min_span_ns: u64,
 }
 
 impl ClockEstimator {
@@ -96,7 +97,15 @@ impl ClockEstimator {
             clock_hz,
             readings: VecDeque::with_capacity(WINDOW),
             fit: None,
+            min_span_ns: MIN_SPAN_NS,
         }
+    }
+
+    /// Fits over a shorter (or longer) span than [`MIN_SPAN_NS`]: readings without link
+    /// jitter, such as counts latched together at a SYNC fall.
+    pub fn with_min_span(mut self, ns: u64) -> ClockEstimator {
+        self.min_span_ns = ns;
+        self
     }
 
     /// Adds a reading and fits again. A reading answered before it was asked, or older
@@ -153,7 +162,7 @@ impl ClockEstimator {
             })
             .collect();
         let (first, last) = (kept.first()?.0, kept.last()?.0);
-        if kept.len() < MIN_READINGS || last - first < MIN_SPAN_NS as f64 {
+        if kept.len() < MIN_READINGS || last - first < self.min_span_ns as f64 {
             return None;
         }
         // Centred on the means, so the products stay far inside f64's 53 bits.
