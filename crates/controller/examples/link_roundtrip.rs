@@ -3,7 +3,7 @@
 //! (or `multistep board-sim`). Prints the mean, the fastest and the slowest read, and the
 //! time to load one trapezoid move.
 
-use multistep_hdl::link::{self, BoardReg, HostLink, Reg};
+use multistep_link::{self as link, BoardReg, HostLink, Reg};
 use std::time::{Duration, Instant};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -33,8 +33,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     .resolve()?;
     let ip = link::int_profile(&mv, u64::from(id.clock_hz))?;
-    let params = multistep_hdl::CoreParams::from(&id);
-    let m = multistep_hdl::AxisMove::from_profile(&ip, true, &params)?;
+    let params = multistep_link::CoreParams::from(&id);
+    let m = multistep_link::AxisMove::from_profile(&ip, true, &params)?;
     let writes = link::move_writes(&params, 0, &m, 0)?;
     let t = Instant::now();
     link.write_all(&writes)?;

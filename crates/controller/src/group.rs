@@ -124,7 +124,7 @@ pub fn start_across(
     let r = run(boards, shares, patience, &mut sent, &mut answers);
     match r {
         Ok(ticks) => {
-            let offsets = multistep_hdl::link::sync_offsets(&ticks);
+            let offsets = multistep_link::sync_offsets(&ticks);
             let ticks = shares
                 .iter()
                 .zip(ticks.iter().zip(offsets))

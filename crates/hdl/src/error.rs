@@ -49,6 +49,17 @@ pub enum HdlError {
     },
 }
 
+impl From<multistep_link::FitError> for HdlError {
+    fn from(e: multistep_link::FitError) -> Self {
+        use multistep_link::FitError as F;
+        match e {
+            F::Param(m) => HdlError::Param(m),
+            F::Piece { index, reason } => HdlError::Piece { index, reason },
+            F::Move(m) => HdlError::Move(m),
+        }
+    }
+}
+
 impl HdlError {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         HdlError::Io {

@@ -6,7 +6,7 @@ mod common;
 
 use common::{params, random_move, Rng, CLOCK};
 use multistep_core::int::{IntEdgeGenerator, IntPhaseMove, IntProfile, IntSegment};
-use multistep_hdl::{AxisMove, CoreParams, HdlError};
+use multistep_hdl::{AxisMove, CoreParams, FitError};
 use proptest::prelude::*;
 
 proptest! {
@@ -39,7 +39,7 @@ proptest! {
                 let want: Vec<u64> = IntEdgeGenerator::new(profile).collect();
                 prop_assert_eq!(a.edges(), want);
             }
-            Err(e) => prop_assert!(matches!(e, HdlError::Piece { .. } | HdlError::Move(_)), "{e}"),
+            Err(e) => prop_assert!(matches!(e, FitError::Piece { .. } | FitError::Move(_)), "{e}"),
         }
     }
 }
@@ -84,7 +84,7 @@ fn moves_too_wide_for_the_core_are_refused() {
         ..params(1)
     };
     let e = AxisMove::from_profile(&profile, false, &narrow).unwrap_err();
-    assert!(matches!(e, HdlError::Piece { .. }), "{e}");
+    assert!(matches!(e, FitError::Piece { .. }), "{e}");
     assert!(e.to_string().contains("radicand"), "{e}");
     // more pieces than slots
     let two = CoreParams {
@@ -92,7 +92,7 @@ fn moves_too_wide_for_the_core_are_refused() {
         ..params(1)
     };
     let e = AxisMove::from_profile(&profile, false, &two).unwrap_err();
-    assert!(matches!(e, HdlError::Move(_)), "{e}");
+    assert!(matches!(e, FitError::Move(_)), "{e}");
     // a 0.3 s segment at odd speeds: core::int runs it on its 256-bit path, the RTL cannot
     let seg = IntSegment {
         v0: 123_457,

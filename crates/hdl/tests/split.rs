@@ -13,7 +13,7 @@ use multistep_hdl::boards::Board;
 use multistep_hdl::link::{int_profile, move_writes};
 use multistep_hdl::simulator::Simulator;
 use multistep_hdl::tools::simulate_in;
-use multistep_hdl::{Arch, AxisMove, CoreParams, Design, HdlError};
+use multistep_hdl::{Arch, AxisMove, CoreParams, Design, FitError};
 use proptest::prelude::*;
 
 /// 16 tick bits (1.3 ms pieces at 50 MHz), 10 step bits, 256 slots; kernels as wide as
@@ -124,7 +124,7 @@ fn check_split(profile: &IntProfile, dir: bool) -> Result<bool, TestCaseError> {
     prop_assert_eq!(whole.edges(), want.clone());
     if !periods_fit(&want, n.tick_bits) {
         match split {
-            Err(HdlError::Move(e)) => prop_assert!(e.contains("period"), "{e}"),
+            Err(FitError::Move(e)) => prop_assert!(e.contains("period"), "{e}"),
             other => prop_assert!(false, "a period too long, yet {other:?}"),
         }
         return Ok(false);
@@ -215,7 +215,7 @@ fn a_piece_of_too_many_steps_splits() {
 fn a_move_far_beyond_the_slots_is_refused_quickly() {
     let p = segment(1_000, 500_000_000_000, 10_000_000);
     let e = AxisMove::from_profile(&p, true, &narrow()).unwrap_err();
-    assert!(matches!(e, HdlError::Move(_)), "{e}");
+    assert!(matches!(e, FitError::Move(_)), "{e}");
     assert!(e.to_string().contains("more than 4096 pieces"), "{e}");
 }
 
@@ -269,7 +269,7 @@ fn icebreaker_takes_a_move_of_long_ramps() {
     assert!(move_writes(&p, 0, &m, 0).is_ok());
     let mv = Move::Phase(PhaseMove::new(5_000, Family::Trapezoid, 0.1, 0.1, 0.1));
     let e = AxisMove::from_profile(&int_profile(&mv, clock).unwrap(), true, &p).unwrap_err();
-    assert!(matches!(e, HdlError::Move(_)), "{e}");
+    assert!(matches!(e, FitError::Move(_)), "{e}");
     assert!(e.to_string().contains("6 pieces with steps"), "{e}");
 }
 

@@ -25,11 +25,12 @@ use crate::motion::{EdgeSource, StepSource};
 use crate::tracking::TrackSource;
 use multistep_core::int::{IntClock, IntProfile, IntSegment};
 use multistep_core::MoveSpec;
-use multistep_hdl::chain::{ChainedMove, CHAIN_LAYOUT};
-use multistep_hdl::link::{
-    self, core_addr, status_bits, AxisReg, BoardReg, HostLink, LinkError, Reg, Status, BULK_MAX,
+use multistep_link::chain::{ChainedMove, CHAIN_LAYOUT};
+use multistep_link::{
+    self as link, core_addr, status_bits, AxisReg, BoardReg, HostLink, LinkError, Reg, Status,
+    BULK_MAX,
 };
-use multistep_hdl::{AxisMove, CoreParams};
+use multistep_link::{AxisMove, CoreParams};
 use stream::Feed;
 
 use std::collections::VecDeque;
@@ -1598,7 +1599,7 @@ mod tests {
 #[cfg(test)]
 mod model {
     use super::*;
-    use multistep_hdl::link::{Reply, Request, REPLY_LEN};
+    use multistep_link::{Reply, Request, REPLY_LEN};
     use std::sync::{Arc, Mutex};
 
     #[derive(Default)]

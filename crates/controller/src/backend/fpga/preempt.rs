@@ -5,7 +5,7 @@ use super::pump;
 use super::stream::Feed;
 use crate::motion::EdgeSource;
 use multistep_core::{Family, PhaseMove, Profile};
-use multistep_hdl::link::{BoardReg, BulkWrite, HostLink, Reg, Reply, Request, Status};
+use multistep_link::{BoardReg, BulkWrite, HostLink, Reg, Reply, Request, Status};
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

@@ -16,7 +16,7 @@
 use super::{FpgaBackend, Running};
 use crate::backend::PinEvent;
 use crate::store::{Fold, LinkSession};
-use multistep_hdl::link::{status_bits, AxisReg, BoardReg, LinkError, Reg};
+use multistep_link::{status_bits, AxisReg, BoardReg, LinkError, Reg};
 use std::time::{Duration, Instant};
 
 /// Keeps the link session (in the store), at start-up and whenever it changes.
@@ -106,7 +106,7 @@ impl FpgaBackend {
             self.adopted = true;
             return self.adopt(before);
         }
-        let token = multistep_hdl::link::session_token();
+        let token = multistep_link::session_token();
         l.write(Reg::Board(BoardReg::Session), token)?;
         self.session = token;
         for i in 0..self.axes.len() {

@@ -5,7 +5,7 @@
 use crate::motion::{stop_profile, EdgeSource, StepSource, Stopped};
 use crate::tracking::TrackSource;
 use multistep_core::stream::StreamEncoder;
-use multistep_hdl::link::{AxisReg, HostLink, LinkError, Reg, Status};
+use multistep_link::{AxisReg, HostLink, LinkError, Reg, Status};
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 
@@ -453,7 +453,7 @@ mod tests {
         kept: Option<(Vec<u8>, Reply)>,
     }
 
-    use multistep_hdl::link::{BulkWrite, Reply};
+    use multistep_link::{BulkWrite, Reply};
 
     impl Write for Board {
         fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {

@@ -6,7 +6,7 @@
 use super::{FpgaBackend, Launch};
 use crate::backend::{no_sync, SyncState};
 use crate::error::CtlError;
-use multistep_hdl::link::{self, status_bits, BoardReg, LinkError, Reg, Status};
+use multistep_link::{self as link, status_bits, BoardReg, LinkError, Reg, Status};
 
 impl FpgaBackend {
     /// The write that lets a loaded group go: `Arm` while arming, else `Start`.

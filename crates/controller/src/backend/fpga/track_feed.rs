@@ -5,7 +5,7 @@
 use super::model::{Model, ModelPort};
 use super::*;
 use multistep_core::{Rate, TrackLimits};
-use multistep_hdl::link::{Reply, Request};
+use multistep_link::{Reply, Request};
 use std::sync::{Arc, Mutex};
 
 /// Bytes free in each replay unit's buffer.

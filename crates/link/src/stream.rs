@@ -5,7 +5,7 @@
 //! pulse unit. The host keeps the axis's buffer ahead; if it falls behind, the pulse unit
 //! underruns and `State` says so.
 
-use crate::link::{AxisReg, BulkWrite, LinkError, Reg, RegWrite, BULK_MAX};
+use crate::{AxisReg, BulkWrite, LinkError, Reg, RegWrite, BULK_MAX};
 use multistep_core::stream::StreamEncoder;
 use multistep_core::tdm::stream::Chunks;
 use std::ops::Range;

@@ -3,14 +3,26 @@
 //! that load and start it. Decoding never panics: every malformed input is a
 //! [`LinkError`].
 //!
+//! The core's parameters ([`CoreParams`], from a board's [`BuildId`]) and a move as the
+//! core's piece registers ([`AxisMove`]), chained ([`chain`]) or streamed ([`stream`]),
+//! live here too: the host needs them without the Verilog tooling.
+//!
 //! Request (11 bytes): `A5 seq cmd addr_lo addr_hi d0 d1 d2 d3 crc_hi crc_lo`, cmd 1 read,
 //! 2 write; bulk write (cmd 3, [`BulkWrite`]): `A5 seq 03 addr_lo addr_hi len byte0 ..
 //! byte(len−1) crc_hi crc_lo`, up to 255 bytes for a stream buffer. Reply (9 bytes): `5A seq status d0 d1 d2 d3 crc_hi crc_lo`. The CRC is
 //! CRC-16/CCITT-FALSE (`CRC_16_IBM_3740`: polynomial 0x1021, initial 0xFFFF) over every
 //! byte before it; data is little-endian.
 
-use crate::moves::mode_code;
-use crate::{AxisMove, CoreParams, HdlError, PieceRegs, Widths};
+pub mod chain;
+mod error;
+mod moves;
+mod params;
+pub mod stream;
+
+pub use error::FitError;
+pub use moves::{mode_code, AxisMove, PieceRegs};
+pub use params::{CoreParams, Widths};
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -91,8 +103,8 @@ impl LinkError {
     }
 }
 
-impl From<HdlError> for LinkError {
-    fn from(e: HdlError) -> Self {
+impl From<FitError> for LinkError {
+    fn from(e: FitError) -> Self {
         LinkError::Move(e.to_string())
     }
 }
@@ -415,7 +427,7 @@ impl BuildId {
     }
 
     /// The build id a board with these parameters reports.
-    pub fn of(p: &CoreParams, baud: u32) -> Result<BuildId, HdlError> {
+    pub fn of(p: &CoreParams, baud: u32) -> Result<BuildId, FitError> {
         let w = p.widths()?;
         Ok(BuildId {
             version: crate_version(),

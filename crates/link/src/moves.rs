@@ -7,7 +7,7 @@
 //! re-basing of the same kernel, so the split move's edges are the planned move's, tick
 //! for tick.
 
-use crate::{CoreParams, HdlError, Widths};
+use crate::{CoreParams, FitError, Widths};
 use multistep_core::int::{IntProfile, KernelMode, StepKernel};
 
 /// One piece slot of an axis.
@@ -53,8 +53,8 @@ impl PieceRegs {
 
     /// Checks every register against the core's widths (the radicand is monotonic in j,
     /// so its two ends bound it).
-    fn check(&self, w: &Widths, index: usize) -> Result<(), HdlError> {
-        let err = |reason: String| HdlError::Piece { index, reason };
+    fn check(&self, w: &Widths, index: usize) -> Result<(), FitError> {
+        let err = |reason: String| FitError::Piece { index, reason };
         let fits = |x: u128, bits: u32| bits >= 128 || x >> bits == 0;
         if self.steps == 0 || !fits(self.steps.into(), w.wn) {
             return Err(err(format!("{} steps not in 1..2^{}", self.steps, w.wn)));
@@ -210,7 +210,7 @@ impl AxisMove {
         profile: &IntProfile,
         dir: bool,
         p: &CoreParams,
-    ) -> Result<AxisMove, HdlError> {
+    ) -> Result<AxisMove, FitError> {
         let w = p.widths()?;
         let max = |bits: u32| (1u64 << bits.min(63)) - 1;
         let mut pieces = Vec::new();
@@ -221,7 +221,7 @@ impl AxisMove {
                 continue;
             }
             planned += 1;
-            let kernel = *pc.kernel().ok_or(HdlError::Piece {
+            let kernel = *pc.kernel().ok_or(FitError::Piece {
                 index,
                 reason: "its radicand needs more than 128 bits (core::int's wide path)".into(),
             })?;
@@ -233,7 +233,7 @@ impl AxisMove {
             };
             whole
                 .split_to_fit(max(w.wd), max(w.wn), &mut pieces, most)
-                .ok_or_else(|| HdlError::Piece {
+                .ok_or_else(|| FitError::Piece {
                     index,
                     reason: "splitting it leaves 128 bits".into(),
                 })?;
@@ -244,7 +244,7 @@ impl AxisMove {
             } else {
                 ""
             };
-            return Err(HdlError::Move(format!(
+            return Err(FitError::Move(format!(
                 "{more}{} pieces with steps ({planned} planned, split at {} ticks and {} \
                  steps); the core holds 1..={}",
                 pieces.len().min(most),
@@ -260,10 +260,10 @@ impl AxisMove {
 
     /// Checks the move against the core: slot count, every register's width, every period
     /// (at least 2 ticks, at most the tick bits).
-    pub fn check(&self, p: &CoreParams) -> Result<(), HdlError> {
+    pub fn check(&self, p: &CoreParams) -> Result<(), FitError> {
         let w = p.widths()?;
         if self.pieces.is_empty() || self.pieces.len() > p.pieces as usize {
-            return Err(HdlError::Move(format!(
+            return Err(FitError::Move(format!(
                 "{} pieces with steps; the core holds 1..={}",
                 self.pieces.len(),
                 p.pieces
@@ -276,7 +276,7 @@ impl AxisMove {
         let mut prev = 0;
         for (i, &e) in edges.iter().enumerate() {
             if e < prev || (e - prev) >> w.wd != 0 {
-                return Err(HdlError::Move(format!(
+                return Err(FitError::Move(format!(
                     "period {} of step {} does not fit {} tick bits",
                     e.wrapping_sub(prev),
                     i + 1,
@@ -285,7 +285,7 @@ impl AxisMove {
             }
             // the 50 % pulse needs a tick high and a tick low (the first edge may be at 1)
             if i > 0 && e - prev < 2 {
-                return Err(HdlError::Move(format!(
+                return Err(FitError::Move(format!(
                     "step {} is {} tick after the previous one (at least 2)",
                     i + 1,
                     e - prev

@@ -3,8 +3,8 @@
 //! unit shifts in (little-endian, lo first: lo, hi, count, R, Δ¹ … Δ⁴, M = Δ¹ − K: the unit
 //! keeps M, advanced as Δ¹ is, so an edge's `R += Δ¹ − K` is one carry chain).
 
-use crate::link::{AxisReg, BulkWrite, Reg, RegWrite, BULK_MAX};
-use crate::HdlError;
+use crate::FitError;
+use crate::{AxisReg, BulkWrite, Reg, RegWrite, BULK_MAX};
 use multistep_core::int::{chain_pieces, ChainEdges, ChainValue, ChainWidths};
 use multistep_core::tdm::chain::{chain_timeline, ChainSpan, ChainTimeline};
 use multistep_core::{Move, Profile};
@@ -52,9 +52,9 @@ impl ChainLayout {
 
     /// Every record of `profile`'s move at `clock` Hz: one per piece holding steps, then
     /// step N's (lo = hi = its tick, one step). A piece too wide for the layout (or a
-    /// shaped piece) is [`HdlError::Move`].
-    pub fn records(&self, profile: &Profile, clock: u64) -> Result<Vec<Vec<u8>>, HdlError> {
-        let bad = |e: &dyn std::fmt::Display| HdlError::Move(e.to_string());
+    /// shaped piece) is [`FitError::Move`].
+    pub fn records(&self, profile: &Profile, clock: u64) -> Result<Vec<Vec<u8>>, FitError> {
+        let bad = |e: &dyn std::fmt::Display| FitError::Move(e.to_string());
         let edges = ChainEdges::new(profile.clone(), clock, self.widths).map_err(|e| bad(&e))?;
         let mut out = Vec::new();
         for c in chain_pieces(profile, clock) {
@@ -62,7 +62,7 @@ impl ChainLayout {
             let w = &self.widths;
             // M = Δ¹ − K lies in (−2K, 0): one bit more than K, in R's width
             if c.widths.k + 1 > w.r {
-                return Err(HdlError::Move(format!(
+                return Err(FitError::Move(format!(
                     "piece {}: K needs {} bits, M = Δ¹ − K more than R's {}",
                     c.piece, c.widths.k, w.r
                 )));
@@ -120,15 +120,15 @@ pub struct ChainedMove {
 impl ChainedMove {
     /// `mv`'s records at `clock_hz` for `layout`; every period must fit `period_bits` (the
     /// board's tick bits). A move with a piece the chain cannot compute (a non-polynomial
-    /// family, or wider than the layout) is [`HdlError::Move`]: stream it instead.
+    /// family, or wider than the layout) is [`FitError::Move`]: stream it instead.
     pub fn plan(
         mv: &Move<'_>,
         clock_hz: u64,
         period_bits: u32,
         layout: &ChainLayout,
-    ) -> Result<ChainedMove, HdlError> {
+    ) -> Result<ChainedMove, FitError> {
         let profile = Profile::plan_on_clock(mv, clock_hz as f64)
-            .map_err(|e| HdlError::Move(format!("plan: {e}")))?;
+            .map_err(|e| FitError::Move(format!("plan: {e}")))?;
         Self::from_profile(&profile, clock_hz, period_bits, layout)
     }
 
@@ -138,11 +138,11 @@ impl ChainedMove {
         clock_hz: u64,
         period_bits: u32,
         layout: &ChainLayout,
-    ) -> Result<ChainedMove, HdlError> {
+    ) -> Result<ChainedMove, FitError> {
         let records = layout.records(profile, clock_hz)?;
         let mut spans = Vec::with_capacity(records.len());
         for c in chain_pieces(profile, clock_hz) {
-            let c = c.map_err(|e| HdlError::Move(e.to_string()))?;
+            let c = c.map_err(|e| FitError::Move(e.to_string()))?;
             spans.push(ChainSpan {
                 first: c.first,
                 last: c.last,
@@ -150,13 +150,13 @@ impl ChainedMove {
             });
         }
         let edges: Vec<u64> = multistep_core::EdgeGenerator::new(profile.clone(), clock_hz as f64)
-            .map_err(|e| HdlError::Move(format!("plan: {e}")))?
+            .map_err(|e| FitError::Move(format!("plan: {e}")))?
             .collect();
         let mut last = 0;
         for (i, &t) in edges.iter().enumerate() {
             let p = t.wrapping_sub(last);
             if p == 0 || p >> period_bits.min(63) != 0 {
-                return Err(HdlError::Move(format!(
+                return Err(FitError::Move(format!(
                     "step {i}: period of {p} ticks does not fit the board's {period_bits} \
                      tick bits"
                 )));

@@ -1,7 +1,7 @@
 //! Core parameters (axis count, FIFO depth, bit widths, radix, clock and speed range), their
 //! validation, and the internal bit widths and cycle counts derived from them.
 
-use crate::HdlError;
+use crate::FitError;
 
 /// What the user chooses. Every check runs in [`CoreParams::widths`], before any Verilog.
 #[derive(Clone, Debug, PartialEq)]
@@ -77,8 +77,8 @@ pub struct Widths {
     pub aw: u32,
 }
 
-fn bad(msg: String) -> HdlError {
-    HdlError::Param(msg)
+fn bad(msg: String) -> FitError {
+    FitError::Param(msg)
 }
 
 /// Bits to index `n` things (at least 1).
@@ -91,8 +91,8 @@ const MUL_DIGIT_BITS: u32 = 16;
 
 /// The core's parameters as a board reports them (its build id): what the board was
 /// built with, the longest piece the tick counter holds, the rest at their defaults.
-impl From<&crate::link::BuildId> for CoreParams {
-    fn from(id: &crate::link::BuildId) -> Self {
+impl From<&crate::BuildId> for CoreParams {
+    fn from(id: &crate::BuildId) -> Self {
         CoreParams {
             axes: id.axes,
             fifo_depth: 1 << id.fifo_depth_bits,
@@ -113,7 +113,7 @@ impl From<&crate::link::BuildId> for CoreParams {
 
 impl CoreParams {
     /// Checks every parameter and derives the RTL widths.
-    pub fn widths(&self) -> Result<Widths, HdlError> {
+    pub fn widths(&self) -> Result<Widths, FitError> {
         if self.axes == 0 || self.axes > 32 {
             return Err(bad(format!("axes must be 1..=32, got {}", self.axes)));
         }
@@ -276,7 +276,7 @@ mod tests {
 
     #[test]
     fn a_build_id_gives_the_params_the_board_was_built_with() {
-        let id = crate::link::BuildId {
+        let id = crate::BuildId {
             version: 1,
             axes: 2,
             fifo_depth_bits: 4,
@@ -321,7 +321,7 @@ mod tests {
 
     /// The core TDM model's default calculator is this RTL at its default parameters.
     #[test]
-    fn default_latencies_are_the_core_models() -> Result<(), HdlError> {
+    fn default_latencies_are_the_core_models() -> Result<(), FitError> {
         use multistep_core::tdm::Latencies;
         assert_eq!(
             CoreParams::default().widths()?.latencies(),
@@ -376,7 +376,7 @@ mod tests {
                 ..p.clone()
             },
         ] {
-            assert!(matches!(q.widths(), Err(HdlError::Param(_))), "{q:?}");
+            assert!(matches!(q.widths(), Err(FitError::Param(_))), "{q:?}");
         }
     }
 }
