@@ -13,11 +13,15 @@ use multistep_core::int::IntProfile;
 use multistep_core::{MoveSpec, Profile};
 
 pub mod fpga;
+#[cfg(feature = "sim")]
 pub mod sim;
+#[cfg(feature = "sim")]
 mod sim_sync;
 
 pub use fpga::{FpgaBackend, LinkSpec, SessionKeeper};
+#[cfg(feature = "sim")]
 pub use sim::SimBackend;
+#[cfg(feature = "sim")]
 pub(crate) use sim_sync::check_line_path;
 
 /// One axis's move handed to a backend.

@@ -4,7 +4,7 @@
 //! real time under [`crate::Controller`] and in virtual time in tests.
 
 use crate::axis::{AxisSettings, AxisState, AxisStatus, Link, MAX_POSITION};
-use crate::backend::{BoardBackend, Launch, PinEvent, SimBackend};
+use crate::backend::{BoardBackend, Launch, PinEvent};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
@@ -222,8 +222,9 @@ fn stored_settings(store: &Store, axis: &str, warnings: &mut Vec<String>) -> Opt
 impl Board {
     /// Opens the board: settings from the store (else the config), positions restored;
     /// an axis that was moving when the board died comes back untrusted and unhomed.
+    #[cfg(feature = "sim")]
     pub fn open(config: &BoardConfig, store: Store) -> Result<Board, CtlError> {
-        let sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        let sim = crate::backend::SimBackend::new(config.board.clock_hz, config.axes.len());
         Board::open_with(config, store, Box::new(sim))
     }
 
@@ -384,9 +385,11 @@ impl Board {
 
     /// This board with its simulated pins as hardware is: the simulation's own commands
     /// (`sim …`) are refused.
+    #[cfg(feature = "sim")]
     pub fn without_simulation(mut self) -> Board {
         if self.pins.is_simulated() {
-            let mut sim = SimBackend::new(self.clock_hz, self.axes.len()).without_simulation();
+            let mut sim = crate::backend::SimBackend::new(self.clock_hz, self.axes.len())
+                .without_simulation();
             for (i, ax) in self.axes.iter().enumerate() {
                 sim.configure(i, &ax.settings);
                 sim.attach(i, ax.count + ax.slack, self.pins.sim_position(i));

@@ -3,7 +3,7 @@
 //! host tools, a future web page) goes through [`Controller`]'s methods.
 
 use crate::axis::AxisStatus;
-use crate::backend::{BoardBackend, SimBackend};
+use crate::backend::BoardBackend;
 use crate::board::{Board, Halted, PlannedAxis};
 use crate::clock_rate::{check_ppm, Reading};
 use crate::config::BoardConfig;
@@ -13,7 +13,6 @@ use crate::pool::{Lane, WorkPool};
 use crate::protocol::{self, Amount, Command, MoveOpts, Reply};
 use crate::store::Store;
 use std::collections::HashMap;
-use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock, TryLockError};
 use std::thread::JoinHandle;
@@ -331,23 +330,26 @@ pub struct Controller {
 }
 
 impl Controller {
-    /// Opens the board's store in `data` and starts its clock.
+    /// Opens the board's store in `data` and starts its clock (on simulated pins).
+    #[cfg(feature = "sim")]
     pub fn open(
         config: &BoardConfig,
-        data: &Path,
+        data: &std::path::Path,
         time_scale: f64,
     ) -> Result<Controller, CtlError> {
         check_time_scale(time_scale)?;
         Controller::open_store(config, Store::open(data)?, time_scale)
     }
 
-    /// Runs the board on an already opened store (see [`Store::open_or_reset`]).
+    /// Runs the board on an already opened store (see [`Store::open_or_reset`]), on
+    /// simulated pins.
+    #[cfg(feature = "sim")]
     pub fn open_store(
         config: &BoardConfig,
         store: Store,
         time_scale: f64,
     ) -> Result<Controller, CtlError> {
-        let mut sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        let mut sim = crate::backend::SimBackend::new(config.board.clock_hz, config.axes.len());
         if let Some(line) = &config.board.sync_line {
             crate::backend::check_line_path(line, store.dir())?;
             sim = sim.with_sync_line(line, config.board.clock_hz * time_scale);

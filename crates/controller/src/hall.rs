@@ -10,7 +10,9 @@
 //! and disturbances at least a debounce time apart, the reported edge is the real edge or
 //! up to one glitch plus one debounce time early — and never late, whatever the bounce.
 
+#[cfg(feature = "sim")]
 use crate::axis::SimSettings;
+#[cfg(feature = "sim")]
 use multistep_sim::hall::{HallSensor, SensorSettings};
 
 /// A level change confirmed by the debounce filter.
@@ -27,6 +29,7 @@ pub struct FilteredEdge {
 
 /// The simulated sensor (`multistep_sim::hall`, the same model the hardware-in-the-loop
 /// board reads) and the debounce filter that reads it.
+#[cfg(feature = "sim")]
 #[derive(Clone, Debug)]
 pub struct HallSim {
     sensor: HallSensor,
@@ -41,6 +44,7 @@ pub struct HallSim {
     pub work: u64,
 }
 
+#[cfg(feature = "sim")]
 impl HallSim {
     pub fn new(
         sim: &SimSettings,
@@ -156,7 +160,7 @@ impl HallSim {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
 
