@@ -10,7 +10,7 @@ mod common;
 use common::EchoedStderr;
 use multistep_controller::client::{Client, Endpoint};
 use multistep_controller::{AxisState, AxisStatus};
-use multistep_hdl::link::{AxisReg, HostLink, Reg};
+use multistep_hdl::link::{position_count, AxisReg, HostLink, Reg};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -290,9 +290,11 @@ impl Rig {
         let mut l = HostLink::new(port);
         let mut counters = Vec::new();
         for (a, last) in self.last.iter().enumerate() {
-            let counter = l
-                .read(Reg::Axis(a as u32, AxisReg::Position))
-                .expect("the board answers") as i32 as i64;
+            let counter = position_count(
+                l.read(Reg::Axis(a as u32, AxisReg::Position))
+                    .expect("the board answers"),
+                0,
+            );
             counters.push(counter);
             if let Some((pos, true)) = last {
                 if *pos != counter {
@@ -1597,7 +1599,8 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
     l.write(Reg::Board(BoardReg::Start), 1).unwrap();
     let busy = |l: &mut HostLink<_>| {
         l.read(Reg::Board(BoardReg::Busy)).unwrap()
-            | l.read(Reg::Board(BoardReg::Status)).unwrap() & 4
+            | l.read(Reg::Board(BoardReg::Status)).unwrap()
+                & multistep_hdl::link::status_bits::PENDING
     };
     assert_ne!(busy(&mut l), 0, "waiting or busy");
     let seconds = |b: &mut BoardSim| b.state()["seconds"].as_f64().unwrap();

@@ -9,7 +9,7 @@ mod common;
 use common::Proc;
 use multistep_controller::client::Client;
 use multistep_controller::{AxisState, AxisStatus};
-use multistep_hdl::link::{AxisReg, HostLink, Reg};
+use multistep_hdl::link::{position_count, AxisReg, HostLink, Reg};
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -140,9 +140,10 @@ impl Rig {
             .timeout(Duration::from_secs(3))
             .open()
             .expect("the pty opens");
-        HostLink::new(port)
+        let raw = HostLink::new(port)
             .read(Reg::Axis(0, AxisReg::Position))
-            .expect("the board answers") as i32 as i64
+            .expect("the board answers");
+        position_count(raw, 0)
     }
 }
 

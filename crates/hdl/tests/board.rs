@@ -115,7 +115,7 @@ fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, t
             assert_eq!(st & 7, 0, "{name}: axis {a} idle after the move ({st:#x})");
             let n = want.len() as i64;
             position[a] += if m.dir { n } else { -n };
-            let pos = rep[reads[a][1]].data as i32 as i64;
+            let pos = multistep_hdl::link::position_count(rep[reads[a][1]].data, 0);
             assert_eq!(pos, position[a], "{name}: round {r} axis {a} position");
             let last = want.len() - 1;
             let per = if last > 0 {
@@ -481,9 +481,10 @@ fn estop_pin_and_register() {
     want_status(start, Status::Estop);
     want_status(clr2, Status::Ok);
     want_status(reg_stop, Status::Ok);
+    use multistep_hdl::link::status_bits::{ESTOP, ESTOP_INPUT, PENDING};
     assert_eq!(
-        rep[status].data & 7,
-        0b011,
+        rep[status].data & (ESTOP | ESTOP_INPUT | PENDING),
+        ESTOP | ESTOP_INPUT,
         "{name}: latched, input active, no group"
     );
     let s = AxisState::decode(rep[st].data).unwrap();
@@ -658,7 +659,11 @@ fn bad_frames_are_rejected_and_change_nothing() {
         (0, 0),
         "{name}: pulse width unchanged"
     );
-    assert_eq!(rep[status].data >> 16, 2, "{name}: two bad frames counted");
+    assert_eq!(
+        multistep_hdl::link::status_bits::bad_frames(rep[status].data),
+        2,
+        "{name}: two bad frames counted"
+    );
     assert_eq!(
         (rep[pos].data, rep[slot].data),
         (300, 0),

@@ -150,7 +150,7 @@ fn every_kind(k: u32, rounds: u64, seed: u64) {
             assert_eq!(st.run, AxisRun::Idle, "{what}: no underrun ({st:?})");
             assert!(!st.stream_armed && !st.stream_fault, "{what}: {st:?}");
             let n = m.steps() as i64;
-            let pos = rep[reads[a][1]].data as i32 as i64;
+            let pos = multistep_hdl::link::position_count(rep[reads[a][1]].data, 0);
             assert_eq!(pos, if dirs[a] { n } else { -n }, "{what}: position");
         }
     }

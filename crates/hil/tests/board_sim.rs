@@ -376,7 +376,9 @@ fn estop_reset_and_a_cut_link() {
     let st = l.axis_state(1).unwrap();
     assert!(st.estopped && !st.busy, "{st:?}");
     let status = l.read(Reg::Board(BoardReg::Status)).unwrap();
-    assert_eq!(status & 0b11, 0b11, "latched and the input active");
+    let estop =
+        multistep_hdl::link::status_bits::ESTOP | multistep_hdl::link::status_bits::ESTOP_INPUT;
+    assert_eq!(status & estop, estop, "latched and the input active");
     assert_eq!(l.read(Reg::Board(BoardReg::Estop)).unwrap(), 1);
     let after = sim.state().unwrap();
     assert_eq!(

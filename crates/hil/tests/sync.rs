@@ -117,7 +117,7 @@ fn two_boards_on_one_sync_line_start_together() {
     })
     .unwrap();
     for h in &mut l {
-        wait_status(h, 0x0C, 0);
+        wait_status(h, link::status_bits::PENDING | link::status_bits::ARMED, 0);
         let t0 = Instant::now();
         while h.read(Reg::Board(BoardReg::Busy)).unwrap() != 0 {
             assert!(

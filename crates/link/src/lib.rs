@@ -30,7 +30,8 @@ use std::sync::Arc;
 pub const REQUEST_SYNC: u8 = 0xA5;
 /// First byte of a reply.
 pub const REPLY_SYNC: u8 = 0x5A;
-pub const REQUEST_LEN: usize = 11;
+// The frame sizes are the link model's (`multistep_core::tdm::stream`), defined there once.
+pub const REQUEST_LEN: usize = multistep_core::tdm::stream::REQUEST_BYTES as usize;
 pub const REPLY_LEN: usize = 9;
 
 const CRC16: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
@@ -268,6 +269,18 @@ impl Reg {
             Reg::Core(a) => 0x1000 | (a & 0x0FFF),
         }
     }
+}
+
+/// A position register (`AxisReg::Position`, `HallPosition`) as a count: the register
+/// holds the low 32 bits of the board's two's-complement counter (sign-extended here),
+/// `offset` the steps the host keeps outside it.
+pub fn position_count(raw: u32, offset: i64) -> i64 {
+    i64::from(raw as i32) + offset
+}
+
+/// A count at rest written back to the position register: its low 32 bits.
+pub fn position_register(count: i64) -> u32 {
+    count as u32
 }
 
 /// The core bus address `{cmd, axis, word}` (`ms_core.v`).
@@ -515,10 +528,12 @@ impl Request {
 pub const STREAM_BUFFER: u64 = 512;
 
 /// Most bytes in one bulk write.
-pub const BULK_MAX: usize = 255;
+pub const BULK_MAX: usize = multistep_core::tdm::stream::BULK_MAX as usize;
+/// A bulk write's frame bytes besides its data.
+pub const BULK_OVERHEAD: usize = multistep_core::tdm::stream::BULK_OVERHEAD as usize;
 
 /// A bulk write: up to [`BULK_MAX`] bytes for one register (an axis's `StreamData`) in one
-/// frame of `8 + len` bytes, answered by one [`Reply`] whose data is the buffer's free
+/// frame of `len` + [`BULK_OVERHEAD`] bytes, answered by one [`Reply`] whose data is the buffer's free
 /// bytes after it (status `StreamFull` if it did not fit: nothing is kept).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BulkWrite {
@@ -538,7 +553,7 @@ impl BulkWrite {
                 got: n,
             });
         }
-        let mut f = Vec::with_capacity(n + 8);
+        let mut f = Vec::with_capacity(n + BULK_OVERHEAD);
         f.extend_from_slice(&[REQUEST_SYNC, self.seq, Command::Bulk as u8]);
         f.extend_from_slice(&self.addr.to_le_bytes());
         f.push(n as u8);
@@ -552,10 +567,10 @@ impl BulkWrite {
     pub fn decode(f: &[u8]) -> Result<BulkWrite, LinkError> {
         let n = *f.get(5).ok_or(LinkError::Length {
             what: "bulk write",
-            need: 8,
+            need: BULK_OVERHEAD,
             got: f.len(),
         })? as usize;
-        let f = frame(f, n + 8, REQUEST_SYNC, "bulk write")?;
+        let f = frame(f, n + BULK_OVERHEAD, REQUEST_SYNC, "bulk write")?;
         if f[2] != Command::Bulk as u8 {
             return Err(LinkError::Command(f[2]));
         }
@@ -806,7 +821,8 @@ pub fn arm_write(axes: u32) -> RegWrite {
     }
 }
 
-/// `Status` bits of the cross-board start (docs/HDL.md, "Cross-board start").
+/// `Status` bits (`BoardReg::Status`; the cross-board start's: docs/HDL.md, "Cross-board
+/// start").
 pub mod status_bits {
     /// The e-stop is latched.
     pub const ESTOP: u32 = 1 << 0;
@@ -825,6 +841,13 @@ pub mod status_bits {
     /// An armed group waited past `ArmTimeout` without a SYNC edge and was cut (until the
     /// next `Arm`).
     pub const ARM_EXPIRED: u32 = 1 << 7;
+    /// Where the count of frames the board dropped (bad CRC, unknown command) starts.
+    pub const BAD_FRAMES_SHIFT: u32 = 16;
+
+    /// The frames the board dropped since its reset (bits 31:16).
+    pub fn bad_frames(status: u32) -> u32 {
+        status >> BAD_FRAMES_SHIFT
+    }
 }
 
 /// Each board's clock relative to the first board's at one instant (the SYNC edge): board
@@ -1166,6 +1189,16 @@ mod tests {
     use proptest::prelude::*;
 
     #[test]
+    fn a_position_reads_back_sign_extended_and_writes_back_its_low_bits() {
+        assert_eq!(position_count(0xFFFF_FFD6, 0), -42);
+        assert_eq!(position_count(0xFFFF_FFD6, 1 << 32), (1 << 32) - 42);
+        assert_eq!(position_count(7, -10), -3);
+        assert_eq!(position_register(-42), 0xFFFF_FFD6);
+        assert_eq!(position_register((1 << 32) + 5), 5);
+        assert_eq!(position_count(position_register(-5_000_000), 0), -5_000_000);
+    }
+
+    #[test]
     fn crc_is_ccitt_false() {
         // the catalogue's check value
         assert_eq!(crc16(b"123456789"), 0x29B1);
@@ -1491,7 +1524,7 @@ mod tests {
                                   data in proptest::collection::vec(any::<u8>(), 0..=BULK_MAX)) {
             let w = BulkWrite { seq, addr, data };
             let f = w.encode().unwrap();
-            prop_assert_eq!(f.len(), w.data.len() + 8);
+            prop_assert_eq!(f.len(), w.data.len() + BULK_OVERHEAD);
             prop_assert_eq!(BulkWrite::decode(&f), Ok(w));
         }
 

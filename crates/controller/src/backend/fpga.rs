@@ -1004,7 +1004,7 @@ fn stream_stats(axis: usize, f: &Feed, count: i64) {
         return;
     }
     let steps = f.coded().max(1);
-    let framed = f.sent + 8 * f.frames;
+    let framed = f.sent + link::BULK_OVERHEAD as u64 * f.frames;
     let what = if f.is_fixed() { "chain record" } else { "code" };
     eprintln!(
         "link stats: axis {axis}: {} steps ({} counted), {} {what} bytes in {} frames: \
@@ -1735,7 +1735,7 @@ mod model {
                 (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),
                 (0x2000..=0x201F, true) if ar == 1 || ar == 5 => {
                     if ar == 1 {
-                        self.position[a] = r.data as i32 as i64;
+                        self.position[a] = link::position_count(r.data, 0);
                     } else {
                         self.stream_steps[a].push(r.data);
                     }

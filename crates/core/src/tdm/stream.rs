@@ -21,6 +21,8 @@ use crate::stream::StreamEncoder;
 
 /// A bulk frame's bytes besides its data (sync, seq, command, address, length, CRC).
 pub const BULK_OVERHEAD: u64 = 8;
+/// Most data bytes in one bulk frame (its length field is one byte).
+pub const BULK_MAX: u64 = 255;
 /// A register request (the start).
 pub const REQUEST_BYTES: u64 = 11;
 /// Cycles the replay unit may take from a frame's last byte to a period in the FIFO
@@ -77,12 +79,12 @@ pub struct Chunks<'a> {
 
 impl<'a> Chunks<'a> {
     /// `edges` coded in `total` bytes, a buffer of `buffer` bytes, frames of `frame` bytes
-    /// (1..=255).
+    /// (1..=[`BULK_MAX`]).
     pub fn new(edges: &'a [u64], total: u64, buffer: u64, frame: u64) -> Self {
         Chunks {
             total,
             buffer,
-            frame: frame.clamp(1, 255),
+            frame: frame.clamp(1, BULK_MAX),
             next: 0,
             started: false,
             taken: Cursor::new(edges),
@@ -140,7 +142,7 @@ pub struct StreamLink {
     pub baud: f64,
     /// Each axis's stream buffer (bytes).
     pub buffer: u64,
-    /// Data bytes per bulk frame (1..=255).
+    /// Data bytes per bulk frame (1..=[`BULK_MAX`]).
     pub frame: u64,
     /// Ticks the host sends each chunk after it may (0: at once; a host falling behind).
     pub host_delay: u64,

@@ -1,24 +1,14 @@
 //! The board's 32-bit position registers as the host's 64-bit counts, and what a board
 //! reset does to them.
 
-/// A position register as a count: the register holds the low 32 bits of the board's
-/// two's-complement counter (sign-extended here), `offset` the steps the host keeps
-/// outside it.
-pub(super) fn count(raw: u32, offset: i64) -> i64 {
-    raw as i32 as i64 + offset
-}
-
-/// A count at rest written back to the position register: its low 32 bits.
-pub(super) fn register(count: i64) -> u32 {
-    count as i32 as u32
-}
+// A position register as a count, and a count at rest as the register's value.
+pub(super) use multistep_link::{position_count as count, position_register as register};
 
 #[cfg(test)]
 mod tests {
     use super::super::exactly_once::launch;
     use super::super::model::{connect, Model, ModelPort};
     use super::super::{FpgaBackend, Opener, Port};
-    use super::*;
     use crate::backend::{BoardBackend, PinEvent};
     use std::sync::{Arc, Mutex};
     use std::time::{Duration, Instant};
@@ -26,15 +16,6 @@ mod tests {
     fn events(b: &mut FpgaBackend, now: u64) -> Vec<(usize, PinEvent)> {
         b.begin_advance();
         std::iter::from_fn(|| b.poll(now)).collect()
-    }
-
-    #[test]
-    fn a_register_reads_back_sign_extended_and_writes_back_its_low_bits() {
-        assert_eq!(count(0xFFFF_FFD6, 0), -42);
-        assert_eq!(count(0xFFFF_FFD6, 1 << 32), (1 << 32) - 42);
-        assert_eq!(count(7, -10), -3);
-        assert_eq!(register(-42), 0xFFFF_FFD6);
-        assert_eq!(count(register(-5_000_000), 0), -5_000_000);
     }
 
     #[test]
