@@ -215,7 +215,48 @@ pub struct AxisState {
     pub stream_fault: bool,
 }
 
+/// The flags of `AxisReg::State` after its 3-bit run code, in bit order from bit 3.
+const STATE_FLAGS: u32 = 10;
+
 impl AxisState {
+    /// An idle axis, every flag clear.
+    pub const IDLE: AxisState = AxisState {
+        run: AxisRun::Idle,
+        busy: false,
+        underrun: false,
+        stopped: false,
+        estopped: false,
+        hall_flag: false,
+        hall: false,
+        limit: false,
+        dir: false,
+        stream_armed: false,
+        stream_fault: false,
+    };
+
+    fn flags(&self) -> [bool; STATE_FLAGS as usize] {
+        [
+            self.busy,
+            self.underrun,
+            self.stopped,
+            self.estopped,
+            self.hall_flag,
+            self.hall,
+            self.limit,
+            self.dir,
+            self.stream_armed,
+            self.stream_fault,
+        ]
+    }
+
+    /// The register's value (what the board's `ms_regs.v` reports; [`AxisState::decode`]
+    /// inverts it).
+    pub fn encode(&self) -> u32 {
+        let flags = self.flags();
+        let on = flags.iter().enumerate().filter(|(_, &b)| b);
+        on.fold(self.run as u32, |v, (i, _)| v | 1 << (3 + i))
+    }
+
     pub fn decode(v: u32) -> Result<AxisState, LinkError> {
         let bit = |i: u32| v >> i & 1 == 1;
         let run = match v & 7 {
@@ -350,6 +391,23 @@ pub mod status_bits {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_axis_state_round_trips() {
+        for v in 0..1u32 << (3 + STATE_FLAGS) {
+            match AxisState::decode(v) {
+                Ok(s) => assert_eq!(s.encode(), v, "{v:#x}"),
+                Err(_) => assert!(v & 7 > 4, "{v:#x}"),
+            }
+        }
+        let s = AxisState {
+            run: AxisRun::Running,
+            busy: true,
+            dir: true,
+            ..AxisState::IDLE
+        };
+        assert_eq!(s.encode(), 1 | 1 << 3 | 1 << 10);
+    }
 
     #[test]
     fn a_position_reads_back_sign_extended_and_writes_back_its_low_bits() {

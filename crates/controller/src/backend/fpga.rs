@@ -1724,12 +1724,15 @@ mod model {
                 (0x08 | 0x0D | 0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
                 (0x1000..=0x1FFF, true) => (Status::Ok, 0),
                 (0x2000..=0x201F, false) if ar == 0 => {
-                    let busy = self.busy >> a & 1;
-                    let late = busy & u32::from(self.underrun);
-                    (
-                        Status::Ok,
-                        (self.dir >> a & 1) << 10 | late << 4 | busy << 3 | busy,
-                    )
+                    let busy = self.busy >> a & 1 == 1;
+                    let st = link::AxisState {
+                        run: [link::AxisRun::Idle, link::AxisRun::Running][usize::from(busy)],
+                        busy,
+                        underrun: busy && self.underrun,
+                        dir: self.dir >> a & 1 == 1,
+                        ..link::AxisState::IDLE
+                    };
+                    (Status::Ok, st.encode())
                 }
                 (0x2000..=0x201F, false) if ar == 1 => (Status::Ok, self.position[a] as u32),
                 (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),
