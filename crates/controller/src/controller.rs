@@ -5,7 +5,7 @@
 use crate::axis::AxisStatus;
 use crate::backend::BoardBackend;
 use crate::board::{Board, Halted, PlannedAxis};
-use crate::clock_rate::{check_ppm, Reading};
+use crate::clock_rate::Reading;
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::mount::{Mount, MountConfig, MountError};
@@ -361,6 +361,7 @@ impl Controller {
     /// its ticks come `clock·(1 + ppm·10⁻⁶)` a host second (its SYNC line's falls too).
     /// The host reads its counter every [`CLOCK_READ_PERIOD`] and corrects tracking by
     /// the fit (see [`Board::clock_reading`]).
+    #[cfg(feature = "sim")]
     pub fn open_sim(
         config: &BoardConfig,
         store: Store,
@@ -368,9 +369,9 @@ impl Controller {
         ppm: f64,
     ) -> Result<Controller, CtlError> {
         check_time_scale(time_scale)?;
-        check_ppm(ppm)?;
+        crate::clock_rate::check_ppm(ppm)?;
         let crystal = 1.0 + ppm * 1e-6;
-        let mut sim = SimBackend::new(config.board.clock_hz, config.axes.len());
+        let mut sim = crate::backend::SimBackend::new(config.board.clock_hz, config.axes.len());
         if let Some(line) = &config.board.sync_line {
             crate::backend::check_line_path(line, store.dir())?;
             sim = sim.with_sync_line(line, config.board.clock_hz * time_scale * crystal);
