@@ -19,7 +19,7 @@ use multistep_hdl::{BoardTop, CoreParams};
 
 const TICK0: u64 = 1;
 /// The board's stream buffer (`ms_board`'s LB = 9).
-const BUFFER: u64 = 512;
+const BUFFER: u64 = multistep_hdl::link::STREAM_BUFFER;
 
 /// A random [`board_move`] of kind `kind`, retried until plan accepts it.
 fn random_move(
