@@ -339,5 +339,5 @@ impl Mount {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "sim"))]
 mod tests;
