@@ -35,6 +35,10 @@ module ms_pulse #(
     assign pop = !halt && (start || late_in || (edge_now && (!empty || arrive)));
     // The held pulse rose `w` = -cnt ticks ago; the interval to the next edge is ain + w:
     // STEP stays high for (ain - w) / 2 more ticks when positive.
+    // the next period: the FIFO's head, or the one being pushed into an empty FIFO (one
+    // multiplexer for cnt, hcnt and half; `start` needs a non-empty FIFO, so din there)
+    wire [WP-1:0] nx   = empty ? ain : din;
+    wire [WP-1:0] nx_h = {1'b0, nx[WP-1:1]};
     wire [WP:0] cnt_s = {cnt[WP-1], cnt};
     wire [WP:0] rest  = {1'b0, ain} + cnt_s;
     /* verilator lint_off UNUSED */  // only half of it is kept
@@ -54,8 +58,8 @@ module ms_pulse #(
             waiting <= 1'b0;
             last    <= 1'b0;
         end else if (start) begin
-            cnt      <= din;
-            half     <= {1'b0, din[WP-1:1]};
+            cnt      <= nx;
+            half     <= nx_h;
             running  <= 1'b1;
             underrun <= 1'b0;
             waiting  <= 1'b0;
@@ -63,15 +67,11 @@ module ms_pulse #(
         end else if (running) begin
             if (edge_now) begin
                 step <= 1'b1;
-                if (!empty) begin
-                    cnt  <= din;
-                    hcnt <= {1'b0, din[WP-1:1]};
-                    half <= {1'b0, din[WP-1:1]};
-                end else if (arrive) begin
-                    // the period arrives just in time
-                    cnt  <= ain;
-                    hcnt <= {1'b0, ain[WP-1:1]};
-                    half <= {1'b0, ain[WP-1:1]};
+                if (!empty || arrive) begin
+                    // from the FIFO, or the period arrives just in time
+                    cnt  <= nx;
+                    hcnt <= nx_h;
+                    half <= nx_h;
                 end else if (more) begin
                     // STEP stays high until the period arrives; cnt counts the wait down
                     underrun <= 1'b1;

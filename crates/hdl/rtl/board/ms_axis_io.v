@@ -45,13 +45,14 @@ module ms_axis_io #(
 );
     reg          core_d;   // the core's STEP one clock ago
     reg          s;        // STEP, active high, before the e-stop gate
-    reg [WD-1:0] hc;       // clocks of a fixed-width pulse left after this one
+    reg [WD-1:0] hc;       // clocks of a fixed-width pulse left, this one included (1: the
+                           // last): loaded with `width` itself, no per-axis width - 1
     reg [WD-1:0] pc;       // clocks since the last rise (saturating)
     reg          have;     // a rise since the start
     initial begin
         core_d = 1'b0;
         s = 1'b0;
-        hc = {WD{1'b0}};
+        hc = {{(WD-1){1'b0}}, 1'b1};
         pos = 32'd0;
         hall_flag = 1'b0;
         period = {WD{1'b0}};
@@ -64,13 +65,13 @@ module ms_axis_io #(
         core_d <= core_step;
         if (rst || halt || kill) begin
             s  <= 1'b0;
-            hc <= {WD{1'b0}};
+            hc <= {{(WD-1){1'b0}}, 1'b1};
         end else if (!fixed) begin
             s <= core_step;
         end else if (rise) begin
             s  <= 1'b1;
-            hc <= width - 1'b1;
-        end else if (hc != {WD{1'b0}}) begin
+            hc <= width;
+        end else if (hc != {{(WD-1){1'b0}}, 1'b1}) begin
             hc <= hc - 1'b1;
         end else begin
             s <= 1'b0;
@@ -81,7 +82,7 @@ module ms_axis_io #(
     always @(posedge clk) begin
         if (rst) pos <= 32'd0;
         else if (pos_wr) pos <= pos_in;
-        else if (out_rise) pos <= dir ? pos + 1'b1 : pos - 1'b1;
+        else if (out_rise) pos <= pos + {{31{!dir}}, 1'b1};   // one adder for +1 and -1
     end
     always @(posedge clk) begin
         if (rst || start) begin

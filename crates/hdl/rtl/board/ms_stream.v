@@ -78,7 +78,13 @@ module ms_stream #(
     assign more  = run && (left_nz || pv_ok || fault);
     wire retarget = retarget_in && more;
     wire [31:0] steps_n = retarget ? arm_steps : steps;   // the count from this clock on
-    wire [31:0] done_1  = done + 1'b1;
+    // one comparator for both updates of left_nz: done + 1 against the count from this
+    // clock, < after a step, <= (that is done < count) on a retarget alone; 33 bits, so
+    // done + 1 does not wrap
+    wire [32:0] done_1w = {1'b0, done} + 1'b1;
+    wire [31:0] done_1  = done_1w[31:0];
+    wire        lt_1    = (done_1w < {1'b0, steps_n});
+    wire        le_1    = lt_1 || (done_1w == {1'b0, steps_n});
     wire        chain   = (CH != 0) && ch;
     assign avail = (rp != wp);
     assign rbyte = rdata;
@@ -95,20 +101,20 @@ module ms_stream #(
 
     // ---- the nibble decoder ----
     wire [3:0]  n      = half ? cur[7:4] : cur[3:0];
-    wire [24:0] p_small  = prev + {21'd0, n} - 25'd7;
     wire [7:0]  d8     = {n, acc[19:16]};
-    wire [24:0] p_delta  = prev + {{17{d8[7]}}, d8};
+    // one adder for both relative codes: n - 7 (-7..6) or the signed 8-bit change
+    wire [7:0]  dp     = (esc == 2'd1) ? d8 : {4'd0, n} - 8'd7;
+    wire [24:0] p_rel  = prev + {{17{dp[7]}}, dp};
     wire [24:0] p_abs = {1'b0, n, acc[19:0]};
     reg         done_p;
     reg  [24:0] p;
     always @(*) begin
         done_p = 1'b0;
-        p = p_small;
+        p = p_rel;
         if (esc == 2'd0) begin
             done_p = (n != 4'd0) && (n != 4'd14) && (n != 4'd15);
         end else if (esc == 2'd1) begin
             done_p = (got == 3'd1);
-            p = p_delta;
         end else begin
             done_p = (got == 3'd5);
             p = p_abs;
@@ -157,13 +163,13 @@ module ms_stream #(
             if (pv_ok && p_bad) fault <= 1'b1;
             if (retarget) begin
                 steps   <= arm_steps;
-                left_nz <= (done < arm_steps);
+                left_nz <= le_1;
             end
             if (run && chain) begin
                 if (pop && avail) rp <= rp + 1'b1;
                 if (xpush) begin
                     done    <= done_1;
-                    left_nz <= (done_1 < steps_n);
+                    left_nz <= lt_1;
                 end
             end else if (run) begin
                 case (st)
@@ -183,7 +189,7 @@ module ms_stream #(
                             esc   <= 2'd0;
                             prev  <= p;
                             done  <= done_1;
-                            left_nz <= (done_1 < steps_n);
+                            left_nz <= lt_1;
                             pv    <= p;
                             pv_ok <= 1'b1;
                         end else if (esc == 2'd0) begin
