@@ -419,9 +419,11 @@ impl Controller {
         let halts = Halts::default();
         board.set_halt_tick(halts.tick.clone());
         board.set_halt_flag(halts.pending.clone());
+        // advanced once, so what the board said at open (an adopted motion halted, a
+        // share disarmed) is in the first status
         let seen = board.has_link().then(|| {
             Mutex::new(Seen {
-                all: board.status_now(&[]).unwrap_or_default(),
+                all: board.status(&[], clock.now()).unwrap_or_default(),
                 at: Instant::now(),
             })
         });
