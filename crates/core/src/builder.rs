@@ -2,28 +2,44 @@
 
 use crate::error::PlanError;
 use crate::piece::{Law, Piece};
-use crate::profile::{Profile, MAX_PIECES};
+use crate::profile::Profile;
 
 /// How far the pieces may end from step N, in units of ε·(N + the terms summed).
 const END_TOLERANCE: f64 = 64.0;
 
-/// Appends pieces, carrying time and position forward.
-pub(crate) struct Builder {
-    pieces: [Piece; MAX_PIECES],
-    ends: [f64; MAX_PIECES],
-    len: usize,
+/// Appends pieces, carrying time and position forward, into a profile of at most `N`
+/// pieces (written in place: no copy of the pieces).
+pub(crate) struct Builder<'a, const N: usize> {
+    prof: &'a mut Profile<N>,
     t: f64,
     p: f64,
     /// Sum of the magnitudes of the terms the pieces' ends were added from (steps).
     scale: f64,
 }
 
-impl Builder {
-    pub(crate) fn new() -> Self {
-        Builder {
-            pieces: [Piece::EMPTY; MAX_PIECES],
-            ends: [0.0; MAX_PIECES],
+impl<const N: usize> Profile<N> {
+    /// No pieces yet.
+    #[inline(always)]
+    pub(crate) fn empty() -> Self {
+        Profile {
+            pieces: [Piece::EMPTY; N],
+            ends: [0.0; N],
             len: 0,
+            steps: 0,
+            duration: 0.0,
+            exact: None,
+        }
+    }
+}
+
+impl<'a, const N: usize> Builder<'a, N> {
+    /// Builds into `prof`, which is emptied.
+    #[inline(always)]
+    pub(crate) fn new(prof: &'a mut Profile<N>) -> Self {
+        prof.len = 0;
+        prof.exact = None;
+        Builder {
+            prof,
             t: 0.0,
             p: 0.0,
             scale: 0.0,
@@ -31,6 +47,7 @@ impl Builder {
     }
 
     /// Adds a piece; the next one starts where this one ends (or at `exact_end` if given).
+    #[inline(always)]
     pub(crate) fn push(
         &mut self,
         dur: f64,
@@ -40,9 +57,10 @@ impl Builder {
         if dur <= 0.0 {
             return Ok(());
         }
-        if self.len == MAX_PIECES {
+        let len = self.prof.len;
+        if len == N {
             return Err(PlanError::TooManyPieces {
-                max: MAX_PIECES,
+                max: N,
                 what: "segments and phases together",
             });
         }
@@ -54,9 +72,9 @@ impl Builder {
         };
         let end = exact_end.unwrap_or_else(|| piece.end()).max(self.p);
         self.scale += piece.term_scale(dur);
-        self.pieces[self.len] = piece;
-        self.ends[self.len] = end;
-        self.len += 1;
+        self.prof.pieces[len] = piece;
+        self.prof.ends[len] = end;
+        self.prof.len = len + 1;
         self.t += dur;
         self.p = end;
         Ok(())
@@ -64,13 +82,16 @@ impl Builder {
 
     /// Appends a run of polynomial pieces from speed `v` with zero acceleration and jerk
     /// ([`schedule`]).
+    #[inline(always)]
     pub(crate) fn push_schedule(
         &mut self,
         order: u8,
         v: f64,
         entries: &[(f64, f64)],
     ) -> Result<(), PlanError> {
-        for (d, law) in schedule(order, v, entries) {
+        let mut sch = Schedule::new(order, v);
+        for &(d, x) in entries {
+            let law = sch.next(d, x);
             self.push(d, law, None)?;
         }
         Ok(())
@@ -81,6 +102,7 @@ impl Builder {
         self.p
     }
 
+    #[inline(always)]
     pub(crate) fn cruise(&mut self, v: f64, dur: f64) -> Result<(), PlanError> {
         self.push(
             dur,
@@ -94,8 +116,11 @@ impl Builder {
         )
     }
 
-    pub(crate) fn finish(mut self, steps: u64) -> Result<Profile, PlanError> {
-        if self.len == 0 || !(self.t > 0.0) {
+    /// Checks the pieces end on step N and completes the profile.
+    #[inline(always)]
+    pub(crate) fn finish(self, steps: u64) -> Result<(), PlanError> {
+        let len = self.prof.len;
+        if len == 0 || !(self.t > 0.0) {
             return Err(PlanError::ZeroDuration);
         }
         // The move ends on step N by definition. The pieces reach N up to the rounding of
@@ -108,54 +133,71 @@ impl Builder {
                 steps,
             });
         }
-        self.ends[self.len - 1] = steps as f64;
-        Ok(Profile {
-            pieces: self.pieces,
-            ends: self.ends,
-            len: self.len,
-            steps,
-            duration: self.t,
-            exact: None,
-        })
+        self.prof.ends[len - 1] = n;
+        self.prof.steps = steps;
+        self.prof.duration = self.t;
+        Ok(())
     }
 }
 
 /// The laws of a run of polynomial pieces from speed `v` with zero acceleration and jerk,
 /// where each entry `(duration, x)` sets the acceleration (order 2), jerk (order 3) or
 /// snap (order 4) on its piece and lower derivatives carry over.
-fn schedule(order: u8, v: f64, entries: &[(f64, f64)]) -> impl Iterator<Item = (f64, Law)> + '_ {
-    let (mut v, mut a, mut j) = (v, 0.0, 0.0);
-    entries.iter().map(move |&(d, x)| {
-        let s = match order {
+struct Schedule {
+    order: u8,
+    v: f64,
+    a: f64,
+    j: f64,
+}
+
+impl Schedule {
+    #[inline(always)]
+    fn new(order: u8, v: f64) -> Self {
+        Schedule {
+            order,
+            v,
+            a: 0.0,
+            j: 0.0,
+        }
+    }
+
+    /// The law of the piece of entry `(d, x)`; the state moves to its end.
+    #[inline(always)]
+    fn next(&mut self, d: f64, x: f64) -> Law {
+        let s = match self.order {
             2 => {
-                a = x;
-                j = 0.0;
+                self.a = x;
+                self.j = 0.0;
                 0.0
             }
             3 => {
-                j = x;
+                self.j = x;
                 0.0
             }
             _ => x,
         };
+        let (v, a, j) = (self.v, self.a, self.j);
         let law = Law::Poly {
             c1: v,
             c2: a / 2.0,
             c3: j / 6.0,
             c4: s / 24.0,
         };
-        v += d * (a + d * (j / 2.0 + d * s / 6.0));
-        a += d * (j + d * s / 2.0);
-        j += d * s;
-        (d, law)
-    })
+        self.v = v + d * (a + d * (j / 2.0 + d * s / 6.0));
+        self.a = a + d * (j + d * s / 2.0);
+        self.j = j + d * s;
+        law
+    }
 }
 
 /// Where [`Builder::push_schedule`] on an empty builder ends, bit for bit, without a
 /// builder (whose piece arrays cost more to set up than the sums).
+#[inline(always)]
 pub(crate) fn schedule_end(order: u8, v: f64, entries: &[(f64, f64)]) -> f64 {
     let mut p = 0.0;
-    for (dur, law) in schedule(order, v, entries) {
+    let mut sch = Schedule::new(order, v);
+    for &(dur, x) in entries {
+        let law = sch.next(dur, x);
         if dur > 0.0 {
             let piece = Piece {
                 t0: 0.0,
@@ -175,11 +217,12 @@ mod tests {
 
     #[test]
     fn finish_refuses_pieces_that_miss_step_n() {
-        let cruise = |b: &mut Builder, v: f64| b.cruise(v, 1.0).unwrap();
-        let mut b = Builder::new();
+        let cruise = |b: &mut Builder<4>, v: f64| b.cruise(v, 1.0).unwrap();
+        let mut p = Profile::<4>::empty();
+        let mut b = Builder::new(&mut p);
         cruise(&mut b, 10.0);
         assert!(b.finish(10).is_ok());
-        let mut b = Builder::new();
+        let mut b = Builder::new(&mut p);
         cruise(&mut b, 10.0 + 1e-12);
         assert!(matches!(
             b.finish(10),
@@ -211,7 +254,8 @@ mod tests {
             ),
         ];
         for (order, v, entries) in runs {
-            let mut b = Builder::new();
+            let mut p = Profile::<7>::empty();
+            let mut b = Builder::new(&mut p);
             b.push_schedule(order, v, entries).unwrap();
             assert!(b.position() > 0.0);
             assert_eq!(

@@ -290,18 +290,29 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     acc: StepAccumulator,
 }
 
+/// A move of `duration` seconds fits a generator on a `clock` of ticks per second.
+pub(crate) fn check_ticks(clock: f64, duration: f64) -> Result<(), PlanError> {
+    let ticks = clock * duration;
+    if !(ticks <= MAX_TICKS) {
+        return Err(PlanError::TooManyTicks {
+            ticks,
+            max: MAX_TICKS,
+        });
+    }
+    Ok(())
+}
+
+/// The tick of a move's last step: `round(f·T)`.
+pub(crate) fn last_tick(clock: f64, duration: f64) -> u64 {
+    Dd::mul_f64(clock, duration).round_half_up() as u64
+}
+
 impl<P: Borrow<Profile>> EdgeGenerator<P> {
     /// A generator for `profile` (owned or borrowed) at `clock_hz` ticks per second.
     pub fn new(profile: P, clock_hz: f64) -> Result<Self, PlanError> {
         let clock = positive("clock", clock_hz)?;
         let pr = profile.borrow();
-        let ticks = clock * pr.duration();
-        if !(ticks <= MAX_TICKS) {
-            return Err(PlanError::TooManyTicks {
-                ticks,
-                max: MAX_TICKS,
-            });
-        }
+        check_ticks(clock, pr.duration())?;
         let cur = *pr.piece(0);
         let last_f = pr.steps() as f64;
         let cur_end = pr.end_of(0);
@@ -366,7 +377,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
 
     /// The tick of the last step: `round(f·T)`.
     pub fn last_edge_tick(&self) -> u64 {
-        Dd::mul_f64(self.clock, self.profile().duration()).round_half_up() as u64
+        last_tick(self.clock, self.profile().duration())
     }
 
     /// Moves the generator so that its next item is the edge of `step` (1-based); steps

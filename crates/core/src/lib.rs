@@ -61,9 +61,10 @@ pub use error::{Num, PlanError};
 pub use kinematics::{stop_distance, time_scale};
 pub use moves::{
     Family, LimitsMove, Move, Order, PhaseMove, Segment, DEFAULT_PHI, DEFAULT_PSI, DEFAULT_RHO,
-    MAX_PIECES, MAX_STEPS,
+    MAX_PHASE_PIECES, MAX_PIECES, MAX_STEPS,
 };
 pub use params::{MoveParams, Param, PARAMS};
+pub use plan::ClockCheck;
 pub use profile::Profile;
 pub use shape::Shape;
 pub use spec::MoveSpec;

@@ -48,7 +48,9 @@ fn ramp(peak: f64, r1: f64, r2: f64) -> (f64, f64) {
     }
 }
 
-/// Minimum-time change from v0 to v1 (either direction).
+/// Minimum-time change from v0 to v1 (either direction). Inlined: where only its time is
+/// used the entries are not written.
+#[inline(always)]
 pub(crate) fn change(l: &Limits, v0: f64, v1: f64) -> Change {
     let dv = (v1 - v0).abs();
     let sg = if v1 >= v0 { 1.0 } else { -1.0 };
@@ -269,7 +271,7 @@ fn golden_min(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
     }
 }
 
-pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
+pub(crate) fn plan<const N: usize>(m: &LimitsMove) -> Result<Profile<N>, PlanError> {
     if m.steps == 0 {
         return Err(PlanError::NoSteps);
     }
@@ -332,14 +334,19 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
     }
     let up = change(&l, vs, vp);
     let down = change(&l, vp, ve);
-    build(order, n, vs, vp, &up, &down, m.steps).map_err(|e| {
-        // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
-        if up.time + down.time < SLOWEST_CHANGE_S {
-            e
-        } else {
-            too_small
+    // built where it is returned (a profile is a kilobyte or more: no copy)
+    let mut out = Ok(Profile::empty());
+    if let Ok(prof) = &mut out {
+        if let Err(e) = build(order, n, vs, vp, &up, &down, m.steps, prof) {
+            // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
+            out = Err(if up.time + down.time < SLOWEST_CHANGE_S {
+                e
+            } else {
+                too_small
+            });
         }
-    })
+    }
+    out
 }
 
 /// A speed change longer than this (s) is no move: it exceeds 2^50 ticks of any clock
@@ -347,7 +354,9 @@ pub(crate) fn plan(m: &LimitsMove) -> Result<Profile, PlanError> {
 const SLOWEST_CHANGE_S: f64 = 1e30;
 
 /// The pieces of `vs → vp → (cruise) → ve`.
-fn build(
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn build<const N: usize>(
     order: u8,
     n: f64,
     vs: f64,
@@ -355,10 +364,11 @@ fn build(
     up: &Change,
     down: &Change,
     steps: u64,
-) -> Result<Profile, PlanError> {
+    prof: &mut Profile<N>,
+) -> Result<(), PlanError> {
     // the cruise covers what the changes' pieces leave (as summed in f64, so the move
     // ends on N to the rounding of its pieces, not of the closed-form distances)
-    let mut b = Builder::new();
+    let mut b = Builder::new(prof);
     b.push_schedule(order, vs, &up.entries[..up.len])?;
     let tail = schedule_end(order, vp, &down.entries[..down.len]);
     let cruise = if vp > 0.0 {
@@ -406,8 +416,8 @@ fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> Option<f64> {
 /// Returns `(accel, cruise, decel)` ticks.
 pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
     let f = positive("clock", clock)?;
-    // validates the move, with the float planner's errors
-    let ideal = plan(&LimitsMove {
+    // validates the move, with the float planner's errors (a trapezoid: 3 pieces at most)
+    let ideal = plan::<3>(&LimitsMove {
         order: Order::Trapezoid,
         ..*m
     })?;
@@ -466,7 +476,10 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
 }
 
 /// [`whole_ticks`] planned: a phase-mode trapezoid of whole-tick phases.
-pub(crate) fn plan_on_clock(m: &LimitsMove, clock: f64) -> Result<Profile, PlanError> {
+pub(crate) fn plan_on_clock<const N: usize>(
+    m: &LimitsMove,
+    clock: f64,
+) -> Result<Profile<N>, PlanError> {
     if m.order != Order::Trapezoid {
         return plan(m);
     }
@@ -517,7 +530,7 @@ mod tests {
         let mut m = LimitsMove::trapezoid(10, 100.0, 100.0);
         m.order = Order::SCurve;
         m.jmax = Some(1e-300);
-        let p = plan(&m).unwrap();
+        let p = plan::<15>(&m).unwrap();
         assert!(p.duration() > 1e90 && p.duration().is_finite());
         let p = Profile::plan_on_clock(&crate::Move::Limits(m), 50e6).unwrap();
         let e = crate::EdgeGenerator::new(p, 50e6).unwrap_err();
@@ -526,7 +539,7 @@ mod tests {
         m.order = Order::SCurve4;
         m.jmax = Some(1.0);
         m.smax = Some(1e-300);
-        let e = plan(&m).unwrap_err();
+        let e = plan::<15>(&m).unwrap_err();
         assert!(
             matches!(e, PlanError::LimitsTooSmall { steps: 10, .. }),
             "{e}"

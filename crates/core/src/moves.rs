@@ -6,6 +6,9 @@ use crate::shape::Shape;
 
 /// Most pieces one profile holds (a fixed array: planning and generation never allocate).
 pub const MAX_PIECES: usize = 64;
+/// Most pieces a phase-mode or limits-mode move has: a 4th-order S-curve's 7 pieces up,
+/// its cruise and 7 down.
+pub const MAX_PHASE_PIECES: usize = 15;
 /// Most steps one move may have: positions stay exact integers in f64 with room to spare.
 pub const MAX_STEPS: u64 = 1 << 48;
 

@@ -3,7 +3,7 @@
 
 use crate::builder::Builder;
 use crate::error::{fraction, non_negative, positive, PlanError};
-use crate::moves::{Family, PhaseMove, Segment, MAX_PIECES, MAX_STEPS};
+use crate::moves::{Family, PhaseMove, Segment, MAX_STEPS};
 use crate::piece::Law;
 use crate::profile::Profile;
 
@@ -59,7 +59,7 @@ fn scurve_phase(family: Family, dv: f64, t: f64) -> ([(f64, f64); 7], usize, u8)
 }
 
 /// Phase mode: `vm` follows from N = vs·Ta + (vm−vs)·Ta·G1 + vm·Tb + ve·Tc + (vm−ve)·Tc·G1.
-pub(crate) fn plan(m: &PhaseMove) -> Result<Profile, PlanError> {
+pub(crate) fn plan<const N: usize>(m: &PhaseMove) -> Result<Profile<N>, PlanError> {
     let steps = check_steps(m.steps)?;
     let ta = non_negative("accel time", m.accel_time)?;
     let tb = non_negative("cruise time", m.cruise_time)?;
@@ -94,7 +94,8 @@ pub(crate) fn plan(m: &PhaseMove) -> Result<Profile, PlanError> {
             cruise_speed: vm,
         });
     }
-    let mut b = Builder::new();
+    let mut prof = Profile::empty();
+    let mut b = Builder::new(&mut prof);
     match m.family.shape() {
         Some(shape) => {
             let accel = Law::Shaped {
@@ -125,18 +126,20 @@ pub(crate) fn plan(m: &PhaseMove) -> Result<Profile, PlanError> {
             }
         }
     }
-    b.finish(steps)
+    b.finish(steps)?;
+    Ok(prof)
 }
 
 /// Segment mode (seed 000): each segment `(v0, T, n)` has `a = 2(n − v0·T)/T²`.
-pub(crate) fn plan_segments(segs: &[Segment]) -> Result<Profile, PlanError> {
-    if segs.len() > MAX_PIECES {
+pub(crate) fn plan_segments<const N: usize>(segs: &[Segment]) -> Result<Profile<N>, PlanError> {
+    if segs.len() > N {
         return Err(PlanError::TooManyPieces {
-            max: MAX_PIECES,
+            max: N,
             what: "segments",
         });
     }
-    let mut b = Builder::new();
+    let mut prof = Profile::empty();
+    let mut b = Builder::new(&mut prof);
     let mut total: u64 = 0;
     for (index, s) in segs.iter().enumerate() {
         let v0 = non_negative("segment start speed", s.v0)?;
@@ -160,5 +163,6 @@ pub(crate) fn plan_segments(segs: &[Segment]) -> Result<Profile, PlanError> {
         b.push(t, law, Some(total as f64))?;
     }
     let steps = check_steps(total)?;
-    b.finish(steps)
+    b.finish(steps)?;
+    Ok(prof)
 }

@@ -116,6 +116,7 @@ impl Piece {
         }
     }
 
+    #[inline(always)]
     pub fn end(&self) -> f64 {
         self.p0 + self.advance(self.dur)
     }

@@ -5,17 +5,24 @@
 use crate::dd::Dd;
 use crate::piece::Piece;
 
+use crate::error::PlanError;
 pub use crate::moves::{
     Family, LimitsMove, Move, Order, PhaseMove, Segment, DEFAULT_PHI, DEFAULT_PSI, DEFAULT_RHO,
-    MAX_PIECES, MAX_STEPS,
+    MAX_PHASE_PIECES, MAX_PIECES, MAX_STEPS,
 };
 
-/// A planned move: a chain of pieces whose position goes from 0 to `steps`.
+/// A planned move: a chain of at most `N` pieces whose position goes from 0 to `steps`.
+///
+/// The default capacity is [`MAX_PIECES`], enough for any move, and what the edge
+/// generator plays. A phase or limits move has at most [`MAX_PHASE_PIECES`] pieces, so it
+/// may be planned into a smaller profile with the `*_in` planners
+/// (`Profile::<MAX_PHASE_PIECES>::limits_in`): about 1 KB instead of 5, the same pieces bit
+/// for bit, and [`Profile::resize`] makes the full-size one when it is to be played.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Profile {
-    pub(crate) pieces: [Piece; MAX_PIECES],
+pub struct Profile<const N: usize = MAX_PIECES> {
+    pub(crate) pieces: [Piece; N],
     /// `ends[k]` is the position where piece k ends (the next piece's `p0`).
-    pub(crate) ends: [f64; MAX_PIECES],
+    pub(crate) ends: [f64; N],
     pub(crate) len: usize,
     pub(crate) steps: u64,
     pub(crate) duration: f64,
@@ -23,7 +30,28 @@ pub struct Profile {
     pub(crate) exact: Option<crate::int::ExactMove>,
 }
 
-impl Profile {
+impl<const N: usize> Profile<N> {
+    /// The same profile in a capacity of `M` pieces; an error if it has more than `M`.
+    pub fn resize<const M: usize>(&self) -> Result<Profile<M>, PlanError> {
+        if self.len > M {
+            return Err(PlanError::TooManyPieces {
+                max: M,
+                what: "segments and phases together",
+            });
+        }
+        let mut p = Profile {
+            pieces: [Piece::EMPTY; M],
+            ends: [0.0; M],
+            len: self.len,
+            steps: self.steps,
+            duration: self.duration,
+            exact: self.exact,
+        };
+        p.pieces[..self.len].copy_from_slice(self.pieces());
+        p.ends[..self.len].copy_from_slice(&self.ends[..self.len]);
+        Ok(p)
+    }
+
     /// Steps of the move.
     pub fn steps(&self) -> u64 {
         self.steps

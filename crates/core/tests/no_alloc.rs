@@ -1,7 +1,9 @@
 //! Planning a move of every family, its peaks and its edge generator allocate nothing:
 //! counted by a global allocator that wraps the system's.
 
-use multistep_core::{EdgeGenerator, Family, LimitsMove, PhaseMove, Profile, Segment};
+use multistep_core::{
+    EdgeGenerator, Family, LimitsMove, Move, PhaseMove, Profile, Segment, MAX_PHASE_PIECES,
+};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -64,10 +66,15 @@ fn planning_every_family_allocates_nothing() {
         let p = Profile::limits(&m).unwrap();
         peak = peak.max(p.peaks().0);
         planned += p.steps();
+        let p = Profile::<MAX_PHASE_PIECES>::limits_in(&m).unwrap();
+        planned += p.steps();
+        planned += Profile::check_on_clock(&Move::Limits(m), 50e6)
+            .unwrap()
+            .steps;
     }
     planned += Profile::segments(&segs).unwrap().steps();
     let after = ALLOCS.load(Ordering::SeqCst);
-    assert_eq!(planned, 6 * 10_000 + 300_000 + 150);
+    assert_eq!(planned, 6 * 10_000 + 3 * 300_000 + 150);
     assert!(peak > 0.0);
     assert_eq!(
         after - before,

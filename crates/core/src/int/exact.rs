@@ -59,7 +59,11 @@ fn below_at(p: &IntPiece, tau2: u128, m: u128) -> bool {
 impl ExactMove {
     /// The integer move `m` is on a clock of `clock_hz`, if it has one (trapezoids with
     /// whole speeds and whole-tick times) and its pieces are `profile`'s, tick for tick.
-    pub(crate) fn of(m: &Move<'_>, clock_hz: f64, profile: &Profile) -> Option<ExactMove> {
+    pub(crate) fn of<const N: usize>(
+        m: &Move<'_>,
+        clock_hz: f64,
+        profile: &Profile<N>,
+    ) -> Option<ExactMove> {
         let hz = whole(clock_hz).filter(|&h| h > 0)?;
         let clock = IntClock::hz(hz);
         let kind = match m {
@@ -115,9 +119,9 @@ impl ExactMove {
     }
 
     /// Integer piece k of `profile` (`phase`: [`ExactMove::phase`]).
-    fn piece(
+    fn piece<const N: usize>(
         &self,
-        profile: &Profile,
+        profile: &Profile<N>,
         k: usize,
         phase: Option<&IntProfile<3>>,
     ) -> Option<IntPiece> {
