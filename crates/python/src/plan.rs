@@ -1,15 +1,14 @@
 //! `multistep.plan(...)` and the `Plan` it returns: the core's edge generator writing
 //! straight into numpy arrays, whole or in chunks.
 
-use crate::args::{each_kw, number, whole_in, MoveKw};
+use crate::args::{number, whole_in, MoveKw};
 use crate::errors::{plan_err, value_err};
-use multistep_core::{EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
+use multistep_core::{ClockCheck, EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::PyDict;
 use std::borrow::Borrow;
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 /// Plans one move, exactly as `multistep plan` does, and returns a `Plan`.
 ///
@@ -28,36 +27,75 @@ use std::sync::Mutex;
 /// Raises `PlanError` (a `ValueError`) with the command line's message for a move that
 /// cannot be planned, `TypeError` for a wrong type or an unknown keyword.
 #[pyfunction]
-#[pyo3(signature = (**kwargs))]
+#[pyo3(signature = (
+    *, profile=None, steps=None, accel_time=None, cruise_time=None, decel_time=None,
+    start_speed=None, end_speed=None, rho=None, phi=None, psi=None, segments=None,
+    vmax=None, amax=None, jmax=None, smax=None, clock=None
+))]
 #[pyo3(
     text_signature = "(*, profile=None, steps=None, accel_time=None, cruise_time=None, \
     decel_time=None, start_speed=None, end_speed=None, rho=None, phi=None, psi=None, \
     segments=None, vmax=None, amax=None, jmax=None, smax=None, clock=50e6)"
 )]
-pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan> {
+#[allow(clippy::too_many_arguments)]
+pub fn plan(
+    py: Python<'_>,
+    profile: Option<&Bound<'_, PyAny>>,
+    steps: Option<&Bound<'_, PyAny>>,
+    accel_time: Option<&Bound<'_, PyAny>>,
+    cruise_time: Option<&Bound<'_, PyAny>>,
+    decel_time: Option<&Bound<'_, PyAny>>,
+    start_speed: Option<&Bound<'_, PyAny>>,
+    end_speed: Option<&Bound<'_, PyAny>>,
+    rho: Option<&Bound<'_, PyAny>>,
+    phi: Option<&Bound<'_, PyAny>>,
+    psi: Option<&Bound<'_, PyAny>>,
+    segments: Option<&Bound<'_, PyAny>>,
+    vmax: Option<&Bound<'_, PyAny>>,
+    amax: Option<&Bound<'_, PyAny>>,
+    jmax: Option<&Bound<'_, PyAny>>,
+    smax: Option<&Bound<'_, PyAny>>,
+    clock: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Plan> {
+    // named parameters: Python matches the keywords (no dict of them is made), and an
+    // unknown one is its own TypeError
     let mut mv = MoveKw::default();
-    let mut clock = DEFAULT_CLOCK_HZ;
-    each_kw("plan", kwargs, |k, v| {
-        if k == "clock" {
-            if !v.is_none() {
-                clock = number(k, v)?;
-            }
-            return Ok(true);
+    for (k, v) in [
+        ("profile", profile),
+        ("steps", steps),
+        ("accel_time", accel_time),
+        ("cruise_time", cruise_time),
+        ("decel_time", decel_time),
+        ("start_speed", start_speed),
+        ("end_speed", end_speed),
+        ("rho", rho),
+        ("phi", phi),
+        ("psi", psi),
+        ("segments", segments),
+        ("vmax", vmax),
+        ("amax", amax),
+        ("jmax", jmax),
+        ("smax", smax),
+    ] {
+        if let Some(v) = v {
+            mv.set(k, v)?;
         }
-        mv.set(k, v)
-    })?;
+    }
+    let clock = match clock {
+        Some(v) if !v.is_none() => number("clock", v)?,
+        _ => DEFAULT_CLOCK_HZ,
+    };
     let spec = mv.spec();
     let m = spec.resolve().map_err(|e| plan_err(py, e))?;
-    let profile = Profile::plan_on_clock(&m, clock).map_err(|e| plan_err(py, e))?;
-    // the generator's own checks (ticks within range) raise here, not at the first read
-    let last_edge_tick = EdgeGenerator::new(&profile, clock)
-        .map_err(|e| plan_err(py, e))?
-        .last_edge_tick();
+    // every error planning and playing raise, here; the pieces are made when first read
+    let check = Profile::check_on_clock(&m, clock).map_err(|e| plan_err(py, e))?;
+    let mode = MoveName::of(&m);
     Ok(Plan {
-        profile: Box::new(profile),
+        mv,
         clock,
-        last_edge_tick,
-        mode: MoveName::of(&m),
+        check,
+        mode,
+        profile: OnceLock::new(),
         edges: PyOnceLock::new(),
         periods: PyOnceLock::new(),
         summary: PyOnceLock::new(),
@@ -67,12 +105,14 @@ pub fn plan(py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Plan
 /// A planned move. Edges are clock ticks (at `clock_hz`) from the start of the move.
 #[pyclass(module = "multistep", frozen)]
 pub struct Plan {
+    /// The move as given, planned again (the same pieces, bit for bit) when first read.
+    mv: MoveKw,
+    clock: f64,
+    check: ClockCheck,
+    mode: MoveName,
     /// Boxed: the profile is kilobytes, which Python would zero and Rust copy on every
     /// call; a read makes its generator from it (edges are only made when read).
-    profile: Box<Profile>,
-    clock: f64,
-    last_edge_tick: u64,
-    mode: MoveName,
+    profile: OnceLock<Box<Profile>>,
     edges: PyOnceLock<Py<PyArray1<u64>>>,
     periods: PyOnceLock<Py<PyArray1<u64>>>,
     summary: PyOnceLock<Py<PyAny>>,
@@ -176,9 +216,22 @@ fn read_only(a: &Bound<'_, PyArray1<u64>>) -> PyResult<()> {
 use pyo3::types::IntoPyDict;
 
 impl Plan {
+    /// The move's profile, planned on first use as `plan` checked it.
+    fn profile(&self) -> PyResult<&Profile> {
+        if let Some(p) = self.profile.get() {
+            return Ok(p);
+        }
+        let spec = self.mv.spec();
+        let p = spec
+            .resolve()
+            .and_then(|m| Profile::plan_on_clock(&m, self.clock))
+            .map_err(|e| value_err(e.to_string()))?;
+        Ok(self.profile.get_or_init(|| Box::new(p)))
+    }
+
     /// A generator at step 1 on the plan's profile.
     fn gen(&self) -> PyResult<EdgeGenerator<&Profile>> {
-        EdgeGenerator::new(&*self.profile, self.clock).map_err(|e| value_err(e.to_string()))
+        EdgeGenerator::new(self.profile()?, self.clock).map_err(|e| value_err(e.to_string()))
     }
 
     fn whole(&self, py: Python<'_>, periods: bool) -> PyResult<Py<PyArray1<u64>>> {
@@ -231,7 +284,7 @@ impl Plan {
             None => 1 << 20,
         };
         let size = size as usize;
-        let gen = EdgeGenerator::new(Profile::clone(&self.profile), self.clock)
+        let gen = EdgeGenerator::new(Profile::clone(self.profile()?), self.clock)
             .map_err(|e| value_err(e.to_string()))?;
         Ok(Chunks {
             state: Mutex::new((gen, 0)),
@@ -257,13 +310,13 @@ impl Plan {
     /// Duration T of the move (s): the last step happens at T.
     #[getter]
     fn duration_s(&self) -> f64 {
-        self.profile.duration()
+        self.check.duration
     }
 
     /// Number of steps (edges).
     #[getter]
     fn steps(&self) -> u64 {
-        self.profile.steps()
+        self.check.steps
     }
 
     /// Clock the edges are counted in (Hz).
@@ -281,30 +334,27 @@ impl Plan {
     /// Tick of the last edge, `round(clock·T)`.
     #[getter]
     fn last_edge_tick(&self) -> u64 {
-        self.last_edge_tick
+        self.check.last_edge_tick
     }
 
     /// Commanded speed at time `t` (steps/s; 0 outside the move).
     fn velocity(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.profile.velocity(number("t", t)?))
+        Ok(self.profile()?.velocity(number("t", t)?))
     }
 
     /// Commanded position at time `t` (steps; 0 before the move, `steps` after it).
     fn position(&self, t: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.profile.position(number("t", t)?))
+        Ok(self.profile()?.position(number("t", t)?))
     }
 
     fn __len__(&self) -> usize {
-        usize::try_from(self.profile.steps()).unwrap_or(usize::MAX)
+        usize::try_from(self.check.steps).unwrap_or(usize::MAX)
     }
 
     fn __repr__(&self) -> String {
         format!(
             "Plan({}, steps={}, duration_s={}, clock_hz={})",
-            self.mode,
-            self.profile.steps(),
-            self.profile.duration(),
-            self.clock
+            self.mode, self.check.steps, self.check.duration, self.clock
         )
     }
 }
