@@ -61,15 +61,23 @@ pub enum MountOp {
         dir: i64,
         ms: i64,
     },
+    /// UTCDate: the mount's clock, ISO 8601 text.
+    Utc(String),
+    /// RightAscensionRate (seconds of RA per sidereal second) and DeclinationRate (″/s):
+    /// offsets from the drive rate while tracking.
+    Offset {
+        ra: f64,
+        dec: f64,
+    },
 }
 
 const USAGE: &str = "mount [TELESCOPE] [slew RA DEC|sync RA DEC|slewaltaz ALT AZ|\
                      syncaltaz ALT AZ|side east|west|move ra|dec DEG_PER_S|\
                      track on|off [sidereal|lunar|solar|king]|park|unpark|setpark|abort|\
-                     pulse n|s|e|w MS]";
+                     pulse n|s|e|w MS|utc ISO8601|offset RA_S_PER_S DEC_ARCSEC_PER_S]";
 
 /// The words that start a mount command (any other first word names a telescope).
-const VERBS: [&str; 13] = [
+const VERBS: [&str; 15] = [
     "status",
     "slew",
     "sync",
@@ -83,6 +91,8 @@ const VERBS: [&str; 13] = [
     "setpark",
     "abort",
     "pulse",
+    "utc",
+    "offset",
 ];
 
 fn syntax(m: String) -> CtlError {
@@ -132,20 +142,20 @@ impl std::fmt::Display for MountCmd {
         if let Some(t) = &self.telescope {
             write!(f, " {t}")?;
         }
-        match self.op {
+        match &self.op {
             MountOp::Status => Ok(()),
             MountOp::Slew { ra, dec } => write!(f, " slew {ra} {dec}"),
             MountOp::Sync { ra, dec } => write!(f, " sync {ra} {dec}"),
             MountOp::SlewAltAz { alt, az } => write!(f, " slewaltaz {alt} {az}"),
             MountOp::SyncAltAz { alt, az } => write!(f, " syncaltaz {alt} {az}"),
-            MountOp::Side(s) => write!(f, " side {}", side_word(s)),
+            MountOp::Side(s) => write!(f, " side {}", side_word(*s)),
             MountOp::Move { axis, rate } => {
-                write!(f, " move {} {rate}", if axis == 0 { "ra" } else { "dec" })
+                write!(f, " move {} {rate}", if *axis == 0 { "ra" } else { "dec" })
             }
             MountOp::Track { on, rate } => {
-                write!(f, " track {}", if on { "on" } else { "off" })?;
+                write!(f, " track {}", if *on { "on" } else { "off" })?;
                 match rate {
-                    Some(r) => write!(f, " {}", rate_word(r)),
+                    Some(r) => write!(f, " {}", rate_word(*r)),
                     None => Ok(()),
                 }
             }
@@ -154,9 +164,11 @@ impl std::fmt::Display for MountCmd {
             MountOp::SetPark => write!(f, " setpark"),
             MountOp::Abort => write!(f, " abort"),
             MountOp::Pulse { dir, ms } => {
-                let d = ["n", "s", "e", "w"].get(dir as usize).unwrap_or(&"?");
+                let d = ["n", "s", "e", "w"].get(*dir as usize).unwrap_or(&"?");
                 write!(f, " pulse {d} {ms}")
             }
+            MountOp::Utc(t) => write!(f, " utc {t}"),
+            MountOp::Offset { ra, dec } => write!(f, " offset {ra} {dec}"),
         }
     }
 }
@@ -285,6 +297,15 @@ fn parse_op(rest: &[&str]) -> Result<MountOp, CtlError> {
                 })?;
             MountOp::Pulse { dir, ms }
         }
+        "utc" => {
+            count(1)?;
+            MountOp::Utc(args[0].to_string())
+        }
+        "offset" => {
+            count(2)?;
+            let (ra, dec) = (number(args[0], "RA rate")?, number(args[1], "Dec rate")?);
+            MountOp::Offset { ra, dec }
+        }
         w => return Err(syntax(format!("unknown mount command '{w}'"))),
     })
 }
@@ -344,6 +365,16 @@ pub fn run(
     let mount = select(mounts, cmd.telescope.as_deref())?;
     match cmd.op {
         MountOp::Status => return Ok(vec![status(mount, ctl)?]),
+        MountOp::Utc(ref t) => mount.set_utc_date(t)?,
+        MountOp::Offset { ra, dec } => {
+            // Both checked before either is set; a coelostat takes a Dec offset of 0.
+            mount.check_rate_offset(false, ra)?;
+            if dec != 0.0 || mount.cfg.dec_axis.is_some() {
+                mount.check_rate_offset(true, dec)?;
+                mount.set_rate_offset(ctl, true, dec)?;
+            }
+            mount.set_rate_offset(ctl, false, ra)?;
+        }
         MountOp::Slew { ra, dec } => mount.slew(ctl, ra, dec)?,
         MountOp::Sync { ra, dec } => mount.sync(ctl, ra, dec)?,
         MountOp::SlewAltAz { alt, az } => mount.slew_alt_az(ctl, alt, az)?,
@@ -373,7 +404,7 @@ fn status(m: &Mount, ctl: &Controller) -> Result<String, CtlError> {
     Ok(format!(
         "mount ra={:.6} dec={:.6} ha={:.6} lst={:.6} alt={:.6} az={:.6} side={} \
          tracking={} rate={} slewing={} parked={} guiding={} lat={lat} lon={lon} elevation={elevation} \
-         utc={}",
+         utc={} raoffset={} decoffset={}",
         p.ra,
         p.dec,
         p.ha,
@@ -387,6 +418,8 @@ fn status(m: &Mount, ctl: &Controller) -> Result<String, CtlError> {
         b(m.at_park()),
         b(m.is_pulse_guiding()),
         m.utc_date(),
+        m.rate_offsets().0,
+        m.rate_offsets().1,
     ))
 }
 
@@ -492,6 +525,8 @@ mod tests {
             "mount side east",
             "mount move ra 2.5",
             "mount move dec 0",
+            "mount utc 2026-12-04T23:41:49Z",
+            "mount offset 0.5 -1.25",
             "mount 1 slew 5.5 -12.25",
             "mount ha2 side west",
             "mount 0",
@@ -518,6 +553,9 @@ mod tests {
             ("side up", "'up' is neither east nor west"),
             ("move x 1", "'x' is neither ra nor dec"),
             ("move ra fast", "rate 'fast'"),
+            ("utc", "takes 1 argument"),
+            ("offset 1", "takes 2 arguments"),
+            ("offset 0 x", "Dec rate 'x'"),
             ("1 fly", "unknown mount command 'fly'"),
         ] {
             let e = p(line).unwrap_err();

@@ -68,6 +68,18 @@ impl Mount {
     /// RightAscensionRate (seconds of RA per sidereal second) and DeclinationRate (″/s):
     /// offsets from the drive rate, each at most the sidereal rate.
     pub fn set_rate_offset(&self, ctl: &Controller, dec: bool, v: f64) -> Result<(), MountError> {
+        self.check_rate_offset(dec, v)?;
+        let mut st = self.lock();
+        if dec {
+            st.dec_rate = v;
+        } else {
+            st.ra_rate = v;
+        }
+        self.apply(ctl, &st)
+    }
+
+    /// Whether [`Mount::set_rate_offset`] takes `v`.
+    pub fn check_rate_offset(&self, dec: bool, v: f64) -> Result<(), MountError> {
         let arcsec = if dec { v } else { v * ARCSEC_PER_RA_SECOND };
         if !(v.is_finite() && arcsec.abs() <= super::rates::SIDEREAL) {
             return invalid(format!("rate offset {v} is beyond the sidereal rate"));
@@ -77,13 +89,7 @@ impl Mount {
                 "a coelostat has no declination axis".into(),
             ));
         }
-        let mut st = self.lock();
-        if dec {
-            st.dec_rate = v;
-        } else {
-            st.ra_rate = v;
-        }
-        self.apply(ctl, &st)
+        Ok(())
     }
 
     /// Guide rate (degrees/s) of RA (`k` 0) or Dec (1): above 0, at most sidereal.
