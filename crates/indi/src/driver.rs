@@ -77,7 +77,7 @@ impl Driver {
             } else {
                 "mount".to_string()
             };
-            let role = Role::Telescope(Telescope::new(mount));
+            let role = Role::Telescope(Telescope::new(mount, t.clone()));
             devices.push(Device::new(n, t.ra_axis.clone(), role));
         }
         if devices.is_empty() {

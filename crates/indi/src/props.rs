@@ -226,6 +226,14 @@ impl Vector {
         }
     }
 
+    pub fn set_text(&mut self, name: &str, text: &str) {
+        for e in &mut self.elements {
+            if let (true, Value::Text(t)) = (e.name == name, &mut e.value) {
+                *t = text.to_string();
+            }
+        }
+    }
+
     pub fn switch(&self, name: &str) -> bool {
         matches!(
             self.element(name).map(|e| &e.value),

@@ -27,6 +27,8 @@ const MOUNT_CONFIG: &str = concat!(
 const F: &str = "Focus";
 const R: &str = "Field rotator";
 const W: &str = "Line filters";
+/// The telescope of MOUNT_CONFIG.
+const M: &str = "Mount";
 
 /// indiserver and INDI's clients on the PATH? In CI (CI=true) their absence fails.
 fn indi_present() -> bool {
@@ -151,6 +153,14 @@ impl Rig {
         Rig::start_env(text, &[])
     }
 
+    /// On MOUNT_CONFIG, the telescope connected too.
+    fn with_mount() -> Rig {
+        let rig = Rig::start_env(&std::fs::read_to_string(MOUNT_CONFIG).unwrap(), &[]);
+        rig.set(&format!("{M}.CONNECTION.CONNECT=On"));
+        rig.wait(&format!("\"{M}.CONNECTION._STATE\"==1"));
+        rig
+    }
+
     /// The same, with `env` added to the driver's environment.
     fn start_env(text: &str, env: &[(&str, &str)]) -> Rig {
         let dir = tempfile::tempdir().unwrap();
@@ -270,6 +280,12 @@ impl Rig {
         s
     }
 
+    /// Turns switch `element` of `prop` On and waits until it is, the property Ok.
+    fn switch_on(&self, prop: &str, element: &str) {
+        self.set(&format!("{prop}.{element}=On"));
+        self.wait(&format!("\"{prop}._STATE\"==1 && \"{prop}.{element}\"==1"));
+    }
+
     /// The line protocol's `status` position of `axis`.
     fn pos(&self, axis: &str) -> i64 {
         self.client()
@@ -295,6 +311,21 @@ impl Rig {
 
     fn line(&self, line: &str) -> Vec<String> {
         self.client().request(line).unwrap()
+    }
+
+    /// The value of `key` in the line protocol's `mount` status line.
+    fn mount(&self, key: &str) -> String {
+        let l = self.line("mount").join(" ");
+        let v = l
+            .split(' ')
+            .find_map(|kv| kv.strip_prefix(&format!("{key}=")));
+        v.expect(&l).to_string()
+    }
+
+    /// [`Rig::mount`] as a number.
+    fn mount_num(&self, key: &str) -> f64 {
+        let v = self.mount(key);
+        v.parse().unwrap_or_else(|_| panic!("mount {key}={v}"))
     }
 
     /// Sets the rotator's angle and waits for it; the angles shown on the way.
@@ -370,9 +401,10 @@ fn every_property_is_listed_with_its_type_and_permission() {
     if !indi_present() {
         return;
     }
-    let rig = Rig::start();
+    // The optics beside the mount: every kind of device.
+    let rig = Rig::with_mount();
     // (device, property, perm, element names, kind)
-    let want: [(&str, &str, &str, &[&str], char); 21] = [
+    let want: [(&str, &str, &str, &[&str], char); 39] = [
         (F, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
         (
             F,
@@ -447,6 +479,84 @@ fn every_property_is_listed_with_its_type_and_permission() {
             &["FILTER_SLOT_NAME_1", "FILTER_SLOT_NAME_5"],
             't',
         ),
+        (M, "CONNECTION", "rw", &["CONNECT", "DISCONNECT"], 's'),
+        (M, "DRIVER_INFO", "ro", &["DRIVER_INTERFACE"], 't'),
+        (M, "EQUATORIAL_EOD_COORD", "rw", &["RA", "DEC"], 'n'),
+        (M, "ON_COORD_SET", "rw", &["TRACK", "SLEW", "SYNC"], 's'),
+        (M, "TELESCOPE_ABORT_MOTION", "rw", &["ABORT"], 's'),
+        (
+            M,
+            "TELESCOPE_TRACK_STATE",
+            "rw",
+            &["TRACK_ON", "TRACK_OFF"],
+            's',
+        ),
+        (
+            M,
+            "TELESCOPE_TRACK_MODE",
+            "rw",
+            &[
+                "TRACK_SIDEREAL",
+                "TRACK_SOLAR",
+                "TRACK_LUNAR",
+                "TRACK_KING",
+                "TRACK_CUSTOM",
+            ],
+            's',
+        ),
+        (
+            M,
+            "TELESCOPE_TRACK_RATE",
+            "rw",
+            &["TRACK_RATE_RA", "TRACK_RATE_DE"],
+            'n',
+        ),
+        (
+            M,
+            "TELESCOPE_SLEW_RATE",
+            "rw",
+            &["SLEW_GUIDE", "SLEW_CENTERING", "SLEW_FIND", "SLEW_MAX"],
+            's',
+        ),
+        (
+            M,
+            "TELESCOPE_MOTION_NS",
+            "rw",
+            &["MOTION_NORTH", "MOTION_SOUTH"],
+            's',
+        ),
+        (
+            M,
+            "TELESCOPE_MOTION_WE",
+            "rw",
+            &["MOTION_WEST", "MOTION_EAST"],
+            's',
+        ),
+        (M, "TELESCOPE_PARK", "rw", &["PARK", "UNPARK"], 's'),
+        (
+            M,
+            "TELESCOPE_TIMED_GUIDE_NS",
+            "rw",
+            &["TIMED_GUIDE_N", "TIMED_GUIDE_S"],
+            'n',
+        ),
+        (
+            M,
+            "TELESCOPE_TIMED_GUIDE_WE",
+            "rw",
+            &["TIMED_GUIDE_W", "TIMED_GUIDE_E"],
+            'n',
+        ),
+        (M, "GEOGRAPHIC_COORD", "ro", &["LAT", "LONG", "ELEV"], 'n'),
+        (M, "TIME_UTC", "rw", &["UTC"], 't'),
+        (M, "HORIZONTAL_COORD", "ro", &["ALT", "AZ"], 'n'),
+        (
+            M,
+            "TELESCOPE_PIER_SIDE",
+            "ro",
+            &["PIER_WEST", "PIER_EAST"],
+            's',
+        ),
     ];
     for (d, p, perm, elements, kind) in want {
         assert_eq!(
@@ -469,7 +579,7 @@ fn every_property_is_listed_with_its_type_and_permission() {
         }
     }
     // nothing else: every property of each device is one of those
-    for d in [F, R, W] {
+    for d in [F, R, W, M] {
         for l in rig.all(d) {
             let p = l.split('.').next().unwrap();
             assert!(
@@ -494,6 +604,10 @@ fn every_property_is_listed_with_its_type_and_permission() {
         Some("16")
     );
     assert_eq!(rig.num(&format!("{F}.FOCUS_MAX.FOCUS_MAX_VALUE")), 32000.0);
+    // INDI's UTC: ISO 8601 without a zone; the offset in hours.
+    let utc = rig.get(&format!("{M}.TIME_UTC.UTC")).unwrap();
+    assert!(utc.len() == 19 && utc.as_bytes()[10] == b'T', "{utc}");
+    assert_eq!(rig.num(&format!("{M}.TIME_UTC.OFFSET")), 0.0);
     assert_eq!(
         rig.get(&format!("{W}.FILTER_NAME.FILTER_SLOT_NAME_2"))
             .as_deref(),
@@ -696,10 +810,7 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     if !indi_present() {
         return;
     }
-    let rig = Rig::start_env(&std::fs::read_to_string(MOUNT_CONFIG).unwrap(), &[]);
-    const M: &str = "Mount";
-    rig.set(&format!("{M}.CONNECTION.CONNECT=On"));
-    rig.wait(&format!("\"{M}.CONNECTION._STATE\"==1"));
+    let rig = Rig::with_mount();
     assert_eq!(
         rig.get(&format!("{M}.DRIVER_INFO.DRIVER_INTERFACE"))
             .as_deref(),
@@ -716,13 +827,7 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     }
     let on = |spec: &str| rig.get(&format!("{M}.{spec}")).as_deref() == Some("On");
     assert!(on("TELESCOPE_TRACK_STATE.TRACK_OFF") && on("TELESCOPE_PARK.UNPARK"));
-    let mount = |k: &str| -> String {
-        let l = rig.line("mount").join(" ");
-        let v = l
-            .split(' ')
-            .find_map(|kv| kv.strip_prefix(&format!("{k}=")));
-        v.expect(&l).to_string()
-    };
+    let mount = |k: &str| rig.mount(k);
     // One hour west of the meridian at Dec 30°: ON_COORD_SET TRACK slews and tracks.
     let lst: f64 = mount("lst").parse().unwrap();
     let ra = (lst - 1.0).rem_euclid(24.0);
@@ -795,6 +900,126 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     assert_eq!(mount("parked"), "0");
 }
 
+#[test]
+fn the_telescope_keeps_utc_moves_by_hand_and_tracks_at_each_rate() {
+    if !indi_present() {
+        return;
+    }
+    let rig = Rig::with_mount();
+
+    // TIME_UTC sets the mount's clock; the zone offset is the client's, kept.
+    let time = format!("{M}.TIME_UTC");
+    rig.set(&format!("{time}.UTC;OFFSET=2030-06-15T12:00:00;2"));
+    let end = Instant::now() + Duration::from_secs(60);
+    while !rig.mount("utc").starts_with("2030-06-15T12:00:0") {
+        assert!(Instant::now() < end, "utc={}", rig.mount("utc"));
+    }
+    rig.wait(&format!("\"{time}._STATE\"==1"));
+    let utc = rig.get(&format!("{time}.UTC")).unwrap();
+    assert!(utc.starts_with("2030-06-15T12:00:0"), "{utc}");
+    assert_eq!(rig.num(&format!("{time}.OFFSET")), 2.0);
+    // A time that is none, an offset beyond 14 h: Alert, the clock kept.
+    for bad in ["UTC=noon", "UTC=2030-13-01T00:00:00", "OFFSET=15"] {
+        rig.set(&format!("{time}.{bad}"));
+        rig.wait(&format!("\"{time}._STATE\"==3"));
+        assert!(rig.mount("utc").starts_with("2030-06-15T12:0"), "{bad}");
+        rig.set(&format!("{time}.OFFSET=2"));
+        rig.wait(&format!("\"{time}._STATE\"==1"));
+    }
+
+    // One hour west at Dec 30°, tracking; then north at the find rate for a second.
+    let ra = (rig.mount_num("lst") - 1.0).rem_euclid(24.0);
+    let eod = format!("{M}.EQUATORIAL_EOD_COORD");
+    rig.set(&format!("{eod}.RA;DEC={ra};30"));
+    rig.wait(&format!(
+        "\"{eod}._STATE\"==1 && abs(\"{eod}.DEC\"-30)<0.001"
+    ));
+    rig.switch_on(&format!("{M}.TELESCOPE_SLEW_RATE"), "SLEW_FIND");
+    let ns = format!("{M}.TELESCOPE_MOTION_NS");
+    let dec0 = rig.mount_num("dec");
+    rig.set(&format!("{ns}.MOTION_NORTH=On"));
+    rig.wait(&format!("\"{ns}._STATE\"==2"));
+    assert_eq!(rig.mount("slewing"), "1");
+    std::thread::sleep(Duration::from_secs(1));
+    rig.set(&format!("{ns}.MOTION_NORTH=Off"));
+    rig.wait(&format!("\"{ns}._STATE\"==0 && \"{ns}.MOTION_NORTH\"==0"));
+    // The axis slows to rest after the mount's move ends.
+    let end = Instant::now() + Duration::from_secs(60);
+    while rig.mount("slewing") == "1" || !rig.line("status dec").join(" ").contains("state=idle") {
+        assert!(Instant::now() < end, "the motion did not stop");
+    }
+    let dec1 = rig.mount_num("dec");
+    // 64 × sidereal is 0.267°/s: at least a second of it.
+    assert!(dec1 - dec0 > 0.25 && dec1 - dec0 < 2.0, "{dec0} → {dec1}");
+    std::thread::sleep(Duration::from_millis(500));
+    let dec2 = rig.mount_num("dec");
+    assert!(
+        (dec2 - dec1).abs() < 1e-6,
+        "Dec still moves: {dec1} → {dec2}"
+    );
+    // South comes back; an abort ends it.
+    rig.set(&format!("{ns}.MOTION_SOUTH=On"));
+    rig.wait(&format!("\"{ns}._STATE\"==2"));
+    std::thread::sleep(Duration::from_millis(500));
+    rig.set(&format!("{M}.TELESCOPE_ABORT_MOTION.ABORT=On"));
+    rig.wait(&format!("\"{ns}._STATE\"==0 && \"{ns}.MOTION_SOUTH\"==0"));
+    let end = Instant::now() + Duration::from_secs(60);
+    while rig.mount("slewing") == "1" {
+        assert!(Instant::now() < end, "the abort did not stop the motion");
+    }
+    assert!(rig.mount_num("dec") < dec1 - 0.05);
+
+    // Each track mode sets the mount's drive rate, with no offsets.
+    let mode = format!("{M}.TELESCOPE_TRACK_MODE");
+    for (m, rate) in [
+        ("TRACK_LUNAR", "lunar"),
+        ("TRACK_SOLAR", "solar"),
+        ("TRACK_KING", "king"),
+        ("TRACK_SIDEREAL", "sidereal"),
+    ] {
+        rig.switch_on(&mode, m);
+        assert_eq!(rig.mount("rate"), rate, "{m}");
+        assert_eq!(
+            (rig.mount_num("raoffset"), rig.mount_num("decoffset")),
+            (0.0, 0.0)
+        );
+    }
+    // Custom: sidereal less the RA offset that gives TRACK_RATE_RA, Dec's rate as given.
+    let rate = format!("{M}.TELESCOPE_TRACK_RATE");
+    rig.set(&format!("{rate}.TRACK_RATE_RA;TRACK_RATE_DE=15;2.5"));
+    rig.wait(&format!(
+        "\"{rate}._STATE\"==1 && \"{rate}.TRACK_RATE_DE\"==2.5"
+    ));
+    // Kept until the mode is custom.
+    assert_eq!(rig.mount_num("decoffset"), 0.0);
+    rig.switch_on(&mode, "TRACK_CUSTOM");
+    assert_eq!(rig.mount("rate"), "sidereal");
+    let want = (15.041_067 - 15.0) * 0.997_269_566_3 / 15.0;
+    assert!((rig.mount_num("raoffset") - want).abs() < 1e-9);
+    assert_eq!(rig.mount_num("decoffset"), 2.5);
+    // In custom mode a new rate goes to the mount at once.
+    rig.set(&format!("{rate}.TRACK_RATE_DE=-1"));
+    rig.wait(&format!(
+        "\"{rate}._STATE\"==1 && \"{rate}.TRACK_RATE_DE\"==-1"
+    ));
+    assert_eq!(rig.mount_num("decoffset"), -1.0);
+    // Beyond twice sidereal, not a number: Alert, the rates kept.
+    for bad in ["TRACK_RATE_RA=100", "TRACK_RATE_DE=fast"] {
+        rig.set(&format!("{rate}.{bad}"));
+        rig.wait(&format!("\"{rate}._STATE\"==3"));
+        assert_eq!(rig.mount_num("decoffset"), -1.0, "{bad}");
+        assert!((rig.num(&format!("{rate}.TRACK_RATE_RA")) - 15.0).abs() < 1e-9);
+        rig.set(&format!("{rate}.TRACK_RATE_DE=-1"));
+        rig.wait(&format!("\"{rate}._STATE\"==1"));
+    }
+    // Back to sidereal: the offsets go.
+    rig.switch_on(&mode, "TRACK_SIDEREAL");
+    assert_eq!(
+        (rig.mount_num("raoffset"), rig.mount_num("decoffset")),
+        (0.0, 0.0)
+    );
+}
+
 /// The solar telescope's mount and a guide scope's fork on one board.
 const TWO_TELESCOPES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -807,7 +1032,6 @@ fn two_telescopes_are_two_devices_each_driving_its_own_mount() {
         return;
     }
     let rig = Rig::start_env(&std::fs::read_to_string(TWO_TELESCOPES).unwrap(), &[]);
-    const M: &str = "Mount";
     const G: &str = "Guide scope";
     for d in [M, G] {
         rig.set(&format!("{d}.CONNECTION.CONNECT=On"));
