@@ -968,6 +968,16 @@ fn the_telescope_keeps_utc_moves_by_hand_and_tracks_at_each_rate() {
         assert!(Instant::now() < end, "the abort did not stop the motion");
     }
     assert!(rig.mount_num("dec") < dec1 - 0.05);
+    // West: the hour angle grows (tracking alone keeps it).
+    let we = format!("{M}.TELESCOPE_MOTION_WE");
+    let ha0 = rig.mount_num("ha");
+    rig.set(&format!("{we}.MOTION_WEST=On"));
+    rig.wait(&format!("\"{we}._STATE\"==2"));
+    std::thread::sleep(Duration::from_millis(500));
+    rig.set(&format!("{we}.MOTION_WEST=Off"));
+    rig.wait(&format!("\"{we}._STATE\"==0"));
+    let ha1 = rig.mount_num("ha");
+    assert!(ha1 - ha0 > 0.1 && ha1 - ha0 < 1.0, "{ha0} → {ha1}");
 
     // Each track mode sets the mount's drive rate, with no offsets.
     let mode = format!("{M}.TELESCOPE_TRACK_MODE");
