@@ -274,6 +274,26 @@ impl Shared {
         }
     }
 
+    /// [`Shared::lock`] if the board is free within `wait`, else `None`.
+    fn lock_within(&self, wait: Duration) -> Option<Locked<'_>> {
+        let deadline = Instant::now() + wait;
+        let mut b = loop {
+            match self.board.try_lock() {
+                Ok(b) => break b,
+                Err(TryLockError::Poisoned(p)) => break p.into_inner(),
+                Err(TryLockError::WouldBlock) if Instant::now() >= deadline => return None,
+                Err(TryLockError::WouldBlock) => std::thread::sleep(HALT_RETRY),
+            }
+        };
+        self.halts.apply(&mut b);
+        self.halts.record(&mut b);
+        Some(Locked {
+            board: b,
+            halts: &self.halts,
+            seen: self.seen.as_ref(),
+        })
+    }
+
     /// Asks for a halt at tick `at` and waits until it is applied: by this thread as soon
     /// as the board is free, or by whichever thread holds it, when that one lets go.
     fn halt(&self, kind: HaltKind, at: u64) -> Result<(), CtlError> {
@@ -308,6 +328,10 @@ impl Shared {
         }
     }
 }
+
+/// How long `status` of a board over a link waits for the board before it answers from
+/// the board as last left ([`Shared::seen`]).
+const STATUS_WAIT: Duration = Duration::from_millis(100);
 
 /// How often a waiting halt tries the board lock again.
 const HALT_RETRY: Duration = Duration::from_micros(200);
@@ -541,13 +565,19 @@ impl Controller {
             .unwrap_or_else(|p| p.into_inner())
     }
 
-    /// Each axis's status. A board with a link answers from its state as the last
-    /// holder of the board left it (the ticker's within a millisecond, unless a link
-    /// exchange takes longer: `age_ms` says how old), never waiting for the board.
+    /// Each axis's status. A board with a link is read now if it is free within
+    /// [`STATUS_WAIT`]; behind a longer link exchange (a faulty link's retries and
+    /// timeouts) `status` answers from the board as its last holder left it, and `age_ms`
+    /// says how old that is.
     pub fn status(&self, axes: &[String]) -> Result<Vec<AxisStatus>, CtlError> {
-        match &self.shared.seen {
-            Some(seen) => seen.lock().unwrap_or_else(|p| p.into_inner()).pick(axes),
-            None => self.with_board(|b, now| b.status(axes, now)),
+        let Some(seen) = &self.shared.seen else {
+            return self.with_board(|b, now| b.status(axes, now));
+        };
+        // the board read now when it is free soon (a poll's exchange takes milliseconds);
+        // behind a longer exchange, as last left
+        match self.shared.lock_within(STATUS_WAIT) {
+            Some(mut b) => b.status(axes, self.clock.now()),
+            None => seen.lock().unwrap_or_else(|p| p.into_inner()).pick(axes),
         }
     }
     pub fn move_axis(
