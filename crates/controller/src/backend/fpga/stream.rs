@@ -5,7 +5,7 @@
 use crate::motion::{stop_profile, EdgeSource, StepSource, Stopped};
 use crate::tracking::TrackSource;
 use multistep_core::stream::StreamEncoder;
-use multistep_link::{AxisReg, HostLink, LinkError, Reg, Status};
+use multistep_link::{AxisReg, HostLink, LinkError, Reg, Status, BULK_MAX};
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 
@@ -278,6 +278,45 @@ pub fn send_frame<T: Read + Write>(
             f.untake(data);
             Err(e)
         }
+    }
+}
+
+/// Sends `axis` the code its buffer has room for: fills the frame from the feed, sends it
+/// when the free count (the last reply's, read again when it looks short) says it fits.
+/// `done`: the steps the board has made of this motion (a tracker codes only a lead
+/// beyond them). `may_yield`: ends early, between two frames, for an urgent request.
+pub(super) fn pump<T: Read + Write>(
+    l: &mut HostLink<T>,
+    f: &mut Feed,
+    axis: u32,
+    done: u64,
+    may_yield: bool,
+) -> Result<(), LinkError> {
+    let mut refreshed = false;
+    loop {
+        if may_yield && l.urgent() {
+            return Ok(());
+        }
+        f.fill(BULK_MAX, f.lead_limit(done))
+            .map_err(LinkError::Move)?;
+        let Some(n) = f.next_frame(BULK_MAX.min(f.free as usize)) else {
+            if f.open && f.ended && f.pending() == 0 && !f.closed {
+                // the tracker came to rest: the stream ends after the steps coded, so
+                // the axis ends as a planned move does (no underrun)
+                let n = u32::try_from(f.coded()).unwrap_or(u32::MAX);
+                l.write(Reg::Axis(axis, AxisReg::StreamSteps), n)?;
+                f.closed = true;
+            }
+            if refreshed || f.pending() == 0 {
+                return Ok(());
+            }
+            // the board took code since the last reply
+            f.free = l.read(Reg::Axis(axis, AxisReg::StreamFree))?;
+            f.saw_free();
+            refreshed = true;
+            continue;
+        };
+        send_frame(l, f, axis, n)?;
     }
 }
 

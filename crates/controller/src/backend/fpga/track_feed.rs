@@ -6,6 +6,7 @@ use super::model::{Model, ModelPort};
 use super::*;
 use multistep_core::{Rate, TrackLimits};
 use multistep_link::{Reply, Request};
+use std::io::{Read, Write};
 use std::sync::{Arc, Mutex};
 
 /// Bytes free in each replay unit's buffer.
