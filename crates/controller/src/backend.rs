@@ -99,7 +99,35 @@ pub fn no_sync(board: &str) -> CtlError {
     ))
 }
 
+/// A board on the SYNC line shared by boards (docs/HDL.md "Cross-board start").
+pub trait SyncLine {
+    /// Loads `moves` as [`BoardBackend::start`] does, but they start at the next SYNC fall
+    /// (the board reports them pending until then).
+    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError>;
+    /// Pulls the SYNC line low: every board on it starts its armed group.
+    fn fire(&mut self) -> Result<(), CtlError>;
+    /// The SYNC line's state.
+    fn sync_state(&mut self) -> Result<SyncState, CtlError>;
+}
+
+/// Open-ended motion: a tracker run as an axis's step source
+/// ([`BoardBackend::start_source`]) whose rate changes while it runs.
+pub trait Tracking {
+    /// The tracker of an axis tracking (`track`).
+    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource>;
+    /// Steps of `axis` already committed beyond its count: a stop asked for now makes
+    /// them before its ramp (a board fed a lead of its stream; none on a simulated board).
+    fn steps_ahead(&self, _axis: usize) -> u64 {
+        0
+    }
+    /// Reports every step of `axis` as [`PinEvent::Step`] while `on` (a tracking axis
+    /// watching its soft limit).
+    fn watch_steps(&mut self, axis: usize, on: bool);
+}
+
 /// The pins of one board. Time is the board tick `now` the controller passes in.
+/// What only some boards have is a capability behind an accessor: the SYNC line
+/// ([`BoardBackend::sync_line`]) and tracking ([`BoardBackend::tracking`]).
 pub trait BoardBackend: Send {
     /// "simulated" or the link, e.g. "serial:/dev/ttyUSB0@3000000".
     fn describe(&self) -> String;
@@ -127,21 +155,8 @@ pub trait BoardBackend: Send {
         tdm: &multistep_core::tdm::TdmConfig,
         now: u64,
     ) -> Result<(u64, Vec<u64>), CtlError>;
-    /// The board has a SYNC line ([`BoardBackend::arm`] may work).
-    fn has_sync(&self) -> bool {
-        false
-    }
-    /// Loads `moves` as [`BoardBackend::start`] does, but they start at the next SYNC fall
-    /// (the board reports them pending until then).
-    fn arm(&mut self, _moves: Vec<Launch>, _now: u64) -> Result<(u64, Vec<u64>), CtlError> {
-        Err(no_sync(&self.describe()))
-    }
-    /// Pulls the SYNC line low: every board on it starts its armed group.
-    fn fire(&mut self) -> Result<(), CtlError> {
-        Err(no_sync(&self.describe()))
-    }
-    /// The SYNC line's state.
-    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+    /// The board's SYNC line, or [`no_sync`] where it has none.
+    fn sync_line(&mut self) -> Result<&mut dyn SyncLine, CtlError> {
         Err(no_sync(&self.describe()))
     }
     /// Starts a move given as its step source (a simulated board only).
@@ -154,27 +169,13 @@ pub trait BoardBackend: Send {
     ) -> Result<u64, CtlError> {
         Err(CtlError::NotSimulated)
     }
-    /// Runs a tracker ([`BoardBackend::start_source`] with a rate that changes as it runs).
-    fn can_track(&self) -> bool {
-        false
+    /// Open-ended motion, or why this backend cannot track (`error:19`).
+    fn tracking(&mut self) -> Result<&mut dyn Tracking, CtlError> {
+        Err(CtlError::Unsupported(format!(
+            "tracking is not supported on {} (moves, homing and stops are)",
+            self.describe()
+        )))
     }
-    /// Why [`BoardBackend::can_track`] is false.
-    fn why_no_tracking(&self) -> String {
-        "moves, homing and stops are".into()
-    }
-    /// The tracker of an axis tracking (`track`) on a simulated board, whose rate the
-    /// board changes while it runs.
-    fn tracker(&mut self, _axis: usize) -> Option<&mut TrackSource> {
-        None
-    }
-    /// Steps of `axis` already committed beyond its count: a stop asked for now makes
-    /// them before its ramp (a board fed a lead of its stream; none on a simulated board).
-    fn steps_ahead(&self, _axis: usize) -> u64 {
-        0
-    }
-    /// Reports every step of `axis` as [`PinEvent::Step`] while `on` (a tracking axis
-    /// watching its soft limit).
-    fn watch_steps(&mut self, _axis: usize, _on: bool) {}
     /// Energizes (`on`) or releases the axis's driver: its ENABLE line.
     fn set_enabled(&mut self, axis: usize, on: bool) -> Result<(), CtlError>;
     /// Begins one advance of the controller up to some tick (work accounting).

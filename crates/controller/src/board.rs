@@ -700,7 +700,7 @@ impl Board {
             launches.push(l);
         }
         let started = if self.arming {
-            self.pins.arm(launches, now)
+            self.pins.sync_line().and_then(|s| s.arm(launches, now))
         } else {
             self.pins.start(launches, report, &self.tdm, now)
         };

@@ -17,7 +17,7 @@
 
 mod stream;
 
-use super::{BoardBackend, Launch, LinkState, PinEvent, SyncState};
+use super::{BoardBackend, Launch, LinkState, PinEvent, SyncLine, SyncState, Tracking};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
@@ -522,27 +522,15 @@ impl BoardBackend for FpgaBackend {
         Ok(start)
     }
 
-    fn can_track(&self) -> bool {
-        self.streams
-    }
-
-    fn why_no_tracking(&self) -> String {
-        NO_REPLAY.into()
-    }
-
-    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
-        self.axes[axis].feed.as_mut()?.tracker()
-    }
-
-    fn steps_ahead(&self, axis: usize) -> u64 {
-        let ax = &self.axes[axis];
-        ax.feed.as_ref().map_or(0, |f| {
-            f.committed_ahead((ax.count - f.count0).unsigned_abs())
-        })
-    }
-
-    fn watch_steps(&mut self, axis: usize, on: bool) {
-        self.axes[axis].watch = on;
+    fn tracking(&mut self) -> Result<&mut dyn Tracking, CtlError> {
+        if self.streams {
+            Ok(self)
+        } else {
+            Err(CtlError::Unsupported(format!(
+                "tracking is not supported on {} ({NO_REPLAY})",
+                self.name
+            )))
+        }
     }
 
     fn begin_advance(&mut self) {
@@ -753,17 +741,8 @@ impl BoardBackend for FpgaBackend {
         true
     }
 
-    fn has_sync(&self) -> bool {
-        true
-    }
-    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
-        self.arm_moves(moves, now)
-    }
-    fn fire(&mut self) -> Result<(), CtlError> {
-        self.fire_sync()
-    }
-    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
-        self.read_sync()
+    fn sync_line(&mut self) -> Result<&mut dyn SyncLine, CtlError> {
+        Ok(self)
     }
     fn keep_session(&mut self, keep: SessionKeeper) {
         self.keep = Some(keep);
@@ -796,3 +775,32 @@ mod preempt;
 
 #[cfg(test)]
 mod link_status;
+
+impl SyncLine for FpgaBackend {
+    fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
+        self.arm_moves(moves, now)
+    }
+    fn fire(&mut self) -> Result<(), CtlError> {
+        self.fire_sync()
+    }
+    fn sync_state(&mut self) -> Result<SyncState, CtlError> {
+        self.read_sync()
+    }
+}
+
+impl Tracking for FpgaBackend {
+    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
+        self.axes[axis].feed.as_mut()?.tracker()
+    }
+
+    fn steps_ahead(&self, axis: usize) -> u64 {
+        let ax = &self.axes[axis];
+        ax.feed.as_ref().map_or(0, |f| {
+            f.committed_ahead((ax.count - f.count0).unsigned_abs())
+        })
+    }
+
+    fn watch_steps(&mut self, axis: usize, on: bool) {
+        self.axes[axis].watch = on;
+    }
+}

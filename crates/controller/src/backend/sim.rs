@@ -2,7 +2,7 @@
 //! mechanics move one step per edge, and a [`HallSim`] watches the mechanics.
 
 use super::sim_sync::SimSyncLine;
-use super::{no_sync, BoardBackend, Launch, PinEvent, SyncState};
+use super::{no_sync, BoardBackend, Launch, PinEvent, SyncLine, SyncState, Tracking};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
@@ -303,18 +303,8 @@ impl BoardBackend for SimBackend {
         Ok(steps)
     }
 
-    fn can_track(&self) -> bool {
-        true
-    }
-
-    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
-        self.axes[axis].motion.as_mut()?.src.as_track()
-    }
-
-    fn watch_steps(&mut self, axis: usize, on: bool) {
-        if let Some(m) = self.axes[axis].motion.as_mut() {
-            m.watch = on;
-        }
+    fn tracking(&mut self) -> Result<&mut dyn Tracking, CtlError> {
+        Ok(self)
     }
 
     /// The simulated driver holds the mechanics either way (no load turns them).
@@ -436,10 +426,43 @@ impl BoardBackend for SimBackend {
         Ok(())
     }
 
-    fn has_sync(&self) -> bool {
-        self.sync.is_some()
+    fn sync_line(&mut self) -> Result<&mut dyn SyncLine, CtlError> {
+        if self.sync.is_some() {
+            Ok(self)
+        } else {
+            Err(no_sync(&self.describe()))
+        }
     }
 
+    fn set_work_budget(&mut self, budget: Option<u64>) {
+        self.work_budget = budget;
+    }
+
+    fn work(&self) -> (u64, u64) {
+        (self.work, self.max_advance_work)
+    }
+}
+
+/// An armed member before the SYNC fall: moving, no step due.
+struct Waiting;
+
+impl StepSource for Waiting {
+    fn peek(&mut self) -> Option<u64> {
+        Some(u64::MAX)
+    }
+    fn take(&mut self) {}
+    fn speed_at(&self, _: u64) -> f64 {
+        0.0
+    }
+    fn end_tick(&self) -> u64 {
+        u64::MAX
+    }
+    fn steps_left(&self) -> u64 {
+        0
+    }
+}
+
+impl SyncLine for SimBackend {
     /// Each member waits (moving, no step) until the line falls.
     fn arm(&mut self, moves: Vec<Launch>, now: u64) -> Result<(u64, Vec<u64>), CtlError> {
         match &self.sync {
@@ -482,31 +505,16 @@ impl BoardBackend for SimBackend {
             tick: s.last_fall(),
         })
     }
-
-    fn set_work_budget(&mut self, budget: Option<u64>) {
-        self.work_budget = budget;
-    }
-
-    fn work(&self) -> (u64, u64) {
-        (self.work, self.max_advance_work)
-    }
 }
 
-/// An armed member before the SYNC fall: moving, no step due.
-struct Waiting;
+impl Tracking for SimBackend {
+    fn tracker(&mut self, axis: usize) -> Option<&mut TrackSource> {
+        self.axes[axis].motion.as_mut()?.src.as_track()
+    }
 
-impl StepSource for Waiting {
-    fn peek(&mut self) -> Option<u64> {
-        Some(u64::MAX)
-    }
-    fn take(&mut self) {}
-    fn speed_at(&self, _: u64) -> f64 {
-        0.0
-    }
-    fn end_tick(&self) -> u64 {
-        u64::MAX
-    }
-    fn steps_left(&self) -> u64 {
-        0
+    fn watch_steps(&mut self, axis: usize, on: bool) {
+        if let Some(m) = self.axes[axis].motion.as_mut() {
+            m.watch = on;
+        }
     }
 }

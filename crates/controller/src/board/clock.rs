@@ -114,7 +114,7 @@ impl Board {
             let Ok(rate) = self.tracker_rate(host) else {
                 continue;
             };
-            if let Some(src) = self.pins.tracker(i) {
+            if let Some(src) = self.pins.tracking().ok().and_then(|t| t.tracker(i)) {
                 // a rate the tracker refuses leaves it on the one it has
                 let _ = src.set_rate(rate);
             }

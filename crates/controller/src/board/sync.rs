@@ -2,7 +2,7 @@
 //! starts when one of them pulls the shared SYNC line low.
 
 use super::{Board, PendingGroup};
-use crate::backend::{no_sync, SyncState};
+use crate::backend::SyncState;
 use crate::error::CtlError;
 
 impl Board {
@@ -22,12 +22,8 @@ impl Board {
 
     /// Refuses at once on a board without a SYNC line (before planning: an arm there is
     /// refused for that, not for what its axes do).
-    pub fn check_sync(&self) -> Result<(), CtlError> {
-        if self.pins.has_sync() {
-            Ok(())
-        } else {
-            Err(no_sync(&self.pins.describe()))
-        }
+    pub fn check_sync(&mut self) -> Result<(), CtlError> {
+        self.pins.sync_line().map(|_| ())
     }
 
     /// Pulls the SYNC line low: every board on it starts its armed group.
@@ -36,12 +32,12 @@ impl Board {
         if self.estopped {
             return Err(CtlError::EStopped);
         }
-        self.pins.fire()
+        self.pins.sync_line()?.fire()
     }
 
     /// The SYNC line's state and the count latched at its last fall.
     pub fn sync_state(&mut self, now: u64) -> Result<SyncState, CtlError> {
         self.advance(now);
-        self.pins.sync_state()
+        self.pins.sync_line()?.sync_state()
     }
 }

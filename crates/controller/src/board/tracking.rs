@@ -60,13 +60,7 @@ impl Board {
         if self.estopped {
             return Err(CtlError::EStopped);
         }
-        if !self.pins.can_track() {
-            return Err(CtlError::Unsupported(format!(
-                "tracking is not supported on {} ({})",
-                self.pins.describe(),
-                self.pins.why_no_tracking()
-            )));
-        }
+        self.pins.tracking()?;
         let want = self.rate_value(rate)?;
         let s = &self.axes[i].settings;
         let steps = in_steps(want, s.steps_per_unit)?;
@@ -131,7 +125,9 @@ impl Board {
         }
         // Each step is looked at only where a soft limit lies ahead.
         let watch = self.room(i, dir).is_some() && self.limit_ahead(i, dir).is_some();
-        self.pins.watch_steps(i, watch);
+        if let Ok(t) = self.pins.tracking() {
+            t.watch_steps(i, watch);
+        }
         let ax = &mut self.axes[i];
         ax.state = AxisState::Tracking;
         if let Some(m) = ax.motion.as_mut() {
@@ -196,8 +192,11 @@ impl Board {
             return Ok(());
         };
         let dir = m.dir;
-        let ahead = self.pins.steps_ahead(i);
-        let Some(src) = self.pins.tracker(i) else {
+        let Ok(tracking) = self.pins.tracking() else {
+            return Ok(());
+        };
+        let ahead = tracking.steps_ahead(i);
+        let Some(src) = tracking.tracker(i) else {
             return Ok(());
         };
         if accel.is_some_and(|a| a != src.limits().amax) {
@@ -229,7 +228,10 @@ impl Board {
         let Some(m) = ax.motion.as_mut() else {
             return Ok(());
         };
-        let (Some(src), Some(t)) = (self.pins.tracker(i), m.track.as_mut()) else {
+        let (Some(src), Some(t)) = (
+            self.pins.tracking().ok().and_then(|t| t.tracker(i)),
+            m.track.as_mut(),
+        ) else {
             return Ok(());
         };
         src.set_rate(step_rate)?;
@@ -259,7 +261,7 @@ impl Board {
         let Some(t) = m.track.as_mut() else {
             return false;
         };
-        if let Some(src) = self.pins.tracker(i) {
+        if let Some(src) = self.pins.tracking().ok().and_then(|t| t.tracker(i)) {
             // A stop is always plannable: the tracker plans it from the speed it has.
             let _ = src.set_rate(Rate::ZERO);
         }
@@ -294,9 +296,15 @@ impl Board {
             return;
         }
         let dir = m.dir;
-        let bound = self.pins.tracker(i).map_or(0, |s| s.stop_steps_bound());
+        let bound = self
+            .pins
+            .tracking()
+            .ok()
+            .and_then(|t| t.tracker(i))
+            .map_or(0, |s| s.stop_steps_bound());
         // a board's stream is coded ahead of its count: the stop begins after that
-        let bound = bound.saturating_add(self.pins.steps_ahead(i));
+        let ahead = self.pins.tracking().map_or(0, |t| t.steps_ahead(i));
+        let bound = bound.saturating_add(ahead);
         if self
             .room(i, dir)
             .is_some_and(|room| room <= bound.min(i64::MAX as u64) as i64)

@@ -406,7 +406,7 @@ mod tests {
     use super::super::model::{Model, ModelPort};
     use super::super::{Opener, Port};
     use super::*;
-    use crate::backend::BoardBackend;
+    use crate::backend::{BoardBackend, SyncLine};
     use std::sync::{Arc, Mutex};
 
     const TOKEN: u32 = 0x5EED_0001;

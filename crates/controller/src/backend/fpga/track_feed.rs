@@ -65,8 +65,8 @@ fn connect() -> (FpgaBackend, Arc<Mutex<Model>>) {
             out: Vec::new(),
         }) as Box<dyn Port>)
     });
-    let b = FpgaBackend::with_opener("model".into(), open, 2).expect("the model answers");
-    assert!(b.can_track(), "the model has replay units");
+    let mut b = FpgaBackend::with_opener("model".into(), open, 2).expect("the model answers");
+    assert!(b.tracking().is_ok(), "the model has replay units");
     (b, m)
 }
 
