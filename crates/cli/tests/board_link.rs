@@ -114,8 +114,21 @@ impl Server {
 
     /// With `MULTISTEP_LINK_STATS` set and stderr into `log`, when given.
     fn start_logged(data: &Path, config: &Path, link: Option<&str>, log: Option<&Path>) -> Server {
+        Server::start_with(data, config, link, log, &[])
+    }
+
+    /// As [`Server::start_logged`], with `extra` arguments to `serve`.
+    fn start_with(
+        data: &Path,
+        config: &Path,
+        link: Option<&str>,
+        log: Option<&Path>,
+        extra: &[&str],
+    ) -> Server {
         let mut cmd = Command::new(BIN);
-        cmd.args(["serve", "--listen", "127.0.0.1:0", "--data"])
+        cmd.args(["serve", "--listen", "127.0.0.1:0"])
+            .args(extra)
+            .arg("--data")
             .arg(data)
             .arg("--board-config")
             .arg(config)
@@ -218,19 +231,33 @@ impl Rig {
     /// As [`Rig::on_board`]; `stats`: the service writes its link statistics and other
     /// diagnostics to `serve.log` in the rig's directory.
     fn on_board_logged(pins: Pins, text: &str, board: &str, baud: u32, stats: bool) -> Rig {
+        Rig::on_board_with(pins, text, (board, 2), baud, stats, &[])
+    }
+
+    /// As [`Rig::on_board_logged`], with board-sim's `(board, axes)` and `extra`
+    /// arguments to `serve` (the rig checks the first two axes).
+    fn on_board_with(
+        pins: Pins,
+        text: &str,
+        (board, axes): (&str, usize),
+        baud: u32,
+        stats: bool,
+        extra: &[&str],
+    ) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
         let edges = dir.path().join("edges.log");
         let board =
-            (pins == Pins::Hil).then(|| BoardSim::start_board(board, baud, 2, &config, &edges));
+            (pins == Pins::Hil).then(|| BoardSim::start_board(board, baud, axes, &config, &edges));
         let link = board.as_ref().map(|b| b.link.clone());
         let log = stats.then(|| dir.path().join("serve.log"));
-        let server = Server::start_logged(
+        let server = Server::start_with(
             &dir.path().join("data"),
             &config,
             link.as_deref(),
             log.as_deref(),
+            extra,
         );
         let client = Client::connect(&Endpoint::Tcp(server.addr.clone())).unwrap();
         Rig {
@@ -1621,7 +1648,8 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
 }
 
 /// `estop` under load on the board (a benchmark, docs/BENCHMARKS.md; run with
-/// `--ignored`): 8 clients poll `status` without pause while X and Y run a streamed group
+/// `--ignored`): 32 line clients poll `status` without pause and 12 web clients preview a
+/// long group of Z and U (`POST /api/preview`) without pause while X and Y run a streamed group
 /// (scurve4, about 33 000 steps/s each at cruise). Each trial, in the cruise, reads
 /// board-sim's cycle, sends `estop` on a connection of its own and times the answer;
 /// board-sim's record of the ENABLE fall (the e-stop drops ENABLE a clock after it
@@ -1636,10 +1664,69 @@ fn estop_under_load_on_the_board_with_a_streamed_group() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
-    let mut r = Rig::with_config(Pins::Hil, &fast_config());
+    // a free port for the web page (taken back at once; serve binds it next)
+    let web = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .to_string();
+    // X and Y run the streamed group, Z and U are previewed (a preview of a moving axis
+    // is refused at once)
+    let axis = |n: &str| format!("[[axis]]\nname = \"{n}\"{AXIS}");
+    let four = format!(
+        "{CONFIG}{}{}{}{}",
+        axis("X"),
+        axis("Y"),
+        axis("Z"),
+        axis("U")
+    )
+    .replace(
+        "vmax = 4000.0\namax = 40000.0\n",
+        "vmax = 1000000.0\namax = 1000000000.0\n",
+    );
+    let mut r = Rig::on_board_with(
+        Pins::Hil,
+        &four,
+        ("ulx3s-25f", 4),
+        3_000_000,
+        false,
+        &["--http", &web],
+    );
     let quit = Arc::new(AtomicBool::new(false));
-    let polls = Arc::new(AtomicU64::new(0));
-    let pollers: Vec<_> = (0..8)
+    let (polls, previews) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    // previews not made, by the answer's status and error code
+    let refused = Arc::new(std::sync::Mutex::new(std::collections::BTreeMap::new()));
+    let previewers: Vec<_> = (0..12)
+        .map(|_| {
+            let (quit, previews, refused, web) =
+                (quit.clone(), previews.clone(), refused.clone(), web.clone());
+            std::thread::spawn(move || {
+                let body = r#"{"board":0,"line":"group move Z=200000 U=-150000 profile=scurve4 accel=0.2 cruise=0.4 decel=0.2"}"#;
+                let req = format!(
+                    "POST /api/preview HTTP/1.1\r\nHost: {web}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+                    body.len()
+                );
+                while !quit.load(Ordering::Relaxed) {
+                    use std::io::Read;
+                    let mut s = std::net::TcpStream::connect(&web).unwrap();
+                    s.write_all(req.as_bytes()).unwrap();
+                    let mut out = String::new();
+                    s.read_to_string(&mut out).unwrap();
+                    if out.starts_with("HTTP/1.1 200") && out.contains("\"ok\":true") {
+                        previews.fetch_add(1, Ordering::Relaxed);
+                    } else {
+                        let body = out.split_once("\r\n\r\n").map_or("", |b| b.1);
+                        let code = serde_json::from_str::<serde_json::Value>(body)
+                            .ok()
+                            .and_then(|v| v["error"]["code"].as_u64());
+                        let key = format!("HTTP {} error:{code:?}", &out[9..12.min(out.len())]);
+                        *refused.lock().unwrap().entry(key).or_insert(0u64) += 1;
+                    }
+                }
+            })
+        })
+        .collect();
+    let pollers: Vec<_> = (0..32)
         .map(|_| {
             let (quit, polls) = (quit.clone(), polls.clone());
             let mut c = Client::connect(&Endpoint::Tcp(r.server.addr.clone())).unwrap();
@@ -1710,13 +1797,15 @@ fn estop_under_load_on_the_board_with_a_streamed_group() {
         .unwrap()
         - started.1["seconds"].as_f64().unwrap();
     quit.store(true, Ordering::Relaxed);
-    for p in pollers {
+    for p in pollers.into_iter().chain(previewers) {
         p.join().unwrap();
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     eprintln!(
-        "{trials} trials in {wall:.1} s wall, {sim:.2} s simulated; {} status replies; loadavg {}",
+        "{trials} trials in {wall:.1} s wall, {sim:.2} s simulated; {} status replies, {} previews, not made: {:?}; loadavg {}",
         polls.load(Ordering::Relaxed),
+        previews.load(Ordering::Relaxed),
+        refused.lock().unwrap(),
         load.trim()
     );
     for (name, unit, v) in [
