@@ -326,6 +326,31 @@ mod tests {
         );
     }
 
+    /// A reply that lost a byte on the wire runs into the next one: the decoder reports
+    /// the damaged candidate and finds the next reply from the byte after its sync byte,
+    /// never skipping a whole frame's length (which would swallow the next reply's start).
+    #[test]
+    fn a_reply_short_of_a_byte_does_not_hide_the_next() {
+        let a = Reply {
+            seq: 1,
+            status: Status::Ok,
+            data: 0x0102_0304,
+        };
+        let b = Reply {
+            seq: 2,
+            status: Status::Ok,
+            data: 0x0506_0708,
+        };
+        for lost in 1..REPLY_LEN {
+            let mut stream: Vec<u8> = a.encode().to_vec();
+            stream.remove(lost);
+            stream.extend_from_slice(&b.encode());
+            let got = ReplyDecoder::new().push(&stream);
+            assert!(got[0].is_err(), "byte {lost} lost: {got:?}");
+            assert_eq!(got.last(), Some(&Ok(b)), "byte {lost} lost: {got:?}");
+        }
+    }
+
     #[test]
     fn every_single_bit_error_is_caught() {
         let f = Reply {
