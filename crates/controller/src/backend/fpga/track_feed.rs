@@ -204,3 +204,18 @@ fn a_tracking_stream_at_rest_is_closed_at_its_last_coded_step() {
     let written = m.lock().unwrap().stream_steps[0].clone();
     assert!(written.ends_with(&[u32::MAX, 40]), "{written:?}");
 }
+
+/// A tracking stream's code runs ahead of the board's count: a stop asked for now makes
+/// those steps before its ramp, so `steps_ahead` counts at least them (a stop for a soft
+/// limit begins that much earlier).
+#[test]
+fn a_tracking_streams_lead_counts_as_steps_ahead() {
+    let (mut b, _m) = connect();
+    b.start_source(0, tracker(20_000, 200_000.0), 1, 0).unwrap();
+    events(&mut b, 1);
+    let coded = b.axes[0].feed.as_ref().unwrap().coded();
+    assert!(coded > 0, "the stream was fed");
+    let ahead = b.tracking().unwrap().steps_ahead(0);
+    assert!(ahead >= coded, "{ahead} steps ahead, {coded} coded");
+    assert_eq!(b.tracking().unwrap().steps_ahead(1), 0, "an idle axis");
+}
