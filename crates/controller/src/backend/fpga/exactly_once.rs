@@ -135,3 +135,21 @@ fn a_start_whose_outcome_stays_unknown_untrusts_its_axes() {
         "{ev:?}"
     );
 }
+
+/// `estop` latches the board's e-stop (its `Estop` register written 1) and `reset`
+/// clears it; a running axis is not moving afterwards.
+#[test]
+fn estop_latches_the_boards_estop_and_reset_clears_it() {
+    let (mut b, m) = connect();
+    m.lock().unwrap().steps = 300;
+    let l = launch(&b, 0, 300);
+    start(&mut b, l).unwrap();
+    b.estop(1);
+    assert!(
+        m.lock().unwrap().estop_latched,
+        "the board's e-stop latched"
+    );
+    assert_eq!(m.lock().unwrap().busy, 0, "the board halted");
+    b.clear_estop().unwrap();
+    assert!(!m.lock().unwrap().estop_latched, "cleared by reset");
+}

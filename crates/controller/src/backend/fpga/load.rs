@@ -305,3 +305,29 @@ pub(super) fn check_streamable(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::model::connect;
+
+    /// The Hall stop ramp from `v` at `amax` covers at least the distance a stop at amax
+    /// needs, v²/(2·amax), and less than a step more, so it never decelerates harder than
+    /// amax.
+    #[test]
+    fn the_hall_stop_ramp_never_decelerates_harder_than_amax() {
+        let (b, _m) = connect();
+        for (v, amax) in [
+            (1000.0, 3000.0),
+            (4000.0, 40_000.0),
+            (283.0, 40_000.0),
+            (7.0, 2.0),
+        ] {
+            let (_, steps) = b.stop_ramp(v, amax).unwrap();
+            let need = v * v / (2.0 * amax);
+            assert!(
+                steps as f64 >= need && (steps as f64) < need.max(1.0) + 1.0,
+                "from {v} at {amax}: {steps} steps, {need} needed"
+            );
+        }
+    }
+}

@@ -37,6 +37,8 @@ pub struct Model {
     /// The e-stop input is active / the e-stop is latched (`Status` bits 1 and 0).
     pub estop_input: bool,
     pub estop_latched: bool,
+    /// The free-running count `Ticks` reads.
+    pub ticks: u32,
     /// The `StreamSteps` written to each axis, in order.
     pub stream_steps: [Vec<u32>; 2],
     last: Option<(Vec<u8>, Reply)>,
@@ -89,6 +91,7 @@ impl Model {
             (0x03, false) => (Status::Ok, 50_000_000),
             (0x04, false) => (Status::Ok, 3_000_000),
             (0x05, false) => (Status::Ok, self.session),
+            (0x1A, false) => (Status::Ok, self.ticks),
             (0x05, true) => {
                 self.session = r.data;
                 (Status::Ok, 0)
@@ -127,7 +130,17 @@ impl Model {
                 self.enable = r.data;
                 (Status::Ok, 0)
             }
-            (0x08 | 0x0D | 0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
+            // the e-stop: 1 latches it and halts every axis; 0 clears it unless the input
+            // is active
+            (0x08, true) if r.data == 0 && self.estop_input => (Status::Estop, 0),
+            (0x08, true) => {
+                self.estop_latched = r.data != 0;
+                if self.estop_latched {
+                    self.busy = 0;
+                }
+                (Status::Ok, 0)
+            }
+            (0x0D | 0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
             (0x1000..=0x1FFF, true) => (Status::Ok, 0),
             (0x2000..=0x201F, false) if ar == 0 => {
                 let busy = self.busy >> a & 1 == 1;
