@@ -245,6 +245,14 @@ pub trait BoardBackend: Send {
     fn adopted(&self) -> bool {
         false
     }
+    /// Reads the board's free-running tick counter stamped with host time before and
+    /// after (`crate::clock_rate`), and whether the counter may have restarted since the
+    /// last reading (the board lost its state). `None`: nothing to read (a simulated
+    /// board's time is the controller's; a board built without the register) or the link
+    /// failed.
+    fn tick_reading(&mut self) -> Option<(crate::clock_rate::Reading, bool)> {
+        None
+    }
     /// The direction of a motion the adopted board was running at start-up.
     fn adopted_motion(&self, _axis: usize) -> Option<i64> {
         None

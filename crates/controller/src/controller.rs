@@ -468,10 +468,15 @@ impl Controller {
                     while !quit.load(Ordering::Relaxed) {
                         std::thread::sleep(Duration::from_millis(1));
                         let mut b = shared.lock();
-                        if crystal.is_some() && read.is_none_or(|r| r.elapsed() >= read_every) {
+                        if read.is_none_or(|r| r.elapsed() >= read_every) {
                             read = Some(Instant::now());
-                            // in order, each once: the fit cannot refuse it
-                            let _ = b.clock_reading(clock.reading(time_scale));
+                            if crystal.is_some() {
+                                // in order, each once: the fit cannot refuse it
+                                let _ = b.clock_reading(clock.reading(time_scale));
+                            } else if b.has_link() {
+                                // an FPGA board's own count, stamped with host time
+                                b.read_clock();
+                            }
                         }
                         if b.needs_polling() {
                             b.advance(clock.now());

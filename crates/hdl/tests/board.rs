@@ -710,6 +710,33 @@ fn the_session_is_the_hosts_token_until_a_reset() {
     );
 }
 
+/// `Ticks` reads the free-running count (what the host fits the board's crystal
+/// against): two reads 200 000 clocks apart differ by that plus the frames between them
+/// (a reply and a request at 3 Mbaud, under 5 000 clocks); a reset does not restart it.
+#[test]
+fn ticks_reads_the_free_running_count_through_a_reset() {
+    let name = "board-ticks";
+    let b = board(params(1), 3_000_000);
+    let mut h = Host::new();
+    let t1 = h.read(Reg::Board(BoardReg::Ticks));
+    h.s.sync().wait(200_000);
+    let t2 = h.read(Reg::Board(BoardReg::Ticks));
+    h.s.sync().reset_n(false).wait(3).reset_n(true).wait(333);
+    let t3 = h.read(Reg::Board(BoardReg::Ticks));
+    h.s.sync();
+    let (_, rep) = h.run(&b, name, 2_000_000);
+    let v = |i: usize| {
+        assert_eq!(rep[i].status, Status::Ok, "{name}");
+        rep[i].data
+    };
+    let (a, b2, c) = (v(t1), v(t2), v(t3));
+    assert!(
+        (200_000..205_000).contains(&(b2 - a)),
+        "{name}: {a} then {b2} after 200 000 clocks"
+    );
+    assert!(c > b2, "{name}: {c} after the reset, {b2} before");
+}
+
 /// A frame sent again as it was (a host that lost its reply) is answered from the reply
 /// the board kept and not executed again: the retransmitted `Start` answers ok (executed
 /// again it would be refused busy) and the group starts once; the same write under the

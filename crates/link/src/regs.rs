@@ -71,6 +71,9 @@ pub enum BoardReg {
     /// after its `Arm` write, 0 (the reset value) for no bound. Past it the group is cut
     /// (its axes halted, never started) and `Status` bit 7 is set until the next `Arm`.
     ArmTimeout = 0x19,
+    /// R: the free-running clock count (never reset; wraps at 2^32): the host stamps its
+    /// reads with its own clock and fits the board's crystal against it.
+    Ticks = 0x1A,
 }
 
 /// Axis registers (`0x2000 | axis << 4 | r`).

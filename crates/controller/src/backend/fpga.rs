@@ -19,6 +19,7 @@ mod stream;
 
 use super::{BoardBackend, Launch, LinkState, PinEvent, SyncLine, SyncState, Tracking};
 use crate::axis::AxisSettings;
+use crate::clock_rate::Reading;
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
 use crate::motion::{EdgeSource, StepSource};
@@ -40,6 +41,7 @@ use std::time::{Duration, Instant};
 mod readback;
 mod session;
 mod sync;
+mod ticks;
 use crate::store::LinkSession;
 pub use session::{SessionKeeper, ARM_LIFETIME};
 
@@ -130,6 +132,10 @@ pub struct FpgaBackend {
     /// adopted board's: once its session can be kept), and a fold under way.
     fold_due: u32,
     folding: Option<crate::store::Fold>,
+    /// The board's count read against host time (ticks.rs).
+    ticks: ticks::TickReader,
+    /// How often the board was seen to lose its state (its session changed).
+    session_changes: u64,
 }
 
 fn link_err(e: LinkError) -> CtlError {
@@ -236,6 +242,8 @@ impl FpgaBackend {
             urgent: None,
             fold_due: 0,
             folding: None,
+            ticks: ticks::TickReader::new(),
+            session_changes: 0,
         };
         if let Some(before) = &before {
             b.resume(before).map_err(link_err)?;
@@ -752,6 +760,10 @@ impl BoardBackend for FpgaBackend {
     fn adopted(&self) -> bool {
         self.adopted
     }
+    fn tick_reading(&mut self) -> Option<(Reading, bool)> {
+        self.read_ticks()
+    }
+
     fn adopted_motion(&self, axis: usize) -> Option<i64> {
         let r = self.axes[axis].running.as_ref()?;
         (r.end_tick == session::UNKNOWN_END).then_some(r.dir)

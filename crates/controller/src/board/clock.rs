@@ -72,6 +72,24 @@ impl Board {
         c.ppm.map(|_| c.correcting)
     }
 
+    /// Reads the board's tick counter through its backend, where it has one (an FPGA
+    /// board's `Ticks`), into the fit; a counter that may have restarted starts the fit
+    /// again. Returns the fit.
+    pub fn read_clock(&mut self) -> Option<ClockFit> {
+        let (r, restarted) = self.pins.tick_reading()?;
+        if restarted {
+            self.clock_restarted();
+        }
+        match self.clock_reading(r) {
+            Ok(fit) => fit,
+            // older than the last reading: the count went back, so it restarted
+            Err(_) => {
+                self.clock_restarted();
+                self.clock_reading(r).ok().flatten()
+            }
+        }
+    }
+
     /// The board's counter restarted (a reset board): its readings so far are forgotten.
     pub fn clock_restarted(&mut self) {
         self.clock.estimator.restart();

@@ -1,7 +1,7 @@
 // ms_regs: the board's registers behind the host link (docs/HDL.md, "Host link"). A
 // request {req_wr, req_addr, req_data} is executed in its clock; its status and read data
 // are valid in the next. A request that fails a check changes nothing.
-//   0x0000-0x0019  board registers     0x1000 | a  the core's bus word a (write only)
+//   0x0000-0x001A  board registers     0x1000 | a  the core's bus word a (write only)
 //   0x2000 | axis << 4 | r              axis registers
 // Cross-board start (SYNC = 1): Arm loads a group as Start does but holds its go until the
 // shared SYNC line falls (sync_line, synchronized); Fire pulls the line low for SP clocks.
@@ -14,6 +14,8 @@
 // A bulk write (req_bulk, req_data = its length) goes only to an axis's StreamData (r = 7):
 // its bytes went to the axis's replay unit (ms_stream) as they arrived; here it is
 // committed if it fit, and the reply's data is the free bytes left.
+// Ticks (0x1A) reads the free-running count: the host stamps its reads with its own clock
+// and fits the board's crystal against it (tracking kept to host time).
 // Session (0x05) is the host's: it writes a nonzero token after connecting; configuration
 // and every reset clear it, so a readback other than the token means the board lost its
 // state, whatever the timing.
@@ -227,6 +229,7 @@ module ms_regs #(
                 8'h17: rd = {{(32-K){1'b0}}, en_low};
                 8'h18: begin rd = CHAINS; rd_ok = (CHAINS != 0); end
                 8'h19: begin rd = arm_timeout; rd_ok = sync_en; end
+                8'h1A: rd = free;
                 default: rd_ok = 1'b0;
             endcase
             if (req_addr[11:8] != 4'h0) rd_ok = 1'b0;

@@ -159,6 +159,7 @@ impl FpgaBackend {
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         l.write(Reg::Board(BoardReg::Session), token)?;
         self.session = token;
+        self.session_changes += 1;
         self.doubt = 0;
         self.estopped = false;
         self.setup()?;
