@@ -6,10 +6,10 @@
 use crate::axis::{AxisSettings, AxisState, AxisStatus, Link, MAX_POSITION};
 use crate::backend::{BoardBackend, Launch, PinEvent};
 use crate::config::BoardConfig;
+use crate::domain::{Amount, MoveOpts};
 use crate::error::CtlError;
 use crate::hall::FilteredEdge;
 use crate::motion::StepSource;
-use crate::protocol::{Amount, MoveOpts};
 use crate::store::{AxisRecord, MountRecord, MovingMarker, NamedPosition, Store};
 use multistep_core::int::IntProfile;
 use multistep_core::tdm::TdmConfig;

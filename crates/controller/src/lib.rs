@@ -15,6 +15,7 @@ pub mod client;
 pub mod clock_rate;
 pub mod config;
 pub mod controller;
+pub mod domain;
 pub mod error;
 pub mod group;
 pub mod hall;

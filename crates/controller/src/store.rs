@@ -13,8 +13,8 @@
 //! ([`CtlError::StoreGone`]) and is never recreated in place.
 
 use crate::axis::AxisSettings;
+use crate::domain::MoveOpts;
 use crate::error::CtlError;
-use crate::protocol::MoveOpts;
 use redb::{
     Database, DatabaseError, ReadableTable, StorageBackend, StorageError, TableDefinition,
     TableHandle,

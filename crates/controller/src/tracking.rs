@@ -2,9 +2,9 @@
 //! tracking axis emits exactly the edges of `multistep plan --track` (shifted to its start
 //! tick), and the rates a command may name.
 
+use crate::domain::SignedRate;
 use crate::error::CtlError;
 use crate::motion::StepSource;
-use crate::protocol::SignedRate;
 use multistep_core::track::TrackSegment;
 use multistep_core::{EdgeGenerator, Num, Profile, Rate, TrackError, TrackLimits, Tracker};
 

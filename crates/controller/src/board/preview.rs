@@ -2,8 +2,8 @@
 //! plans through [`Board::plan_group`] too, so what is previewed is what would run.
 
 use super::{Board, Profile};
+use crate::domain::{Amount, MoveOpts};
 use crate::error::CtlError;
-use crate::protocol::{Amount, MoveOpts};
 use multistep_core::tdm::TdmConfig;
 
 /// One axis of a previewed move.

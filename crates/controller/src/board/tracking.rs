@@ -4,8 +4,8 @@
 
 use super::{Board, Purpose};
 use crate::axis::{AxisState, MAX_POSITION};
+use crate::domain::{RateArg, SignedRate, TrackOpts};
 use crate::error::CtlError;
-use crate::protocol::{RateArg, SignedRate, TrackOpts};
 use crate::tracking::{in_steps, TrackSource};
 use multistep_core::{Rate, TrackLimits};
 use std::collections::BTreeMap;

@@ -7,8 +7,8 @@ use super::rates::{
 };
 use super::{Mount, MountError, Slew, State, MAX_PULSE_MS};
 use crate::axis::AxisState;
+use crate::domain::{Amount, MoveOpts, RateArg, TrackOpts};
 use crate::error::CtlError;
-use crate::protocol::{Amount, MoveOpts, RateArg, TrackOpts};
 use crate::Controller;
 use std::time::{Duration, Instant};
 

@@ -1,7 +1,7 @@
 //! Drive rates and their conversion to an axis's exact step rate.
 
+use crate::domain::SignedRate;
 use crate::error::CtlError;
-use crate::protocol::SignedRate;
 use multistep_core::Rate;
 
 /// ASCOM DriveRates, with the values its ITelescope reference gives (arcseconds of hour
