@@ -83,8 +83,9 @@ def run_tests():
         r = subprocess.run(["cargo", "test", "-q", "-p", pkg], capture_output=True, text=True)
         if r.returncode != 0:
             log = r.stdout + r.stderr
-            failing = [l.split()[1] for l in log.splitlines()
-                       if l.startswith("test ") and l.rstrip().endswith("FAILED")]
+            # the names listed under "failures:" after the failing tests' output
+            block = log.rsplit("\nfailures:\n", 1)[-1].split("\n\n")[0]
+            failing = [l.strip() for l in block.splitlines() if l.startswith("    ")]
             if not failing and "could not compile" in log:
                 failing = ["(does not compile)"]
             return pkg, failing
