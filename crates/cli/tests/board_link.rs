@@ -1647,6 +1647,51 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
     l.write(Reg::Board(BoardReg::Stop), 1).unwrap();
 }
 
+/// The board's free-running count through the verilated build (what the host fits the
+/// crystal against, `BoardReg::Ticks`): two reads differ by the board's clock times the
+/// simulated time between them, as board-sim reports it.
+#[test]
+fn ticks_count_the_boards_clock_through_the_link() {
+    use multistep_hdl::link::BoardReg;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board.toml");
+    std::fs::write(&path, config()).unwrap();
+    let mut b = BoardSim::start_board(
+        "ulx3s-25f",
+        3_000_000,
+        2,
+        &path,
+        &dir.path().join("edges.log"),
+    );
+    let port = serialport::new(&b.pty, b.baud)
+        .timeout(Duration::from_secs(10))
+        .open()
+        .expect("the pty opens");
+    let mut l = HostLink::new(port);
+    let seconds = |b: &mut BoardSim| b.state()["seconds"].as_f64().unwrap();
+    let (t0, s0) = (
+        l.read(Reg::Board(BoardReg::Ticks)).unwrap(),
+        seconds(&mut b),
+    );
+    for _ in 0..50 {
+        l.read(Reg::Board(BoardReg::Status)).unwrap();
+    }
+    let (s1, t1) = (
+        seconds(&mut b),
+        l.read(Reg::Board(BoardReg::Ticks)).unwrap(),
+    );
+    let ticks = t1.wrapping_sub(t0) as f64;
+    // the reads themselves lie between the two `seconds`: a frame at 3 Mbaud is ~2000 clocks
+    let (lo, hi) = ((s1 - s0) * 50e6, (s1 - s0) * 50e6 + 20_000.0);
+    assert!(
+        ticks >= lo - 20_000.0 && ticks <= hi,
+        "{ticks} ticks between reads {:.0} to {:.0} clocks apart",
+        lo,
+        hi
+    );
+    assert!(ticks > 0.0);
+}
+
 /// `estop` under load on the board (a benchmark, docs/BENCHMARKS.md; run with
 /// `--ignored`): 32 line clients poll `status` without pause and 12 web clients preview a
 /// long group of Z and U (`POST /api/preview`) without pause while X and Y run a streamed group
