@@ -33,6 +33,9 @@ enum HdlCmd {
     Build(BuildArgs),
     /// List the boards `hdl build` supports
     Boards,
+    /// Where a board's logic goes: each module's own cells and instance count (yosys, no
+    /// place and route), the per-axis cost and the shared part
+    Modules(ModulesArgs),
     /// Print the link frames and register writes that load a move into a board and start it
     Regs(Box<regs::RegsArgs>),
 }
@@ -55,6 +58,21 @@ struct BuildArgs {
     /// (the ULX3S-85F's 8-axis build needs this; YoWASP's runs on one core for hours)
     #[arg(long, value_name = "EXE")]
     nextpnr: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+struct ModulesArgs {
+    /// Board name (see `multistep hdl boards`)
+    #[arg(long)]
+    board: String,
+    /// Axes (default: the board's default build)
+    #[arg(long)]
+    axes: Option<u32>,
+    /// Keep the Verilog and yosys's stat.json here (default: a temporary directory)
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
+    format: ReportFormat,
 }
 
 /// Core parameters shared by both subcommands.
@@ -219,6 +237,7 @@ pub fn run(a: &HdlArgs) -> anyhow::Result<()> {
         HdlCmd::Report(r) => report(r),
         HdlCmd::Build(b) => build(b),
         HdlCmd::Boards => boards(),
+        HdlCmd::Modules(m) => modules(m),
         HdlCmd::Regs(r) => regs::run(r),
     }
 }
@@ -240,6 +259,79 @@ fn boards() -> anyhow::Result<()> {
             b.clock_hz() / 1e6,
             format!("{}..{}", 1, b.max_axes),
             b.description
+        )?;
+    }
+    Ok(())
+}
+
+fn modules(a: &ModulesArgs) -> anyhow::Result<()> {
+    let board = Board::by_name(&a.board)?;
+    let axes = a.axes.unwrap_or(board.default_axes);
+    board.params(axes)?;
+    tools::find("yosys", "yosys")?;
+    let tmp;
+    let dir = match &a.out {
+        Some(d) => d.clone(),
+        None => {
+            tmp = tempfile::tempdir().context("temporary directory")?;
+            tmp.path().to_path_buf()
+        }
+    };
+    eprintln!(
+        "synthesizing {} axes of {} with yosys (about a minute)…",
+        axes, board.name
+    );
+    let t = multistep_hdl::modules::per_module(board, axes, &dir)?;
+    let mut out = std::io::stdout().lock();
+    match a.format {
+        ReportFormat::Json => writeln!(out, "{}", serde_json::to_string_pretty(&t)?)?,
+        ReportFormat::Table => write_modules_table(&mut out, &t)?,
+    }
+    Ok(())
+}
+
+fn write_modules_table(
+    out: &mut impl Write,
+    t: &multistep_hdl::modules::ModuleTable,
+) -> std::io::Result<()> {
+    let unit = match t.target {
+        Target::Ice40 => "SB_LUT4",
+        _ => "LUT4-eq",
+    };
+    writeln!(
+        out,
+        "{} with {} axes, yosys, modules not flattened ({unit}: own cells, submodules left out)",
+        t.board, t.axes
+    )?;
+    writeln!(
+        out,
+        "{:<16} {:>5} {:>8} {:>6} {:>7} {:>5} {:>9} {:>8} {:>7}",
+        "module", "inst", "LUT each", "FF", "LUTRAM", "BRAM", "LUT total", "FF total", "DSP"
+    )?;
+    let line = |out: &mut dyn Write,
+                name: &str,
+                n: String,
+                e: multistep_hdl::report::Resources,
+                tot: multistep_hdl::report::Resources| {
+        writeln!(
+            out,
+            "{:<16} {:>5} {:>8} {:>6} {:>7} {:>5} {:>9} {:>8} {:>7}",
+            name, n, e.lut, e.ff, e.lutram, e.bram, tot.lut, tot.ff, tot.dsp
+        )
+    };
+    for r in &t.rows {
+        line(out, &r.module, r.instances.to_string(), r.each, r.total)?;
+    }
+    let total = t.total();
+    line(out, "whole board", String::new(), total, total)?;
+    if t.axes > 1 {
+        let a = t.per_axis();
+        line(
+            out,
+            "one axis",
+            String::new(),
+            a,
+            a.times(u64::from(t.axes)),
         )?;
     }
     Ok(())

@@ -136,6 +136,23 @@ fn build_refuses_bad_boards_and_axes_before_writing() {
             vec!["hdl", "report", "--axes", "2", "--pnr", "--work", o],
             "iCE40 or ECP5",
         ),
+        (
+            vec!["hdl", "modules", "--board", "nope", "--out", o],
+            "unknown board \"nope\"",
+        ),
+        (
+            vec![
+                "hdl",
+                "modules",
+                "--board",
+                "icebreaker",
+                "--axes",
+                "5",
+                "--out",
+                o,
+            ],
+            "1..=4 axes, got 5",
+        ),
     ] {
         let r = multistep(&args);
         assert_eq!(r.status.code(), Some(2), "{args:?}");
@@ -171,4 +188,45 @@ fn build_with_a_missing_native_nextpnr_fails_before_synthesis() {
         "{err}"
     );
     assert!(!out.join("yosys.log").exists());
+}
+
+/// `hdl modules` of one iCEBreaker axis: every module of the board with its instances,
+/// the per-axis modules once each, and the sums.
+#[test]
+fn modules_lists_where_the_logic_goes() {
+    let o = multistep(&[
+        "hdl",
+        "modules",
+        "--board",
+        "icebreaker",
+        "--axes",
+        "1",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rows = t["rows"].as_array().unwrap();
+    assert_eq!(rows[0]["module"], "ms_icebreaker_top");
+    let row = |m: &str| {
+        rows.iter()
+            .find(|r| r["module"] == m)
+            .unwrap_or_else(|| panic!("no {m}"))
+    };
+    for (m, n) in [
+        ("ms_pulse", 1),
+        ("ms_fifo", 1),
+        ("ms_axis_io", 1),
+        ("ms_debounce", 2),
+        ("ms_calc", 1),
+    ] {
+        assert_eq!(row(m)["instances"], n, "{m}");
+        assert!(row(m)["each"]["lut"].as_u64().unwrap() > 0, "{m}");
+    }
+    let table = multistep(&["hdl", "modules", "--board", "icebreaker", "--axes", "1"]);
+    let text = String::from_utf8_lossy(&table.stdout);
+    assert!(
+        text.contains("whole board") && text.contains("ms_pulse"),
+        "{text}"
+    );
 }

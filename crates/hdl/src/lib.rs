@@ -8,6 +8,7 @@ pub mod boards;
 pub mod build;
 mod emit;
 mod error;
+pub mod modules;
 pub mod pnr;
 pub mod report;
 pub mod simulator;

@@ -37,6 +37,15 @@ impl Target {
         }
     }
 
+    /// The synthesis command that keeps the module hierarchy (for per-module counts).
+    pub(crate) fn synth_hierarchy(self, top: &str) -> String {
+        match self {
+            Target::Xilinx => format!("synth_xilinx -top {top}"),
+            Target::Ice40 => format!("synth_ice40 -dsp -noflatten -top {top}"),
+            Target::Ecp5 => format!("synth_ecp5 -noflatten -top {top}"),
+        }
+    }
+
     /// Adds one cell type's count to `r`.
     fn classify(self, cell: &str, n: u64, r: &mut Resources) {
         let is = |p: &[&str]| p.iter().any(|x| cell.starts_with(x));
@@ -108,6 +117,29 @@ impl Resources {
             bram: self.bram * k,
         }
     }
+
+    /// The sum of two counts.
+    pub fn plus(self, o: Resources) -> Resources {
+        Resources {
+            lut: self.lut + o.lut,
+            ff: self.ff + o.ff,
+            dsp: self.dsp + o.dsp,
+            lutram: self.lutram + o.lutram,
+            bram: self.bram + o.bram,
+        }
+    }
+
+    /// Each count divided by `n` (rounded to nearest; `n` = 0 gives zeros).
+    pub fn per(self, n: u64) -> Resources {
+        let d = |x: u64| (x + n / 2).checked_div(n).unwrap_or(0);
+        Resources {
+            lut: d(self.lut),
+            ff: d(self.ff),
+            dsp: d(self.dsp),
+            lutram: d(self.lutram),
+            bram: d(self.bram),
+        }
+    }
 }
 
 /// One row of the sweep: the TDM core and K independent cores for K axes.
@@ -151,6 +183,14 @@ pub fn parse_stat(json: &str, target: Target) -> Result<Resources, HdlError> {
         .and_then(|d| d.get("num_cells_by_type"))
         .and_then(|c| c.as_object())
         .ok_or_else(|| bad("no design.num_cells_by_type"))?;
+    Ok(parse_cells(cells, target))
+}
+
+/// Sums a `num_cells_by_type` object for `target`.
+pub(crate) fn parse_cells(
+    cells: &serde_json::Map<String, serde_json::Value>,
+    target: Target,
+) -> Resources {
     let counts: BTreeMap<&str, u64> = cells
         .iter()
         .filter_map(|(k, n)| n.as_u64().map(|n| (k.as_str(), n)))
@@ -159,7 +199,7 @@ pub fn parse_stat(json: &str, target: Target) -> Result<Resources, HdlError> {
     for (cell, n) in counts {
         target.classify(cell, n, &mut r);
     }
-    Ok(r)
+    r
 }
 
 /// Synthesizes `design` with yosys in `dir` and counts its cells.

@@ -50,6 +50,14 @@ const AXIS_IO: Props = Props {
 };
 const AXIS_IO_DEPTH: u32 = 12;
 
+/// Hall and limit filter: W = 3, filter times up to 7 clocks; 20 clocks hold a reset, a
+/// glitch one clock short of the longest filter and an accepted change after it.
+const DEBOUNCE: Props = Props {
+    top: "debounce_props",
+    rtl: &["rtl/board/ms_debounce.v"],
+};
+const DEBOUNCE_DEPTH: u32 = 20;
+
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
 enum Verdict {
@@ -171,11 +179,19 @@ fn axis_pin_estop_and_fixed_width_are_proven_by_induction() {
 }
 
 #[test]
+fn debounce_accepts_exactly_after_the_filter_time_proven_by_induction() {
+    holds(&DEBOUNCE, Mode::Bmc(DEBOUNCE_DEPTH));
+    holds(&DEBOUNCE, Mode::Induction(DEBOUNCE_DEPTH));
+    holds(&DEBOUNCE, Mode::Cover(DEBOUNCE_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
         (&PULSE, PULSE_DEPTH),
         (&AXIS_IO, AXIS_IO_DEPTH),
+        (&DEBOUNCE, DEBOUNCE_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {
