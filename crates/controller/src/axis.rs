@@ -556,7 +556,8 @@ pub struct AxisStatus {
     /// (ppm), once it has; the same on every axis of the board.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clock_ppm: Option<f64>,
-    /// Tracking rates are corrected by `clock_ppm`: they follow host time.
+    /// Tracking rates and phase-time moves are corrected by `clock_ppm`: they follow host
+    /// time.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clock_fix: Option<bool>,
     /// The driver is energized.

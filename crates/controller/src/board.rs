@@ -491,4 +491,65 @@ mod tests {
         // an odd period has no tie
         assert_eq!((shortest(3, 7), shortest(4, 7)), (3, -3));
     }
+
+    /// On a board fitted 37 ppm fast, a move with phase times (not whole ticks) is
+    /// planned in the board's seconds and whole ticks, so the board's integer planner
+    /// takes it, and its last edge is the host time's on that crystal, to a tick.
+    #[test]
+    fn phase_times_on_a_fitted_board_are_whole_board_ticks() {
+        use crate::clock_rate::Reading;
+        use crate::config::{AxisConfig, BoardConfig, BoardSection};
+        use crate::domain::MoveOpts;
+        use crate::store::Store;
+        let dir = tempfile::tempdir().unwrap();
+        let c = BoardConfig {
+            board: BoardSection {
+                name: "b".into(),
+                clock_hz: 50e6,
+                fifo_depth: 4,
+                link: None,
+                sync_line: None,
+            },
+            axes: vec![AxisConfig {
+                name: "x".into(),
+                settings: crate::AxisSettings::default(),
+            }],
+            alpaca: None,
+        };
+        let mut b = super::Board::open(&c, Store::open(dir.path()).unwrap()).unwrap();
+        let ppm = 37.0;
+        for k in 0..80u64 {
+            let ns = k * 1_000_000_000;
+            let tick = (ns as f64 * 50e6 * (1.0 + ppm * 1e-6) / 1e9) as u64;
+            let r = Reading {
+                sent_ns: ns,
+                recv_ns: ns + 1_000,
+                tick,
+            };
+            b.clock_reading(r).unwrap();
+        }
+        assert!(b.clock_state().correcting, "{:?}", b.clock_state());
+        let mut o = MoveOpts::default();
+        (
+            o.params.accel_time,
+            o.params.cruise_time,
+            o.params.decel_time,
+        ) = (Some(0.123_456_789), Some(0.5), Some(0.2));
+        o.profile = Some("trapezoid".into());
+        let spec = b.spec(0, 3_000, &o);
+        let ip = multistep_link::writes::int_profile(&spec.resolve().unwrap(), 50_000_000)
+            .expect("whole ticks for the integer planner");
+        let f = 1.0 + b.clock_state().applied_ppm * 1e-6;
+        let host_s = 0.123_456_789 + 0.5 + 0.2;
+        let want = host_s * 50e6 * f;
+        let last = ip.end_tick() as f64;
+        assert!((last - want).abs() <= 2.0, "{last} ticks, want {want}");
+        // and the float plan is the same move
+        let p = spec.plan_on_clock(50e6).unwrap();
+        assert!(
+            (p.duration() * 50e6 - last).abs() < 1e-6,
+            "{}",
+            p.duration()
+        );
+    }
 }

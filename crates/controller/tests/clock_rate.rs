@@ -106,6 +106,17 @@ impl Sim {
     }
 }
 
+/// Readings of every board's counter every 10 s of host time from 0 until `end`.
+fn read_until(boards: &mut [Sim], end: u64) {
+    let mut t = 0;
+    while t < end {
+        for b in boards.iter_mut() {
+            b.read(t);
+        }
+        t += 10 * S;
+    }
+}
+
 /// The reference: the exact tracker on host time from `start_ns`; `count(t)` is its edges
 /// up to host time `t`, `edge(n)` the host time of step `n` (ns, fractional).
 struct Ideal {
@@ -168,14 +179,8 @@ fn a_day_on_two_boards_50_ppm_apart_follows_host_time() {
     let mut boards = [Sim::new(50, 1), Sim::new(-50, 2)];
     let start = 600 * S;
     let day = 24 * 3600 * S;
-    let mut t = 0;
     // ten minutes of readings before tracking starts
-    while t < start {
-        for b in &mut boards {
-            b.read(t);
-        }
-        t += 10 * S;
-    }
+    read_until(&mut boards, start);
     for b in &mut boards {
         let fit = b.board.clock_state();
         let ppm = fit.ppm.unwrap();
@@ -345,4 +350,146 @@ fn a_simulated_board_with_a_crystal_error_is_fitted() {
     let ppm = s.clock_ppm.unwrap();
     assert!((ppm - 200.0).abs() < 0.01, "{ppm}");
     assert_eq!(s.clock_fix, Some(true));
+}
+
+/// Host nanoseconds of `ticks` board ticks on a crystal `ppm` off.
+fn host_ns(ticks: u64, ppm: i64) -> f64 {
+    ticks as f64 * S as f64 * 1e6 / (F as f64 * (1e6 + ppm as f64))
+}
+
+/// Moves with phase times follow host time too: on the two boards 50 ppm fast and slow, a
+/// 2/6/2 s move and a sync group of two axes given those times last them but for the fit's
+/// error (a few tenths of a ppm: microseconds in 10 s, where the crystals alone put them
+/// a millisecond apart), and pass the same positions at the same host times. A
+/// limits-mode move runs at its limits in board seconds, so it keeps the crystal's error.
+#[test]
+fn phase_time_moves_on_two_boards_50_ppm_apart_last_their_host_time() {
+    use multistep_controller::protocol::{Amount, MoveOpts};
+    use multistep_core::{MoveParams, MoveSpec};
+    let phases = MoveParams {
+        accel_time: Some(2.0),
+        cruise_time: Some(6.0),
+        decel_time: Some(2.0),
+        ..MoveParams::default()
+    };
+    let nominal = |steps: u64, params: MoveParams| {
+        let spec = MoveSpec {
+            profile: Some("trapezoid"),
+            steps: Some(steps),
+            params,
+            ..MoveSpec::default()
+        };
+        spec.plan_on_clock(F as f64).unwrap().duration() * 1e9
+    };
+    let limits = MoveParams {
+        vmax: Some(40_000.0),
+        amax: Some(AMAX),
+        ..MoveParams::default()
+    };
+    for correct in [true, false] {
+        let mut boards = [Sim::new(50, 5), Sim::new(-50, 6)];
+        for b in &mut boards {
+            b.board.set_clock_correction(correct);
+        }
+        let start = 600 * S;
+        read_until(&mut boards, start);
+        // host durations of: solar's phase-time move, the sync group (sidereal, lunar) of
+        // the same phase times, and a limits move of sidereal after it
+        let mut took: Vec<[f64; 4]> = Vec::new();
+        for b in &mut boards {
+            let now = tick(start, b.ppm);
+            let steps = |a: &str, n| (a.to_string(), Amount::Steps(n));
+            let timed = MoveOpts {
+                params: phases,
+                ..MoveOpts::default()
+            };
+            let brd = &mut b.board;
+            brd.group_move(&[steps("solar", 2_000)], false, false, &timed, now)
+                .unwrap();
+            let group = [steps("sidereal", 3_000), steps("lunar", 1_000)];
+            brd.group_move(&group, false, true, &timed, now).unwrap();
+            let s = brd.status(&[], now).unwrap();
+            let span = |name: &str| {
+                let a = s.iter().find(|a| a.axis == name).unwrap();
+                host_ns(a.move_end.unwrap() - a.move_start.unwrap(), b.ppm)
+            };
+            took.push([span("solar"), span("sidereal"), span("lunar"), 0.0]);
+        }
+        // mid-move, the same host times give the same positions (sync group, phase move)
+        for k in 1..20 {
+            let at = start + k * S / 2 + 123_457;
+            for axis in ["solar", "sidereal", "lunar"] {
+                let a = boards[0].position(axis, at);
+                let b = boards[1].position(axis, at);
+                if correct {
+                    assert!((a - b).abs() <= 1, "{axis} at {k}/2 s: {a} vs {b}");
+                }
+            }
+        }
+        // then a limits move of 20,000 steps on each, once the group is done
+        let later = start + 60 * S;
+        for (b, t) in boards.iter_mut().zip(&mut took) {
+            let now = tick(later, b.ppm);
+            let target = [("sidereal".to_string(), Amount::Steps(20_000))];
+            b.board
+                .group_move(&target, false, false, &MoveOpts::default(), now)
+                .unwrap();
+            let s = &b.board.status(&["sidereal".into()], now).unwrap()[0];
+            t[3] = host_ns(s.move_end.unwrap() - s.move_start.unwrap(), b.ppm);
+            // a sync group scaled to its axes' limits: its phases, rounded to whole ticks
+            // on the corrected clock, still keep every peak within them
+            let group = [
+                ("solar".to_string(), Amount::Steps(-2_000)),
+                ("lunar".to_string(), Amount::Steps(-1_000)),
+            ];
+            let opts = MoveOpts::default();
+            b.board.group_move(&group, false, true, &opts, now).unwrap();
+        }
+        let want_solar = nominal(2_000, phases);
+        let want_limits = nominal(20_000, limits);
+        for (j, b) in boards.iter().enumerate() {
+            let [solar, sidereal, lunar, lim] = took[j];
+            let fit = b.board.clock_state().applied_ppm - b.ppm as f64;
+            let crystal = -(b.ppm as f64) * 1e-6;
+            println!(
+                "board at {:+} ppm, correction {correct}: 2/6/2 s move {:+.3} µs, sync group \
+                 {:.6} s (axes {:+.3} µs apart), limits move {:+.3} µs from a true clock's",
+                b.ppm,
+                (solar - want_solar) / 1e3,
+                sidereal / 1e9,
+                (sidereal - lunar) / 1e3,
+                (lim - want_limits) / 1e3,
+            );
+            // a sync group's axes finish on the same tick
+            assert!((sidereal - lunar).abs() < 1.0, "{sidereal} vs {lunar}");
+            // the limits move: at its limits on the board's crystal, corrected or not
+            let off = lim - want_limits;
+            assert!(
+                (off - want_limits * crystal).abs() <= 1_000.0,
+                "limits: {off} ns"
+            );
+            let off = solar - want_solar;
+            if correct {
+                // what is left is the fit's error and the rounding to whole ticks
+                assert!(
+                    (off - want_solar * fit * 1e-6).abs() <= 100.0,
+                    "{off} ns, fit {fit}"
+                );
+                assert!(off.abs() <= want_solar * 0.5e-6, "{off} ns");
+            } else {
+                assert!((off - want_solar * crystal).abs() <= 100.0, "{off} ns");
+            }
+        }
+        // the sync groups on the two boards: the same host time with the correction,
+        // the crystals' 100 ppm apart without
+        let apart = took[1][1] - took[0][1];
+        if correct {
+            assert!(apart.abs() <= took[0][1] * 1e-6, "{apart} ns");
+        } else {
+            assert!(
+                (apart - took[0][1] * 100e-6).abs() <= took[0][1] * 1e-6,
+                "{apart} ns"
+            );
+        }
+    }
 }

@@ -1,7 +1,8 @@
-//! Tracking kept to host time on a board whose crystal is off (crate::clock_rate): the
-//! host's readings of the board's tick counter are fitted, and each tracking axis is given
-//! its rate in board ticks, `rate·10^9/(10^9 + ppb)`, again whenever the fit moves by
-//! [`RETUNE_PPB`].
+//! Tracking and moves kept to host time on a board whose crystal is off
+//! (crate::clock_rate): the host's readings of the board's tick counter are fitted, each
+//! tracking axis is given its rate in board ticks, `rate·10^9/(10^9 + ppb)`, again
+//! whenever the fit moves by [`RETUNE_PPB`], and a move's phase times are stretched to
+//! the board's seconds (`Board::spec`).
 
 use super::Board;
 use crate::clock_rate::{board_rate, ClockEstimator, ClockFit, Reading, RETUNE_PPB};
@@ -93,6 +94,12 @@ impl Board {
     /// The board's counter restarted (a reset board): its readings so far are forgotten.
     pub fn clock_restarted(&mut self) {
         self.clock.estimator.restart();
+    }
+
+    /// How many of this board's seconds one host second is (`1 + ε`), once moves are
+    /// corrected; `None` while they run on the crystal (no fit, or correction off).
+    pub(super) fn move_time_scale(&self) -> Option<f64> {
+        (self.clock.applied != 0).then_some(1.0 + self.clock.applied as f64 * 1e-9)
     }
 
     /// `rate` (steps a host second) as the tracker on this board is given it.

@@ -263,6 +263,16 @@ impl Board {
             p.jmax = p.jmax.or(s.jmax);
             p.smax = p.smax.or(s.smax);
         }
+        // On a board whose crystal is corrected, phase times are host seconds: stretched
+        // to the board's, in whole ticks (a sync group's already are, so the float plan
+        // and the board's integer plan agree). Speeds and limits stay as given: they hold
+        // in board seconds, within the crystal's error of host seconds.
+        if let Some(f) = self.move_time_scale() {
+            let whole = |t: Option<f64>| t.map(|t| (t * self.clock_hz).round() / self.clock_hz);
+            for t in [&mut p.accel_time, &mut p.cruise_time, &mut p.decel_time] {
+                *t = whole(whole(*t).map(|t| t * f));
+            }
+        }
         spec
     }
 
@@ -467,18 +477,30 @@ impl Board {
                 .spec(i, self.axes[i].motor_steps(d), &o)
                 .plan_on_clock(self.clock_hz)?)
         };
-        let mut scale: f64 = if opts.has_phase_times() { 1.0 } else { 0.0 };
+        let given = if opts.has_phase_times() { 1.0 } else { 0.0 };
+        let mut scale: f64 = given;
         for &(i, d) in plan.iter().filter(|p| p.1 != 0) {
             let (v, a) = phase(i, d, 1.0)?.peaks();
             let s = &self.axes[i].settings;
             scale = scale.max(multistep_core::time_scale(v, a, s.vmax, s.amax));
         }
+        // A scale set by a limit puts a peak on it; a corrected board's phases are then
+        // rounded to whole ticks (spec), so they are made a few ticks of the shortest
+        // longer first, and the rounding never lifts that peak above its limit.
+        let shortest = [ta, tb, tc]
+            .into_iter()
+            .filter(|&t| t > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let margin = match self.move_time_scale() {
+            Some(_) if scale > given => 1.0 + 4.0 / (self.clock_hz * shortest * scale),
+            _ => 1.0 + 1e-12,
+        };
         plan.iter()
             .map(|&(i, d)| {
                 if d == 0 {
                     return Ok(None);
                 }
-                let p = phase(i, d, scale * (1.0 + 1e-12))?;
+                let p = phase(i, d, scale * margin)?;
                 self.check_peaks(i, &p)?;
                 Ok(Some(p))
             })
