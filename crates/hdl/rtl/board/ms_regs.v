@@ -196,6 +196,18 @@ module ms_regs #(
     end
 
     wire [LB:0] ax_free = s_free[ax[LK-1:0]*(LB+1) +: LB+1];
+    // per-axis readback as arrays indexed by the axis: multiplexer trees (a run-time
+    // part-select of the K-word buses synthesized as shifters, ~300 LUT4-eq more at K = 8)
+    wire [31:0]   pos_w  [0:K-1];
+    wire [31:0]   hall_w [0:K-1];
+    wire [WD-1:0] per_w  [0:K-1];
+    generate
+        for (g = 0; g < K; g = g + 1) begin : rb
+            assign pos_w[g]  = pos[g*32 +: 32];
+            assign hall_w[g] = hall_pos[g*32 +: 32];
+            assign per_w[g]  = period[g*WD +: WD];
+        end
+    endgenerate
     // ---- read data ----
     reg [31:0] rd;
     reg        rd_ok;
@@ -238,9 +250,9 @@ module ms_regs #(
                 4'h0: rd = {19'd0, s_fault[ax[LK-1:0]], s_armed[ax[LK-1:0]], core_dir[ax[LK-1:0]], limit_lvl[ax[LK-1:0]], hall_lvl[ax[LK-1:0]],
                             hall_flag[ax[LK-1:0]], estopped[ax[LK-1:0]], stopped[ax[LK-1:0]],
                             core_underrun[ax[LK-1:0]], core_busy[ax[LK-1:0]], state_code};
-                4'h1: rd = pos[ax[LK-1:0]*32 +: 32];
-                4'h2: rd = hall_pos[ax[LK-1:0]*32 +: 32];
-                4'h3: rd = {{(32-WD){1'b0}}, period[ax[LK-1:0]*WD +: WD]};
+                4'h1: rd = pos_w[ax[LK-1:0]];
+                4'h2: rd = hall_w[ax[LK-1:0]];
+                4'h3: rd = {{(32-WD){1'b0}}, per_w[ax[LK-1:0]]};
                 4'h4: rd = {{(32-LS){1'b0}}, slot[ax[LK-1:0]]};
                 4'h5: rd = {31'd0, s_armed[ax[LK-1:0]]};
                 4'h6: rd = {{(31-LB){1'b0}}, ax_free};
