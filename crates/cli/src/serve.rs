@@ -129,12 +129,12 @@ pub fn run(a: &ServeArgs) -> anyhow::Result<()> {
     let addr = listener.local_addr().context("listening address")?;
     let _web = a.http.start(vec![ctl.clone()])?;
     let _alpaca = a.alpaca.start(&config, ctl.clone())?;
+    // opened before the announcement below, so a byte sent after it is never dropped
     if let Some(dev) = &a.serial {
+        let port = service::open_serial(dev)?;
         let (ctl, dev) = (ctl.clone(), dev.clone());
         std::thread::spawn(move || {
-            if let Err(e) = service::serve_serial_with(ctl, &dev, limits.line_timeout) {
-                eprintln!("error: {e}");
-            }
+            service::serve_serial_port(ctl, &dev, port, limits.line_timeout)
         });
     }
     // The first line tells scripts (and tests) where the board is.

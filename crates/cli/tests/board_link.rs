@@ -1600,17 +1600,17 @@ fn edges_log(r: &Rig) -> (Vec<u64>, Vec<(usize, u64)>) {
     (gos, rises)
 }
 
-/// A board busy without stepping — an axis armed for a stream with nothing in its buffer,
-/// started: its group waits for periods that never come — answers the link within a
-/// millisecond or two of simulated time, as an idle one does (board-sim hears the
-/// host every 100 µs of simulated time however far the board runs between events).
-#[test]
-fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
-    use multistep_hdl::link::BoardReg;
+/// A two-axis ULX3S board-sim of [`config`] and a host link to it over its pty (the
+/// directory holds its files).
+fn board_and_link() -> (
+    tempfile::TempDir,
+    BoardSim,
+    HostLink<Box<dyn serialport::SerialPort>>,
+) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("board.toml");
     std::fs::write(&path, config()).unwrap();
-    let mut b = BoardSim::start_board(
+    let b = BoardSim::start_board(
         "ulx3s-25f",
         3_000_000,
         2,
@@ -1621,7 +1621,17 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
         .timeout(Duration::from_secs(10))
         .open()
         .expect("the pty opens");
-    let mut l = HostLink::new(port);
+    (dir, b, HostLink::new(port))
+}
+
+/// A board busy without stepping — an axis armed for a stream with nothing in its buffer,
+/// started: its group waits for periods that never come — answers the link within a
+/// millisecond or two of simulated time, as an idle one does (board-sim hears the
+/// host every 100 µs of simulated time however far the board runs between events).
+#[test]
+fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
+    use multistep_hdl::link::BoardReg;
+    let (_dir, mut b, mut l) = board_and_link();
     l.write(Reg::Axis(0, AxisReg::StreamSteps), 1).unwrap();
     l.write(Reg::Board(BoardReg::Start), 1).unwrap();
     let busy = |l: &mut HostLink<_>| {
@@ -1653,21 +1663,7 @@ fn a_board_busy_without_stepping_answers_the_link_within_milliseconds() {
 #[test]
 fn ticks_count_the_boards_clock_through_the_link() {
     use multistep_hdl::link::BoardReg;
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("board.toml");
-    std::fs::write(&path, config()).unwrap();
-    let mut b = BoardSim::start_board(
-        "ulx3s-25f",
-        3_000_000,
-        2,
-        &path,
-        &dir.path().join("edges.log"),
-    );
-    let port = serialport::new(&b.pty, b.baud)
-        .timeout(Duration::from_secs(10))
-        .open()
-        .expect("the pty opens");
-    let mut l = HostLink::new(port);
+    let (_dir, mut b, mut l) = board_and_link();
     let seconds = |b: &mut BoardSim| b.state()["seconds"].as_f64().unwrap();
     let (t0, s0) = (
         l.read(Reg::Board(BoardReg::Ticks)).unwrap(),

@@ -463,8 +463,7 @@ fn the_protocol_runs_over_a_serial_pseudo_terminal() {
         }
         got
     };
-    // The service opens the device just after it starts listening.
-    std::thread::sleep(Duration::from_millis(300));
+    // `serve` opens the device before it announces that it listens.
     master.write_all(b"version\n").unwrap();
     let got = read_until(&mut master, "ok\n");
     assert!(got.contains("multistep-controller"), "{got:?}");
@@ -509,8 +508,8 @@ fn ctl_talks_to_a_board_over_a_serial_line() {
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let cable = null_modem(board_m, host_m, stop.clone());
     let dir = tempfile::tempdir().unwrap();
+    // the device is open once `serve` announces itself
     let _srv = Server::start(dir.path(), None, 20.0, &["--serial", &board_dev]);
-    std::thread::sleep(Duration::from_millis(300));
     let boards = [format!("s=serial:{host_dev}")];
     let ctl = |args: &[&str]| run_ctl(&boards, args);
     let (code, out, err) = ctl(&["move", "Y", "-250"]);
@@ -746,14 +745,32 @@ impl Pty {
 
     /// Reads until `want` and a newline have come (30 s at most).
     fn read_until(&mut self, want: &str) -> String {
+        self.read_within(want, Duration::from_secs(30))
+            .unwrap_or_else(|got| panic!("no '{want}': {got:?}"))
+    }
+
+    /// Waits until the service has the device open: `version` sent again until answered
+    /// (a line sent before the service opens the device is dropped by the open).
+    fn wait_served(&mut self) {
+        let t0 = Instant::now();
+        loop {
+            self.master.write_all(b"version\n").unwrap();
+            if self.read_within("ok\n", Duration::from_millis(300)).is_ok() {
+                return;
+            }
+            assert!(t0.elapsed() < Duration::from_secs(30), "never served");
+        }
+    }
+
+    /// What came until `want` and a newline, or what came within `limit` without them.
+    fn read_within(&mut self, want: &str, limit: Duration) -> Result<String, String> {
         use std::os::fd::AsRawFd;
         let mut got = String::new();
         let t0 = Instant::now();
         while !(got.contains(want) && got.ends_with('\n')) {
-            assert!(
-                t0.elapsed() < Duration::from_secs(30),
-                "no '{want}': {got:?}"
-            );
+            if t0.elapsed() > limit {
+                return Err(got);
+            }
             let mut p = libc::pollfd {
                 fd: self.master.as_raw_fd(),
                 events: libc::POLLIN,
@@ -767,7 +784,7 @@ impl Pty {
                 }
             }
         }
-        got
+        Ok(got)
     }
 }
 
@@ -786,7 +803,7 @@ fn a_paused_partial_serial_line_is_dropped_and_a_hang_up_drops_it_too() {
         10.0,
         &["--serial", &link_s, "--line-timeout", "1"],
     );
-    std::thread::sleep(Duration::from_millis(300));
+    // `serve` announced itself with the device open
     pty.master.write_all(b"version\n").unwrap();
     pty.read_until("ok\n");
     // A host that sent half a line, went away and came back: the pause drops the half.
@@ -802,7 +819,7 @@ fn a_paused_partial_serial_line_is_dropped_and_a_hang_up_drops_it_too() {
     std::fs::remove_file(&link).unwrap();
     let mut pty = Pty::open();
     std::os::unix::fs::symlink(&pty.slave, &link).unwrap();
-    std::thread::sleep(Duration::from_millis(500));
+    pty.wait_served();
     pty.master.write_all(b"0\n").unwrap();
     let got = pty.read_until("error:");
     assert!(got.starts_with("error:3 unknown command '0'"), "{got:?}");

@@ -309,7 +309,8 @@ pub fn serve_serial(ctl: Arc<Controller>, device: &str) -> Result<(), CtlError> 
     serve_serial_with(ctl, device, Limits::default().line_timeout)
 }
 
-fn open_serial(device: &str) -> Result<Box<dyn serialport::SerialPort>, CtlError> {
+/// Opens a serial device for [`serve_serial_port`] (115200 8N1).
+pub fn open_serial(device: &str) -> Result<Box<dyn serialport::SerialPort>, CtlError> {
     serialport::new(device, 115_200)
         .timeout(Duration::from_millis(200))
         .open()
@@ -324,7 +325,19 @@ pub fn serve_serial_with(
     device: &str,
     line_timeout: Duration,
 ) -> Result<(), CtlError> {
-    let mut port = open_serial(device)?;
+    let port = open_serial(device)?;
+    serve_serial_port(ctl, device, port, line_timeout)
+}
+
+/// [`serve_serial_with`] on a device already opened ([`open_serial`]): a caller that opens
+/// it before it announces itself loses no byte sent after the announcement (opening a
+/// device drops what it has buffered).
+pub fn serve_serial_port(
+    ctl: Arc<Controller>,
+    device: &str,
+    mut port: Box<dyn serialport::SerialPort>,
+    line_timeout: Duration,
+) -> ! {
     let mut log = RateLimitedLog::new(Duration::from_secs(10));
     loop {
         match serial_session(&ctl, port, line_timeout) {
