@@ -125,9 +125,25 @@ pub trait Tracking {
     fn watch_steps(&mut self, axis: usize, on: bool);
 }
 
+/// Simulated mechanics behind the axes: where they are, and steps they lose that the
+/// count does not see (`sim slip`).
+pub trait Simulation {
+    /// Where the simulated mechanics of `axis` are.
+    fn sim_position(&self, axis: usize) -> i64;
+    /// The mechanics lose `steps` the count does not see.
+    fn slip(&mut self, axis: usize, steps: i64) -> Result<(), CtlError>;
+}
+
+/// Where the mechanics of `axis` are: the simulation's, else the count.
+pub fn mechanics(b: &dyn BoardBackend, axis: usize) -> i64 {
+    b.simulation()
+        .map_or_else(|| b.count(axis), |s| s.sim_position(axis))
+}
+
 /// The pins of one board. Time is the board tick `now` the controller passes in.
 /// What only some boards have is a capability behind an accessor: the SYNC line
-/// ([`BoardBackend::sync_line`]) and tracking ([`BoardBackend::tracking`]).
+/// ([`BoardBackend::sync_line`]), tracking ([`BoardBackend::tracking`]) and simulated
+/// mechanics ([`BoardBackend::simulation`]).
 pub trait BoardBackend: Send {
     /// "simulated" or the link, e.g. "serial:/dev/ttyUSB0@3000000".
     fn describe(&self) -> String;
@@ -208,12 +224,12 @@ pub trait BoardBackend: Send {
     fn speed(&self, axis: usize, now: u64) -> f64;
     /// The tick of the last edge of a moving axis's motion.
     fn end_tick(&self, axis: usize) -> Option<u64>;
-    /// Where the simulated mechanics are (the count, without simulation).
-    fn sim_position(&self, axis: usize) -> i64 {
-        self.count(axis)
+    /// The simulated mechanics, where the board has them ([`mechanics`] reads them).
+    fn simulation(&self) -> Option<&dyn Simulation> {
+        None
     }
-    /// Simulation: the mechanics lose `steps` the count does not see.
-    fn slip(&mut self, _axis: usize, _steps: i64) -> Result<(), CtlError> {
+    /// The simulated mechanics to change, or why there are none.
+    fn simulation_mut(&mut self) -> Result<&mut dyn Simulation, CtlError> {
         Err(CtlError::NotSimulated)
     }
     /// Why the backend cannot reach this axis now (a link failure), if it cannot.

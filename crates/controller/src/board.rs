@@ -4,7 +4,7 @@
 //! real time under [`crate::Controller`] and in virtual time in tests.
 
 use crate::axis::{AxisSettings, AxisState, AxisStatus, Link, MAX_POSITION};
-use crate::backend::{BoardBackend, Launch, PinEvent};
+use crate::backend::{mechanics, BoardBackend, Launch, PinEvent};
 use crate::config::BoardConfig;
 use crate::domain::{Amount, MoveOpts};
 use crate::error::CtlError;
@@ -335,7 +335,7 @@ impl Board {
                 axis.count = read - axis.slack;
                 axis.homed = false;
                 axis.trusted = false;
-                store.put_axis(&axis.name, &axis.record(None, pins.sim_position(i)))?;
+                store.put_axis(&axis.name, &axis.record(None, mechanics(&*pins, i)))?;
             }
             axes.push(axis);
         }
@@ -396,7 +396,7 @@ impl Board {
                 .without_simulation();
             for (i, ax) in self.axes.iter().enumerate() {
                 sim.configure(i, &ax.settings);
-                sim.attach(i, ax.count + ax.slack, self.pins.sim_position(i));
+                sim.attach(i, ax.count + ax.slack, mechanics(&*self.pins, i));
             }
             self.pins = Box::new(sim);
         }

@@ -2,7 +2,7 @@
 //! mechanics move one step per edge, and a [`HallSim`] watches the mechanics.
 
 use super::sim_sync::SimSyncLine;
-use super::{no_sync, BoardBackend, Launch, PinEvent, SyncLine, SyncState, Tracking};
+use super::{no_sync, BoardBackend, Launch, PinEvent, Simulation, SyncLine, SyncState, Tracking};
 use crate::axis::AxisSettings;
 use crate::error::CtlError;
 use crate::hall::{FilteredEdge, HallSim};
@@ -407,23 +407,16 @@ impl BoardBackend for SimBackend {
         self.axes[axis].motion.as_ref().map(|m| m.src.end_tick())
     }
 
-    fn sim_position(&self, axis: usize) -> i64 {
-        self.axes[axis].sim_pos
+    fn simulation(&self) -> Option<&dyn Simulation> {
+        Some(self)
     }
 
-    fn slip(&mut self, axis: usize, steps: i64) -> Result<(), CtlError> {
-        if !self.simulated {
-            return Err(CtlError::NotSimulated);
+    fn simulation_mut(&mut self) -> Result<&mut dyn Simulation, CtlError> {
+        if self.simulated {
+            Ok(self)
+        } else {
+            Err(CtlError::NotSimulated)
         }
-        let to = self.axes[axis].sim_pos as i128 + steps as i128;
-        let max = 2 * crate::axis::MAX_POSITION as i128;
-        if to.abs() > max {
-            return Err(CtlError::Setting(format!(
-                "the simulated mechanics stay within ±{max}"
-            )));
-        }
-        self.axes[axis].sim_pos = to as i64;
-        Ok(())
     }
 
     fn sync_line(&mut self) -> Result<&mut dyn SyncLine, CtlError> {
@@ -516,5 +509,23 @@ impl Tracking for SimBackend {
         if let Some(m) = self.axes[axis].motion.as_mut() {
             m.watch = on;
         }
+    }
+}
+
+impl Simulation for SimBackend {
+    fn sim_position(&self, axis: usize) -> i64 {
+        self.axes[axis].sim_pos
+    }
+
+    fn slip(&mut self, axis: usize, steps: i64) -> Result<(), CtlError> {
+        let to = self.axes[axis].sim_pos as i128 + steps as i128;
+        let max = 2 * crate::axis::MAX_POSITION as i128;
+        if to.abs() > max {
+            return Err(CtlError::Setting(format!(
+                "the simulated mechanics stay within ±{max}"
+            )));
+        }
+        self.axes[axis].sim_pos = to as i64;
+        Ok(())
     }
 }

@@ -5,7 +5,7 @@
 
 use super::Axis;
 use crate::axis::AxisState;
-use crate::backend::BoardBackend;
+use crate::backend::{mechanics, BoardBackend};
 use crate::config::BoardConfig;
 use crate::error::CtlError;
 use crate::store::Store;
@@ -59,7 +59,7 @@ pub(super) fn end_adopted_homings(
         ax.marker = None;
         ax.state = AxisState::Fault;
         ax.fault = Some(why);
-        store.put_axis(&ax.name, &ax.record(None, pins.sim_position(i)))?;
+        store.put_axis(&ax.name, &ax.record(None, mechanics(&*pins, i)))?;
     }
     Ok(())
 }

@@ -179,7 +179,7 @@ impl Board {
         });
         ax.marked = marker.is_some();
         ax.marker = marker.as_ref().map(|m| (m.from, m.target));
-        let rec = ax.record(marker, self.pins.sim_position(i));
+        let rec = ax.record(marker, mechanics(&*self.pins, i));
         if let Err(e) = self.store.put_axis(&ax.name, &rec) {
             // The disk holds an older record (the store writes this one once it can).
             self.axis_fault(i, format!("position not stored: {e}"));

@@ -92,7 +92,7 @@ impl Board {
         purpose: Purpose,
         start: u64,
     ) -> Result<(), CtlError> {
-        let sim_pos = self.pins.sim_position(i);
+        let sim_pos = mechanics(&*self.pins, i);
         let ax = &mut self.axes[i];
         let moved = dir * steps as i64;
         let target = ax.count + ax.slack + moved - slack_after(ax.slack, moved, ax.backlash());

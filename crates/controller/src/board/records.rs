@@ -55,7 +55,7 @@ impl Board {
                         (None, _) => ax.move_end,
                     },
                     fault: link.or_else(|| ax.fault.clone()),
-                    sim_position: self.pins.sim_position(i),
+                    sim_position: mechanics(&*self.pins, i),
                     dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                     rate: track.map(|t| t.signed_rate()),
                     clock_ppm: self.clock_state().ppm,
@@ -222,7 +222,7 @@ impl Board {
         }
         self.advance(now);
         let i = self.index(axis)?;
-        self.pins.slip(i, steps)?;
+        self.pins.simulation_mut()?.slip(i, steps)?;
         self.persist(i);
         Ok(())
     }
@@ -242,7 +242,7 @@ impl Board {
                     crate::store::SimMechanics {
                         from,
                         target,
-                        sim_position: self.pins.sim_position(i),
+                        sim_position: mechanics(&*self.pins, i),
                     },
                 ))
             })
