@@ -19,13 +19,20 @@ use redb::{
     Database, DatabaseError, ReadableTable, StorageBackend, StorageError, TableDefinition,
     TableHandle,
 };
-use serde::{de::DeserializeOwned, Deserialize, Serialize};
+use serde::{de::DeserializeOwned, Serialize};
 use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, Once};
 use std::time::{Duration, Instant};
+
+mod db;
+mod records;
+
+pub use db::DB_FILE;
+use db::{commit, identity, try_open, Failure, Op};
+pub use records::*;
 
 type Table = TableDefinition<'static, &'static str, &'static str>;
 
@@ -44,70 +51,6 @@ const LINK_SESSION: &str = "session";
 
 /// How often [`Store::check`] opens a failing database again.
 pub const RETRY_PERIOD: Duration = Duration::from_secs(1);
-
-/// What survives a power cycle of one axis.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct AxisRecord {
-    pub position: i64,
-    pub homed: bool,
-    pub trusted: bool,
-    /// Written before motion starts, cleared when it ends: present at start-up means the
-    /// board died mid-move and the position is not known.
-    pub moving: Option<MovingMarker>,
-    /// Simulation only: the mechanical position (the simulated world, kept with the board).
-    pub sim_position: i64,
-    /// Motor minus load position (0 … the axis's backlash): which side the slack is taken
-    /// up on (see [`crate::axis::AxisSettings::backlash`]).
-    #[serde(default)]
-    pub slack: i64,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MovingMarker {
-    pub from: i64,
-    pub target: i64,
-    /// The motion is a homing (any phase, or the park after it): a host restarted while
-    /// it runs cannot finish it.
-    #[serde(default)]
-    pub homing: bool,
-}
-
-/// What a restarted host needs to adopt the FPGA board it left running: the token it
-/// wrote to the board's `Session` register, and what of each axis's motion lives only in
-/// the host.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct LinkSession {
-    pub token: u32,
-    /// Per axis: what the host adds to the board's `Position` while the axis runs.
-    pub offsets: Vec<i64>,
-    /// Axes whose motion the host streams (it cannot go on without the host).
-    pub streamed: u32,
-    /// Axes of a group armed for the SYNC line.
-    pub armed: u32,
-    /// An offset being folded into an idle axis's `Position` register: kept before the
-    /// register is written, so a host killed between the two knows which it holds.
-    #[serde(default)]
-    pub folding: Option<Fold>,
-}
-
-/// An idle axis's offset on its way into the board's counter ([`LinkSession::folding`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Fold {
-    pub axis: usize,
-    /// The `Position` register before the fold (after it: this plus the offset).
-    pub register: u32,
-    pub offset: i64,
-}
-
-/// What a telescope mount keeps across restarts beside its park position.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct MountRecord {
-    /// Degrees added to each axis's counted angle by sync, [polar, dec].
-    pub sync: [f64; 2],
-}
-
-/// A named set of axis positions (seed 002: stored line-centre positions).
-pub type NamedPosition = BTreeMap<String, i64>;
 
 /// Whether writes reach the disk.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -175,158 +118,6 @@ impl State {
             (None, None) => StoreHealth::Ok,
         }
     }
-}
-
-/// Where the simulated mechanics of a moving axis were lately (a file beside the database,
-/// rewritten often while axes move): after a crash they come back there, as a real axis's
-/// mechanics stay where they stopped. Tied to the moving marker it was written under.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SimMechanics {
-    pub from: i64,
-    pub target: i64,
-    pub sim_position: i64,
-}
-
-/// The file of [`SimMechanics`] records.
-pub const SIM_FILE: &str = "sim-mechanics.json";
-
-thread_local! {
-    /// Set while this thread opens a database: redb's panics there are reported as damage.
-    static QUIET: Cell<bool> = const { Cell::new(false) };
-}
-
-/// Runs `f`, catching a panic; its message is not printed. The process's panic hook is
-/// wrapped once (the hook before keeps every other panic), never swapped per call.
-fn quietly<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
-    static WRAP: Once = Once::new();
-    WRAP.call_once(|| {
-        let before = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !QUIET.try_with(Cell::get).unwrap_or(false) {
-                before(info);
-            }
-        }));
-    });
-    QUIET.with(|q| q.set(true));
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-    QUIET.with(|q| q.set(false));
-    r
-}
-
-/// Opens the file and reads every record once, so damage shows now and not mid-run.
-/// redb may panic on some damaged files; that is caught and reported as damage too.
-fn try_open(path: &Path, open: &Opener, create: bool) -> Result<(Database, Mirror), Failure> {
-    if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
-        return Err(Failure::Damaged("the file is empty (0 bytes)".into()));
-    }
-    let r = quietly(|| -> Result<(Database, Mirror), Failure> {
-        let db = match open(path, create) {
-            Ok(db) => db,
-            Err(DatabaseError::DatabaseAlreadyOpen) => {
-                return Err(Failure::Other(CtlError::Store(format!(
-                    "{} is in use by another process",
-                    path.display()
-                ))))
-            }
-            Err(DatabaseError::UpgradeRequired(v)) => {
-                return Err(Failure::Other(CtlError::Store(format!(
-                    "{} is in redb file format {v}, which needs an upgrade",
-                    path.display()
-                ))))
-            }
-            // A short or unreadable file is damage; other I/O (permissions, disk) is not.
-            Err(DatabaseError::Storage(StorageError::Io(e)))
-                if !matches!(
-                    e.kind(),
-                    std::io::ErrorKind::UnexpectedEof | std::io::ErrorKind::InvalidData
-                ) =>
-            {
-                return Err(Failure::Other(CtlError::Store(format!(
-                    "cannot open {}: {e}",
-                    path.display()
-                ))))
-            }
-            Err(e) => return Err(Failure::Damaged(e.to_string())),
-        };
-        // Writing the tables proves the file writable; reading them all shows damage now.
-        let tx = db.begin_write().map_err(CtlError::from)?;
-        for t in TABLES {
-            tx.open_table(t).map_err(CtlError::from)?;
-        }
-        tx.commit().map_err(CtlError::from)?;
-        let mut mirror = Mirror::new();
-        let tx = db.begin_read().map_err(CtlError::from)?;
-        for t in TABLES {
-            let table = tx.open_table(t).map_err(CtlError::from)?;
-            let rows = mirror.entry(t.name().to_string()).or_default();
-            for row in table.iter().map_err(CtlError::from)? {
-                let (k, v) = row.map_err(CtlError::from)?;
-                serde_json::from_str::<serde_json::Value>(v.value()).map_err(CtlError::from)?;
-                rows.insert(k.value().to_string(), v.value().to_string());
-            }
-        }
-        drop(tx);
-        Ok((db, mirror))
-    });
-    match r {
-        Ok(r) => r,
-        Err(p) => {
-            let msg = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "the database library gave up reading it".into());
-            Err(Failure::Damaged(msg))
-        }
-    }
-}
-
-/// Device and inode of the file at `path` now.
-fn identity(path: &Path) -> std::io::Result<(u64, u64)> {
-    std::fs::metadata(path).map(|m| (m.dev(), m.ino()))
-}
-
-/// The database file inside a board's data directory.
-pub const DB_FILE: &str = "board.redb";
-
-/// Why opening failed: a damaged file (which a fresh start may move aside) or not.
-enum Failure {
-    Damaged(String),
-    Other(CtlError),
-}
-
-impl From<CtlError> for Failure {
-    fn from(e: CtlError) -> Self {
-        Failure::Damaged(e.to_string())
-    }
-}
-
-impl Failure {
-    fn reason(self) -> String {
-        match self {
-            Failure::Damaged(why) => why,
-            Failure::Other(e) => e.to_string(),
-        }
-    }
-}
-
-/// One write: a record put (`Some`) or removed (`None`).
-type Op<'a> = (Table, &'a str, Option<&'a str>);
-
-/// Commits `ops` in one transaction; for each, whether its key was there before.
-fn commit(db: &Database, ops: &[Op]) -> Result<Vec<bool>, String> {
-    let tx = db.begin_write().map_err(|e| e.to_string())?;
-    let mut found = Vec::with_capacity(ops.len());
-    for &(t, key, value) in ops {
-        let mut table = tx.open_table(t).map_err(|e| e.to_string())?;
-        let old = match value {
-            Some(v) => table.insert(key, v),
-            None => table.remove(key),
-        };
-        found.push(old.map_err(|e| e.to_string())?.is_some());
-    }
-    tx.commit().map_err(|e| e.to_string())?;
-    Ok(found)
 }
 
 impl Store {
@@ -661,124 +452,4 @@ impl Store {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use multistep_core::MoveParams;
-
-    #[test]
-    fn records_survive_reopening() {
-        let dir = tempfile::tempdir().unwrap();
-        let rec = AxisRecord {
-            position: -1234,
-            homed: true,
-            trusted: true,
-            moving: Some(MovingMarker {
-                from: 1,
-                target: 2,
-                homing: false,
-            }),
-            sim_position: 5,
-            slack: 3,
-        };
-        {
-            let s = Store::open(dir.path()).unwrap();
-            s.put_axis("X", &rec).unwrap();
-            let set = AxisSettings {
-                vmax: 1234.5,
-                ..AxisSettings::default()
-            };
-            s.put_settings("X", &set).unwrap();
-            s.put_preset(
-                "fast",
-                &MoveOpts {
-                    params: MoveParams {
-                        vmax: Some(9.0),
-                        ..MoveParams::default()
-                    },
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            s.put_named("line", &NamedPosition::from([("X".to_string(), 7)]))
-                .unwrap();
-        }
-        let s = Store::open(dir.path()).unwrap();
-        assert_eq!(s.axis("X").unwrap(), Some(rec));
-        assert_eq!(s.axis("Y").unwrap(), None);
-        assert_eq!(s.settings("X").unwrap().unwrap().vmax, 1234.5);
-        assert_eq!(s.preset("fast").unwrap().unwrap().params.vmax, Some(9.0));
-        assert_eq!(s.named_position("line").unwrap().unwrap()["X"], 7);
-        assert!(s.forget_named("line").unwrap());
-        assert!(s.named().unwrap().is_empty());
-    }
-
-    #[test]
-    fn the_link_session_survives_reopening() {
-        let dir = tempfile::tempdir().unwrap();
-        let kept = LinkSession {
-            token: 0xDEAD_BEEF,
-            offsets: vec![0, -3600],
-            streamed: 0b10,
-            armed: 0b01,
-            folding: None,
-        };
-        {
-            let s = Store::open(dir.path()).unwrap();
-            assert_eq!(s.link_session().unwrap(), None, "a new board has none");
-            s.put_link_session(&kept).unwrap();
-        }
-        let s = Store::open(dir.path()).unwrap();
-        assert_eq!(s.link_session().unwrap(), Some(kept));
-    }
-
-    #[test]
-    fn presets_stored_field_by_field_still_load() {
-        // The JSON of a preset as stored before the values had one definition in the core.
-        let old = r#"{"preset":null,"profile":"scurve","vmax":9.5,"amax":100.0,"jmax":null,"smax":null,"accel_time":null,"cruise_time":null,"decel_time":null,"start_speed":null,"end_speed":2.0,"rho":null,"phi":0.25,"psi":null}"#;
-        let dir = tempfile::tempdir().unwrap();
-        let s = Store::open(dir.path()).unwrap();
-        let raw: serde_json::Value = serde_json::from_str(old).unwrap();
-        s.put(PRESETS, "old", &raw).unwrap();
-        let want = MoveOpts {
-            preset: None,
-            profile: Some("scurve".into()),
-            params: MoveParams {
-                vmax: Some(9.5),
-                amax: Some(100.0),
-                end_speed: Some(2.0),
-                phi: Some(0.25),
-                ..MoveParams::default()
-            },
-        };
-        assert_eq!(s.preset("old").unwrap(), Some(want.clone()));
-        // Written now, it reads back, and its keys are the old ones.
-        s.put_preset("new", &want).unwrap();
-        assert_eq!(s.preset("new").unwrap(), Some(want.clone()));
-        let written: serde_json::Value =
-            serde_json::from_str(&serde_json::to_string(&want).unwrap()).unwrap();
-        assert_eq!(written, raw);
-        // A key no version knows is still refused.
-        let bad = r#"{"vmax":1.0,"vmx":2.0}"#;
-        assert!(serde_json::from_str::<MoveOpts>(bad).is_err());
-    }
-
-    #[test]
-    fn a_file_that_is_not_a_database_is_damaged_and_a_reset_moves_it_aside() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join(DB_FILE);
-        std::fs::write(&path, "hello world garbage").unwrap();
-        let msg = Store::open(dir.path()).err().unwrap().to_string();
-        assert!(
-            msg.contains("is damaged") && msg.contains("--reset-damaged-data"),
-            "{msg}"
-        );
-        assert_eq!(std::fs::read(&path).unwrap(), b"hello world garbage");
-        let (s, aside) = Store::open_or_reset(dir.path(), true).unwrap();
-        assert_eq!(
-            std::fs::read(aside.unwrap()).unwrap(),
-            b"hello world garbage"
-        );
-        assert!(s.presets().unwrap().is_empty());
-        assert_eq!(s.axis("X").unwrap(), None);
-    }
-}
+mod tests;
