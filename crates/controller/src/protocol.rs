@@ -5,9 +5,12 @@ pub use crate::domain::{
     param_of_word, word_of_param, Amount, MoveOpts, RateArg, SignedRate, TrackOpts, MAX_LEASE,
 };
 use crate::error::CtlError;
-use multistep_core::PARAMS;
-use std::io::{BufRead, ErrorKind};
-use std::time::Instant;
+
+mod help;
+mod line;
+
+pub use help::{help, HELP};
+pub use line::{read_line, Line, LineReader};
 
 /// Longest accepted line, newline excluded.
 pub const MAX_LINE: usize = 4096;
@@ -181,103 +184,6 @@ impl Reply {
         }
         s
     }
-}
-
-/// One line as read from a connection.
-#[derive(Debug, PartialEq)]
-pub enum Line {
-    Text(Vec<u8>),
-    /// Longer than [`MAX_LINE`]; the rest of it up to the newline was discarded.
-    TooLong,
-    /// End of input. A line not ended by `\n` before it is dropped, never run.
-    Eof,
-}
-
-/// Reads lines of at most [`MAX_LINE`] bytes (the `\n` or `\r\n` not counted) without ever
-/// holding more. A line only counts once its `\n` arrives: a partial line survives read
-/// timeouts (it stays here) but not the end of input.
-#[derive(Debug, Default)]
-pub struct LineReader {
-    buf: Vec<u8>,
-    too_long: bool,
-    /// When the first and the latest byte of the unfinished line arrived.
-    started: Option<Instant>,
-    last: Option<Instant>,
-}
-
-impl LineReader {
-    pub fn new() -> LineReader {
-        LineReader::default()
-    }
-
-    /// When the unfinished line began, if there is one.
-    pub fn partial_since(&self) -> Option<Instant> {
-        self.started
-    }
-
-    /// When the latest byte of the unfinished line arrived.
-    pub fn partial_last_byte(&self) -> Option<Instant> {
-        self.last
-    }
-
-    /// Forgets the unfinished line.
-    pub fn discard(&mut self) {
-        self.buf = Vec::new();
-        self.too_long = false;
-        self.started = None;
-        self.last = None;
-    }
-
-    /// The next complete line. Errors (a read timeout among them) keep the partial line.
-    pub fn read<R: BufRead>(&mut self, r: &mut R) -> std::io::Result<Line> {
-        loop {
-            let chunk = match r.fill_buf() {
-                Ok(c) => c,
-                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            };
-            if chunk.is_empty() {
-                self.discard();
-                return Ok(Line::Eof);
-            }
-            let now = Instant::now();
-            self.started.get_or_insert(now);
-            self.last = Some(now);
-            let (part, found) = match chunk.iter().position(|&b| b == b'\n') {
-                Some(i) => (&chunk[..i], Some(i + 1)),
-                None => (chunk, None),
-            };
-            // One byte more than the limit may be a `\r` before the `\n`.
-            if !self.too_long {
-                if self.buf.len() + part.len() > MAX_LINE + 1 {
-                    self.too_long = true;
-                    self.buf = Vec::new();
-                } else {
-                    self.buf.extend_from_slice(part);
-                }
-            }
-            let used = found.unwrap_or(chunk.len());
-            r.consume(used);
-            if found.is_some() {
-                let mut buf = std::mem::take(&mut self.buf);
-                let too_long = self.too_long;
-                self.discard();
-                if buf.last() == Some(&b'\r') {
-                    buf.pop();
-                }
-                return Ok(if too_long || buf.len() > MAX_LINE {
-                    Line::TooLong
-                } else {
-                    Line::Text(buf)
-                });
-            }
-        }
-    }
-}
-
-/// Reads one line with a fresh [`LineReader`] (a partial line at the end is dropped).
-pub fn read_line<R: BufRead>(r: &mut R) -> std::io::Result<Line> {
-    LineReader::new().read(r)
 }
 
 /// `auth TOKEN`: the token, if the line is an `auth` line (handled by the connection,
@@ -666,36 +572,4 @@ pub fn parse_status_line(line: &str) -> Option<Result<(), (u16, String)>> {
     let rest = line.strip_prefix("error:")?;
     let (code, msg) = rest.split_once(' ').unwrap_or((rest, ""));
     Some(Err((code.parse().unwrap_or(0), msg.to_string())))
-}
-
-/// The commands of `help` ([`help`] adds the move options).
-pub const HELP: &[&str] = &[
-    "commands (AXIS is an axis name or number; N is microsteps or a number with 'u' for user units):",
-    "  move AXIS N [opts]           relative move",
-    "  moveto AXIS N [opts]         absolute move (periodic axes: shortest way)",
-    "  group move|moveto A=N B=N… [sync] [opts]   same start tick; sync: same finish",
-    "  arm move|moveto A=N B=N… [sync] [opts]     a group that starts at the SYNC line's fall",
-    "  fire  synctick               pull SYNC low; the line's state and the count at its fall",
-    "  stop [AXIS|all]  estop  reset  home AXIS",
-    "  status [json] [AXIS…]  get AXIS [KEY]  set AXIS KEY VALUE",
-    "  save NAME [AXIS…]  goto NAME  positions  forget NAME",
-    "  preset NAME opts  presets  version  info  devices  auth TOKEN",
-    "  mount [slew RA DEC|sync RA DEC|track on|off [RATE]|park|unpark|setpark|abort|pulse n|s|e|w MS]",
-    "  track AXIS RATE|NAME [amax=A] [lease=S]    run at RATE steps/s (or units/s with 'u'; negative",
-    "                               reverses) until stop; again while tracking: change the rate",
-    "  rate NAME RATE  rates  release AXIS  energize AXIS",
-    "  setpos AXIS N                an idle axis's position becomes N, nothing moves",
-    "  sim AXIS slip N              simulated boards only: lose N steps",
-];
-
-/// The text of `help`: [`HELP`], then the move options, every value of the core's list
-/// by the word the protocol prints for it.
-pub fn help() -> Vec<String> {
-    let mut opts = String::from("opts: preset=P profile=F");
-    for p in PARAMS {
-        opts.push_str(&format!(" {}=", word_of_param(p)));
-    }
-    let mut lines: Vec<String> = HELP.iter().map(|s| s.to_string()).collect();
-    lines.push(opts);
-    lines
 }
