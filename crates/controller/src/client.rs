@@ -4,7 +4,7 @@
 use crate::axis::{AxisState, AxisStatus};
 use crate::error::CtlError;
 use crate::protocol::parse_status_line;
-use crate::protocol::{Amount, Command, MoveOpts, RateArg};
+use crate::protocol::{Amount, Command};
 use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
 use std::time::Duration;
 
@@ -132,212 +132,10 @@ impl Client {
     }
 }
 
-/// A command as the one protocol line that [`protocol::parse`](crate::protocol::parse)
-/// reads back as the same command: the host side writes what the board reads.
-impl std::fmt::Display for Command {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let amount = |a: &Amount| match a {
-            Amount::Steps(n) => n.to_string(),
-            Amount::Units(x) => format!("{x}u"),
-        };
-        let mut words: Vec<String> = Vec::new();
-        let mut push = |w: &str| words.push(w.to_string());
-        match self {
-            Command::Nop => {}
-            Command::Help => push("help"),
-            Command::Version => push("version"),
-            Command::Info => push("info"),
-            Command::Status { axes, json } => {
-                push("status");
-                if *json {
-                    push("json");
-                }
-                axes.iter().for_each(|a| push(a));
-            }
-            Command::Move { axis, by, opts } => {
-                push("move");
-                push(axis);
-                push(&amount(by));
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::MoveTo { axis, to, opts } => {
-                push("moveto");
-                push(axis);
-                push(&amount(to));
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::Group {
-                absolute,
-                targets,
-                sync,
-                opts,
-            }
-            | Command::Arm {
-                absolute,
-                targets,
-                sync,
-                opts,
-            } => {
-                push(if matches!(self, Command::Arm { .. }) {
-                    "arm"
-                } else {
-                    "group"
-                });
-                push(if *absolute { "moveto" } else { "move" });
-                for (a, n) in targets {
-                    push(&format!("{a}={}", amount(n)));
-                }
-                if *sync {
-                    push("sync");
-                }
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::Stop { axis } => {
-                push("stop");
-                push(axis.as_deref().unwrap_or("all"));
-            }
-            Command::EStop => push("estop"),
-            Command::Fire => push("fire"),
-            Command::SyncTick => push("synctick"),
-            Command::Reset => push("reset"),
-            Command::Home { axis } => {
-                push("home");
-                push(axis);
-            }
-            Command::Get { axis, key } => {
-                push("get");
-                push(axis);
-                if let Some(k) = key {
-                    push(k);
-                }
-            }
-            Command::Set { axis, key, value } => {
-                push("set");
-                push(axis);
-                push(key);
-                push(value);
-            }
-            Command::Save { name, axes } => {
-                push("save");
-                push(name);
-                axes.iter().for_each(|a| push(a));
-            }
-            Command::Goto { name, opts } => {
-                push("goto");
-                push(name);
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::Positions => push("positions"),
-            Command::Devices => push("devices"),
-            Command::Forget { name } => {
-                push("forget");
-                push(name);
-            }
-            Command::Preset { name, opts } => {
-                push("preset");
-                push(name);
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::Presets => push("presets"),
-            Command::SimSlip { axis, steps } => {
-                push("sim");
-                push(axis);
-                push("slip");
-                push(&steps.to_string());
-            }
-            Command::Track { axis, rate, opts } => {
-                push("track");
-                push(axis);
-                match rate {
-                    RateArg::Value(r) => push(&r.to_string()),
-                    RateArg::Preset(n) => push(n),
-                }
-                opts.words().iter().for_each(|w| push(w));
-            }
-            Command::RatePreset { name, rate } => {
-                push("rate");
-                push(name);
-                push(&rate.to_string());
-            }
-            Command::Rates => push("rates"),
-            Command::Release { axis } => {
-                push("release");
-                push(axis);
-            }
-            Command::Energize { axis } => {
-                push("energize");
-                push(axis);
-            }
-            Command::SetPos { axis, to } => {
-                push("setpos");
-                push(axis);
-                push(&amount(to));
-            }
-            Command::Mount(m) => push(&m.to_string()),
-        }
-        f.write_str(&words.join(" "))
-    }
-}
-
-/// The free-text words of a command (names, keys, values): each must stay one word on the
-/// line, or the board would read a different command.
-fn opt_words(o: &MoveOpts) -> impl Iterator<Item = &str> {
-    o.preset.iter().chain(o.profile.iter()).map(|s| s.as_str())
-}
-
-fn free_words(cmd: &Command) -> Vec<&str> {
-    let mut w: Vec<&str> = Vec::new();
-    match cmd {
-        Command::Status { axes, .. } | Command::Save { axes, .. } => {
-            w.extend(axes.iter().map(|s| s.as_str()))
-        }
-        Command::Move { axis, opts: o, .. } | Command::MoveTo { axis, opts: o, .. } => {
-            w.push(axis);
-            w.extend(opt_words(o));
-        }
-        Command::Group {
-            targets, opts: o, ..
-        }
-        | Command::Arm {
-            targets, opts: o, ..
-        } => {
-            w.extend(targets.iter().map(|t| t.0.as_str()));
-            w.extend(opt_words(o));
-        }
-        Command::Stop { axis: Some(a) } | Command::Home { axis: a } => w.push(a),
-        Command::SimSlip { axis, .. }
-        | Command::Release { axis }
-        | Command::Energize { axis }
-        | Command::SetPos { axis, .. } => w.push(axis),
-        Command::Track { axis, rate, .. } => {
-            w.push(axis);
-            if let RateArg::Preset(n) = rate {
-                w.push(n);
-            }
-        }
-        Command::RatePreset { name, .. } => w.push(name),
-        Command::Get { axis, key } => {
-            w.push(axis);
-            w.extend(key.iter().map(|s| s.as_str()));
-        }
-        Command::Set { axis, key, value } => w.extend([axis, key, value].map(|s| s.as_str())),
-        Command::Goto { name, opts: o } | Command::Preset { name, opts: o } => {
-            w.push(name);
-            w.extend(opt_words(o));
-        }
-        Command::Forget { name } => w.push(name),
-        _ => {}
-    }
-    if let Command::Save { name, .. } = cmd {
-        w.push(name);
-    }
-    w
-}
-
 impl Client {
     /// Sends one command, written with the protocol's own words; returns its data lines.
     pub fn send(&mut self, cmd: &Command) -> Result<Vec<String>, ClientError> {
-        for w in free_words(cmd) {
+        for w in crate::protocol::free_words(cmd) {
             if w.is_empty() || w.contains(|c: char| c.is_whitespace() || c == '#' || c == ';') {
                 return Err(ClientError::Other(format!(
                     "'{w}' is not one protocol word (empty, or has a space, '#' or ';')"
@@ -395,7 +193,7 @@ impl Client {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::protocol::{parse, SignedRate, TrackOpts};
+    use crate::protocol::{parse, MoveOpts, RateArg, SignedRate, TrackOpts};
     use multistep_core::MoveParams;
 
     fn opts() -> MoveOpts {

@@ -247,3 +247,150 @@ fn move_words_are_short_and_exact() {
     };
     assert_eq!(again, opts);
 }
+
+/// An axis or stored name the protocol accepts.
+fn name() -> impl Strategy<Value = String> {
+    "[A-Za-z][A-Za-z0-9_-]{0,8}".prop_filter("reserved", |n| {
+        !n.eq_ignore_ascii_case("ok") && !n.eq_ignore_ascii_case("all")
+    })
+}
+
+fn amount() -> impl Strategy<Value = Amount> {
+    prop_oneof![
+        any::<i64>().prop_map(Amount::Steps),
+        (-1e9f64..1e9).prop_map(Amount::Units)
+    ]
+}
+
+fn move_opts() -> impl Strategy<Value = MoveOpts> {
+    (
+        proptest::option::of(name()),
+        proptest::option::of(prop_oneof![Just("trapezoid"), Just("scurve4")]),
+        proptest::option::of(1.0f64..1e6),
+        proptest::option::of(0.001f64..10.0),
+    )
+        .prop_map(|(preset, profile, vmax, accel)| MoveOpts {
+            preset,
+            profile: profile.map(String::from),
+            params: MoveParams {
+                vmax,
+                accel_time: accel,
+                ..MoveParams::default()
+            },
+        })
+}
+
+/// Every command but `mount` (its own grammar) and `Nop`, with random fields.
+fn command() -> impl Strategy<Value = Command> {
+    use multistep_controller::protocol::{RateArg, SignedRate, TrackOpts};
+    let rate = (any::<bool>(), 1u64..1_000_000, 1u64..1000, any::<bool>()).prop_map(
+        |(negative, num, den, units)| {
+            let w = format!(
+                "{}{num}/{den}{}",
+                if negative { "-" } else { "" },
+                if units { "u" } else { "" }
+            );
+            SignedRate::parse(&w).unwrap().unwrap()
+        },
+    );
+    let targets = || proptest::collection::vec((name(), amount()), 1..4);
+    prop_oneof![
+        Just(Command::Help),
+        Just(Command::Version),
+        Just(Command::Info),
+        Just(Command::Fire),
+        Just(Command::SyncTick),
+        Just(Command::EStop),
+        Just(Command::Reset),
+        Just(Command::Positions),
+        Just(Command::Devices),
+        Just(Command::Presets),
+        Just(Command::Rates),
+        (proptest::collection::vec(name(), 0..3), any::<bool>())
+            .prop_map(|(axes, json)| Command::Status { axes, json }),
+        (name(), amount(), move_opts()).prop_map(|(axis, by, opts)| Command::Move {
+            axis,
+            by,
+            opts
+        }),
+        (name(), amount(), move_opts()).prop_map(|(axis, to, opts)| Command::MoveTo {
+            axis,
+            to,
+            opts
+        }),
+        (any::<bool>(), targets(), any::<bool>(), move_opts()).prop_map(
+            |(absolute, targets, sync, opts)| Command::Group {
+                absolute,
+                targets,
+                sync,
+                opts
+            }
+        ),
+        (any::<bool>(), targets(), any::<bool>(), move_opts()).prop_map(
+            |(absolute, targets, sync, opts)| Command::Arm {
+                absolute,
+                targets,
+                sync,
+                opts
+            }
+        ),
+        proptest::option::of(name()).prop_map(|axis| Command::Stop { axis }),
+        name().prop_map(|axis| Command::Home { axis }),
+        (name(), proptest::option::of("[a-z_.]{1,12}"))
+            .prop_map(|(axis, key)| Command::Get { axis, key }),
+        (name(), "[a-z_.]{1,12}", "[a-z0-9_.]{1,12}").prop_map(|(axis, key, value)| Command::Set {
+            axis,
+            key,
+            value
+        }),
+        (name(), proptest::collection::vec(name(), 0..3))
+            .prop_map(|(name, axes)| Command::Save { name, axes }),
+        (name(), move_opts()).prop_map(|(name, opts)| Command::Goto { name, opts }),
+        name().prop_map(|name| Command::Forget { name }),
+        // a preset holds at least one value and names no other preset
+        (
+            name(),
+            move_opts().prop_filter("empty", |o| o.profile.is_some()
+                || o.params != MoveParams::default())
+        )
+            .prop_map(|(name, mut opts)| {
+                opts.preset = None;
+                Command::Preset { name, opts }
+            }),
+        (name(), any::<i64>()).prop_map(|(axis, steps)| Command::SimSlip { axis, steps }),
+        (
+            name(),
+            prop_oneof![
+                rate.clone().prop_map(RateArg::Value),
+                name().prop_map(RateArg::Preset)
+            ],
+            proptest::option::of(1.0f64..1e6),
+            proptest::option::of(0.5f64..60.0),
+        )
+            .prop_map(|(axis, rate, amax, lease)| Command::Track {
+                axis,
+                rate,
+                opts: TrackOpts { amax, lease },
+            }),
+        (name(), rate).prop_map(|(name, rate)| Command::RatePreset { name, rate }),
+        name().prop_map(|axis| Command::Release { axis }),
+        name().prop_map(|axis| Command::Energize { axis }),
+        (name(), amount()).prop_map(|(axis, to)| Command::SetPos { axis, to }),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+    /// The host client's line for a command is the line the board reads back as that
+    /// command, for every verb; every free word the client checks is on that line.
+    #[test]
+    fn every_command_reads_back_as_written(cmd in command()) {
+        let line = cmd.to_string();
+        prop_assert_eq!(parse(&line).unwrap(), cmd.clone(), "line: {}", line);
+        let words: Vec<&str> = line.split_whitespace().collect();
+        for w in protocol::free_words(&cmd) {
+            prop_assert!(words.iter().any(|l| l.contains(w.as_str())), "{} not on {}", w, line);
+        }
+    }
+}
