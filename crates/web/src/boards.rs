@@ -104,9 +104,11 @@ impl RemoteLink {
         match client.request(line) {
             Ok(data) => Ok(data),
             Err(ClientError::Refused(r)) => Err((r.code, r.message)),
+            // the connection broke: said as a board that cannot be reached, whichever
+            // request (this one, or the next one's connect) finds out first
             Err(e) => {
                 *slot = None;
-                Err((UNREACHABLE, format!("board at {}: {e}", self.addr)))
+                Err(unreachable(e.to_string()))
             }
         }
     }
