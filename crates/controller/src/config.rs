@@ -151,6 +151,13 @@ impl BoardConfig {
                     a.name
                 )));
             }
+            if crate::domain::is_move_option(&a.name) {
+                return Err(CtlError::Setting(format!(
+                    "axis name {:?} is a move option's word: `group move {}=…` could not \
+                     tell the axis from the option; name it otherwise",
+                    a.name, a.name
+                )));
+            }
             if self.axes[..i].iter().any(|b| b.name == a.name) {
                 return Err(CtlError::Setting(format!(
                     "axis '{}' is named twice",
@@ -211,6 +218,13 @@ mod tests {
             BoardConfig::parse("[board]\nname = \"optics-2_b\"\n[[axis]]\nname = \"X\"\n").is_ok()
         );
         assert!(BoardConfig::parse("[[axis]]\nname = \"X\"\n[[axis]]\nname = \"X\"\n").is_err());
+        // a group line reads `ve=5` as the end speed, never as an axis named `ve`
+        for word in ["ve", "VMAX", "accel", "profile", "preset", "rho"] {
+            let e = BoardConfig::parse(&format!("[[axis]]\nname = \"{word}\"\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("move option"), "{word}: {e}");
+        }
         let c = BoardConfig::parse("[[axis]]\nname = \"X\"\nvmax = 3.0\n").unwrap();
         assert_eq!(c.axes[0].settings.vmax, 3.0);
     }

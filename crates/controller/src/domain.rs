@@ -44,6 +44,13 @@ pub fn param_of_word(key: &str) -> Option<&'static Param> {
     Param::named(full)
 }
 
+/// Whether `word=…` on a move line is one of its options (`preset`, `profile`, a
+/// value's word): an axis of that name could not be told apart in a group.
+pub fn is_move_option(word: &str) -> bool {
+    let w = word.to_ascii_lowercase();
+    w == "preset" || w == "profile" || param_of_word(&w).is_some()
+}
+
 /// The word the protocol prints for a value: its short word, else its name.
 pub fn word_of_param(p: &Param) -> &'static str {
     SHORT_WORDS
