@@ -1,5 +1,6 @@
 //! Per-axis settings, state and the status a client sees.
 
+mod decimal;
 mod status;
 
 use crate::error::CtlError;

@@ -161,6 +161,12 @@ impl Reply {
     /// The reply as sent: data lines, then the status line; every line ends in `\n`.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        self.write_text(&mut s);
+        s
+    }
+
+    /// [`Reply::to_text`] appended to `s` (a connection reuses one buffer).
+    pub fn write_text(&self, s: &mut String) {
         s.reserve(self.data.iter().map(|d| d.len() + 3).sum::<usize>() + 4);
         for d in &self.data {
             // A data line never looks like a status line and never spans lines; one that
@@ -169,8 +175,8 @@ impl Reply {
             if d == "ok" || d.starts_with("error:") {
                 s.push_str("> ");
             }
-            // (a byte slice's `contains` runs a word at a time)
-            if d.as_bytes().contains(&b'\n') || d.as_bytes().contains(&b'\r') {
+            // one vectorized pass for either break
+            if memchr::memchr2(b'\n', b'\r', d.as_bytes()).is_some() {
                 s.push_str(&d.replace(['\n', '\r'], " "));
             } else {
                 s.push_str(d);
@@ -184,7 +190,6 @@ impl Reply {
                 s.push_str(&format!("error:{} {}\n", e.code(), msg));
             }
         }
-        s
     }
 }
 

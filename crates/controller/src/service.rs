@@ -78,22 +78,27 @@ pub fn serve_stream<R: Read, W: Write>(
 ) -> std::io::Result<()> {
     let mut input = BufReader::with_capacity(MAX_LINE, input);
     let mut lines = LineReader::new();
+    let mut text = String::new();
     loop {
-        let reply = match lines.read(&mut input)? {
+        let line = match lines.read(&mut input)? {
             Line::Eof => return Ok(()),
-            line => answer(ctl, line),
+            line => line,
         };
-        send(&mut output, &reply)?;
+        answer(ctl, line, &mut text);
+        output.write_all(text.as_bytes())?;
+        output.flush()?;
     }
 }
 
-fn answer(ctl: &Controller, line: Line) -> Reply {
+/// The reply to `line` as sent, in `text` (cleared first: a connection reuses it).
+fn answer(ctl: &Controller, line: Line, text: &mut String) {
+    text.clear();
     match line {
-        Line::Eof => Reply::ok(Vec::new()),
-        Line::TooLong => Reply::err(CtlError::LineTooLong { max: MAX_LINE }),
+        Line::Eof => Reply::ok(Vec::new()).write_text(text),
+        Line::TooLong => Reply::err(CtlError::LineTooLong { max: MAX_LINE }).write_text(text),
         // Nothing to authenticate against here (serial, or a board without a token).
-        Line::Text(b) if auth_token(&b).is_some() => Reply::ok(Vec::new()),
-        Line::Text(b) => ctl.execute_bytes(&b),
+        Line::Text(b) if auth_token(&b).is_some() => Reply::ok(Vec::new()).write_text(text),
+        Line::Text(b) => ctl.answer_bytes(&b, text),
     }
 }
 
@@ -161,6 +166,10 @@ const POLLER_LINES_PER_S: u32 = 200;
 /// The nice value a poller's thread gets (0 is a normal thread's; the timing pool's is 10).
 const POLLER_NICE: i32 = 5;
 
+/// The shortest read timeout a connection waits with (a deadline closer than this is
+/// waited for this long).
+const READ_TIMEOUT_FLOOR: Duration = Duration::from_millis(5);
+
 /// Counts a connection's lines per second and lowers its thread's priority, once, when it
 /// polls faster than [`POLLER_LINES_PER_S`].
 #[derive(Default)]
@@ -216,25 +225,41 @@ fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std:
     let mut authed = opts.token.is_none();
     let mut last_line = Instant::now();
     let mut pace = Pace::default();
+    let mut read_timeout = None;
+    let mut text = String::new();
+    // right after a line, the clock read when it came serves as now (the answer's
+    // microseconds only make the timeout a little long, far under its 5 ms floor)
+    let mut answered = false;
     loop {
-        let (deadline, why) = match lines.partial_since() {
-            Some(t) => (
-                t + lim.line_timeout,
-                format!(
+        let partial = lines.partial_since();
+        let deadline = match partial {
+            Some(t) => t + lim.line_timeout,
+            None => last_line + lim.idle_timeout,
+        };
+        let now = match (answered, partial) {
+            (true, None) => last_line,
+            _ => Instant::now(),
+        };
+        answered = false;
+        let left = deadline.saturating_duration_since(now);
+        if left.is_zero() {
+            let why = match partial {
+                Some(_) => format!(
                     "line not completed within {} s; closing",
                     lim.line_timeout.as_secs()
                 ),
-            ),
-            None => (
-                last_line + lim.idle_timeout,
-                format!("idle for {} s; closing", lim.idle_timeout.as_secs()),
-            ),
-        };
-        let left = deadline.saturating_duration_since(Instant::now());
-        if left.is_zero() {
+                None => format!("idle for {} s; closing", lim.idle_timeout.as_secs()),
+            };
             return send(&mut out, &Reply::err(CtlError::Connection(why)));
         }
-        stream.set_read_timeout(Some(left.max(Duration::from_millis(5))))?;
+        // A read that times out early only goes round again; one that could wait past
+        // the deadline by more than the 5 ms floor must not. Setting the timeout is a
+        // system call, so a client sending line after line keeps the one already set.
+        let want = left.max(READ_TIMEOUT_FLOOR);
+        if read_timeout.is_none_or(|t: Duration| t > want + READ_TIMEOUT_FLOOR || t < want / 2) {
+            stream.set_read_timeout(Some(want))?;
+            read_timeout = Some(want);
+        }
         let line = match lines.read(&mut input) {
             Ok(Line::Eof) => return Ok(()),
             Ok(l) => l,
@@ -247,15 +272,15 @@ fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std:
             Line::Text(b) => auth_token(b),
             _ => None,
         };
-        let reply = match (token, &opts.token) {
+        match (token, &opts.token) {
             (Some(got), Some(want)) => {
-                if same_token(got, want) {
-                    authed = true;
-                    Reply::ok(Vec::new())
-                } else {
+                if !same_token(got, want) {
                     let r = Reply::err(CtlError::Unauthorized("wrong token; closing".into()));
                     return send(&mut out, &r);
                 }
+                authed = true;
+                text.clear();
+                Reply::ok(Vec::new()).write_text(&mut text);
             }
             (None, Some(_)) if !authed => {
                 let r = Reply::err(CtlError::Unauthorized(
@@ -263,9 +288,10 @@ fn serve_client(ctl: &Controller, stream: &TcpStream, opts: &TcpOptions) -> std:
                 ));
                 return send(&mut out, &r);
             }
-            _ => answer(ctl, line),
-        };
-        send(&mut out, &reply)?;
+            _ => answer(ctl, line, &mut text),
+        }
+        out.write_all(text.as_bytes())?;
+        answered = true;
     }
 }
 
@@ -375,6 +401,7 @@ fn serial_session(
     let mut out = port.try_clone()?;
     let mut input = BufReader::with_capacity(MAX_LINE, SerialIn(port));
     let mut lines = LineReader::new();
+    let mut text = String::new();
     loop {
         let line = match lines.read(&mut input) {
             Ok(Line::Eof) => return Ok(()),
@@ -391,7 +418,8 @@ fn serial_session(
             }
             Err(e) => return Err(e),
         };
-        match send(&mut out, &answer(ctl, line)) {
+        answer(ctl, line, &mut text);
+        match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
             Err(e) if e.raw_os_error() == Some(5) => return Ok(()),
             other => other?,
         }

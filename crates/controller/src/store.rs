@@ -51,6 +51,8 @@ const LINK_SESSION: &str = "session";
 
 /// How often [`Store::check`] opens a failing database again.
 pub const RETRY_PERIOD: Duration = Duration::from_secs(1);
+/// How old the file check `status` and `info` report may be.
+pub const HEALTH_CHECK_PERIOD: Duration = Duration::from_millis(50);
 
 /// Whether writes reach the disk.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -108,6 +110,8 @@ struct State {
     failing: Option<String>,
     gone: Option<String>,
     tried: Instant,
+    /// When the file at the path was last compared with the one opened.
+    checked: Option<Instant>,
 }
 
 impl State {
@@ -205,6 +209,7 @@ impl Store {
             failing: None,
             gone: None,
             tried: Instant::now(),
+            checked: None,
         };
         let store = Store {
             dir: dir.to_path_buf(),
@@ -224,10 +229,18 @@ impl Store {
         self.state().health()
     }
 
-    /// Checks that the database file is still there, and opens a failing database again
-    /// (at most once per [`RETRY_PERIOD`]); the health then.
+    /// Checks that the database file is still there (at most once per
+    /// [`HEALTH_CHECK_PERIOD`]: `status` polled in a loop would otherwise spend a system
+    /// call on it every time), and opens a failing database again (at most once per
+    /// [`RETRY_PERIOD`]); the health then. Writes check the file every time.
     pub fn check(&self) -> StoreHealth {
         let mut st = self.state();
+        if st
+            .checked
+            .is_some_and(|t| t.elapsed() < HEALTH_CHECK_PERIOD)
+        {
+            return st.health();
+        }
         if self.check_file(&mut st).is_ok() && st.db.is_none() && st.tried.elapsed() >= RETRY_PERIOD
         {
             let _ = self.reopen(&mut st);
@@ -237,6 +250,7 @@ impl Store {
 
     /// Refuses when the file at the database's path is not the one opened.
     fn check_file(&self, st: &mut State) -> Result<(), CtlError> {
+        st.checked = Some(Instant::now());
         let path = self.path.display();
         let why = match identity(&self.path) {
             Ok(id) if id == st.id => {

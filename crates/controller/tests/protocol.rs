@@ -251,7 +251,9 @@ fn move_words_are_short_and_exact() {
 /// An axis or stored name the protocol accepts.
 fn name() -> impl Strategy<Value = String> {
     "[A-Za-z][A-Za-z0-9_-]{0,8}".prop_filter("reserved", |n| {
-        !n.eq_ignore_ascii_case("ok") && !n.eq_ignore_ascii_case("all")
+        !n.eq_ignore_ascii_case("ok")
+            && !n.eq_ignore_ascii_case("all")
+            && !multistep_controller::domain::is_move_option(n)
     })
 }
 
@@ -393,4 +395,44 @@ proptest! {
             prop_assert!(words.iter().any(|l| l.contains(w.as_str())), "{} not on {}", w, line);
         }
     }
+}
+
+/// A connection's answer (a text `status` written straight into the reply) is the reply's
+/// text, line for line, on status and on everything else.
+#[test]
+fn a_connection_answers_every_line_as_the_reply_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let ctl = Controller::open(&BoardConfig::default(), dir.path(), 1.0).unwrap();
+    let lines = [
+        "status",
+        "STATUS X y",
+        "s 0 A",
+        "status json",
+        "status json X",
+        "status nosuch",
+        "status X X",
+        "version",
+        "get X vmax",
+        "bogus words",
+        "",
+        "set X backlash 3",
+        "status X",
+    ];
+    for line in lines {
+        let mut text = String::from("left over");
+        text.clear();
+        ctl.answer_bytes(line.as_bytes(), &mut text);
+        assert_eq!(text, ctl.execute_bytes(line.as_bytes()).to_text(), "{line}");
+        assert!(
+            text.ends_with("ok\n") || text.contains("error:"),
+            "{line}: {text}"
+        );
+    }
+    // appended, not replaced
+    let mut text = String::from("before\n");
+    ctl.answer_bytes(b"status Z", &mut text);
+    assert!(
+        text.starts_with("before\nZ pos=0 ") && text.ends_with(" num=2\nok\n"),
+        "{text}"
+    );
 }

@@ -271,10 +271,7 @@ fn a_tracking_axis_goes_on_while_the_disk_is_full_and_its_stop_shows_the_failure
         .unwrap_err();
     assert_eq!(e.code(), 10, "{e}");
     let s = b.status(&["X".into()], now).unwrap().remove(0);
-    assert_eq!(
-        (s.state, s.store.as_str()),
-        (AxisState::Tracking, "failing")
-    );
+    assert_eq!((s.state, &*s.store), (AxisState::Tracking, "failing"));
     // The stop cannot be stored: the axis says so, not a plain idle.
     b.stop(Some("X"), now).unwrap();
     b.advance(now + 1_000_000);

@@ -1,6 +1,8 @@
 //! What an axis is doing and the status a client sees: its fields and its `status` line.
 
+use super::decimal::{push_float, push_int, push_tenths};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// What an axis is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -85,7 +87,7 @@ pub struct AxisStatus {
     /// The board's store: `ok`, `failing` (writes fail) or `gone` (its file was deleted or
     /// replaced); the same on every axis.
     #[serde(default = "store_ok")]
-    pub store: String,
+    pub store: Cow<'static, str>,
     /// A board reached over a link (`serve --board-link`): whether it answers now. The
     /// rest of the line is the board as last read, `age_ms` ago.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -112,7 +114,7 @@ impl Link {
     }
 }
 
-fn store_ok() -> String {
+fn store_ok() -> Cow<'static, str> {
     "ok".into()
 }
 
@@ -132,17 +134,19 @@ impl AxisStatus {
     /// spaces become `_` and its line breaks spaces here, where the text is produced, so
     /// the line never needs escaping again.
     pub fn write_line(&self, out: &mut String) {
-        use std::fmt::Write;
-        // writing into a String cannot fail
         out.push_str(&self.axis);
-        let _ = write!(out, " pos={} units={}", self.position, self.units);
+        out.push_str(" pos=");
+        push_int(out, self.position);
+        out.push_str(" units=");
+        push_float(out, self.units);
         out.push_str(" state=");
         out.push_str(self.state.name());
         flag(out, " homed=", self.homed);
         flag(out, " trusted=", self.trusted);
         out.push_str(" target=");
         opt(out, self.target);
-        let _ = write!(out, " speed={:.1}", self.speed);
+        out.push_str(" speed=");
+        push_tenths(out, self.speed);
         flag(out, " sensor=", self.sensor);
         out.push_str(" drift=");
         opt(out, self.drift);
@@ -155,25 +159,26 @@ impl AxisStatus {
         escaped(out, &self.store, ' ');
         out.push_str(" rate=");
         match self.rate {
-            Some(r) => {
-                let _ = write!(out, "{r}");
-            }
+            Some(r) => push_float(out, r),
             None => out.push_str("none"),
         }
         // a board whose clock the host has fitted only: other boards' lines are as before
         if let Some(p) = self.clock_ppm {
-            let _ = write!(out, " clock_ppm={p:.4}");
+            use std::fmt::Write;
+            let _ = write!(out, " clock_ppm={p:.4}"); // writing into a String cannot fail
             flag(out, " clock_fix=", self.clock_fix.unwrap_or(false));
         }
         flag(out, " en=", self.enabled);
-        let _ = write!(out, " num={}", self.number);
+        out.push_str(" num=");
+        push_int(out, self.number);
         // a board with a link only: other boards' lines are as before
         if let Some(l) = self.link {
             out.push_str(" link=");
             out.push_str(l.name());
         }
         if let Some(a) = self.age_ms {
-            let _ = write!(out, " age_ms={a}");
+            out.push_str(" age_ms=");
+            push_int(out, a);
         }
     }
 }
@@ -184,11 +189,8 @@ fn flag(out: &mut String, key: &str, on: bool) {
 }
 
 fn opt(out: &mut String, o: Option<i64>) {
-    use std::fmt::Write;
     match o {
-        Some(x) => {
-            let _ = write!(out, "{x}");
-        }
+        Some(x) => push_int(out, x),
         None => out.push_str("none"),
     }
 }

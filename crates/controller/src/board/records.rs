@@ -14,6 +14,7 @@ impl Board {
         let idx = self.indices(axes)?;
         let store = self.store.check().word();
         let link_state = self.pins.link_state();
+        let (clock_ppm, clock_fix) = (self.clock_state().ppm, self.clock_fix());
         Ok(idx
             .into_iter()
             .map(|i| {
@@ -58,8 +59,8 @@ impl Board {
                     sim_position: mechanics(&*self.pins, i),
                     dir_level: (ax.last_dir > 0) != ax.settings.invert_dir,
                     rate: track.map(|t| t.signed_rate()),
-                    clock_ppm: self.clock_state().ppm,
-                    clock_fix: self.clock_fix(),
+                    clock_ppm,
+                    clock_fix,
                     enabled: ax.driver.enabled,
                     enable_level: ax.driver.enabled == ax.settings.enable_active_high,
                     store: store.into(),

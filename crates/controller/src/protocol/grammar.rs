@@ -330,11 +330,15 @@ pub fn parse(line: &str) -> Result<Command, CtlError> {
     let Some((&head, rest)) = words.split_first() else {
         return Ok(Command::Nop);
     };
-    let head = head.to_ascii_lowercase();
-    if head == "mount" {
+    if head.eq_ignore_ascii_case("mount") {
         return Ok(Command::Mount(crate::mount::line::parse(rest)?));
     }
-    let Some(v) = VERBS.iter().find(|v| v.words.contains(&head.as_str())) else {
+    // (the table's words are lower case)
+    let Some(v) = VERBS
+        .iter()
+        .find(|v| v.words.iter().any(|w| w.eq_ignore_ascii_case(head)))
+    else {
+        let head = head.to_ascii_lowercase();
         let shown: String = head.chars().take(40).collect();
         return Err(CtlError::syntax(format!(
             "unknown command '{shown}' (try 'help')"

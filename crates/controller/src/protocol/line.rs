@@ -62,13 +62,17 @@ impl LineReader {
                 self.discard();
                 return Ok(Line::Eof);
             }
-            let now = Instant::now();
-            self.started.get_or_insert(now);
-            self.last = Some(now);
-            let (part, found) = match chunk.iter().position(|&b| b == b'\n') {
+            let (part, found) = match memchr::memchr(b'\n', chunk) {
                 Some(i) => (&chunk[..i], Some(i + 1)),
                 None => (chunk, None),
             };
+            // only a line left unfinished needs its times (a line that arrives whole,
+            // the usual case, costs no clock reading)
+            if found.is_none() {
+                let now = Instant::now();
+                self.started.get_or_insert(now);
+                self.last = Some(now);
+            }
             // One byte more than the limit may be a `\r` before the `\n`.
             if !self.too_long {
                 if self.buf.len() + part.len() > MAX_LINE + 1 {

@@ -117,3 +117,22 @@ fn a_file_that_is_not_a_database_is_damaged_and_a_reset_moves_it_aside() {
     assert!(s.presets().unwrap().is_empty());
     assert_eq!(s.axis("X").unwrap(), None);
 }
+
+#[test]
+fn health_sees_a_deleted_file_within_its_check_period_and_a_write_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Store::open(dir.path()).unwrap();
+    assert_eq!(s.check(), StoreHealth::Ok);
+    std::fs::remove_file(dir.path().join("board.redb")).unwrap();
+    // one check period later the file is looked at again
+    std::thread::sleep(HEALTH_CHECK_PERIOD + Duration::from_millis(10));
+    assert!(matches!(s.check(), StoreHealth::Gone(_)), "{:?}", s.check());
+
+    let dir = tempfile::tempdir().unwrap();
+    let s = Store::open(dir.path()).unwrap();
+    assert_eq!(s.check(), StoreHealth::Ok);
+    std::fs::remove_file(dir.path().join("board.redb")).unwrap();
+    // a write never trusts an earlier look
+    assert!(s.put_named("p", &NamedPosition::new()).is_err());
+    assert!(matches!(s.check(), StoreHealth::Gone(_)));
+}
