@@ -29,6 +29,10 @@ pub struct Launch {
     pub axis: usize,
     /// The move as planned on the host's clock (speeds, end tick).
     pub profile: Profile,
+    /// The clock (Hz) `profile`'s edges are played on: the board's, or, for a limits-mode
+    /// move on a board whose crystal the host corrects, its ticks in one host second
+    /// ([`crate::board::Board::play_clock`]).
+    pub clock_hz: f64,
     /// The backend's own plan of it, when its datapath is not the host's (see
     /// [`BoardBackend::plan_datapath`]).
     pub datapath: Option<IntProfile>,
@@ -158,8 +162,13 @@ pub trait BoardBackend: Send {
     fn attach(&mut self, axis: usize, count: i64, sim_position: i64);
     /// The axis's settings (at start-up and after every change).
     fn configure(&mut self, axis: usize, settings: &AxisSettings);
-    /// The backend's own plan of a move (`None`: the host's profile is what runs).
-    fn plan_datapath(&self, _spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
+    /// The backend's own plan of a move played on `clock_hz` (see [`Launch::clock_hz`];
+    /// `None`: the host's profile is what runs).
+    fn plan_datapath(
+        &self,
+        _spec: &MoveSpec,
+        _clock_hz: f64,
+    ) -> Result<Option<IntProfile>, CtlError> {
         Ok(None)
     }
     /// Starts `moves` together: with a TDM `report` they start on its start tick after

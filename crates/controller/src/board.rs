@@ -492,14 +492,11 @@ mod tests {
         assert_eq!((shortest(3, 7), shortest(4, 7)), (3, -3));
     }
 
-    /// On a board fitted 37 ppm fast, a move with phase times (not whole ticks) is
-    /// planned in the board's seconds and whole ticks, so the board's integer planner
-    /// takes it, and its last edge is the host time's on that crystal, to a tick.
-    #[test]
-    fn phase_times_on_a_fitted_board_are_whole_board_ticks() {
+    /// A board of one axis whose clock the host has fitted `ppm` fast (80 readings a host
+    /// second apart).
+    fn fitted_board(ppm: f64) -> (tempfile::TempDir, super::Board) {
         use crate::clock_rate::Reading;
         use crate::config::{AxisConfig, BoardConfig, BoardSection};
-        use crate::domain::MoveOpts;
         use crate::store::Store;
         let dir = tempfile::tempdir().unwrap();
         let c = BoardConfig {
@@ -517,7 +514,6 @@ mod tests {
             alpaca: None,
         };
         let mut b = super::Board::open(&c, Store::open(dir.path()).unwrap()).unwrap();
-        let ppm = 37.0;
         for k in 0..80u64 {
             let ns = k * 1_000_000_000;
             let tick = (ns as f64 * 50e6 * (1.0 + ppm * 1e-6) / 1e9) as u64;
@@ -529,6 +525,16 @@ mod tests {
             b.clock_reading(r).unwrap();
         }
         assert!(b.clock_state().correcting, "{:?}", b.clock_state());
+        (dir, b)
+    }
+
+    /// On a board fitted 37 ppm fast, a move with phase times (not whole ticks) is
+    /// planned in the board's seconds and whole ticks, so the board's integer planner
+    /// takes it, and its last edge is the host time's on that crystal, to a tick.
+    #[test]
+    fn phase_times_on_a_fitted_board_are_whole_board_ticks() {
+        use crate::domain::MoveOpts;
+        let (_dir, b) = fitted_board(37.0);
         let mut o = MoveOpts::default();
         (
             o.params.accel_time,
@@ -551,5 +557,38 @@ mod tests {
             "{}",
             p.duration()
         );
+    }
+
+    /// On the same board a limits-mode move is played on the board's ticks per host
+    /// second (to the whole Hz): its limits stay whole numbers, so the board's integer
+    /// planner takes them as they are, and the move lasts its host time on that crystal,
+    /// the float and integer plans to the same tick. Uncorrected, it plays on the
+    /// nominal clock.
+    #[test]
+    fn a_limits_move_on_a_fitted_board_plays_on_its_ticks_per_host_second() {
+        use crate::domain::MoveOpts;
+        let (_dir, mut b) = fitted_board(37.0);
+        let mut o = MoveOpts::default();
+        (o.params.vmax, o.params.amax) = (Some(4_000.0), Some(10_000.0));
+        o.profile = Some("trapezoid".into());
+        let f = 1.0 + b.clock_state().applied_ppm * 1e-6;
+        let clock = b.play_clock(&o);
+        assert_eq!(clock, (50e6 * f).round());
+        assert!((clock - 50e6 * 1.000_037).abs() < 50.0, "{clock}");
+        let spec = b.spec(0, 30_000, &o);
+        let ip = multistep_link::writes::int_profile(&spec.resolve().unwrap(), clock as u64)
+            .expect("whole limits for the integer planner");
+        let host = spec.plan_on_clock(50e6).unwrap().duration();
+        let want = host * 50e6 * f;
+        let last = ip.end_tick() as f64;
+        assert!((last - want).abs() <= 2.0, "{last} ticks, want {want}");
+        let p = b.plan(0, 30_000, &o).unwrap();
+        assert_eq!((p.duration() * clock).round(), last);
+        // phase times are stretched instead, on the board's clock
+        o.params.accel_time = Some(1.0);
+        assert_eq!(b.play_clock(&o), 50e6);
+        b.set_clock_correction(false);
+        o.params.accel_time = None;
+        assert_eq!(b.play_clock(&o), 50e6);
     }
 }

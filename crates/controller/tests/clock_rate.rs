@@ -361,7 +361,8 @@ fn host_ns(ticks: u64, ppm: i64) -> f64 {
 /// 2/6/2 s move and a sync group of two axes given those times last them but for the fit's
 /// error (a few tenths of a ppm: microseconds in 10 s, where the crystals alone put them
 /// a millisecond apart), and pass the same positions at the same host times. A
-/// limits-mode move runs at its limits in board seconds, so it keeps the crystal's error.
+/// limits-mode move is played on the board's ticks per host second: it keeps its limits
+/// in host seconds and lasts its host time too (uncorrected, the crystal's error).
 #[test]
 fn phase_time_moves_on_two_boards_50_ppm_apart_last_their_host_time() {
     use multistep_controller::protocol::{Amount, MoveOpts};
@@ -445,6 +446,15 @@ fn phase_time_moves_on_two_boards_50_ppm_apart_last_their_host_time() {
             let opts = MoveOpts::default();
             b.board.group_move(&group, false, true, &opts, now).unwrap();
         }
+        // the limits moves, mid-move: the same host times give the same positions
+        for k in 1..20 {
+            let at = later + k * S / 2 + 123_457;
+            let a = boards[0].position("sidereal", at);
+            let b = boards[1].position("sidereal", at);
+            if correct {
+                assert!((a - b).abs() <= 1, "limits move at {k}/2 s: {a} vs {b}");
+            }
+        }
         let want_solar = nominal(2_000, phases);
         let want_limits = nominal(20_000, limits);
         for (j, b) in boards.iter().enumerate() {
@@ -462,12 +472,21 @@ fn phase_time_moves_on_two_boards_50_ppm_apart_last_their_host_time() {
             );
             // a sync group's axes finish on the same tick
             assert!((sidereal - lunar).abs() < 1.0, "{sidereal} vs {lunar}");
-            // the limits move: at its limits on the board's crystal, corrected or not
+            // the limits move: on host time but for the fit's error and the clock's
+            // rounding to the whole Hz; uncorrected, at its limits on the crystal
             let off = lim - want_limits;
-            assert!(
-                (off - want_limits * crystal).abs() <= 1_000.0,
-                "limits: {off} ns"
-            );
+            if correct {
+                assert!(
+                    (off - want_limits * fit * 1e-6).abs() <= 500.0,
+                    "limits: {off} ns, fit {fit}"
+                );
+                assert!(off.abs() <= want_limits * 0.5e-6, "limits: {off} ns");
+            } else {
+                assert!(
+                    (off - want_limits * crystal).abs() <= 1_000.0,
+                    "limits: {off} ns"
+                );
+            }
             let off = solar - want_solar;
             if correct {
                 // what is left is the fit's error and the rounding to whole ticks

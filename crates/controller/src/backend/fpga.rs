@@ -177,9 +177,13 @@ impl BoardBackend for FpgaBackend {
     /// Trapezoids and seed 000 segments on `multistep_core::int` at the board's clock,
     /// when every piece fits the datapath; any other move is streamed (`None`: the
     /// host's plan runs) on a board with replay units, and refused on one without.
-    fn plan_datapath(&self, spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
+    fn plan_datapath(
+        &self,
+        spec: &MoveSpec,
+        clock_hz: f64,
+    ) -> Result<Option<IntProfile>, CtlError> {
         let mv = spec.resolve()?;
-        let computed = link::int_profile(&mv, self.params.clock_hz as u64).and_then(|ip| {
+        let computed = link::int_profile(&mv, clock_hz as u64).and_then(|ip| {
             AxisMove::from_profile(&ip, true, &self.params)
                 .map(|_| ip)
                 .map_err(|e| LinkError::Move(e.to_string()))
@@ -187,7 +191,7 @@ impl BoardBackend for FpgaBackend {
         match computed {
             Ok(ip) => Ok(Some(ip)),
             Err(_) if self.streams => {
-                check_streamable(&mv, self.params.clock_hz, self.params.tick_bits)?;
+                check_streamable(&mv, clock_hz, self.params.tick_bits)?;
                 Ok(None)
             }
             Err(e) => Err(CtlError::Setting(format!(

@@ -190,7 +190,7 @@ impl SimBackend {
         for (i, l) in moves {
             // planned when armed, so it plans again
             if let (Ok(src), Some(m)) = (
-                start_move(l.profile, self.clock_hz, tick),
+                start_move(l.profile, l.clock_hz, tick),
                 self.axes[i].motion.as_mut(),
             ) {
                 m.src = src;
@@ -272,7 +272,7 @@ impl BoardBackend for SimBackend {
             None => {
                 let s = moves
                     .iter()
-                    .map(|l| start_move(l.profile.clone(), self.clock_hz, now))
+                    .map(|l| start_move(l.profile.clone(), l.clock_hz, now))
                     .collect::<Result<Vec<_>, _>>()?;
                 (now, s)
             }
@@ -469,7 +469,7 @@ impl SyncLine for SimBackend {
         }
         let mut steps = Vec::new();
         for l in &moves {
-            steps.push(start_move(l.profile.clone(), self.clock_hz, now)?.steps_left());
+            steps.push(start_move(l.profile.clone(), l.clock_hz, now)?.steps_left());
         }
         for l in &moves {
             self.install(Installed::of(l), Box::new(Waiting), now);

@@ -73,7 +73,10 @@ impl Board {
             },
             ..MoveSpec::default()
         };
-        Ok((spec.plan_on_clock(self.clock_hz)?, self.datapath(&spec)?))
+        Ok((
+            spec.plan_on_clock(self.clock_hz)?,
+            self.datapath(&spec, self.clock_hz)?,
+        ))
     }
 
     fn home_move(

@@ -27,6 +27,8 @@ impl Board {
             // follow each other without a resync, so the sensor's history carries over.)
             resync_sensor: purpose == Purpose::Move,
             profile: p,
+            // homing's speeds are the board's
+            clock_hz: self.clock_hz,
         };
         self.launch_group(vec![(l, purpose)], None, start)
             .map(|_| ())
@@ -54,7 +56,12 @@ impl Board {
         let started = if self.arming {
             self.pins.sync_line().and_then(|s| s.arm(launches, now))
         } else {
-            self.pins.start(launches, report, &self.tdm, now)
+            // the group's clock: its moves play on one ([`Board::play_clock`])
+            let tdm = TdmConfig {
+                clock_hz: launches.first().map_or(self.clock_hz, |l| l.clock_hz),
+                ..self.tdm
+            };
+            self.pins.start(launches, report, &tdm, now)
         };
         match started {
             Ok((start, _)) => {
@@ -147,8 +154,13 @@ impl Board {
 
     /// The backend's own plan of the move `spec` (see [`BoardBackend::plan_datapath`]);
     /// the host's profile stays the reference for speeds and timing.
-    pub(super) fn datapath(&self, spec: &MoveSpec) -> Result<Option<IntProfile>, CtlError> {
-        self.pins.plan_datapath(spec)
+    /// The backend's plan of `spec` played on `clock_hz` ([`Board::play_clock`]).
+    pub(super) fn datapath(
+        &self,
+        spec: &MoveSpec,
+        clock_hz: f64,
+    ) -> Result<Option<IntProfile>, CtlError> {
+        self.pins.plan_datapath(spec, clock_hz)
     }
 
     pub(super) fn check_can_move(&self, i: usize) -> Result<(), CtlError> {
@@ -298,7 +310,7 @@ impl Board {
     pub(super) fn plan(&self, i: usize, steps: u64, opts: &MoveOpts) -> Result<Profile, CtlError> {
         let mut o = self.resolve_opts(opts)?;
         o.profile = Some(self.family_name(i, &o).to_string());
-        let p = self.spec(i, steps, &o).plan_on_clock(self.clock_hz)?;
+        let p = self.spec(i, steps, &o).plan_on_clock(self.play_clock(&o))?;
         self.check_peaks(i, &p)?;
         Ok(p)
     }
@@ -343,8 +355,8 @@ impl Board {
         now: u64,
     ) -> Result<PendingGroup, CtlError> {
         self.advance(now);
-        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
-        let datapaths = self.plan_datapaths(&plan, &profiles, sync, opts)?;
+        let (plan, profiles, clock_hz) = self.plan_group(targets, absolute, sync, opts)?;
+        let datapaths = self.plan_datapaths(&plan, &profiles, sync, opts, clock_hz)?;
         let before = plan
             .iter()
             .map(|&(i, _)| (self.axes[i].count, self.axes[i].settings.clone()))
@@ -354,7 +366,10 @@ impl Board {
             profiles,
             datapaths,
             before,
-            tdm: self.tdm,
+            tdm: TdmConfig {
+                clock_hz,
+                ..self.tdm
+            },
         })
     }
 
@@ -373,7 +388,7 @@ impl Board {
             profiles,
             datapaths,
             before,
-            ..
+            tdm,
         } = pending;
         for (&(i, _), (count, settings)) in plan.iter().zip(&before) {
             self.check_can_move(i)?;
@@ -393,6 +408,7 @@ impl Board {
                 let l = Launch {
                     axis: i,
                     profile,
+                    clock_hz: tdm.clock_hz,
                     datapath,
                     dir: d.signum(),
                     stop_on_sensor: None,
@@ -429,6 +445,7 @@ impl Board {
         profiles: &[Option<Profile>],
         sync: bool,
         opts: &MoveOpts,
+        clock_hz: f64,
     ) -> Result<Vec<Option<IntProfile>>, CtlError> {
         let o = self.resolve_opts(opts)?;
         // A sync group's phases, in whole ticks: the same on every axis (plan_sync gives
@@ -451,7 +468,7 @@ impl Board {
                     );
                     (p.start_speed, p.end_speed) = (None, None);
                 }
-                self.datapath(&self.spec(i, self.axes[i].motor_steps(d), &o))
+                self.datapath(&self.spec(i, self.axes[i].motor_steps(d), &o), clock_hz)
             })
             .collect()
     }

@@ -18,8 +18,9 @@ pub struct PlannedAxis {
     pub profile: Option<Profile>,
 }
 
-/// Axis indices with signed step counts, and their profiles (`None`: stays put).
-type GroupPlan = (Vec<(usize, i64)>, Vec<Option<Profile>>);
+/// Axis indices with signed step counts, their profiles (`None`: stays put), and the
+/// clock they play on ([`Board::play_clock`]).
+type GroupPlan = (Vec<(usize, i64)>, Vec<Option<Profile>>, f64);
 
 impl Board {
     /// The planning half of [`Board::group_move`]: each named axis with its signed step
@@ -52,6 +53,12 @@ impl Board {
                 super::MAX_TIMED_STEPS
             )));
         }
+        // a sync group's phase times are stretched to the board's seconds
+        let clock = if sync {
+            self.clock_hz
+        } else {
+            self.play_clock(&self.resolve_opts(opts)?)
+        };
         let profiles = if sync {
             self.plan_sync(&plan, opts)?
         } else {
@@ -65,7 +72,7 @@ impl Board {
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
-        Ok((plan, profiles))
+        Ok((plan, profiles, clock))
     }
 
     /// What `group_move(targets, absolute, sync, opts)` would run from the counted
@@ -89,7 +96,7 @@ impl Board {
         sync: bool,
         opts: &MoveOpts,
     ) -> Result<PreviewPlan, CtlError> {
-        let (plan, profiles) = self.plan_group(targets, absolute, sync, opts)?;
+        let (plan, profiles, clock_hz) = self.plan_group(targets, absolute, sync, opts)?;
         let axes = plan
             .iter()
             .zip(profiles)
@@ -106,7 +113,10 @@ impl Board {
             .collect();
         Ok(PreviewPlan {
             axes,
-            tdm: self.tdm,
+            tdm: TdmConfig {
+                clock_hz,
+                ..self.tdm
+            },
         })
     }
 }

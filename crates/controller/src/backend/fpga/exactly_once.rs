@@ -13,11 +13,12 @@ pub(super) fn launch(b: &FpgaBackend, axis: usize, steps: u64) -> Launch {
         },
         ..MoveSpec::default()
     };
-    let datapath = b.plan_datapath(&spec).unwrap();
+    let datapath = b.plan_datapath(&spec, b.params.clock_hz).unwrap();
     assert!(datapath.is_some(), "computed on the board");
     Launch {
         axis,
         profile: spec.plan().unwrap(),
+        clock_hz: b.params.clock_hz,
         datapath,
         dir: 1,
         stop_on_sensor: None,

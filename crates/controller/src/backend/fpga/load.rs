@@ -75,7 +75,7 @@ impl FpgaBackend {
         } else {
             self.hall_stop &= !(1 << l.axis);
         }
-        let clock = self.params.clock_hz;
+        let clock = l.clock_hz;
         let steps = l.profile.steps();
         let n = u32::try_from(steps).map_err(|_| {
             CtlError::Setting(format!(
@@ -117,7 +117,7 @@ impl FpgaBackend {
         if self.chains as usize != CHAIN_LAYOUT.record_bytes() || l.stop_on_sensor.is_some() {
             return None;
         }
-        let clock = self.params.clock_hz as u64;
+        let clock = l.clock_hz as u64;
         let bits = self.params.tick_bits;
         ChainedMove::from_profile(&l.profile, clock, bits, &CHAIN_LAYOUT)
             .ok()
