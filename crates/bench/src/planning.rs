@@ -95,21 +95,30 @@ otg, inp, traj = Ruckig(1), InputParameter(1), Trajectory(1)
 inp.current_position, inp.target_position = [0.0], [float(case["steps"])]
 inp.max_velocity, inp.max_acceleration = [case["vmax"]], [case["amax"]]
 inp.max_jerk = [case["jmax"] if case["jmax"] is not None else float("inf")]
-kw = dict(steps=case["steps"], vmax=case["vmax"], amax=case["amax"])
-if case["jmax"] is not None:
-    kw.update(profile="scurve", jmax=case["jmax"])
+steps, vmax, amax, jmax = case["steps"], case["vmax"], case["amax"], case["jmax"]
 plan = multistep.plan
 
-def ms():
-    for _ in range(n):
-        plan(**kw)
+# the call as a program writes it: its keywords named at the call (a `**dict` would have
+# the caller build and unpack a dictionary every time)
+if jmax is None:
+    def ms():
+        for _ in range(n):
+            plan(steps=steps, vmax=vmax, amax=amax)
+    def one():
+        return plan(steps=steps, vmax=vmax, amax=amax)
+else:
+    def ms():
+        for _ in range(n):
+            plan(steps=steps, vmax=vmax, amax=amax, profile="scurve", jmax=jmax)
+    def one():
+        return plan(steps=steps, vmax=vmax, amax=amax, profile="scurve", jmax=jmax)
 
 def rk():
     for _ in range(n):
         otg.calculate(inp, traj)
 
 # both give the move's duration
-assert abs(plan(**kw).duration_s - (otg.calculate(inp, traj), traj.duration)[1]) < 1e-6
+assert abs(one().duration_s - (otg.calculate(inp, traj), traj.duration)[1]) < 1e-6
 if mode == "count":
     {"multistep": ms, "ruckig": rk}[impl]()
 else:
