@@ -569,27 +569,6 @@ impl Controller {
         }
     }
 
-    /// The reply to `line` as a connection sends it, appended to `out`: the text of
-    /// [`Controller::execute_bytes`], with a text `status` written straight into `out`
-    /// (its lines hold no line break and never read as a status line, so they need no
-    /// `String` each).
-    pub fn answer_bytes(&self, line: &[u8], out: &mut String) {
-        match protocol::parse_bytes(line) {
-            Ok(Command::Status { axes, json: false }) => match self.status(&axes) {
-                Ok(st) => {
-                    for s in &st {
-                        s.write_line(out);
-                        out.push('\n');
-                    }
-                    out.push_str("ok\n");
-                }
-                Err(e) => Reply::err(e).write_text(out),
-            },
-            Ok(cmd) => self.execute(&cmd).write_text(out),
-            Err(e) => Reply::err(e).write_text(out),
-        }
-    }
-
     /// Runs one command: the single place where protocol words meet the board.
     pub fn execute(&self, cmd: &Command) -> Reply {
         Reply::from_result(self.run(cmd))
