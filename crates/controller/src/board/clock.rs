@@ -97,14 +97,13 @@ impl Board {
         self.clock.estimator.restart();
     }
 
-    /// How many of this board's seconds one host second is (`1 + ε`), once moves are
-    /// corrected; `None` while they run on the crystal (no fit, or correction off).
-    /// The clock a move's edges are played on ([`crate::backend::Launch::clock_hz`]): the board's; on a
-    /// board whose crystal the host corrects, for a limits-mode move (`opts` resolved,
-    /// without phase times), the board's ticks in one host second, `clock_hz·(1 +
-    /// ppb·10⁻⁹)` to the whole Hz (0.02 ppm at 25 MHz, under the fit's own error), so the
-    /// move keeps its limits in host seconds and lasts its host time. Phase times are
-    /// stretched instead ([`Board::spec`]), so those moves play on the board's clock.
+    /// The clock a move's edges are played on ([`crate::backend::Launch::clock_hz`]): the
+    /// board's; on a board whose crystal the host corrects, for a limits-mode move (`opts`
+    /// resolved, without phase times), the board's ticks in one host second,
+    /// `clock_hz·(1 + ppb·10⁻⁹)` to the whole Hz (0.02 ppm at 25 MHz, under the fit's own
+    /// error), so the move keeps its limits in host seconds and lasts its host time. Phase
+    /// times are stretched instead ([`Board::spec`]), so those moves play on the board's
+    /// clock.
     pub fn play_clock(&self, opts: &MoveOpts) -> f64 {
         match self.move_time_scale() {
             Some(f) if !opts.has_phase_times() => (self.clock_hz * f).round(),
@@ -112,6 +111,8 @@ impl Board {
         }
     }
 
+    /// How many of this board's seconds one host second is (`1 + ε`), once moves are
+    /// corrected; `None` while they run on the crystal (no fit, or correction off).
     pub(super) fn move_time_scale(&self) -> Option<f64> {
         (self.clock.applied != 0).then_some(1.0 + self.clock.applied as f64 * 1e-9)
     }

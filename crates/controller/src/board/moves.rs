@@ -152,9 +152,9 @@ impl Board {
         Ok(())
     }
 
-    /// The backend's own plan of the move `spec` (see [`BoardBackend::plan_datapath`]);
-    /// the host's profile stays the reference for speeds and timing.
-    /// The backend's plan of `spec` played on `clock_hz` ([`Board::play_clock`]).
+    /// The backend's own plan of the move `spec` played on `clock_hz` ([`Board::play_clock`];
+    /// see [`BoardBackend::plan_datapath`]); the host's profile stays the reference for
+    /// speeds and timing.
     pub(super) fn datapath(
         &self,
         spec: &MoveSpec,
