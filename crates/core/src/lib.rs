@@ -37,6 +37,7 @@ pub mod edges;
 pub mod error;
 pub mod hal;
 pub mod int;
+mod jet;
 mod kinematics;
 mod limits;
 mod moves;

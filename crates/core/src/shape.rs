@@ -305,6 +305,63 @@ impl ShapedLaw {
         self.base * tau + self.span * g
     }
 
+    /// `(v, a, j)` at τ from one `exp` (or one `sin` and one `cos`), for
+    /// [`LocalCubic`](crate::jet::LocalCubic)'s coefficients: v within a few ε of the
+    /// velocity scale of [`derivative_bounds`](Self::derivative_bounds), a and j within a
+    /// few ε of themselves. `None` for the parabola, whose derivatives are unbounded at
+    /// u = 0.
+    #[inline]
+    pub fn derivatives(&self, tau: f64) -> Option<(f64, f64, f64)> {
+        use core::f64::consts::PI;
+        let u = tau / self.dur;
+        let w = if self.mirrored { 1.0 - u } else { u };
+        let sign = if self.mirrored { -1.0 } else { 1.0 };
+        // the rate h(u) = g(w), its slope ±g'(w), its curvature g''(w)
+        let (h, h1, h2) = match self.shape {
+            Shape::Parabolic => return None,
+            Shape::Exponential { .. } => {
+                let e = fm::exp(-w / self.rho);
+                let g1 = e / self.rho_d;
+                ((1.0 - e) / self.d, sign * g1, -g1 / self.rho)
+            }
+            Shape::Sine => {
+                let (s, c) = (fm::sin(PI * w), fm::cos(PI * w));
+                (0.5 * (1.0 - c), sign * (0.5 * PI) * s, (0.5 * PI * PI) * c)
+            }
+        };
+        Some((
+            self.base + self.span_rate * h,
+            self.span_slope * h1,
+            self.span_slope / self.dur * h2,
+        ))
+    }
+
+    /// Bounds over the piece for [`LocalCubic`](crate::jet::LocalCubic): the scale of the
+    /// velocity's terms as [`derivatives`](Self::derivatives) rounds them (`|base| +
+    /// |span/dur|`, over D for the exponential, whose `1 − e` carries ε absolute), and
+    /// `|a|`, `|j|` and `|p⁗|`: `span/dur^k` times the shape's largest |g'|, |g''|,
+    /// |g'''| (`π^k/2` for the sine, `1/(ρ^(k−1)·ρD)` for the exponential), each with a
+    /// margin for rounding. `None` for the parabola.
+    pub fn derivative_bounds(&self) -> Option<[f64; 4]> {
+        use core::f64::consts::PI;
+        let (v_scale, g1, g2, g3) = match self.shape {
+            Shape::Parabolic => return None,
+            Shape::Exponential { .. } => {
+                let (r, rd) = (self.rho, self.rho_d);
+                (1.0 / self.d, 1.0 / rd, 1.0 / (r * rd), 1.0 / (r * r * rd))
+            }
+            Shape::Sine => (1.0, 0.5 * PI, 0.5 * PI * PI, 0.5 * PI * PI * PI),
+        };
+        let slope = self.span_slope.abs();
+        let k = 1.01;
+        Some([
+            k * (self.base.abs() + self.span_rate.abs() * v_scale),
+            k * slope * g1,
+            k * slope / self.dur * g2,
+            k * slope / (self.dur * self.dur) * g3,
+        ])
+    }
+
     /// A bound on |a(τ)| over the piece where the shape's slope is bounded: `π/2` (sine)
     /// and `1/(ρD)` (exponential, at its steep end) times `span/dur²`, with a margin for
     /// rounding; `None` for the parabola, whose slope is unbounded at u = 0.

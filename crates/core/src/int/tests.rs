@@ -717,7 +717,7 @@ fn sizes() {
     for (name, bytes) in rows {
         std::println!("{name:40} {bytes:6} B");
     }
-    assert!(size_of::<EdgeGenerator<&Profile>>() < 512);
+    assert!(size_of::<EdgeGenerator<&Profile>>() < 576);
     assert!(size_of::<IntEdgeGenerator<&IntProfile<3>, 3>>() < 256);
     assert!(size_of::<IntProfile<3>>() * 16 < size_of::<IntProfile>());
 }
