@@ -71,7 +71,11 @@ fn allow_negative_numbers(cmd: Command) -> Command {
 fn main() -> ExitCode {
     // clap's own rendering: the whole message with its hints (did you mean, usage) on
     // stderr and status 2; help and version on stdout and status 0.
-    let matches = allow_negative_numbers(Cli::command()).get_matches();
+    let mut command = allow_negative_numbers(Cli::command());
+    let matches = command.get_matches_mut();
+    // the whole command tree is a sixth of a short run's instructions to free: the
+    // process's exit frees it
+    std::mem::forget(command);
     let cli =
         Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut Cli::command()).exit());
     let result = match &cli.cmd {

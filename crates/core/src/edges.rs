@@ -48,6 +48,14 @@ fn nearest_tick(x: f64) -> (u64, f64) {
     (tick, 0.5 - (x - r).abs())
 }
 
+/// The nearest tick to x ≥ 0 and `|x − tick|`.
+#[inline(always)]
+fn nearest_tick_offset(x: f64) -> (u64, f64) {
+    let y = x + MAGIC;
+    let tick = y.to_bits().wrapping_sub(MAGIC.to_bits());
+    (tick, (x - (y - MAGIC)).abs())
+}
+
 /// Where a piece starts (time and position) and how long it lasts.
 #[derive(Clone, Copy, Debug)]
 struct Span {
@@ -164,9 +172,34 @@ impl Ramp {
         }
     }
 
+    /// The root `s = √(c1² + 4c2·n)` of step i as computed: monotone in i (each rounding
+    /// is), so its least value over a run of steps is at one of the run's ends.
+    #[inline(always)]
+    fn root(&self, p: Span, i: f64) -> f64 {
+        let r = self.c1_sq + self.c2_4 * (i - p.p0);
+        // `r.max(0.0)` in one instruction (maxsd): a NaN radicand cannot occur here
+        fm::sqrt(if r > 0.0 { r } else { 0.0 })
+    }
+
+    /// How many of the `left` steps from step i to run with one decision limit, and that
+    /// limit: the steps whose root stays within about a factor 2 of step i's, and
+    /// `½ − quick/s_lo` with `s_lo` below the least root among them, so that a step's
+    /// `|f·t − nearest tick| < limit` implies its `dist·s > quick` ([`Ramp::new`]) without
+    /// a multiply by its own root.
+    fn run_limit(&self, p: Span, i: f64, left: f64) -> (f64, f64) {
+        let r0 = self.c1_sq + self.c2_4 * (i - p.p0);
+        // steps until r is 4·r0 (accelerating) or r0/4 (decelerating): s doubles or halves
+        let target = if self.c2_4 > 0.0 { 4.0 * r0 } else { 0.25 * r0 };
+        let len = fm::floor((target - r0) / self.c2_4);
+        // NaN-safe: at least one step, at most `left`
+        let len = if len >= 1.0 { len.min(left) } else { 1.0 };
+        let s_lo = self.root(p, i).min(self.root(p, i + (len - 1.0))) * (1.0 - 1e-6);
+        (len, 0.5 - self.quick / s_lo)
+    }
+
     /// Local time of step i, its nearest tick, and whether f64 decides that tick: the
-    /// piece's closed form and bound first ([`Ramp::new`]), the merged form with its
-    /// per-step bound where that bound cannot decide.
+    /// piece's closed form and bound first (`|f·t − tick| < limit`, [`Ramp::run_limit`]),
+    /// the merged form with its per-step bound where that cannot decide.
     /// `FAST` is `self.fast`, as a parameter so that a loop over steps has no branch on it.
     #[inline(always)]
     fn locate<const FAST: bool>(
@@ -175,10 +208,10 @@ impl Ramp {
         i: f64,
         k_err: f64,
         clock: f64,
+        limit: f64,
     ) -> (f64, u64, bool) {
         let n = i - p.p0;
-        let r = self.c1_sq + self.c2_4 * n;
-        let s = fm::sqrt(r.max(0.0));
+        let s = self.root(p, i);
         let tau = if FAST {
             (s - self.c1) * self.h
         } else {
@@ -187,8 +220,8 @@ impl Ramp {
         // `tau.min(dur)` in one instruction (a NaN τ gives dur in both)
         let tau = if tau < p.dur { tau } else { p.dur };
         let x = (p.t0 + tau) * clock;
-        let (tick, dist) = nearest_tick(x);
-        if dist * s > self.quick {
+        let (tick, off) = nearest_tick_offset(x);
+        if off < limit {
             return (tau, tick, true);
         }
         // the piece's start and length as scalars: a `Span` argument was stored to the
@@ -200,10 +233,11 @@ impl Ramp {
     /// so that the general path, which the curves' steps take, stays small.
     #[inline(never)]
     fn locate_once(&self, p: Span, i: f64, k_err: f64, clock: f64) -> (f64, u64, bool) {
+        let limit = self.run_limit(p, i, 1.0).1;
         if self.fast {
-            self.locate::<true>(p, i, k_err, clock)
+            self.locate::<true>(p, i, k_err, clock, limit)
         } else {
-            self.locate::<false>(p, i, k_err, clock)
+            self.locate::<false>(p, i, k_err, clock, limit)
         }
     }
 
@@ -685,19 +719,25 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
         let (k_err, clock) = (self.k_err(), self.clock);
         let span = Span::of(&self.cur);
         let mut last = self.last_edge;
-        // i from an integer counter (exact below 2^53): a float carried from step to step
-        // would be spilled around the rare calls below, a store and reload on every step
+        // runs of steps with one decision limit ([`Ramp::run_limit`]); within a run, i is a
+        // float counted up by one (exact below 2^53): one add instead of a conversion
         let first = self.next as i64;
-        for k in 0..n as i64 {
-            let i = (first + k) as f64;
-            let (tau, tick, decided) = ramp.locate::<FAST>(span, i, k_err, clock);
-            let e = if decided {
-                tick
-            } else {
-                self.settle(self.piece, i, tau)
-            };
-            last = e;
-            out = f(out, e);
+        let mut k = 0;
+        while k < n as i64 {
+            let (len, limit) = ramp.run_limit(span, (first + k) as f64, (n as i64 - k) as f64);
+            let mut i = (first + k) as f64;
+            for _ in 0..len as i64 {
+                let (tau, tick, decided) = ramp.locate::<FAST>(span, i, k_err, clock, limit);
+                let e = if decided {
+                    tick
+                } else {
+                    self.settle(self.piece, i, tau)
+                };
+                last = e;
+                out = f(out, e);
+                i += 1.0;
+            }
+            k += len as i64;
         }
         self.last_edge = last;
         self.next += n;
@@ -1326,5 +1366,47 @@ mod tests {
             assert_eq!(&buf[..k], &want[from..from + k], "seek {start}");
             assert_eq!(g.remaining(), want.len() as u64 - start + 1 - k as u64);
         }
+    }
+}
+
+#[cfg(test)]
+mod near_ties {
+    use super::*;
+    use crate::moves::Segment;
+
+    /// A constant-acceleration piece 2^20 s into a move, whose steps (2k+1)² lie on half
+    /// ticks to within the f64 rounding of its coefficients, where f64 resolves the time
+    /// only to about 2·10⁻⁷ ticks: every edge still meets the exactness condition in
+    /// double-double, because the ramp loop's limit sent those steps to the settle.
+    #[test]
+    fn near_ties_far_into_a_move_are_settled() {
+        let clock = 1000.0;
+        // 10 000 steps in 0.05 s from rest: a = 8·10⁶ steps/s² = 8f², so step i is at
+        // √i/2 ticks into the piece, a half tick when √i is odd
+        let segs = [
+            Segment {
+                v0: 0.0,
+                duration: 1_048_576.0,
+                steps: 0,
+            },
+            Segment {
+                v0: 0.0,
+                duration: 0.05,
+                steps: 10_000,
+            },
+        ];
+        let p = Profile::segments(&segs).unwrap();
+        let mut g = EdgeGenerator::new(&p, clock).unwrap();
+        let edges: Vec<u64> = (&mut g).collect();
+        assert_eq!(edges.len(), 10_000);
+        let f = Dd::new(clock);
+        for (k, &e) in edges.iter().enumerate().take(9_999) {
+            let i = Dd::new((k + 1) as f64);
+            let below = p.position_dd(Dd::new(e as f64 - 0.5) / f);
+            let above = p.position_dd(Dd::new(e as f64 + 0.5) / f);
+            assert!(below < i && !(above < i), "step {}: edge {e}", k + 1);
+        }
+        std::println!("settled {}", g.settled_count());
+        assert!(g.settled_count() >= 25, "{}", g.settled_count());
     }
 }
