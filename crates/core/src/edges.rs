@@ -22,6 +22,8 @@ use crate::profile::Profile;
 use crate::real::fm;
 use crate::shape::ShapedLaw;
 
+mod extremes;
+
 const EPS: f64 = f64::EPSILON;
 /// Most ticks a move may span: half-tick decisions stay meaningful in f64 and u64.
 pub const MAX_TICKS: f64 = (1u64 << 50) as f64;
@@ -569,16 +571,13 @@ impl<P: Borrow<Profile>> EdgeGenerator<P> {
                 self.run_left = 0;
             }
             if self.next_f <= self.ramp_hi && self.quad {
-                let f = |(lo, hi, last): (u64, u64, u64), e: u64| {
-                    (lo.min(e - last), hi.max(e - last), e)
-                };
-                (lo, hi, last) = if PARTS {
-                    let n = ((self.ramp_hi - self.next_f + 1.0) as u64)
-                        .min(stop.saturating_sub(self.next).max(1));
-                    self.ramp_steps(n, (lo, hi, last), f)
+                let run = (self.ramp_hi - self.next_f + 1.0) as u64;
+                let n = if PARTS {
+                    run.min(stop.saturating_sub(self.next).max(1))
                 } else {
-                    self.ramp_run((lo, hi, last), &mut { f })
+                    run
                 };
+                (lo, hi, last) = self.ramp_extremes(n, (lo, hi, last));
                 any = true;
             }
             if self.next_f <= self.ramp_hi

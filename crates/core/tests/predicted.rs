@@ -6,7 +6,7 @@
 mod common;
 
 use common::strategies::{clock, family};
-use multistep_core::{EdgeGenerator, Family, LimitsMove, Move, Order, PhaseMove, Profile};
+use multistep_core::{EdgeGenerator, Family, LimitsMove, Move, Order, PhaseMove, Profile, Segment};
 use proptest::prelude::*;
 
 /// Least and greatest period (the first from tick 0) and the last edge.
@@ -110,6 +110,25 @@ proptest! {
         let m = LimitsMove { steps, order, vmax, amax, jmax: Some(jmax), smax: Some(smax),
                              start_speed: fs * fs * vmax, end_speed: fe * fe * vmax };
         if let Ok(p) = Profile::plan(&Move::Limits(m)) {
+            check(&p, f, chunk, seek)?;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// One constant-acceleration segment, speeding up or slowing down: its least and
+    /// greatest period sit among the many periods within a tick or two of the run's end
+    /// periods, where the period extremes compare only a head and a tail of the run.
+    #[test]
+    fn constant_acceleration_runs_give_their_extremes(
+        steps in 100u64..60_000, v0 in 0.0f64..2e5, ve in 0.0f64..2e5, f in clock(),
+        chunk in 1usize..5000, seek in any::<u64>(),
+    ) {
+        prop_assume!(v0 + ve > 1.0);
+        let seg = [Segment { v0, duration: 2.0 * steps as f64 / (v0 + ve), steps }];
+        if let Ok(p) = Profile::segments(&seg) {
             check(&p, f, chunk, seek)?;
         }
     }
