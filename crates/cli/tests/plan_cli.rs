@@ -276,3 +276,52 @@ fn a_move_faster_than_the_clock_is_refused() {
     assert_eq!(rows.len(), 1000);
     assert!(rows.iter().all(|&(_, _, period)| period >= 1));
 }
+
+/// A subcommand's arguments are built only when it runs; its help still opens with its own
+/// line from the command list (not a flattened struct's doc comment), however asked for.
+#[test]
+fn subcommand_help_keeps_its_own_about() {
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_multistep"))
+            .args(args)
+            .output()
+            .expect("run multistep");
+        assert!(out.status.success(), "{args:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let list = run(&["--help"]);
+    for (cmd, about) in [
+        ("plan", "Plan one move: the exact tick of every step edge"),
+        (
+            "simulate",
+            "Simulate one move on a motor and driver: lost steps",
+        ),
+        (
+            "serve",
+            "Run a controller board, simulated or the FPGA board",
+        ),
+    ] {
+        assert!(list.contains(about), "{cmd} in the list");
+        for args in [vec![cmd, "--help"], vec!["help", cmd]] {
+            let help = run(&args);
+            assert!(
+                help.starts_with(about),
+                "{args:?}: {}",
+                help.lines().next().unwrap()
+            );
+        }
+    }
+    // the subcommand that runs still takes negative numbers, so the planner names the error
+    let out = plan(&[
+        "--profile",
+        "trapezoid",
+        "--steps",
+        "100",
+        "--vmax",
+        "-5",
+        "--amax",
+        "100",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("vmax must be greater than zero"));
+}
