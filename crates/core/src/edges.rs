@@ -44,10 +44,8 @@ const MAGIC: f64 = 6_755_399_441_055_744.0;
 /// MAGIC's plus the tick (one subtract).
 #[inline(always)]
 fn nearest_tick(x: f64) -> (u64, f64) {
-    let y = x + MAGIC;
-    let r = y - MAGIC;
-    let tick = y.to_bits().wrapping_sub(MAGIC.to_bits());
-    (tick, 0.5 - (x - r).abs())
+    let (tick, off) = nearest_tick_offset(x);
+    (tick, 0.5 - off)
 }
 
 /// The nearest tick to x ≥ 0 and `|x − tick|`.
