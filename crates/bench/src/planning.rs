@@ -51,16 +51,17 @@ impl PlanCase {
     }
 }
 
-/// Plans the case `n` times into a profile sized for a limits move
-/// (`Profile::<MAX_PHASE_PIECES>::limits_in`, as Ruckig's `Trajectory` is sized for its
-/// move); returns the sum of the durations (so nothing is optimised away).
+/// Plans the case `n` times into one profile sized for a limits move
+/// (`Profile::<MAX_PHASE_PIECES>::replan_limits`), as Ruckig's `calculate` writes into one
+/// `Trajectory` sized for its move; returns the sum of the durations (so nothing is
+/// optimised away).
 pub fn plan_n(case: &PlanCase, n: u64) -> Result<f64, PlanError> {
     let m = case.limits();
+    let mut p = Profile::<MAX_PHASE_PIECES>::default();
     let mut sum = 0.0;
     for _ in 0..n {
-        // read where it was planned, not moved out of its Result
-        let p = Profile::<MAX_PHASE_PIECES>::limits_in(black_box(&m));
-        sum += black_box(&p).as_ref().map_err(Clone::clone)?.duration();
+        p.replan_limits(black_box(&m))?;
+        sum += black_box(&p).duration();
     }
     Ok(sum)
 }

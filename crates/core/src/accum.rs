@@ -51,6 +51,62 @@ impl StepAccumulator {
         e
     }
 
+    /// The accumulator two steps at a time from the step after this one: `w/den` doubled.
+    #[inline(always)]
+    fn doubled_from_next(&self) -> (Self, Self) {
+        // 2·dr < 2^64 (dr < den < 2^63): one carry at most
+        let (dr, carry) = (2 * self.dr, (2 * self.dr >= self.den) as u64);
+        let step = StepAccumulator {
+            dq: self.dq.wrapping_mul(2).wrapping_add(carry),
+            dr: dr - carry * self.den,
+            ..*self
+        };
+        let mut odd = *self;
+        odd.next_edge();
+        (
+            step,
+            StepAccumulator {
+                q: odd.q,
+                r: odd.r,
+                ..step
+            },
+        )
+    }
+
+    /// Folds the next `n` edges into `init` and moves past them. Even and odd steps run
+    /// on two accumulators of twice the step, so the two carry chains interleave instead
+    /// of every edge waiting for the one before.
+    #[inline(always)]
+    pub fn fold_run<B>(&mut self, n: u64, init: B, mut f: impl FnMut(B, u64) -> B) -> B {
+        let mut out = init;
+        let (mut even, mut odd) = self.doubled_from_next();
+        for _ in 0..n / 2 {
+            out = f(out, even.next_edge());
+            out = f(out, odd.next_edge());
+        }
+        // the even lane stands at step 2·⌊n/2⌋ from here
+        (self.q, self.r) = (even.q, even.r);
+        if n % 2 == 1 {
+            out = f(out, self.next_edge());
+        }
+        out
+    }
+
+    /// Writes the next `out.len()` edges and moves past them ([`StepAccumulator::fold_run`]).
+    #[inline(always)]
+    pub fn fill_run(&mut self, out: &mut [u64]) {
+        let (mut even, mut odd) = self.doubled_from_next();
+        let mut pairs = out.chunks_exact_mut(2);
+        for pair in &mut pairs {
+            pair[0] = even.next_edge();
+            pair[1] = odd.next_edge();
+        }
+        (self.q, self.r) = (even.q, even.r);
+        if let [last] = pairs.into_remainder() {
+            *last = self.next_edge();
+        }
+    }
+
     /// The current edge and the least and greatest of the `n − 1` periods between it
     /// and the `n − 1` edges after it (`None` for n ≤ 1), without moving: every period
     /// is `⌊w/den⌋` plus one on a carry, and the `n − 1` steps carry
@@ -282,6 +338,33 @@ mod tests {
                 Some((lo, hi)) => Some((p.min(lo), p.max(hi))),
             });
             proptest::prop_assert_eq!(acc.period_range(n), want);
+        }
+    }
+
+    proptest::proptest! {
+        /// Two lanes of twice the step give the edges one accumulator gives, and leave it
+        /// where it would be; dr near den makes the doubled step carry.
+        #[test]
+        fn runs_are_the_steps_one_at_a_time(
+            y in 0u128..1 << 80, w in 1u128..1 << 70, den in 1u128..1 << 63, n in 0u64..300,
+            near in proptest::bool::ANY,
+        ) {
+            let w = if near { w / den * den + den - 1 } else { w };
+            let Some(acc) = StepAccumulator::new(y, w, den) else { return Ok(()) };
+            let mut one = acc;
+            let want: std::vec::Vec<u64> = (0..n).map(|_| one.next_edge()).collect();
+            let mut folded = acc;
+            let got = folded.fold_run(n, std::vec::Vec::new(), |mut v, e| {
+                v.push(e);
+                v
+            });
+            proptest::prop_assert_eq!(&got, &want);
+            proptest::prop_assert_eq!(folded, one);
+            let mut filled = acc;
+            let mut out = std::vec![0u64; n as usize];
+            filled.fill_run(&mut out);
+            proptest::prop_assert_eq!(&out, &want);
+            proptest::prop_assert_eq!(filled, one);
         }
     }
 

@@ -30,14 +30,44 @@ impl<const N: usize> Profile<N> {
             exact: None,
         }
     }
+
+    /// No pieces, as [`Profile::empty`], keeping the storage.
+    #[inline(always)]
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+        self.steps = 0;
+        self.duration = 0.0;
+        self.exact = None;
+    }
+}
+
+/// The profile `plan` builds, built where it is returned (a profile is a kilobyte or more:
+/// planning into a local and returning it would copy it).
+#[inline(always)]
+pub(crate) fn planned<const N: usize>(
+    plan: impl FnOnce(&mut Profile<N>) -> Result<(), PlanError>,
+) -> Result<Profile<N>, PlanError> {
+    let mut out = Ok(Profile::empty());
+    if let Ok(prof) = &mut out {
+        if let Err(e) = plan(prof) {
+            out = Err(e);
+        }
+    }
+    out
+}
+
+/// A profile with no pieces, storage for [`Profile::replan_limits`].
+impl<const N: usize> Default for Profile<N> {
+    fn default() -> Self {
+        Profile::empty()
+    }
 }
 
 impl<'a, const N: usize> Builder<'a, N> {
     /// Builds into `prof`, which is emptied.
     #[inline(always)]
     pub(crate) fn new(prof: &'a mut Profile<N>) -> Self {
-        prof.len = 0;
-        prof.exact = None;
+        prof.clear();
         Builder {
             prof,
             t: 0.0,

@@ -7,7 +7,7 @@
 //! monotone distance function otherwise (Biagiotti & Melchiorri, *Trajectory Planning for
 //! Automatic Machines and Robots*, 2008, §3.4, generalised to snap limits).
 
-use crate::builder::{schedule_end, Builder};
+use crate::builder::{planned, schedule_end, Builder};
 use crate::dd::Dd;
 use crate::edges::MAX_TICKS;
 use crate::error::{non_negative, positive, PlanError};
@@ -33,6 +33,12 @@ pub(crate) struct Change {
 }
 
 impl Change {
+    /// Its pieces.
+    #[inline(always)]
+    fn run(&self) -> &[(f64, f64)] {
+        &self.entries[..self.len]
+    }
+
     fn distance(&self, v0: f64, v1: f64) -> f64 {
         0.5 * (v0 + v1) * self.time
     }
@@ -272,6 +278,67 @@ fn golden_min(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> (f64, f64) {
 }
 
 pub(crate) fn plan<const N: usize>(m: &LimitsMove) -> Result<Profile<N>, PlanError> {
+    planned(|prof| plan_into(m, prof))
+}
+
+/// [`plan`] into `prof`'s storage, replacing its pieces (none left on an error).
+pub(crate) fn plan_into<const N: usize>(
+    m: &LimitsMove,
+    prof: &mut Profile<N>,
+) -> Result<(), PlanError> {
+    let p = prepare(m).inspect_err(|_| prof.clear())?;
+    let (up, down) = (change(&p.l, p.vs, p.vp), change(&p.l, p.vp, p.ve));
+    build(p.l.order, p.n, p.vs, p.vp, &up, &down, m.steps, prof).map_err(|e| {
+        prof.clear();
+        // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
+        if up.time + down.time < SLOWEST_CHANGE_S {
+            e
+        } else {
+            PlanError::LimitsTooSmall {
+                steps: m.steps,
+                seconds: SLOWEST_CHANGE_S,
+            }
+        }
+    })
+}
+
+/// A limits move checked, with its peak speed: `vs → vp → (cruise) → ve` in `n` steps.
+struct Prepared {
+    l: Limits,
+    n: f64,
+    vs: f64,
+    vp: f64,
+    ve: f64,
+}
+
+impl Prepared {
+    /// The duration of the pieces [`build`] makes, bit for bit, without making them: the
+    /// changes' pieces and the cruise summed in the builder's order (a piece of no
+    /// duration is not pushed).
+    fn duration(&self) -> f64 {
+        let (order, up, down) = (
+            self.l.order,
+            change(&self.l, self.vs, self.vp),
+            change(&self.l, self.vp, self.ve),
+        );
+        let add = |t: f64, d: f64| if d > 0.0 { t + d } else { t };
+        let t = up.run().iter().fold(0.0, |t, &(d, _)| add(t, d));
+        let cruise = if self.vp > 0.0 {
+            let at = schedule_end(order, self.vs, up.run());
+            let tail = schedule_end(order, self.vp, down.run());
+            ((self.n - at - tail) / self.vp).max(0.0)
+        } else {
+            0.0
+        };
+        down.run()
+            .iter()
+            .fold(add(t, cruise), |t, &(d, _)| add(t, d))
+    }
+}
+
+/// Checks `m` and finds its peak speed.
+#[inline(always)]
+fn prepare(m: &LimitsMove) -> Result<Prepared, PlanError> {
     if m.steps == 0 {
         return Err(PlanError::NoSteps);
     }
@@ -332,21 +399,7 @@ pub(crate) fn plan<const N: usize>(m: &LimitsMove) -> Result<Profile<N>, PlanErr
         // no speed above f64's smallest fits the steps within the limits
         return Err(too_small);
     }
-    let up = change(&l, vs, vp);
-    let down = change(&l, vp, ve);
-    // built where it is returned (a profile is a kilobyte or more: no copy)
-    let mut out = Ok(Profile::empty());
-    if let Ok(prof) = &mut out {
-        if let Err(e) = build(order, n, vs, vp, &up, &down, m.steps, prof) {
-            // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
-            out = Err(if up.time + down.time < SLOWEST_CHANGE_S {
-                e
-            } else {
-                too_small
-            });
-        }
-    }
-    out
+    Ok(Prepared { l, n, vs, vp, ve })
 }
 
 /// A speed change longer than this (s) is no move: it exceeds 2^50 ticks of any clock
@@ -369,15 +422,15 @@ fn build<const N: usize>(
     // the cruise covers what the changes' pieces leave (as summed in f64, so the move
     // ends on N to the rounding of its pieces, not of the closed-form distances)
     let mut b = Builder::new(prof);
-    b.push_schedule(order, vs, &up.entries[..up.len])?;
-    let tail = schedule_end(order, vp, &down.entries[..down.len]);
+    b.push_schedule(order, vs, up.run())?;
+    let tail = schedule_end(order, vp, down.run());
     let cruise = if vp > 0.0 {
         ((n - b.position() - tail) / vp).max(0.0)
     } else {
         0.0
     };
     b.cruise(vp, cruise)?;
-    b.push_schedule(order, vp, &down.entries[..down.len])?;
+    b.push_schedule(order, vp, down.run())?;
     b.finish(steps)
 }
 
@@ -407,6 +460,20 @@ fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> Option<f64> {
     Some(t)
 }
 
+/// `X ≥ Y` for `X` and `Y` within a few ulps of `x` and `y` (non-negative), decided in f64
+/// where they are far apart and by `exact` where they are not.
+#[inline(always)]
+fn at_least(x: f64, y: f64, exact: impl FnOnce() -> bool) -> bool {
+    const MARGIN: f64 = 1e-9;
+    if x > y * (1.0 + MARGIN) {
+        true
+    } else if x < y * (1.0 - MARGIN) {
+        false
+    } else {
+        exact()
+    }
+}
+
 /// Limits mode on a clock, trapezoid: the time-optimal accel and decel times rounded *up*
 /// to whole ticks, the cruise time rounded up so the cruise speed stays at or below the
 /// peak, and the cruise speed then following from N (phase mode). Neither limit is ever
@@ -416,8 +483,8 @@ fn least(estimate: f64, ok: impl Fn(f64) -> bool) -> Option<f64> {
 /// Returns `(accel, cruise, decel)` ticks.
 pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
     let f = positive("clock", clock)?;
-    // validates the move, with the float planner's errors (a trapezoid: 3 pieces at most)
-    let ideal = plan::<3>(&LimitsMove {
+    // validates the move, with the float planner's errors; its time-optimal duration
+    let ideal = prepare(&LimitsMove {
         order: Order::Trapezoid,
         ..*m
     })?;
@@ -447,8 +514,11 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
     // t ticks are enough to change from v to vp at amax: t·amax + f·v ≥ f·vp
     let ramp = |v: f64| {
         least(f * (vp - v) / amax, |t| {
-            let x = Dd::mul_f64(t, amax) + Dd::mul_f64(f, v);
-            x * x >= f2vp2
+            let x = t * amax + f * v;
+            at_least(x * x, f2vp2.hi, || {
+                let x = Dd::mul_f64(t, amax) + Dd::mul_f64(f, v);
+                x * x >= f2vp2
+            })
         })
     };
     // the ramps' squares overflow only for a peak far beyond any clock: say so
@@ -467,8 +537,11 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
     } else {
         let k2 = k * k;
         least((k.hi / vp - ta - tc) / 2.0, |tb| {
-            let w = Dd::new(2.0 * tb + ta + tc);
-            vp2 * w * w >= k2
+            let w = 2.0 * tb + ta + tc;
+            at_least(vp2.hi * w * w, k2.hi, || {
+                let w = Dd::new(w);
+                vp2 * w * w >= k2
+            })
         })
         .ok_or_else(unreachable)?
     };
@@ -476,23 +549,28 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
 }
 
 /// [`whole_ticks`] planned: a phase-mode trapezoid of whole-tick phases.
-pub(crate) fn plan_on_clock<const N: usize>(
+pub(crate) fn plan_on_clock_into<const N: usize>(
     m: &LimitsMove,
     clock: f64,
-) -> Result<Profile<N>, PlanError> {
+    prof: &mut Profile<N>,
+) -> Result<(), PlanError> {
     if m.order != Order::Trapezoid {
-        return plan(m);
+        return plan_into(m, prof);
     }
+    prof.clear();
     let (ta, tb, tc) = whole_ticks(m, clock)?;
-    phase::plan(&PhaseMove {
-        steps: m.steps,
-        accel_time: ta / clock,
-        cruise_time: tb / clock,
-        decel_time: tc / clock,
-        start_speed: m.start_speed,
-        end_speed: m.end_speed,
-        family: Family::Trapezoid,
-    })
+    phase::plan_into(
+        &PhaseMove {
+            steps: m.steps,
+            accel_time: ta / clock,
+            cruise_time: tb / clock,
+            decel_time: tc / clock,
+            start_speed: m.start_speed,
+            end_speed: m.end_speed,
+            family: Family::Trapezoid,
+        },
+        prof,
+    )
 }
 
 #[cfg(test)]
@@ -515,6 +593,22 @@ mod tests {
                     Ok(p) => assert!(p.duration() > 0.0 && p.duration().is_finite()),
                     Err(e) => assert!(!e.to_string().is_empty()),
                 }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// The duration found without pieces is the built profile's, bit for bit.
+        #[test]
+        fn prepared_durations_are_the_planned_ones(
+            order in 0usize..3, steps in 1u64..100_000_000,
+            vmax in 1e-3f64..1e7, amax in 1e-3f64..1e9, jmax in 1e-3f64..1e12, smax in 1e-3f64..1e15,
+            vs in 0.0f64..1.0, ve in 0.0f64..1.0,
+        ) {
+            let m = crate::moves::limits_of_order(order, steps, [vmax, amax, jmax, smax], [vs, ve]);
+            if let Ok(p) = plan::<15>(&m) {
+                let d = prepare(&m).unwrap().duration();
+                proptest::prop_assert_eq!(d.to_bits(), p.duration().to_bits(), "{:?}", m);
             }
         }
     }

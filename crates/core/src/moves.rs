@@ -262,6 +262,24 @@ pub enum Move<'a> {
     Limits(LimitsMove),
 }
 
+/// A limits move of order `order` (0 trapezoid, 1 scurve, else scurve4) with its speeds
+/// given as fractions of vmax: what the random-move tests draw.
+#[cfg(test)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn limits_of_order(
+    order: usize,
+    steps: u64,
+    [vmax, amax, jmax, smax]: [f64; 4],
+    [vs, ve]: [f64; 2],
+) -> LimitsMove {
+    match order {
+        0 => LimitsMove::trapezoid(steps, vmax, amax),
+        1 => LimitsMove::scurve(steps, vmax, amax, jmax),
+        _ => LimitsMove::scurve4(steps, vmax, amax, jmax, smax),
+    }
+    .with_speeds(vs * vmax, ve * vmax)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

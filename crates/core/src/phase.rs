@@ -1,7 +1,7 @@
 //! Phase mode (the seeds' accel/cruise/decel times, every family) and segment mode (seed
 //! 000's constant-acceleration segments).
 
-use crate::builder::Builder;
+use crate::builder::{planned, Builder};
 use crate::error::{fraction, non_negative, positive, PlanError};
 use crate::moves::{Family, PhaseMove, Segment, MAX_STEPS};
 use crate::piece::Law;
@@ -60,6 +60,15 @@ fn scurve_phase(family: Family, dv: f64, t: f64) -> ([(f64, f64); 7], usize, u8)
 
 /// Phase mode: `vm` follows from N = vs·Ta + (vm−vs)·Ta·G1 + vm·Tb + ve·Tc + (vm−ve)·Tc·G1.
 pub(crate) fn plan<const N: usize>(m: &PhaseMove) -> Result<Profile<N>, PlanError> {
+    planned(|prof| plan_into(m, prof))
+}
+
+/// [`plan`] into `prof`'s storage (its pieces unspecified on an error).
+pub(crate) fn plan_into<const N: usize>(
+    m: &PhaseMove,
+    prof: &mut Profile<N>,
+) -> Result<(), PlanError> {
+    prof.clear();
     let steps = check_steps(m.steps)?;
     let ta = non_negative("accel time", m.accel_time)?;
     let tb = non_negative("cruise time", m.cruise_time)?;
@@ -94,8 +103,7 @@ pub(crate) fn plan<const N: usize>(m: &PhaseMove) -> Result<Profile<N>, PlanErro
             cruise_speed: vm,
         });
     }
-    let mut prof = Profile::empty();
-    let mut b = Builder::new(&mut prof);
+    let mut b = Builder::new(prof);
     match m.family.shape() {
         Some(shape) => {
             let accel = Law::Shaped {
@@ -126,20 +134,26 @@ pub(crate) fn plan<const N: usize>(m: &PhaseMove) -> Result<Profile<N>, PlanErro
             }
         }
     }
-    b.finish(steps)?;
-    Ok(prof)
+    b.finish(steps)
 }
 
 /// Segment mode (seed 000): each segment `(v0, T, n)` has `a = 2(n − v0·T)/T²`.
 pub(crate) fn plan_segments<const N: usize>(segs: &[Segment]) -> Result<Profile<N>, PlanError> {
+    planned(|prof| plan_segments_into(segs, prof))
+}
+
+/// [`plan_segments`] into `prof`'s storage (its pieces unspecified on an error).
+pub(crate) fn plan_segments_into<const N: usize>(
+    segs: &[Segment],
+    prof: &mut Profile<N>,
+) -> Result<(), PlanError> {
     if segs.len() > N {
         return Err(PlanError::TooManyPieces {
             max: N,
             what: "segments",
         });
     }
-    let mut prof = Profile::empty();
-    let mut b = Builder::new(&mut prof);
+    let mut b = Builder::new(prof);
     let mut total: u64 = 0;
     for (index, s) in segs.iter().enumerate() {
         let v0 = non_negative("segment start speed", s.v0)?;
@@ -163,6 +177,5 @@ pub(crate) fn plan_segments<const N: usize>(segs: &[Segment]) -> Result<Profile<
         b.push(t, law, Some(total as f64))?;
     }
     let steps = check_steps(total)?;
-    b.finish(steps)?;
-    Ok(prof)
+    b.finish(steps)
 }

@@ -143,18 +143,10 @@ impl Piece {
     /// steep end, as a dense sample there also finds.
     pub fn peaks(&self) -> (f64, f64) {
         let d = self.dur;
-        let mut v = self.velocity(0.0).abs().max(self.velocity(d).abs());
+        let v = self.peak_speed();
         let mut a = self.acceleration(0.0).abs().max(self.acceleration(d).abs());
         match self.law {
-            Law::Poly { c2, c3, c4, .. } => {
-                // a(τ) = 2c2 + 6c3·τ + 12c4·τ² = 0 gives v's interior extrema
-                let mut roots = [f64::NAN; 2];
-                quadratic_roots(12.0 * c4, 6.0 * c3, 2.0 * c2, &mut roots);
-                for t in roots {
-                    if t > 0.0 && t < d {
-                        v = v.max(self.velocity(t).abs());
-                    }
-                }
+            Law::Poly { c3, c4, .. } => {
                 // j(τ) = 6c3 + 24c4·τ = 0 gives a's
                 let t = -c3 / (4.0 * c4);
                 if t > 0.0 && t < d {
@@ -167,6 +159,28 @@ impl Piece {
             Law::Shaped { .. } => {}
         }
         (v, a)
+    }
+
+    /// Largest |v| on the piece, ends included: [`Piece::peaks`]'s speed without its
+    /// acceleration.
+    #[inline]
+    pub fn peak_speed(&self) -> f64 {
+        let d = self.dur;
+        let mut v = self.velocity(0.0).abs().max(self.velocity(d).abs());
+        if let Law::Poly { c2, c3, c4, .. } = self.law {
+            // a(τ) = 2c2 + 6c3·τ + 12c4·τ² = 0 gives v's interior extrema (none when a is
+            // constant)
+            if c3 != 0.0 || c4 != 0.0 {
+                let mut roots = [f64::NAN; 2];
+                quadratic_roots(12.0 * c4, 6.0 * c3, 2.0 * c2, &mut roots);
+                for t in roots {
+                    if t > 0.0 && t < d {
+                        v = v.max(self.velocity(t).abs());
+                    }
+                }
+            }
+        }
+        v
     }
 
     /// Largest |jerk| on the piece: linear on a polynomial piece and monotone in a sine's

@@ -1,12 +1,13 @@
 //! One entry point per mode, as methods of [`Profile`].
 
+use crate::builder::planned;
 #[cfg(doc)]
 use crate::edges::EdgeGenerator;
 use crate::edges::{check_ticks, last_tick};
 use crate::error::{positive, PlanError};
 use crate::int::ExactMove;
 use crate::limits;
-use crate::moves::{LimitsMove, Move, PhaseMove, Segment, MAX_PHASE_PIECES, MAX_PIECES};
+use crate::moves::{LimitsMove, Move, Order, PhaseMove, Segment, MAX_PHASE_PIECES, MAX_PIECES};
 use crate::phase;
 use crate::profile::Profile;
 
@@ -70,15 +71,17 @@ impl Profile {
     /// not made.
     pub fn check_on_clock(m: &Move<'_>, clock_hz: f64) -> Result<ClockCheck, PlanError> {
         let clock = positive("clock", clock_hz)?;
+        // planned into as few pieces as the move has (a profile is set up before planning)
         let (steps, duration) = match m {
-            Move::Segments(_) => {
-                let p = Profile::<MAX_PIECES>::on_clock(m, clock, false)?;
-                (p.steps, p.duration)
-            }
-            _ => {
-                let p = Profile::<MAX_PHASE_PIECES>::on_clock(m, clock, false)?;
-                (p.steps, p.duration)
-            }
+            Move::Segments(_) => Profile::<MAX_PIECES>::steps_on_clock(m, clock)?,
+            Move::Limits(l) => match l.order {
+                // a phase trapezoid on whole ticks: accel, cruise, decel
+                Order::Trapezoid => Profile::<3>::steps_on_clock(m, clock)?,
+                // three pieces up, the cruise, three down
+                Order::SCurve => Profile::<7>::steps_on_clock(m, clock)?,
+                Order::SCurve4 => Profile::<MAX_PHASE_PIECES>::steps_on_clock(m, clock)?,
+            },
+            Move::Phase(_) => Profile::<MAX_PHASE_PIECES>::steps_on_clock(m, clock)?,
         };
         check_ticks(clock, duration)?;
         Ok(ClockCheck {
@@ -95,10 +98,15 @@ impl Profile {
 impl<const N: usize> Profile<N> {
     /// [`Profile::plan`] into `N` pieces.
     pub fn plan_in(m: &Move<'_>) -> Result<Self, PlanError> {
+        planned(|p| p.plan_into(m))
+    }
+
+    /// [`Profile::plan_in`] into this profile's storage (its pieces unspecified on an error).
+    fn plan_into(&mut self, m: &Move<'_>) -> Result<(), PlanError> {
         match m {
-            Move::Phase(p) => Self::phase_in(p),
-            Move::Segments(s) => Self::segments_in(s),
-            Move::Limits(l) => Self::limits_in(l),
+            Move::Phase(p) => phase::plan_into(p, self),
+            Move::Segments(s) => phase::plan_segments_into(s, self),
+            Move::Limits(l) => limits::plan_into(l, self),
         }
     }
 
@@ -107,37 +115,60 @@ impl<const N: usize> Profile<N> {
         limits::plan(m)
     }
 
+    /// [`Profile::limits_in`] into this profile's storage, replacing its pieces, as a
+    /// planner called once per move reuses one profile (Ruckig's `calculate` writes into a
+    /// `Trajectory` it is given); no profile is set up or copied. On an error the profile
+    /// is left with no pieces.
+    pub fn replan_limits(&mut self, m: &LimitsMove) -> Result<(), PlanError> {
+        limits::plan_into(m, self)
+    }
+
     /// [`Profile::limits_on_clock`] into `N` pieces.
     pub fn limits_on_clock_in(m: &LimitsMove, clock_hz: f64) -> Result<Self, PlanError> {
-        Self::on_clock(&Move::Limits(*m), positive("clock", clock_hz)?, true)
+        Self::plan_on_clock_in(&Move::Limits(*m), clock_hz)
     }
 
     /// [`Profile::plan_on_clock`] into `N` pieces.
     pub fn plan_on_clock_in(m: &Move<'_>, clock_hz: f64) -> Result<Self, PlanError> {
-        Self::on_clock(m, positive("clock", clock_hz)?, true)
+        let clock = positive("clock", clock_hz)?;
+        planned(|p| p.on_clock_into(m, clock, true))
     }
 
-    /// `m` on a clock of `clock_hz` (> 0), with its integer move if `keep_exact` (looked up
-    /// without it only when the peak speed check needs it).
-    fn on_clock(m: &Move<'_>, clock_hz: f64, keep_exact: bool) -> Result<Self, PlanError> {
-        let mut p = match m {
-            Move::Limits(l) => limits::plan_on_clock(l, clock_hz)?,
-            other => Self::plan_in(other)?,
+    /// The steps and duration of `m` planned on a clock of `clock_hz` (> 0) into `N` pieces,
+    /// its integer move not made.
+    fn steps_on_clock(m: &Move<'_>, clock_hz: f64) -> Result<(u64, f64), PlanError> {
+        let mut p = Self::empty();
+        p.on_clock_into(m, clock_hz, false)?;
+        Ok((p.steps, p.duration))
+    }
+
+    /// `m` on a clock of `clock_hz` (> 0) into this profile's storage, with its integer
+    /// move if `keep_exact` (looked up without it only when the peak speed check needs it).
+    fn on_clock_into(
+        &mut self,
+        m: &Move<'_>,
+        clock_hz: f64,
+        keep_exact: bool,
+    ) -> Result<(), PlanError> {
+        match m {
+            Move::Limits(l) => limits::plan_on_clock_into(l, clock_hz, self)?,
+            other => self.plan_into(other)?,
         };
         // a move the integer datapath plays keeps it: ties are settled on it exactly
         if keep_exact {
-            p.exact = ExactMove::of(m, clock_hz, &p);
+            self.exact = ExactMove::of(m, clock_hz, self);
         }
-        let peak = p.peaks().0;
+        let p = &*self;
+        let peak = p.peak_speed();
         // an integer limits move never exceeds its whole vmax, however f64 rounds the peak
         let at_most_vmax = || {
             matches!(m, Move::Limits(l) if l.vmax <= clock_hz)
-                && (p.exact.is_some() || (!keep_exact && ExactMove::of(m, clock_hz, &p).is_some()))
+                && (p.exact.is_some() || (!keep_exact && ExactMove::of(m, clock_hz, p).is_some()))
         };
         if !(peak <= clock_hz || at_most_vmax()) {
             return Err(PlanError::FasterThanClock { peak, clock_hz });
         }
-        Ok(p)
+        Ok(())
     }
 
     /// [`Profile::phase`] into `N` pieces.
@@ -185,6 +216,41 @@ mod tests {
         let e = Profile::plan_on_clock(&fast, 50e6).unwrap_err();
         assert!(matches!(e, PlanError::FasterThanClock { .. }), "{e}");
         assert!(Profile::plan_on_clock(&m, 0.0).is_err());
+    }
+
+    #[test]
+    fn replanning_one_profile_gives_each_moves_pieces_and_none_after_an_error() {
+        let moves = [
+            LimitsMove::scurve4(100_000, 2e4, 1e5, 1e6, 1e8).with_speeds(100.0, 50.0),
+            LimitsMove::trapezoid(10, 2e4, 1e5), // a triangle: fewer pieces than before
+            LimitsMove::trapezoid(10, -1.0, 1e5), // refused
+            LimitsMove::scurve(100_000, 2e4, 1e5, 1e6),
+            LimitsMove::trapezoid(100, 2e4, 1e5).with_speeds(2e4, 0.0),
+            LimitsMove::trapezoid(1, 2e4, 1e5).with_speeds(2e4, 2e4), // too short to stop
+            LimitsMove::trapezoid(100_000, 2e4, 1e5),
+        ];
+        let mut p = Profile::<MAX_PHASE_PIECES>::default();
+        let mut planned = 0;
+        for m in &moves {
+            let fresh = Profile::<MAX_PHASE_PIECES>::limits_in(m);
+            let again = p.replan_limits(m);
+            match (&fresh, &again) {
+                (Ok(f), Ok(())) => {
+                    assert_eq!(&p, f, "{m:?}");
+                    // the same bits in every used slot, whatever the slots held before
+                    assert_eq!(p.resize::<MAX_PIECES>(), f.resize::<MAX_PIECES>());
+                    assert_eq!(p.pieces().len(), f.len());
+                    planned += 1;
+                }
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.to_string(), b.to_string());
+                    assert_eq!(p, Profile::default(), "{m:?}");
+                    assert_eq!(p.len(), 0);
+                }
+                _ => panic!("{m:?}: {fresh:?} against {again:?}"),
+            }
+        }
+        assert_eq!(planned, 5);
     }
 
     fn phase(steps: u64, family: crate::moves::Family) -> PhaseMove {
@@ -240,56 +306,5 @@ mod tests {
             Err(PlanError::TooManyPieces { max: 2, .. })
         ));
         assert_eq!(Profile::<3>::segments_in(&[seg; 3]).unwrap().steps(), 15);
-    }
-
-    #[test]
-    fn check_on_clock_is_what_planning_and_playing_give() {
-        use crate::moves::Family;
-        let segs = [
-            Segment {
-                v0: 0.0,
-                duration: 0.1,
-                steps: 50,
-            },
-            Segment {
-                v0: 1000.0,
-                duration: 0.1,
-                steps: 100,
-            },
-        ];
-        let moves = [
-            Move::Limits(LimitsMove::trapezoid(100_000, 2e4, 1e5)),
-            Move::Limits(LimitsMove::scurve(100_000, 2e4, 1e5, 1e6)),
-            Move::Limits(LimitsMove::trapezoid(1000, 1000.0, 10_000.0)),
-            Move::Phase(phase(10_000, Family::SCurve4 { phi: 0.3, psi: 0.5 })),
-            Move::Phase(phase(10_000, Family::Sine)),
-            Move::Segments(&segs),
-        ];
-        // 1000 Hz: the 1000 steps/s trapezoid runs at its clock, the others exceed it;
-        // 1e15 Hz: the long moves exceed the generator's ticks
-        for clock in [50e6, 1000.0, 999.0, 1e15, 0.0, f64::NAN] {
-            for m in &moves {
-                let full = Profile::plan_on_clock(m, clock)
-                    .and_then(|p| EdgeGenerator::new(p, clock))
-                    .map(|g| {
-                        (
-                            g.profile().steps(),
-                            g.profile().duration(),
-                            g.last_edge_tick(),
-                        )
-                    });
-                let check = Profile::check_on_clock(m, clock)
-                    .map(|c| (c.steps, c.duration, c.last_edge_tick));
-                assert_eq!(
-                    check.as_ref().map_err(|e| e.to_string()),
-                    full.as_ref().map_err(|e| e.to_string()),
-                    "{m:?} at {clock} Hz"
-                );
-            }
-        }
-        let e = Profile::check_on_clock(&moves[0], 1e15).unwrap_err();
-        assert!(matches!(e, PlanError::TooManyTicks { .. }), "{e}");
-        let e = Profile::check_on_clock(&moves[0], 999.0).unwrap_err();
-        assert!(matches!(e, PlanError::FasterThanClock { .. }), "{e}");
     }
 }

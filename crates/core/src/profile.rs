@@ -18,7 +18,8 @@ pub use crate::moves::{
 /// may be planned into a smaller profile with the `*_in` planners
 /// (`Profile::<MAX_PHASE_PIECES>::limits_in`): about 1 KB instead of 5, the same pieces bit
 /// for bit, and [`Profile::resize`] makes the full-size one when it is to be played.
-#[derive(Clone, Debug, PartialEq)]
+/// [`Profile::replan_limits`] plans into a profile's storage again.
+#[derive(Clone, Debug)]
 pub struct Profile<const N: usize = MAX_PIECES> {
     pub(crate) pieces: [Piece; N],
     /// `ends[k]` is the position where piece k ends (the next piece's `p0`).
@@ -28,6 +29,16 @@ pub struct Profile<const N: usize = MAX_PIECES> {
     pub(crate) duration: f64,
     /// The integer move it plays on its clock, if any (`Profile::plan_on_clock`).
     pub(crate) exact: Option<crate::int::ExactMove>,
+}
+
+/// Equal moves: the same pieces, bit for bit (the unused slots of a reused profile hold
+/// whatever was planned there before).
+impl<const N: usize> PartialEq for Profile<N> {
+    fn eq(&self, other: &Self) -> bool {
+        self.pieces() == other.pieces()
+            && self.ends[..self.len] == other.ends[..other.len]
+            && (self.steps, self.duration, self.exact) == (other.steps, other.duration, other.exact)
+    }
 }
 
 impl<const N: usize> Profile<N> {
@@ -151,6 +162,13 @@ impl<const N: usize> Profile<N> {
         })
     }
 
+    /// Largest |v| on the profile: [`Profile::peaks`]' speed alone.
+    pub fn peak_speed(&self) -> f64 {
+        self.pieces()
+            .iter()
+            .fold(0.0f64, |v, p| v.max(p.peak_speed()))
+    }
+
     /// Largest |jerk| on the profile; `None` if a piece is parabolic (its acceleration is
     /// unbounded at the steep end).
     pub fn peak_jerk(&self) -> Option<f64> {
@@ -245,12 +263,7 @@ mod tests {
             vmax in 10.0f64..1e6, amax in 10.0f64..1e7, jmax in 10.0f64..1e9, smax in 10.0f64..1e11,
             vs in 0.0f64..1.0, ve in 0.0f64..1.0,
         ) {
-            let m = match order {
-                0 => LimitsMove::trapezoid(steps, vmax, amax),
-                1 => LimitsMove::scurve(steps, vmax, amax, jmax),
-                _ => LimitsMove::scurve4(steps, vmax, amax, jmax, smax),
-            }
-            .with_speeds(vs * vmax, ve * vmax);
+            let m = crate::moves::limits_of_order(order, steps, [vmax, amax, jmax, smax], [vs, ve]);
             if let Ok(p) = Profile::limits(&m) {
                 check(&p)?;
                 let (v, a) = p.peaks();

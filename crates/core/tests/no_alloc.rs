@@ -58,13 +58,13 @@ fn planning_every_family_allocates_nothing() {
     let mut peak = 0.0f64;
     for f in families {
         let p = Profile::phase(&PhaseMove::new(10_000, f, 0.1, 0.2, 0.1)).unwrap();
-        peak = peak.max(p.peaks().0);
+        peak = peak.max(p.peak_speed());
         let g = EdgeGenerator::new(p, 50e6).unwrap();
         planned += g.remaining();
     }
     for m in limits {
         let p = Profile::limits(&m).unwrap();
-        peak = peak.max(p.peaks().0);
+        peak = peak.max(p.peak_speed());
         planned += p.steps();
         let p = Profile::<MAX_PHASE_PIECES>::limits_in(&m).unwrap();
         planned += p.steps();

@@ -1,7 +1,10 @@
 //! Library code never panics on input: random values, including NaN, ±∞, zero, negative
 //! and huge ones, either plan and generate or return a typed error.
 
-use multistep_core::{EdgeGenerator, MoveParams, MoveSpec, Segment};
+use multistep_core::{
+    EdgeGenerator, Family, LimitsMove, Move, MoveParams, MoveSpec, PhaseMove, PlanError, Profile,
+    Segment,
+};
 use proptest::prelude::*;
 
 fn wild() -> impl Strategy<Value = Option<f64>> {
@@ -52,6 +55,9 @@ proptest! {
         if let Ok(p) = spec.plan_on_clock(clock) {
             prop_assert!(p.duration() > 0.0 && p.duration().is_finite());
         }
+        if let Ok(m) = spec.resolve() {
+            check_is_planning_and_playing(&m, clock)?;
+        }
         if let Ok(p) = spec.plan() {
             prop_assert!(p.duration() > 0.0 && p.duration().is_finite());
             if let Ok(mut g) = EdgeGenerator::new(p.clone(), clock) {
@@ -68,4 +74,72 @@ proptest! {
             }
         }
     }
+
+    #[test]
+    fn limits_moves_check_as_they_plan_and_play(
+        order in 0usize..3, steps in 1u64..10_000_000,
+        vmax in 1.0f64..1e6, amax in 1.0f64..1e8, jmax in 1.0f64..1e10, smax in 1.0f64..1e12,
+        vs in 0.0f64..1.0, ve in 0.0f64..1.0,
+        clock in prop_oneof![Just(50e6), Just(18e6), 1e3f64..1e9],
+    ) {
+        let m = match order {
+            0 => LimitsMove::trapezoid(steps, vmax, amax),
+            1 => LimitsMove::scurve(steps, vmax, amax, jmax),
+            _ => LimitsMove::scurve4(steps, vmax, amax, jmax, smax),
+        }
+        .with_speeds(vs * vmax, ve * vmax);
+        check_is_planning_and_playing(&Move::Limits(m), clock)?;
+    }
+}
+
+#[test]
+fn check_on_clock_is_what_planning_and_playing_give() {
+    let segs = [(0.0, 0.1, 50), (1000.0, 0.1, 100)].map(|(v0, duration, steps)| Segment {
+        v0,
+        duration,
+        steps,
+    });
+    let phase = |family| Move::Phase(PhaseMove::new(10_000, family, 0.1, 0.2, 0.1));
+    let moves = [
+        Move::Limits(LimitsMove::trapezoid(100_000, 2e4, 1e5)),
+        Move::Limits(LimitsMove::scurve(100_000, 2e4, 1e5, 1e6)),
+        Move::Limits(LimitsMove::trapezoid(1000, 1000.0, 10_000.0)),
+        phase(Family::SCurve4 { phi: 0.3, psi: 0.5 }),
+        phase(Family::Sine),
+        Move::Segments(&segs),
+    ];
+    // 1000 Hz: the 1000 steps/s trapezoid runs at its clock, the others exceed it;
+    // 1e15 Hz: the long moves exceed the generator's ticks
+    for clock in [50e6, 1000.0, 999.0, 1e15, 0.0, f64::NAN] {
+        for m in &moves {
+            check_is_planning_and_playing(m, clock).unwrap();
+        }
+    }
+    let e = Profile::check_on_clock(&moves[0], 1e15).unwrap_err();
+    assert!(matches!(e, PlanError::TooManyTicks { .. }), "{e}");
+    let e = Profile::check_on_clock(&moves[0], 999.0).unwrap_err();
+    assert!(matches!(e, PlanError::FasterThanClock { .. }), "{e}");
+}
+
+/// `Profile::check_on_clock` gives what planning on the clock and playing there give:
+/// the same steps, duration and last edge tick, or the same error.
+fn check_is_planning_and_playing(m: &Move<'_>, clock: f64) -> Result<(), TestCaseError> {
+    let full = Profile::plan_on_clock(m, clock)
+        .and_then(|p| EdgeGenerator::new(p, clock))
+        .map(|g| {
+            (
+                g.profile().steps(),
+                g.profile().duration(),
+                g.last_edge_tick(),
+            )
+        });
+    let check = Profile::check_on_clock(m, clock).map(|c| (c.steps, c.duration, c.last_edge_tick));
+    prop_assert_eq!(
+        check.map_err(|e| e.to_string()),
+        full.map_err(|e| e.to_string()),
+        "{:?} at {} Hz",
+        m,
+        clock
+    );
+    Ok(())
 }

@@ -6,6 +6,7 @@ use crate::errors::{type_err, value_err};
 use multistep_core::{MoveParams, MoveSpec, Param, Segment};
 use pyo3::exceptions::{PyOverflowError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::pybacked::PyBackedStr;
 use pyo3::types::{PyBool, PyDict, PyInt, PyString};
 
 /// A move as given by keywords; `None` values count as not given.
@@ -35,7 +36,7 @@ impl MoveKw {
                 return Ok(true);
             }
             "segments" => {
-                self.segments = segments(v)?;
+                self.segments = segment_list(v)?;
                 return Ok(true);
             }
             _ => match Param::named(key) {
@@ -159,7 +160,12 @@ pub fn signed(name: &str, v: &Bound<'_, PyAny>) -> PyResult<i64> {
 }
 
 pub fn string(name: &str, v: &Bound<'_, PyAny>) -> PyResult<String> {
-    v.extract::<String>()
+    Ok(str_arg(name, v)?.to_string())
+}
+
+/// A str, borrowed from Python (no copy).
+pub fn str_arg<'py>(name: &str, v: &Bound<'py, PyAny>) -> PyResult<PyBackedStr> {
+    v.extract::<PyBackedStr>()
         .map_err(|_| type_err(format!("{name} must be a str, not {}", type_name(v))))
 }
 
@@ -169,7 +175,7 @@ pub fn boolean(name: &str, v: &Bound<'_, PyAny>) -> PyResult<bool> {
 }
 
 /// `[(v0, T, n), …]`: start speed (steps/s), duration (s), steps of each segment.
-fn segments(v: &Bound<'_, PyAny>) -> PyResult<Vec<Segment>> {
+pub fn segment_list(v: &Bound<'_, PyAny>) -> PyResult<Vec<Segment>> {
     if v.is_instance_of::<PyString>() {
         return Err(type_err(
             "segments must be a sequence of (v0, T, n) tuples, not str",

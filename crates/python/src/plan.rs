@@ -1,9 +1,12 @@
 //! `multistep.plan(...)` and the `Plan` it returns: the core's edge generator writing
 //! straight into numpy arrays, whole or in chunks.
 
-use crate::args::{number, whole_in, MoveKw};
+use crate::args::{number, segment_list, str_arg, whole, whole_in};
 use crate::errors::{plan_err, value_err};
-use multistep_core::{ClockCheck, EdgeGenerator, MoveName, PlanSummary, Profile, DEFAULT_CLOCK_HZ};
+use multistep_core::{
+    ClockCheck, EdgeGenerator, LimitsMove, Move, MoveName, MoveParams, MoveSpec, PhaseMove,
+    PlanSummary, Profile, Segment, DEFAULT_CLOCK_HZ,
+};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
@@ -58,38 +61,42 @@ pub fn plan(
     clock: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Plan> {
     // named parameters: Python matches the keywords (no dict of them is made), and an
-    // unknown one is its own TypeError
-    let mut mv = MoveKw::default();
-    for (k, v) in [
-        ("profile", profile),
-        ("steps", steps),
-        ("accel_time", accel_time),
-        ("cruise_time", cruise_time),
-        ("decel_time", decel_time),
-        ("start_speed", start_speed),
-        ("end_speed", end_speed),
-        ("rho", rho),
-        ("phi", phi),
-        ("psi", psi),
-        ("segments", segments),
-        ("vmax", vmax),
-        ("amax", amax),
-        ("jmax", jmax),
-        ("smax", smax),
-    ] {
-        if let Some(v) = v {
-            mv.set(k, v)?;
-        }
-    }
-    let clock = match clock {
-        Some(v) if !v.is_none() => number("clock", v)?,
-        _ => DEFAULT_CLOCK_HZ,
+    // unknown one is its own TypeError; read in this order, the first wrong one raises
+    let num = |name, v: Option<&Bound<'_, PyAny>>| given(v).map(|v| number(name, v)).transpose();
+    let family = given(profile).map(|v| str_arg("profile", v)).transpose()?;
+    let steps = given(steps).map(|v| whole("steps", v)).transpose()?;
+    let mut params = MoveParams {
+        accel_time: num("accel_time", accel_time)?,
+        cruise_time: num("cruise_time", cruise_time)?,
+        decel_time: num("decel_time", decel_time)?,
+        start_speed: num("start_speed", start_speed)?,
+        end_speed: num("end_speed", end_speed)?,
+        rho: num("rho", rho)?,
+        phi: num("phi", phi)?,
+        psi: num("psi", psi)?,
+        ..MoveParams::default()
     };
-    let spec = mv.spec();
+    let segments = given(segments).map(segment_list).transpose()?;
+    params.vmax = num("vmax", vmax)?;
+    params.amax = num("amax", amax)?;
+    params.jmax = num("jmax", jmax)?;
+    params.smax = num("smax", smax)?;
+    let clock = num("clock", clock)?.unwrap_or(DEFAULT_CLOCK_HZ);
+    let spec = MoveSpec {
+        profile: family.as_ref().map(|s| s.as_ref()),
+        steps,
+        params,
+        segments: segments.as_deref().unwrap_or_default(),
+    };
     let m = spec.resolve().map_err(|e| plan_err(py, e))?;
     // every error planning and playing raise, here; the pieces are made when first read
     let check = Profile::check_on_clock(&m, clock).map_err(|e| plan_err(py, e))?;
     let mode = MoveName::of(&m);
+    let mv = match m {
+        Move::Phase(p) => Planned::Phase(p),
+        Move::Limits(l) => Planned::Limits(l),
+        Move::Segments(_) => Planned::Segments(segments.unwrap_or_default()),
+    };
     Ok(Plan {
         mv,
         clock,
@@ -102,11 +109,34 @@ pub fn plan(
     })
 }
 
+/// A keyword's value; Python's `None` is not giving it.
+fn given<'a, 'py>(v: Option<&'a Bound<'py, PyAny>>) -> Option<&'a Bound<'py, PyAny>> {
+    v.filter(|v| !v.is_none())
+}
+
+/// The move `plan` checked, kept to be planned again when first read: its pieces, bit for
+/// bit (a segment move owns its segments).
+enum Planned {
+    Phase(PhaseMove),
+    Limits(LimitsMove),
+    Segments(Vec<Segment>),
+}
+
+impl Planned {
+    fn as_move(&self) -> Move<'_> {
+        match self {
+            Planned::Phase(p) => Move::Phase(*p),
+            Planned::Limits(l) => Move::Limits(*l),
+            Planned::Segments(s) => Move::Segments(s),
+        }
+    }
+}
+
 /// A planned move. Edges are clock ticks (at `clock_hz`) from the start of the move.
 #[pyclass(module = "multistep", frozen)]
 pub struct Plan {
-    /// The move as given, planned again (the same pieces, bit for bit) when first read.
-    mv: MoveKw,
+    /// The move, planned again (the same pieces, bit for bit) when first read.
+    mv: Planned,
     clock: f64,
     check: ClockCheck,
     mode: MoveName,
@@ -221,10 +251,7 @@ impl Plan {
         if let Some(p) = self.profile.get() {
             return Ok(p);
         }
-        let spec = self.mv.spec();
-        let p = spec
-            .resolve()
-            .and_then(|m| Profile::plan_on_clock(&m, self.clock))
+        let p = Profile::plan_on_clock(&self.mv.as_move(), self.clock)
             .map_err(|e| value_err(e.to_string()))?;
         Ok(self.profile.get_or_init(|| Box::new(p)))
     }

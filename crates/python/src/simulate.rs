@@ -186,7 +186,7 @@ pub fn simulate(
     // as `simulate_profile`, with an edge stream that Ctrl-C can end
     if cfg.peak_speed_hint.is_none() {
         let micro = motor.microstep_angle(cfg.driver.microsteps);
-        cfg.peak_speed_hint = Some(profile.peaks().0 * micro);
+        cfg.peak_speed_hint = Some(profile.peak_speed() * micro);
     }
     let work = (profile.duration(), profile.steps());
     let gen = EdgeGenerator::new(profile, clock).map_err(|e| plan_err(py, e))?;

@@ -295,7 +295,7 @@ impl CurveLimitsSetup {
             value,
             error_min_deg: r.min_following_error_deg,
             error_max_deg: r.max_following_error_deg,
-            peak_speed_deg_s: profile.peaks().0 * deg_per_step,
+            peak_speed_deg_s: profile.peak_speed() * deg_per_step,
             accel_at_peak_speed_deg_s2: profile.acceleration(t_top) * deg_per_step,
             loss_past_limit_ms: fail.first_loss_s.map(|t| t * 1e3),
             loss_phase,

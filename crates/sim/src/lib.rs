@@ -150,7 +150,7 @@ pub fn simulate_profile(
     let mut cfg = cfg.clone();
     if cfg.peak_speed_hint.is_none() {
         let micro = motor.microstep_angle(cfg.driver.microsteps);
-        cfg.peak_speed_hint = Some(profile.peaks().0 * micro);
+        cfg.peak_speed_hint = Some(profile.peak_speed() * micro);
     }
     let work = (profile.duration(), profile.steps());
     let gen = EdgeGenerator::new(profile, clock_hz)?;

@@ -50,9 +50,7 @@ impl<P: Borrow<IntProfile<N>>, const N: usize> IntEdgeGenerator<P, N> {
             if self.run_left > 0 {
                 let n = (self.run_left as usize).min(out.len() - k);
                 let mut acc = self.acc;
-                for slot in &mut out[k..k + n] {
-                    *slot = acc.next_edge();
-                }
+                acc.fill_run(&mut out[k..k + n]);
                 self.acc = acc;
                 self.run_left -= n as u64;
                 k += n;
@@ -85,9 +83,7 @@ impl<P: Borrow<IntProfile<N>>, const N: usize> IntEdgeGenerator<P, N> {
         loop {
             if self.run_left > 0 {
                 let mut acc = self.acc;
-                for _ in 0..self.run_left {
-                    out = f(out, acc.next_edge());
-                }
+                out = acc.fold_run(self.run_left, out, &mut f);
                 self.acc = acc;
                 self.run_left = 0;
             }

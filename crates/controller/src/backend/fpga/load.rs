@@ -69,7 +69,7 @@ impl FpgaBackend {
         // within amax (there is no ramp piece to divert to); faster, the stream is coded
         // only a lead ahead and the host codes the stop ramp when it sees the edge.
         let host_ramp = l.stop_on_sensor == Some(true)
-            && !halts_within_amax(l.profile.peaks().0, self.axes[l.axis].settings.amax);
+            && !halts_within_amax(l.profile.peak_speed(), self.axes[l.axis].settings.amax);
         if l.stop_on_sensor == Some(true) && !host_ramp {
             self.hall_stop |= 1 << l.axis;
         } else {
@@ -246,7 +246,7 @@ impl FpgaBackend {
                 )));
             }
             let amax = self.axes[l.axis].settings.amax;
-            let (ramp, steps) = self.stop_ramp(l.profile.peaks().0, amax)?;
+            let (ramp, steps) = self.stop_ramp(l.profile.peak_speed(), amax)?;
             let rm = AxisMove::from_profile(&ramp, l.dir > 0, &self.params)
                 .map_err(|e| CtlError::Setting(format!("the Hall stop ramp: {e}")))?;
             w.extend(
