@@ -84,8 +84,12 @@ class PlanSummary(TypedDict):
 
 def plan(
     *,
-    profile: Optional[str] = None,
     steps: Optional[int] = None,
+    vmax: Optional[float] = None,
+    amax: Optional[float] = None,
+    profile: Optional[str] = None,
+    jmax: Optional[float] = None,
+    smax: Optional[float] = None,
     accel_time: Optional[float] = None,
     cruise_time: Optional[float] = None,
     decel_time: Optional[float] = None,
@@ -95,10 +99,6 @@ def plan(
     phi: Optional[float] = None,
     psi: Optional[float] = None,
     segments: Optional[Sequence[Segment]] = None,
-    vmax: Optional[float] = None,
-    amax: Optional[float] = None,
-    jmax: Optional[float] = None,
-    smax: Optional[float] = None,
     clock: float = 50e6,
 ) -> Plan:
     """Plans one move, exactly as ``multistep plan`` does.

@@ -286,41 +286,37 @@ pub(crate) fn plan_into<const N: usize>(
     m: &LimitsMove,
     prof: &mut Profile<N>,
 ) -> Result<(), PlanError> {
-    let p = prepare(m).inspect_err(|_| prof.clear())?;
-    let (up, down) = (change(&p.l, p.vs, p.vp), change(&p.l, p.vp, p.ve));
-    build(p.l.order, p.n, p.vs, p.vp, &up, &down, m.steps, prof).map_err(|e| {
-        prof.clear();
-        // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
-        if up.time + down.time < SLOWEST_CHANGE_S {
-            e
-        } else {
-            PlanError::LimitsTooSmall {
-                steps: m.steps,
-                seconds: SLOWEST_CHANGE_S,
+    prepare(m, |p, up, down| {
+        build(p.l.order, p.n, p.vs, p.vp, up, down, m.steps, prof).map_err(|e| {
+            // pieces that long overflow f64 (s·T⁴): the limits, not the pieces, are the problem
+            if up.time + down.time < SLOWEST_CHANGE_S {
+                e
+            } else {
+                PlanError::LimitsTooSmall {
+                    steps: m.steps,
+                    seconds: SLOWEST_CHANGE_S,
+                }
             }
-        }
+        })
     })
+    .inspect_err(|_| prof.clear())
 }
 
-/// A limits move checked, with its peak speed: `vs → vp → (cruise) → ve` in `n` steps.
+/// A limits move checked, with its peak speed: `vs → vp → (cruise) → ve` in `n` steps
+/// (the two changes are handed beside it).
 struct Prepared {
     l: Limits,
     n: f64,
     vs: f64,
     vp: f64,
-    ve: f64,
 }
 
 impl Prepared {
     /// The duration of the pieces [`build`] makes, bit for bit, without making them: the
     /// changes' pieces and the cruise summed in the builder's order (a piece of no
     /// duration is not pushed).
-    fn duration(&self) -> f64 {
-        let (order, up, down) = (
-            self.l.order,
-            change(&self.l, self.vs, self.vp),
-            change(&self.l, self.vp, self.ve),
-        );
+    fn duration(&self, up: &Change, down: &Change) -> f64 {
+        let order = self.l.order;
         let add = |t: f64, d: f64| if d > 0.0 { t + d } else { t };
         let t = up.run().iter().fold(0.0, |t, &(d, _)| add(t, d));
         let cruise = if self.vp > 0.0 {
@@ -336,9 +332,13 @@ impl Prepared {
     }
 }
 
-/// Checks `m` and finds its peak speed.
+/// Checks `m`, finds its peak speed and speed changes, and hands them to `then` (in place:
+/// the changes are not copied out).
 #[inline(always)]
-fn prepare(m: &LimitsMove) -> Result<Prepared, PlanError> {
+fn prepare<R>(
+    m: &LimitsMove,
+    then: impl FnOnce(&Prepared, &Change, &Change) -> Result<R, PlanError>,
+) -> Result<R, PlanError> {
     if m.steps == 0 {
         return Err(PlanError::NoSteps);
     }
@@ -385,12 +385,18 @@ fn prepare(m: &LimitsMove) -> Result<Prepared, PlanError> {
         order,
     };
     let n = m.steps as f64;
-    let vp = peak_speed(&l, n, vs, ve, vmax).map_err(|needed| PlanError::TooShortForLimits {
-        steps: m.steps,
-        start_speed: vs,
-        end_speed: ve,
-        needed,
-    })?;
+    // the changes to and from vmax, kept when it is the peak (as a cruise makes it)
+    let (up, down) = (change(&l, vs, vmax), change(&l, vmax, ve));
+    let vp = if up.distance(vs, vmax) + down.distance(vmax, ve) <= n {
+        vmax
+    } else {
+        peak_speed(&l, n, vs, ve, vmax).map_err(|needed| PlanError::TooShortForLimits {
+            steps: m.steps,
+            start_speed: vs,
+            end_speed: ve,
+            needed,
+        })?
+    };
     let too_small = PlanError::LimitsTooSmall {
         steps: m.steps,
         seconds: SLOWEST_CHANGE_S,
@@ -399,7 +405,12 @@ fn prepare(m: &LimitsMove) -> Result<Prepared, PlanError> {
         // no speed above f64's smallest fits the steps within the limits
         return Err(too_small);
     }
-    Ok(Prepared { l, n, vs, vp, ve })
+    let p = Prepared { l, n, vs, vp };
+    if vp == vmax {
+        then(&p, &up, &down)
+    } else {
+        then(&p, &change(&l, vs, vp), &change(&l, vp, ve))
+    }
 }
 
 /// A speed change longer than this (s) is no move: it exceeds 2^50 ticks of any clock
@@ -484,11 +495,14 @@ fn at_least(x: f64, y: f64, exact: impl FnOnce() -> bool) -> bool {
 pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64), PlanError> {
     let f = positive("clock", clock)?;
     // validates the move, with the float planner's errors; its time-optimal duration
-    let ideal = prepare(&LimitsMove {
-        order: Order::Trapezoid,
-        ..*m
-    })?;
-    let ticks = ideal.duration() * f;
+    let ideal = prepare(
+        &LimitsMove {
+            order: Order::Trapezoid,
+            ..*m
+        },
+        |p, up, down| Ok(p.duration(up, down)),
+    )?;
+    let ticks = ideal * f;
     let too_long = PlanError::TooManyTicks {
         ticks,
         max: MAX_TICKS,
@@ -499,7 +513,9 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
     let (n, vmax, amax) = (m.steps as f64, m.vmax, m.amax);
     let (vs, ve) = (m.start_speed, m.end_speed);
     let sq = |x: f64| Dd::mul_f64(x, x);
-    let ends = sq(vs) + sq(ve);
+    // a move from rest to rest (the common one) skips the end speeds' exact terms
+    let at_rest = vs == 0.0 && ve == 0.0;
+    let ends = if at_rest { Dd::ZERO } else { sq(vs) + sq(ve) };
     // vp² = vmax² if reaching vmax fits in N (2vmax² − vs² − ve² ≤ 2·amax·N), else
     // amax·N + (vs² + ve²)/2
     let two_an = Dd::mul_f64(2.0 * amax, n);
@@ -526,21 +542,27 @@ pub(crate) fn whole_ticks(m: &LimitsMove, clock: f64) -> Result<(f64, f64, f64),
         peak if peak > f => PlanError::FasterThanClock { peak, clock_hz: f },
         _ => too_long.clone(),
     };
-    let (ta, tc) = match (ramp(vs), ramp(ve)) {
+    // from rest to rest (or any equal end speeds) the two ramps are one search
+    let up = ramp(vs);
+    let down = if ve == vs { up } else { ramp(ve) };
+    let (ta, tc) = match (up, down) {
         (Some(a), Some(c)) => (a, c),
         _ => return Err(unreachable()),
     };
     // cruise: vp·(2Tb + Ta + Tc) ≥ K = 2N·f − vs·Ta − ve·Tc
-    let k = Dd::mul_f64(2.0 * n, f) - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc);
+    let k = match Dd::mul_f64(2.0 * n, f) {
+        k if at_rest => k,
+        k => k - Dd::mul_f64(vs, ta) - Dd::mul_f64(ve, tc),
+    };
     let tb = if !(k.hi > 0.0) {
         0.0
     } else {
-        let k2 = k * k;
         least((k.hi / vp - ta - tc) / 2.0, |tb| {
+            // vp·w ≥ K (both ≥ 0) in f64 where it is clear, else vp²·w² ≥ K² exactly
             let w = 2.0 * tb + ta + tc;
-            at_least(vp2.hi * w * w, k2.hi, || {
+            at_least(vp * w, k.hi, || {
                 let w = Dd::new(w);
-                vp2 * w * w >= k2
+                vp2 * w * w >= k * k
             })
         })
         .ok_or_else(unreachable)?
@@ -607,7 +629,7 @@ mod tests {
         ) {
             let m = crate::moves::limits_of_order(order, steps, [vmax, amax, jmax, smax], [vs, ve]);
             if let Ok(p) = plan::<15>(&m) {
-                let d = prepare(&m).unwrap().duration();
+                let d = prepare(&m, |p, up, down| Ok(p.duration(up, down))).unwrap();
                 proptest::prop_assert_eq!(d.to_bits(), p.duration().to_bits(), "{:?}", m);
             }
         }

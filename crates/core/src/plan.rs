@@ -158,6 +158,11 @@ impl<const N: usize> Profile<N> {
         if keep_exact {
             self.exact = ExactMove::of(m, clock_hz, self);
         }
+        // a limits move's speed stays within its pieces' rounding of vmax (far less than
+        // 10⁻⁹ of it; the tests check 10⁻¹²): well below the clock it need not be found
+        if matches!(m, Move::Limits(l) if l.vmax * (1.0 + 1e-9) < clock_hz) {
+            return Ok(());
+        }
         let p = &*self;
         let peak = p.peak_speed();
         // an integer limits move never exceeds its whole vmax, however f64 rounds the peak

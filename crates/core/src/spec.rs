@@ -34,8 +34,11 @@ impl<'a> MoveSpec<'a> {
         let steps = self
             .steps
             .ok_or(PlanError::Missing("the number of steps"))?;
-        let name = self.profile.unwrap_or("trapezoid");
-        let family = Family::parse(name, p.rho, p.phi, p.psi)?;
+        // the default family, trapezoid, takes no shape parameter
+        let family = match self.profile {
+            Some(name) => Family::parse(name, p.rho, p.phi, p.psi)?,
+            None => Family::Trapezoid,
+        };
         let start_speed = p.start_speed.unwrap_or(0.0);
         let end_speed = p.end_speed.unwrap_or(0.0);
         if has_limits {

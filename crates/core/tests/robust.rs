@@ -89,6 +89,10 @@ proptest! {
         }
         .with_speeds(vs * vmax, ve * vmax);
         check_is_planning_and_playing(&Move::Limits(m), clock)?;
+        // the margin the clock check leaves a limits move's peak (10⁻⁹ of vmax)
+        for p in [Profile::plan_on_clock(&Move::Limits(m), clock), Profile::limits(&m)].iter().flatten() {
+            prop_assert!(p.peak_speed() <= vmax * (1.0 + 1e-12), "{} > {}", p.peak_speed(), vmax);
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use multistep_core::{MoveParams, MoveSpec, Param, Segment};
 use pyo3::exceptions::{PyOverflowError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::pybacked::PyBackedStr;
-use pyo3::types::{PyBool, PyDict, PyInt, PyString};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 
 /// A move as given by keywords; `None` values count as not given.
 #[derive(Default, Debug)]
@@ -87,6 +87,10 @@ pub fn type_name(v: &Bound<'_, PyAny>) -> String {
 /// A real number (int or float); NaN and infinities pass through to the library's checks.
 /// An int beyond a float's range is a `ValueError`.
 pub fn number(name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
+    // a float as is (the common case: no str or bool to rule out)
+    if let Ok(f) = v.cast_exact::<PyFloat>() {
+        return Ok(f.value());
+    }
     if v.is_instance_of::<PyString>() || v.is_instance_of::<PyBool>() {
         return Err(type_err(format!(
             "{name} must be a number, not {}",

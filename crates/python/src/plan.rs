@@ -30,21 +30,27 @@ use std::sync::{Mutex, OnceLock};
 /// Raises `PlanError` (a `ValueError`) with the command line's message for a move that
 /// cannot be planned, `TypeError` for a wrong type or an unknown keyword.
 #[pyfunction]
+// keywords are matched by name in this order, one comparison each: the limits mode's
+// first (what a host planning a move per command gives)
 #[pyo3(signature = (
-    *, profile=None, steps=None, accel_time=None, cruise_time=None, decel_time=None,
-    start_speed=None, end_speed=None, rho=None, phi=None, psi=None, segments=None,
-    vmax=None, amax=None, jmax=None, smax=None, clock=None
+    *, steps=None, vmax=None, amax=None, profile=None, jmax=None, smax=None,
+    accel_time=None, cruise_time=None, decel_time=None, start_speed=None, end_speed=None,
+    rho=None, phi=None, psi=None, segments=None, clock=None
 ))]
 #[pyo3(
-    text_signature = "(*, profile=None, steps=None, accel_time=None, cruise_time=None, \
-    decel_time=None, start_speed=None, end_speed=None, rho=None, phi=None, psi=None, \
-    segments=None, vmax=None, amax=None, jmax=None, smax=None, clock=50e6)"
+    text_signature = "(*, steps=None, vmax=None, amax=None, profile=None, jmax=None, \
+    smax=None, accel_time=None, cruise_time=None, decel_time=None, start_speed=None, \
+    end_speed=None, rho=None, phi=None, psi=None, segments=None, clock=50e6)"
 )]
 #[allow(clippy::too_many_arguments)]
 pub fn plan(
     py: Python<'_>,
-    profile: Option<&Bound<'_, PyAny>>,
     steps: Option<&Bound<'_, PyAny>>,
+    vmax: Option<&Bound<'_, PyAny>>,
+    amax: Option<&Bound<'_, PyAny>>,
+    profile: Option<&Bound<'_, PyAny>>,
+    jmax: Option<&Bound<'_, PyAny>>,
+    smax: Option<&Bound<'_, PyAny>>,
     accel_time: Option<&Bound<'_, PyAny>>,
     cruise_time: Option<&Bound<'_, PyAny>>,
     decel_time: Option<&Bound<'_, PyAny>>,
@@ -54,15 +60,11 @@ pub fn plan(
     phi: Option<&Bound<'_, PyAny>>,
     psi: Option<&Bound<'_, PyAny>>,
     segments: Option<&Bound<'_, PyAny>>,
-    vmax: Option<&Bound<'_, PyAny>>,
-    amax: Option<&Bound<'_, PyAny>>,
-    jmax: Option<&Bound<'_, PyAny>>,
-    smax: Option<&Bound<'_, PyAny>>,
     clock: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Plan> {
     // named parameters: Python matches the keywords (no dict of them is made), and an
     // unknown one is its own TypeError; read in this order, the first wrong one raises
-    let num = |name, v: Option<&Bound<'_, PyAny>>| given(v).map(|v| number(name, v)).transpose();
+    let num = opt_number;
     let family = given(profile).map(|v| str_arg("profile", v)).transpose()?;
     let steps = given(steps).map(|v| whole("steps", v)).transpose()?;
     let mut params = MoveParams {
@@ -110,8 +112,18 @@ pub fn plan(
 }
 
 /// A keyword's value; Python's `None` is not giving it.
+#[inline(always)]
 fn given<'a, 'py>(v: Option<&'a Bound<'py, PyAny>>) -> Option<&'a Bound<'py, PyAny>> {
     v.filter(|v| !v.is_none())
+}
+
+/// A number keyword, if given (inline: most keywords of a call are not).
+#[inline(always)]
+fn opt_number(name: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
+    match given(v) {
+        Some(v) => number(name, v).map(Some),
+        None => Ok(None),
+    }
 }
 
 /// The move `plan` checked, kept to be planned again when first read: its pieces, bit for
