@@ -579,7 +579,6 @@ pub(crate) fn plan_on_clock_into<const N: usize>(
     if m.order != Order::Trapezoid {
         return plan_into(m, prof);
     }
-    prof.clear();
     let (ta, tb, tc) = whole_ticks(m, clock)?;
     phase::plan_into(
         &PhaseMove {

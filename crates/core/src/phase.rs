@@ -68,7 +68,6 @@ pub(crate) fn plan_into<const N: usize>(
     m: &PhaseMove,
     prof: &mut Profile<N>,
 ) -> Result<(), PlanError> {
-    prof.clear();
     let steps = check_steps(m.steps)?;
     let ta = non_negative("accel time", m.accel_time)?;
     let tb = non_negative("cruise time", m.cruise_time)?;

@@ -64,26 +64,25 @@ pub fn plan(
 ) -> PyResult<Plan> {
     // named parameters: Python matches the keywords (no dict of them is made), and an
     // unknown one is its own TypeError; read in this order, the first wrong one raises
-    let num = opt_number;
     let family = given(profile).map(|v| str_arg("profile", v)).transpose()?;
     let steps = given(steps).map(|v| whole("steps", v)).transpose()?;
     let mut params = MoveParams {
-        accel_time: num("accel_time", accel_time)?,
-        cruise_time: num("cruise_time", cruise_time)?,
-        decel_time: num("decel_time", decel_time)?,
-        start_speed: num("start_speed", start_speed)?,
-        end_speed: num("end_speed", end_speed)?,
-        rho: num("rho", rho)?,
-        phi: num("phi", phi)?,
-        psi: num("psi", psi)?,
+        accel_time: opt_number("accel_time", accel_time)?,
+        cruise_time: opt_number("cruise_time", cruise_time)?,
+        decel_time: opt_number("decel_time", decel_time)?,
+        start_speed: opt_number("start_speed", start_speed)?,
+        end_speed: opt_number("end_speed", end_speed)?,
+        rho: opt_number("rho", rho)?,
+        phi: opt_number("phi", phi)?,
+        psi: opt_number("psi", psi)?,
         ..MoveParams::default()
     };
     let segments = given(segments).map(segment_list).transpose()?;
-    params.vmax = num("vmax", vmax)?;
-    params.amax = num("amax", amax)?;
-    params.jmax = num("jmax", jmax)?;
-    params.smax = num("smax", smax)?;
-    let clock = num("clock", clock)?.unwrap_or(DEFAULT_CLOCK_HZ);
+    params.vmax = opt_number("vmax", vmax)?;
+    params.amax = opt_number("amax", amax)?;
+    params.jmax = opt_number("jmax", jmax)?;
+    params.smax = opt_number("smax", smax)?;
+    let clock = opt_number("clock", clock)?.unwrap_or(DEFAULT_CLOCK_HZ);
     let spec = MoveSpec {
         profile: family.as_ref().map(|s| s.as_ref()),
         steps,
