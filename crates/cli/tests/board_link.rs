@@ -182,8 +182,9 @@ struct Rig {
     client: Client,
     /// Positions reported trusted that differed from the board's counter.
     mismatches: usize,
-    /// Each axis's last idle position and whether it was trusted.
-    last: [Option<(i64, bool)>; 2],
+    /// Each axis's last idle position and whether it was trusted (the first two axes, or
+    /// every axis of a larger board-sim).
+    last: Vec<Option<(i64, bool)>>,
     checked: bool,
 }
 
@@ -268,7 +269,7 @@ impl Rig {
             server,
             client,
             mismatches: 0,
-            last: [None; 2],
+            last: vec![None; axes.max(2)],
             checked: false,
         }
     }
@@ -372,6 +373,13 @@ impl Rig {
     /// The log is flushed once the board idles (its motors settled): read when it has
     /// `rises` lines, complete.
     fn move_edges(&self, go: [usize; 2], rises: usize) -> [Vec<u64>; 2] {
+        let mut out = self.axes_edges(&go, rises);
+        [std::mem::take(&mut out[0]), std::mem::take(&mut out[1])]
+    }
+
+    /// Each axis's STEP rises from board-sim's log, as ticks from its move's start: axis
+    /// `a` started with the `go[a]`-th group start. Waits (up to 20 s) for `rises` rises.
+    fn axes_edges(&self, go: &[usize], rises: usize) -> Vec<Vec<u64>> {
         let path = self.dir.path().join("edges.log");
         let t0 = Instant::now();
         let text = loop {
@@ -383,7 +391,7 @@ impl Rig {
             std::thread::sleep(Duration::from_millis(100));
         };
         let mut gos = Vec::new();
-        let mut out: [Vec<u64>; 2] = Default::default();
+        let mut out = vec![Vec::new(); go.len()];
         for line in text.lines() {
             if let Some(g) = line.strip_prefix("# go ") {
                 gos.push(g.parse::<u64>().unwrap());
@@ -812,6 +820,98 @@ fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
         (x.position, y.position, x.state, y.state, y.fault)
     });
     assert_eq!(got, (1500, -1200, AxisState::Idle, AxisState::Idle, None));
+}
+
+/// Fourteen axes on one ULX3S-25F (`ulx3s-25f-14`: every header pin an axis wire, 45 MHz,
+/// docs/HDL.md "Wiring"), a move each, all running at once: trapezoids computed by the
+/// board's one calculator (phase mode, and limits mode on whole ticks), scurve, scurve4,
+/// exponential and sine streamed through the axes' replay units. Every STEP rise of every
+/// axis is plan's edge at the board's clock, and every Position register the move's steps.
+#[test]
+fn fourteen_axes_run_every_family_at_once_edge_exact() {
+    const K: usize = 14;
+    // phase times (accel, cruise, decel); None: limits mode at 20 000 steps/s, 4·10^5 steps/s²
+    type Times = Option<(f64, f64, f64)>;
+    let moves: [(&str, i64, Times); K] = [
+        ("trapezoid", 1500, Some((0.03, 0.04, 0.03))),
+        ("scurve", -1200, Some((0.04, 0.03, 0.05))),
+        ("scurve4", 1000, Some((0.03, 0.03, 0.03))),
+        ("exponential", 900, Some((0.03, 0.02, 0.03))),
+        ("sine", -800, Some((0.03, 0.03, 0.03))),
+        ("trapezoid", 500, None),
+        ("trapezoid", -700, Some((0.02, 0.05, 0.02))),
+        ("scurve4", -1300, Some((0.04, 0.02, 0.04))),
+        ("exponential", -600, Some((0.02, 0.03, 0.02))),
+        ("sine", 1100, Some((0.04, 0.02, 0.04))),
+        ("trapezoid", -400, None),
+        ("scurve", 800, Some((0.03, 0.02, 0.03))),
+        ("trapezoid", 300, Some((0.01, 0.02, 0.01))),
+        ("sine", -500, Some((0.02, 0.02, 0.02))),
+    ];
+    let names: Vec<String> = (0..K).map(|a| format!("M{a}")).collect();
+    let text = format!(
+        "{CONFIG}{}",
+        names
+            .iter()
+            .map(|n| format!("[[axis]]\nname = \"{n}\"{AXIS}"))
+            .collect::<String>()
+    )
+    .replace(
+        "vmax = 4000.0\namax = 40000.0\n",
+        "vmax = 1000000.0\namax = 1000000000.0\n",
+    );
+    const HZ: f64 = 45e6;
+    let mut r = Rig::on_board_with(Pins::Hil, &text, ("ulx3s-25f-14", K), 3_000_000, false, &[]);
+    // one move after the other: axis a starts with the a-th group start
+    for (n, &(profile, steps, times)) in names.iter().zip(&moves) {
+        let shape = match times {
+            Some((a, c, d)) => format!("accel={a} cruise={c} decel={d}"),
+            None => "vmax=20000 amax=400000".to_string(),
+        };
+        r.req(&format!("move {n} {steps} profile={profile} {shape}"));
+    }
+    let t0 = Instant::now();
+    for n in &names {
+        loop {
+            let all = r.client.status().unwrap();
+            let s = all.iter().find(|s| &s.axis == n).unwrap();
+            if s.state != AxisState::Moving {
+                assert_eq!(
+                    (s.state, s.fault.as_deref()),
+                    (AxisState::Idle, None),
+                    "{n}"
+                );
+                break;
+            }
+            assert!(t0.elapsed() < Duration::from_secs(300), "{n} never stopped");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    let total: i64 = moves.iter().map(|m| m.1.abs()).sum();
+    let go: Vec<usize> = (0..K).collect();
+    let edges = r.axes_edges(&go, total as usize);
+    for (a, &(profile, steps, times)) in moves.iter().enumerate() {
+        let want = match times {
+            Some(t) => plan_edges_on(HZ, profile, steps.unsigned_abs(), t),
+            None => plan_edges_at(
+                profile,
+                steps.unsigned_abs(),
+                multistep_core::MoveParams {
+                    vmax: Some(20000.0),
+                    amax: Some(400000.0),
+                    ..Default::default()
+                },
+                HZ,
+            ),
+        };
+        same_edges(&names[a], &edges[a], &want);
+    }
+    let targets: Vec<i64> = moves.iter().map(|m| m.1).collect();
+    assert_eq!(
+        r.check_counters(),
+        targets,
+        "the board's Position registers"
+    );
 }
 
 /// The link statistics lines of the rig's service (`serve.log`): each motion's kind

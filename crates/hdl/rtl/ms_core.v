@@ -44,7 +44,8 @@ module ms_core #(
     parameter WK  = 68,
     parameter RB  = 2,
     parameter MD  = 16,
-    parameter AW  = 7      // 1 + LK + 5
+    parameter AW  = 7,     // 1 + LK + 5
+    parameter LUTRAM = 0   // 1: the family has distributed RAM (ECP5): dy's memory is there
 ) (
     input  wire          clk,
     input  wire          wr_en,
@@ -100,16 +101,12 @@ module ms_core #(
     // more logic sites in the 8-axis ULX3S build, docs/HDL.md), but for dy: the
     // multiplier takes it in the calculator's first cycle, too late after the block RAM's
     // 5.8 ns clock-to-output at 50 MHz on ECP5, so it has its own memory (distributed RAM
-    // there) read into flip-flops.
+    // there, LUTRAM = 1: yosys would pick block RAM from 64 words on, 47.87 MHz routed in
+    // the 14-axis ULX3S build) read into flip-flops.
     (* no_rw_check, ram_style = "block" *)
     reg [WP-WY-1:0] pmem [0:(1<<(LK+LS))-1];
-    (* no_rw_check *)
-    reg [WY-1:0]    dmem [0:(1<<(LK+LS))-1];
     always @(posedge clk) begin
-        if (commit) begin
-            pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
-            dmem[{wax, wr_data[LS-1:0]}] <= stg[4*32 +: WY];
-        end
+        if (commit) pmem[{wax, wr_data[LS-1:0]}] <= stg_word;
     end
     reg [LS-1:0] last_slot [0:K-1];
     reg [K-1:0]  dir_r;
@@ -127,7 +124,7 @@ module ms_core #(
     reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
     reg  [WST-1:0] cur;       // m's state, read at select
     reg  [WP-WY-1:0] rd;      // m's piece but dy, read at select
-    reg  [WY-1:0]  rdy;       // its dy
+    wire [WY-1:0]  rdy;       // its dy
     wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
 
@@ -162,6 +159,30 @@ module ms_core #(
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
     wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
+
+    // dy's memory and the register it is read into at select (ram_style is not a value a
+    // parameter can set, so one memory per choice; iCE40 has no distributed RAM)
+    generate
+        if (LUTRAM != 0) begin : dy_lutram
+            (* no_rw_check, ram_style = "distributed" *)
+            reg [WY-1:0] dmem [0:(1<<(LK+LS))-1];
+            reg [WY-1:0] q;
+            always @(posedge clk) begin
+                if (commit) dmem[{wax, wr_data[LS-1:0]}] <= stg[4*32 +: WY];
+                if (do_sel) q <= dmem[{pick, pick_slot}];
+            end
+            assign rdy = q;
+        end else begin : dy_any
+            (* no_rw_check *)
+            reg [WY-1:0] dmem [0:(1<<(LK+LS))-1];
+            reg [WY-1:0] q;
+            always @(posedge clk) begin
+                if (commit) dmem[{wax, wr_data[LS-1:0]}] <= stg[4*32 +: WY];
+                if (do_sel) q <= dmem[{pick, pick_slot}];
+            end
+            assign rdy = q;
+        end
+    endgenerate
 
     // the piece word in the calculator
     wire [1:0]    k_mode  = rd[WP-WY-1:WP-WY-2];
@@ -220,7 +241,6 @@ module ms_core #(
         else if (done) st_mem[m] <= next_st;
         if (do_sel) begin
             rd  <= pmem[{pick, pick_slot}];
-            rdy <= dmem[{pick, pick_slot}];
             cur <= st_mem[pick];
         end
     end

@@ -6,6 +6,12 @@
 // that edge and the later ones are late by the delay, and STEP stays high until then, then
 // for what is left of half the interval from its rise to the next edge. The wait is
 // counted up to 2^(WP-1) ticks (0.168 s at 50 MHz, WP = 24); a longer one as that long.
+//
+// One counter and one period: `u` counts the clocks since STEP's last rise, `per` is the
+// interval from that rise to the next edge, so the edge is `u == per` and the fall
+// `u == per / 2`: half an interval is wiring, not a second counter (ECP5 327 LUT4-eq and 55
+// flip-flops alone, against 379 and 77 for a down-counter of the period, one of the high
+// time and a register of the half; iCE40 224 SB_LUT4 against 359).
 module ms_pulse #(
     parameter WP = 24
 ) (
@@ -22,28 +28,28 @@ module ms_pulse #(
     output reg           running,
     output reg           underrun
 );
-    // ticks left in the current period; while waiting for a period, minus the ticks waited
-    // (at most 2^(WP-1))
-    reg [WP-1:0] cnt;
-    reg [WP-1:0] hcnt;   // ticks left of STEP high
-    reg [WP-1:0] half;   // half of the interval in progress: the last pulse's high time
-    reg          waiting;
-    reg          last;   // the edge of the last step has been made
-    wire edge_now = running && !waiting && !last && (cnt == {{(WP-1){1'b0}}, 1'b1});
+    // after an underrun the interval is the wait (at most 2^(WP-1)) plus a period: WP+1 bits
+    reg [WP:0] u;       // clocks since the last rise (or the start); saturates while waiting
+    reg [WP:0] per;     // the interval that ends at the next edge (the last one's after it)
+    reg        waiting; // an underrun: STEP high until the period arrives
+    reg        last;    // the edge of the last step has been made
+    localparam [WP:0] ONE = 1;
+    localparam [WP:0] SAT = ONE << (WP - 1);
+    wire edge_now = running && !waiting && !last && (u == per);
     wire start    = go && !running && !empty;
     wire late_in  = waiting && arrive;   // the missing period, loaded as it is pushed
     assign pop = !halt && (start || late_in || (edge_now && (!empty || arrive)));
-    // The held pulse rose `w` = -cnt ticks ago; the interval to the next edge is ain + w:
-    // STEP stays high for (ain - w) / 2 more ticks when positive.
-    // the next period: the FIFO's head, or the one being pushed into an empty FIFO (one
-    // multiplexer for cnt, hcnt and half; `start` needs a non-empty FIFO, so din there)
+    // the next period: the FIFO's head, or the one being pushed into an empty FIFO (`start`
+    // needs a non-empty FIFO, so din there)
     wire [WP-1:0] nx   = empty ? ain : din;
-    wire [WP-1:0] nx_h = {1'b0, nx[WP-1:1]};
-    wire [WP:0] cnt_s = {cnt[WP-1], cnt};
-    wire [WP:0] rest  = {1'b0, ain} + cnt_s;
-    /* verilator lint_off UNUSED */  // only half of it is kept
-    wire [WP:0] span  = {1'b0, ain} - cnt_s;
-    /* verilator lint_on UNUSED */
+    wire [WP:0]   u1   = u + ONE;
+    // a late period: the interval from the held rise is the wait plus the period
+    wire [WP:0]   span = u + {1'b0, ain};
+    // STEP falls when half the interval (at least 1) has passed since the rise; at a late
+    // arrival at once if that half is already over: span / 2 <= u, that is ain <= u + 1
+    wire [WP:0]   h    = (per[WP:1] == {WP{1'b0}}) ? ONE : {1'b0, per[WP:1]};
+    wire          fall = (u == h);
+    wire          fall_now = ({1'b0, ain} <= u1);
     initial begin
         step = 1'b0;
         running = 1'b0;
@@ -58,8 +64,8 @@ module ms_pulse #(
             waiting <= 1'b0;
             last    <= 1'b0;
         end else if (start) begin
-            cnt      <= nx;
-            half     <= nx_h;
+            u        <= ONE;
+            per      <= {1'b0, nx};
             running  <= 1'b1;
             underrun <= 1'b0;
             waiting  <= 1'b0;
@@ -67,48 +73,38 @@ module ms_pulse #(
         end else if (running) begin
             if (edge_now) begin
                 step <= 1'b1;
+                u    <= ONE;
                 if (!empty || arrive) begin
                     // from the FIFO, or the period arrives just in time
-                    cnt  <= nx;
-                    hcnt <= nx_h;
-                    half <= nx_h;
+                    per <= {1'b0, nx};
                 end else if (more) begin
-                    // STEP stays high until the period arrives; cnt counts the wait down
+                    // STEP stays high until the period arrives; u counts the wait
                     underrun <= 1'b1;
                     waiting  <= 1'b1;
-                    cnt      <= {WP{1'b1}};
                 end else begin
                     // the last step: high for half of the period just ended (>= 1)
-                    hcnt <= (half == {WP{1'b0}}) ? {{(WP-1){1'b0}}, 1'b1} : half;
                     last <= 1'b1;
                 end
             end else if (late_in) begin
-                cnt     <= ain;
-                half    <= span[WP:1];
+                per     <= span;
+                u       <= u1;
                 waiting <= 1'b0;
-                if (rest[WP] || rest[WP:1] == {WP{1'b0}}) begin
-                    step <= 1'b0;
-                end else begin
-                    hcnt <= rest[WP:1];
-                end
+                if (fall_now) step <= 1'b0;
             end else if (waiting) begin
-                // the count saturates at -2^(WP-1) rather than wrap: a longer wait is taken
+                // the wait saturates at 2^(WP-1) rather than wrap: a longer wait is taken
                 // as 2^(WP-1) ticks for the held pulse's fall (before the next edge, later
                 // than the model's when ain > 2^(WP-1) + 1) and the half interval after it
                 // (the last pulse's width); the edges stay exact
-                if (cnt != {1'b1, {(WP-1){1'b0}}}) cnt <= cnt - 1'b1;
+                if (u != SAT) u <= u1;
                 if (!more) begin
                     waiting <= 1'b0;   // cannot happen: `more` falls with the last push
                     running <= 1'b0;
                 end
             end else begin
-                if (!last) cnt <= cnt - 1'b1;
-                if (step) begin
-                    if (hcnt == {{(WP-1){1'b0}}, 1'b1}) begin
-                        step <= 1'b0;
-                        if (last) running <= 1'b0;
-                    end
-                    hcnt <= hcnt - 1'b1;
+                u <= u1;
+                if (step && fall) begin
+                    step <= 1'b0;
+                    if (last) running <= 1'b0;
                 end
             end
         end

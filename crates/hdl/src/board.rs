@@ -51,6 +51,12 @@ pub struct BoardTop {
     /// pieces computed on the board from [`crate::chain::CHAIN_LAYOUT`] records, fed
     /// through the stream buffer (needs `stream_buffer_bits` ≥ 8).
     pub chains: bool,
+    /// The family has distributed RAM (ECP5): the calculator's dy memory is held there
+    /// (`LUTRAM`), as it must be read into the multiplier within a clock.
+    pub lutram: bool,
+    /// Every axis has a limit input (else the limit filters are left out and the limits
+    /// read inactive: a pin layout without limit wires).
+    pub limits: bool,
 }
 
 impl BoardTop {
@@ -62,6 +68,8 @@ impl BoardTop {
             stream_buffer_bits: 9,
             sync: true,
             chains: false,
+            lutram: false,
+            limits: true,
         }
     }
 
@@ -131,8 +139,11 @@ impl BoardTop {
         Ok(w.core_param_list(self.core.axes, w.lk)
             .into_iter()
             .chain(board)
-            // CHAINS only when set: a board without chain units builds from the same text
+            // CHAINS, LUTRAM and LIMITS only when not the default: a board without them
+            // builds from the same text
             .chain(self.chains.then_some(("CHAINS", 1)))
+            .chain(self.lutram.then_some(("LUTRAM", 1)))
+            .chain((!self.limits).then_some(("LIMITS", 0)))
             .collect())
     }
 

@@ -1,5 +1,6 @@
 //! The boards `multistep hdl build` targets: device, oscillator, PLL, core clock, the core
-//! widths that fit, and the pin constraint file (`crates/hdl/boards/`). One table, [`BOARDS`].
+//! widths that fit, and the pin layouts (constraint files in `crates/hdl/boards/`). One
+//! table, [`BOARDS`].
 
 use crate::{CoreParams, HdlError};
 use serde::Serialize;
@@ -75,6 +76,49 @@ pub struct BoardCore {
     pub max_piece_s: f64,
 }
 
+/// A board's pin layout: its constraint file and the axis wires it has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Pinout {
+    /// Axes with STEP, DIR, ENABLE and Hall wires.
+    pub axes: u32,
+    /// Every axis also has a limit input (without, the limit inputs read inactive).
+    pub limits: bool,
+    /// The constraint file: its name and text (`crates/hdl/boards/`).
+    #[serde(skip)]
+    pub file: (&'static str, &'static str),
+}
+
+/// The ULX3S with up to 8 axes: a limit input per axis, E-STOP and SYNC on the headers.
+const ULX3S_8: Pinout = Pinout {
+    axes: 8,
+    limits: true,
+    file: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
+};
+
+/// The ULX3S with 14 axes: all 56 header pins are axis wires; E-STOP and SYNC on the OLED
+/// header, no limit inputs.
+const ULX3S_14: Pinout = Pinout {
+    axes: 14,
+    limits: false,
+    file: ("ulx3s-14.lpf", include_str!("../boards/ulx3s-14.lpf")),
+};
+
+/// The ULX3S core widths (the 85F's FIFOs are deeper).
+const ULX3S_25F_CORE: BoardCore = BoardCore {
+    fifo_depth: 16,
+    pieces: 4,
+    step_bits: 20,
+    tick_bits: 24,
+    radicand_bits: 128,
+    kernel_bits: 68,
+    radix_bits: 2,
+    max_rate: 200_000.0,
+    max_piece_s: 0.3,
+};
+
+/// nextpnr's device options for the ULX3S's LFE5U-25F.
+const ULX3S_25F_NEXTPNR: &[&str] = &["--25k", "--package", "CABGA381", "--speed", "6"];
+
 /// One supported board.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Board {
@@ -90,16 +134,15 @@ pub struct Board {
     /// The board oscillator (Hz).
     pub osc_hz: f64,
     pub pll: Pll,
-    /// Axes the pinout has wires for (the most `--axes` takes).
+    /// Axes the pin layout has wires for (the most `--axes` takes).
     pub max_axes: u32,
     /// Axes of `hdl build` when `--axes` is not given: the most that fit and meet timing.
     pub default_axes: u32,
     /// Host link rate (baud, 8N1) through the board's USB-UART.
     pub baud: u32,
     pub core: BoardCore,
-    /// The pin constraint file: its name and text (`crates/hdl/boards/`).
-    #[serde(skip)]
-    pub constraints: (&'static str, &'static str),
+    /// The pin layout (its `axes` is `max_axes`).
+    pub pinout: Pinout,
     /// The generated wrapper's top module.
     pub top: &'static str,
     /// Each axis's stream buffer: 2^bits bytes (0: no replay units, no streamed moves).
@@ -113,13 +156,13 @@ pub struct Board {
 }
 
 /// Every supported board.
-pub const BOARDS: [Board; 3] = [
+pub const BOARDS: [Board; 4] = [
     Board {
         name: "ulx3s-25f",
         description: "Radiona ULX3S with an LFE5U-25F, 25 MHz oscillator, FT231X USB-UART",
         family: Family::Ecp5,
         device: "LFE5U-25F-6BG381C",
-        nextpnr_args: &["--25k", "--package", "CABGA381", "--speed", "6"],
+        nextpnr_args: ULX3S_25F_NEXTPNR,
         osc_hz: 25e6,
         // ecppll -i 25 -o 50: VCO 600 MHz
         pll: Pll::Ehxplll {
@@ -131,18 +174,35 @@ pub const BOARDS: [Board; 3] = [
         max_axes: 8,
         default_axes: 8,
         baud: 3_000_000,
-        core: BoardCore {
-            fifo_depth: 16,
-            pieces: 4,
-            step_bits: 20,
-            tick_bits: 24,
-            radicand_bits: 128,
-            kernel_bits: 68,
-            radix_bits: 2,
-            max_rate: 200_000.0,
-            max_piece_s: 0.3,
+        core: ULX3S_25F_CORE,
+        pinout: ULX3S_8,
+        top: "ms_ulx3s_top",
+        stream_buffer_bits: 9,
+        sync: true,
+        chains: false,
+    },
+    Board {
+        name: "ulx3s-25f-14",
+        description: "Radiona ULX3S with an LFE5U-25F: every header pin an axis wire, 14 axes \
+                      at 45 MHz, no limit inputs",
+        family: Family::Ecp5,
+        device: "LFE5U-25F-6BG381C",
+        nextpnr_args: ULX3S_25F_NEXTPNR,
+        osc_hz: 25e6,
+        // ecppll -i 25 -o 45: VCO 540 MHz. 14 axes fit the 25F (85 % of its LUTs) but
+        // reach 46.3-49.4 MHz routed, not 50 (docs/HDL.md, Boards); 45 MHz makes the
+        // 3 Mbaud link's bit exactly 15 clocks
+        pll: Pll::Ehxplll {
+            clki_div: 5,
+            clkfb_div: 9,
+            clkop_div: 12,
+            clkop_cphase: 5,
         },
-        constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
+        max_axes: 14,
+        default_axes: 14,
+        baud: 3_000_000,
+        core: ULX3S_25F_CORE,
+        pinout: ULX3S_14,
         top: "ms_ulx3s_top",
         stream_buffer_bits: 9,
         sync: true,
@@ -174,17 +234,10 @@ pub const BOARDS: [Board; 3] = [
             // FIFO holds: 128 short cruise periods cover an s-curve's long last periods
             // (`multistep_core::tdm::chain`; 16 do not)
             fifo_depth: 128,
-            pieces: 4,
-            step_bits: 20,
-            tick_bits: 24,
-            radicand_bits: 128,
-            kernel_bits: 68,
-            radix_bits: 2,
-            max_rate: 200_000.0,
-            max_piece_s: 0.3,
+            ..ULX3S_25F_CORE
         },
-        // the same board and pins as the 25F
-        constraints: ("ulx3s.lpf", include_str!("../boards/ulx3s.lpf")),
+        // the same board and pins as the 25F (its 8 chain units fill the 85F)
+        pinout: ULX3S_8,
         top: "ms_ulx3s_top",
         // 4 kB: a whole move's chain records (219 bytes each) before it starts
         stream_buffer_bits: 12,
@@ -221,7 +274,11 @@ pub const BOARDS: [Board; 3] = [
             max_rate: 100_000.0,
             max_piece_s: 0.04,
         },
-        constraints: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
+        pinout: Pinout {
+            axes: 4,
+            limits: true,
+            file: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
+        },
         top: "ms_icebreaker_top",
         // the UP5K is full with two computing axes
         stream_buffer_bits: 0,
@@ -238,6 +295,8 @@ impl Board {
             stream_buffer_bits: self.stream_buffer_bits,
             sync: self.sync,
             chains: self.chains,
+            lutram: self.family == Family::Ecp5,
+            limits: self.pinout.limits,
             ..crate::BoardTop::new(params.clone(), self.baud)
         }
     }
@@ -297,6 +356,7 @@ mod tests {
                     .unwrap_or_else(|e| panic!("{} K = {k}: {e}", b.name));
             }
             assert!(b.default_axes >= 1 && b.default_axes <= b.max_axes);
+            assert_eq!(b.pinout.axes, b.max_axes);
             let vco = b.pll.vco_hz(b.osc_hz);
             match b.pll {
                 Pll::Ehxplll { .. } => assert!((400e6..=800e6).contains(&vco), "{vco}"),
@@ -320,6 +380,47 @@ mod tests {
         assert_eq!((top.div(), top.baud_error()), (10, 0.0));
         let ice = Board::by_name("icebreaker").unwrap();
         assert_eq!(ice.clock_hz(), 18e6);
+        // 14 axes at 45 MHz: a bit of the 3 Mbaud link is exactly 15 clocks
+        let dense = Board::by_name("ulx3s-25f-14").unwrap();
+        let top = dense.board_top(&dense.params(14).unwrap());
+        assert_eq!(
+            (dense.clock_hz(), top.div(), top.baud_error()),
+            (45e6, 15, 0.0)
+        );
+        assert!(!top.limits && top.lutram);
+    }
+
+    /// docs/HDL.md's 14-axis ULX3S table (after its `<!-- wiring: ulx3s-14.lpf -->` mark)
+    /// names each axis wire's header pin and ball as the pin file places it.
+    #[test]
+    fn the_documented_fourteen_axis_wiring_is_the_pin_file() {
+        let doc = include_str!("../../../docs/HDL.md");
+        let (_, table) = doc
+            .split_once("<!-- wiring: ulx3s-14.lpf -->")
+            .expect("the wiring mark");
+        let rows: Vec<&str> = table
+            .lines()
+            .skip_while(|l| l.trim().is_empty())
+            .take_while(|l| l.starts_with('|'))
+            .skip(2)
+            .collect();
+        assert_eq!(rows.len(), ULX3S_14.axes as usize);
+        let lpf = ULX3S_14.file.1;
+        for (a, row) in rows.iter().enumerate() {
+            let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+            assert_eq!(cells[1], a.to_string(), "{row}");
+            for (wire, cell) in ["step", "dir", "enable", "hall"].iter().zip(&cells[2..6]) {
+                // "GP14 (U18)" is `LOCATE COMP "enable[0]" SITE "U18"; # gp[14]`
+                let (pin, ball) = cell.split_once(" (").unwrap();
+                let ball = ball.trim_end_matches(')');
+                let n = &pin[2..];
+                let line = format!(
+                    "LOCATE COMP \"{wire}[{a}]\" SITE \"{ball}\"; # {}[{n}]",
+                    pin[..2].to_lowercase()
+                );
+                assert!(lpf.contains(&line), "{row}: no `{line}` in ulx3s-14.lpf");
+            }
+        }
     }
 
     #[test]

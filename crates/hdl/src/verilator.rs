@@ -12,8 +12,8 @@ use std::sync::Mutex;
 pub mod posedge;
 mod train;
 
-/// The most axes the C API carries (one byte per pin group).
-pub const MAX_AXES: u32 = 8;
+/// The most axes the C API carries (16 bits per pin group).
+pub const MAX_AXES: u32 = 16;
 
 /// Verilator's options: speed over everything, no tracing.
 const VERILATOR_FLAGS: [&str; 7] = [
@@ -90,10 +90,10 @@ struct MsHil {
 };
 
 static uint64_t watch_word(const Vms_board_hil* t) {
-    return (uint64_t)t->step_out | ((uint64_t)t->dir_out << 8) |
-           ((uint64_t)t->enable_out << 16) | ((uint64_t)t->uart_tx << 24) |
-           ((uint64_t)t->go << 25) | ((uint64_t)t->active << 26) |
-           ((uint64_t)t->sync_oe << 27);
+    return (uint64_t)t->step_out | ((uint64_t)t->dir_out << 16) |
+           ((uint64_t)t->enable_out << 32) | ((uint64_t)t->uart_tx << 48) |
+           ((uint64_t)t->go << 49) | ((uint64_t)t->active << 50) |
+           ((uint64_t)t->sync_oe << 51);
 }
 
 extern "C" {
@@ -187,14 +187,14 @@ void ms_hil_outputs(void* p, uint64_t* out) {
 
 /// Bits of the watch word ([`Outputs::word`]).
 pub mod watch {
-    pub const STEP: u64 = 0xFF;
-    pub const DIR: u64 = 0xFF << 8;
-    pub const ENABLE: u64 = 0xFF << 16;
-    pub const UART_TX: u64 = 1 << 24;
-    pub const GO: u64 = 1 << 25;
-    pub const ACTIVE: u64 = 1 << 26;
+    pub const STEP: u64 = 0xFFFF;
+    pub const DIR: u64 = 0xFFFF << 16;
+    pub const ENABLE: u64 = 0xFFFF << 32;
+    pub const UART_TX: u64 = 1 << 48;
+    pub const GO: u64 = 1 << 49;
+    pub const ACTIVE: u64 = 1 << 50;
     /// The board pulls the SYNC line low.
-    pub const SYNC_OE: u64 = 1 << 27;
+    pub const SYNC_OE: u64 = 1 << 51;
 }
 
 /// The Verilog top the model is built from: `ms_board` with the board's parameters, plus
@@ -479,7 +479,7 @@ impl Default for Inputs {
 /// The board's output pins after the last clock edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Outputs {
-    /// `watch` bits: STEP, DIR, ENABLE (a byte each), UART TX, go, active.
+    /// `watch` bits: STEP, DIR, ENABLE (16 bits each), UART TX, go, active.
     pub word: u64,
     /// The Hall and limit debounce register (clocks).
     pub debounce: u64,
@@ -492,10 +492,10 @@ impl Outputs {
         (self.word & watch::STEP) as u32
     }
     pub fn dir(&self) -> u32 {
-        ((self.word & watch::DIR) >> 8) as u32
+        ((self.word & watch::DIR) >> 16) as u32
     }
     pub fn enable(&self) -> u32 {
-        ((self.word & watch::ENABLE) >> 16) as u32
+        ((self.word & watch::ENABLE) >> 32) as u32
     }
     pub fn uart_tx(&self) -> bool {
         self.word & watch::UART_TX != 0
@@ -682,13 +682,14 @@ mod tests {
 
     #[test]
     fn more_axes_than_the_api_carries_is_an_error() {
-        let p = crate::CoreParams {
-            axes: 9,
+        let p = |axes| crate::CoreParams {
+            axes,
             ..Default::default()
         };
         assert!(matches!(
-            hil_top(&BoardTop::new(p, 3_000_000)),
+            hil_top(&BoardTop::new(p(MAX_AXES + 1), 3_000_000)),
             Err(HdlError::Param(_))
         ));
+        assert!(hil_top(&BoardTop::new(p(MAX_AXES), 3_000_000)).is_ok());
     }
 }

@@ -42,7 +42,10 @@ fn builds(name: &str) {
 #[test]
 fn every_board_is_listed_here() {
     let names: Vec<&str> = BOARDS.iter().map(|b| b.name).collect();
-    assert_eq!(names, ["ulx3s-25f", "ulx3s-85f", "icebreaker"]);
+    assert_eq!(
+        names,
+        ["ulx3s-25f", "ulx3s-25f-14", "ulx3s-85f", "icebreaker"]
+    );
 }
 
 #[test]

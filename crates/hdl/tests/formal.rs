@@ -1,6 +1,7 @@
-//! Formal properties of the per-axis units (`crates/hdl/formal/*.sv`), checked by yosys and
-//! yosys-smtbmc with z3 at small widths: bounded from the initial state, or proven for every
-//! depth by k-induction where it converges. The checks are not vacuous: every wrapper's
+//! Formal properties of the per-axis units and the register map's DIR setup
+//! (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3 at small widths:
+//! bounded from the initial state, or proven for every depth by k-induction where it
+//! converges. The checks are not vacuous: every wrapper's
 //! covers (each checked case) are reached, and each wrapper built with `MUTATE`, a
 //! deliberately wrong expectation, fails. A missing tool fails the test.
 
@@ -57,6 +58,14 @@ const DEBOUNCE: Props = Props {
     rtl: &["rtl/board/ms_debounce.v"],
 };
 const DEBOUNCE_DEPTH: u32 = 20;
+
+/// The register map's DIR setup: K = 2; 16 clocks hold the reset, a DirSetup write, a start
+/// write 4 clocks later and its go after DirSetup 2 + n 2 + 2 clocks.
+const REGS: Props = Props {
+    top: "regs_props",
+    rtl: &["rtl/board/ms_regs.v"],
+};
+const REGS_DEPTH: u32 = 16;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
@@ -186,12 +195,19 @@ fn debounce_accepts_exactly_after_the_filter_time_proven_by_induction() {
 }
 
 #[test]
+fn dir_holds_from_the_start_write_through_its_setup_and_the_move() {
+    holds(&REGS, Mode::Bmc(REGS_DEPTH));
+    holds(&REGS, Mode::Cover(REGS_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
         (&PULSE, PULSE_DEPTH),
         (&AXIS_IO, AXIS_IO_DEPTH),
         (&DEBOUNCE, DEBOUNCE_DEPTH),
+        (&REGS, REGS_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {

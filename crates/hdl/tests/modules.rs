@@ -11,30 +11,30 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-05 (LUT each): ms_fifo 16, ms_pulse 422 (456 in a K = 8 run), ms_axis_io 180,
-/// ms_debounce 76, ms_stream 484-513; one axis 1254-1317.
+/// Measured 2026-12-05 (LUT each): ms_fifo 16, ms_pulse 305-358 (K = 8, 2, 4), ms_axis_io
+/// 180, ms_debounce 76, ms_stream 482-513; one axis 1140-1188.
 const ULX3S: Budgets = &[
     ("ms_fifo", 20),
-    ("ms_pulse", 480),
+    ("ms_pulse", 400),
     ("ms_axis_io", 200),
     ("ms_debounce", 84),
     ("ms_stream", 560),
 ];
-const ULX3S_AXIS: u64 = 1400;
+const ULX3S_AXIS: u64 = 1300;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
-/// readback and per-axis registers included: (K = 4 − K = 2) / 2, measured 1726.
+/// readback and per-axis registers included: (K = 4 − K = 2) / 2, measured 1726 and 1760.
 const ULX3S_ADDED_AXIS: u64 = 1900;
 
-/// Measured 2026-12-05: ms_fifo 30, ms_pulse 301, ms_axis_io 159, ms_debounce 70; one axis
-/// 630 (no replay unit on this board).
+/// Measured 2026-12-05: ms_fifo 30, ms_pulse 192, ms_axis_io 159, ms_debounce 70; one axis
+/// 521 (no replay unit on this board).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 34),
-    ("ms_pulse", 330),
+    ("ms_pulse", 215),
     ("ms_axis_io", 175),
     ("ms_debounce", 77),
 ];
-const ICEBREAKER_AXIS: u64 = 690;
+const ICEBREAKER_AXIS: u64 = 580;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();

@@ -10,7 +10,8 @@
 //    at the accepted Hall edge the position is latched and the flag set.
 //  - output levels: STEP, DIR, ENABLE active high when their `lvl_*` bit is 1.
 module ms_axis_io #(
-    parameter WD = 24
+    parameter WD    = 24,
+    parameter LIMIT = 1     // 0: no limit input wired (its level and edge read 0)
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -103,9 +104,21 @@ module ms_axis_io #(
     /* verilator lint_off PINCONNECTEMPTY */
     ms_debounce #(.W(WD)) u_hall (.clk(clk), .rst(rst), .d(hall), .ticks(debounce),
         .q(hall_lvl), .accept(accept), .rise(hall_edge));
-    ms_debounce #(.W(WD)) u_limit (.clk(clk), .rst(rst), .d(limit), .ticks(debounce),
-        .q(limit_lvl), .accept(), .rise(limit_edge));
     /* verilator lint_on PINCONNECTEMPTY */
+    generate
+        if (LIMIT != 0) begin : lim
+            /* verilator lint_off PINCONNECTEMPTY */
+            ms_debounce #(.W(WD)) u_limit (.clk(clk), .rst(rst), .d(limit), .ticks(debounce),
+                .q(limit_lvl), .accept(), .rise(limit_edge));
+            /* verilator lint_on PINCONNECTEMPTY */
+        end else begin : no_lim
+            assign limit_lvl  = 1'b0;
+            assign limit_edge = 1'b0;
+            /* verilator lint_off UNUSED */
+            wire unused_limit = limit;
+            /* verilator lint_on UNUSED */
+        end
+    endgenerate
     // latched in the clock the edge is accepted: the rises up to the one before
     always @(posedge clk) begin
         if (rst || hall_clr) hall_flag <= 1'b0;

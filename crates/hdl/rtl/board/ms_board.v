@@ -24,7 +24,9 @@ module ms_board #(
     parameter LB       = 9,            // each axis's stream buffer: 2^LB bytes (8..16;
                                        // 0: no replay units, streamed moves refused)
     parameter SYNC     = 1,            // 1: the SYNC line (Arm, Fire, SyncTick); 0: none
-    parameter CHAINS   = 0             // 1: a chain unit per axis (ms_chain_axis; LB > 0)
+    parameter CHAINS   = 0,            // 1: a chain unit per axis (ms_chain_axis; LB > 0)
+    parameter LUTRAM   = 0,            // 1: the family has distributed RAM (ms_core)
+    parameter LIMITS   = 1             // 0: the pins have no limit inputs (they read 0)
 ) (
     input  wire         clk,
     input  wire         rst_n_async,
@@ -116,7 +118,7 @@ module ms_board #(
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
-              .WK(WK), .RB(RB), .MD(MD), .AW(AW)) u_core (
+              .WK(WK), .RB(RB), .MD(MD), .AW(AW), .LUTRAM(LUTRAM)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
@@ -169,7 +171,7 @@ module ms_board #(
                 assign s_more[a] = 1'b0;
                 assign s_fault[a] = 1'b0;
             end
-            ms_axis_io #(.WD(WD)) u_io (
+            ms_axis_io #(.WD(WD), .LIMIT(LIMITS)) u_io (
                 .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
                 .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
                 .width(pulse_width),
@@ -186,18 +188,23 @@ module ms_board #(
     endgenerate
 
     // LEDs: 0 heartbeat (about 1.5 Hz), 1 any axis busy, 2 e-stop latched, 3 link activity
+    // (registered: the K-wide busy OR ran across the die to the pin, the 14-axis ULX3S
+    // build's critical path)
     reg [24:0] beat;
     reg [19:0] act;
+    reg [3:0]  led_q;
     initial begin
         beat = 25'd0;
         act = 20'd0;
+        led_q = 4'd0;
     end
     always @(posedge clk) begin
         beat <= beat + 1'b1;
         if (rx_busy) act <= {20{1'b1}};
         else if (act != 20'd0) act <= act - 1'b1;
+        led_q <= {act != 20'd0, estop || estop_act, |busy, beat[24]};
     end
-    assign led = {act != 20'd0, estop || estop_act, |busy, beat[24]};
+    assign led = led_q;
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
                   (^s_arm) ^ (^s_chain) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);

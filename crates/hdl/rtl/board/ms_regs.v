@@ -195,6 +195,10 @@ module ms_regs #(
         for (i = 0; i < K; i = i + 1) n = n + {31'd0, mask[i]};
     end
 
+    // a start's setup, DirSetup + n + 2 clocks, saturated: a DirSetup near 2^32 must not wrap
+    // to a go without setup (the count it is compared with saturates too)
+    wire [32:0] setup_sum = {1'b0, dir_setup} + {1'b0, n[31:0]} + 33'd2;
+
     wire [LB:0] ax_free = s_free[ax[LK-1:0]*(LB+1) +: LB+1];
     // per-axis readback as arrays indexed by the axis: multiplexer trees (a run-time
     // part-select of the K-word buses synthesized as shifters, ~300 LUT4-eq more at K = 8)
@@ -384,7 +388,7 @@ module ms_regs #(
                         dir_q      <= (dir_q & ~mask) | (core_dir & mask);
                         stopped    <= stopped & ~mask;
                         estopped   <= estopped & ~mask;
-                        setup_need <= dir_setup + n + 2;
+                        setup_need <= setup_sum[32] ? 32'hFFFF_FFFF : setup_sum[31:0];
                     end
                     8'h0A: begin
                         armed    <= 1'b0;   // a stop cancels a group waiting for SYNC
