@@ -14,6 +14,7 @@ use multistep_hdl::link::{position_count, AxisReg, HostLink, Reg};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_multistep");
@@ -186,6 +187,28 @@ struct Rig {
     /// every axis of a larger board-sim).
     last: Vec<Option<(i64, bool)>>,
     checked: bool,
+    _share: Share,
+}
+
+/// Rigs share the machine, but one on a board of more than 4 axes (14 streamed moves at
+/// once) runs alone: beside it the others' simulated boards fall behind their links.
+static MACHINE: RwLock<()> = RwLock::new(());
+
+/// A rig's hold on [`MACHINE`], released when the rig is dropped.
+#[allow(dead_code)] // held, never read
+enum Share {
+    Shared(RwLockReadGuard<'static, ()>),
+    Alone(RwLockWriteGuard<'static, ()>),
+}
+
+impl Share {
+    fn take(axes: usize) -> Share {
+        if axes > 4 {
+            Share::Alone(MACHINE.write().unwrap_or_else(|e| e.into_inner()))
+        } else {
+            Share::Shared(MACHINE.read().unwrap_or_else(|e| e.into_inner()))
+        }
+    }
 }
 
 /// A board whose axes home onto a Hall sensor whose edge is at -300 (home_offset 500): short
@@ -245,6 +268,7 @@ impl Rig {
         stats: bool,
         extra: &[&str],
     ) -> Rig {
+        let share = Share::take(axes);
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
@@ -271,6 +295,7 @@ impl Rig {
             mismatches: 0,
             last: vec![None; axes.max(2)],
             checked: false,
+            _share: share,
         }
     }
 
