@@ -260,7 +260,7 @@ pub const BOARDS: [Board; 4] = [
             filter_range: 1,
         },
         max_axes: 4,
-        // two axes: 86 % of the logic cells; three do not fit (106 %, docs/HDL.md)
+        // two axes: 84 % of the logic cells with SYNC; three do not fit (docs/HDL.md)
         default_axes: 2,
         baud: 1_000_000,
         core: BoardCore {
@@ -282,8 +282,7 @@ pub const BOARDS: [Board; 4] = [
         top: "ms_icebreaker_top",
         // the UP5K is full with two computing axes
         stream_buffer_bits: 0,
-        // 115 more logic cells (5054 of 5280) leave the placer crawling: left out
-        sync: false,
+        sync: true,
         chains: false,
     },
 ];
