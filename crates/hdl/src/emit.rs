@@ -18,6 +18,11 @@ pub const LIBRARY: [(&str, &str); 8] = [
     ("ms_core.v", include_str!("../rtl/ms_core.v")),
 ];
 
+/// The per-step recurrence's jump-and-walk unit (`ms_recur`, docs/HDL.md "The per-step
+/// recurrence"): verified alone against `multistep_core::int::recurrence`, not yet part
+/// of the core.
+pub const RECURRENCE_UNIT: (&str, &str) = ("ms_recur.v", include_str!("../rtl/ms_recur.v"));
+
 /// Which top to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Arch {

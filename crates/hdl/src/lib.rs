@@ -18,7 +18,7 @@ pub mod tools;
 pub mod verilator;
 
 pub use board::{BoardTop, BOARD_LIBRARY, CHAIN_LIBRARY, MAX_BAUD_ERROR};
-pub use emit::{Arch, Design, LIBRARY};
+pub use emit::{Arch, Design, LIBRARY, RECURRENCE_UNIT};
 pub use error::HdlError;
 // The host link, the core's parameters and the move writes, at their old paths.
 pub use multistep_link as link;

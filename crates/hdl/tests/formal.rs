@@ -1,9 +1,9 @@
-//! Formal properties of the per-axis units and the register map's DIR setup
-//! (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3 at small widths:
-//! bounded from the initial state, or proven for every depth by k-induction where it
-//! converges. The checks are not vacuous: every wrapper's
-//! covers (each checked case) are reached, and each wrapper built with `MUTATE`, a
-//! deliberately wrong expectation, fails. A missing tool fails the test.
+//! Formal properties of the per-axis units, the register map's DIR setup and the per-step
+//! recurrence's walk (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3
+//! at small widths: bounded from the initial state, or proven for every depth by
+//! k-induction where it converges. The checks are not vacuous: every wrapper's covers
+//! (each checked case) are reached, and each wrapper built with `MUTATE`, a deliberately
+//! wrong expectation, fails. A missing tool fails the test.
 
 use multistep_hdl::tools::find;
 use std::path::{Path, PathBuf};
@@ -66,6 +66,14 @@ const REGS: Props = Props {
     rtl: &["rtl/board/ms_regs.v"],
 };
 const REGS_DEPTH: u32 = 16;
+
+/// The per-step recurrence's jump and walk: WE = 3, LIMIT = 3, one step asked in the first
+/// clock with every input free; its answer comes by clock 5 + LIMIT, so 10 clocks hold it.
+const RECUR: Props = Props {
+    top: "recur_props",
+    rtl: &["rtl/ms_recur.v"],
+};
+const RECUR_DEPTH: u32 = 10;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
@@ -201,6 +209,12 @@ fn dir_holds_from_the_start_write_through_its_setup_and_the_move() {
 }
 
 #[test]
+fn the_recurrence_answers_every_edge_within_its_walk_limit() {
+    holds(&RECUR, Mode::Bmc(RECUR_DEPTH));
+    holds(&RECUR, Mode::Cover(RECUR_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
@@ -208,6 +222,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&AXIS_IO, AXIS_IO_DEPTH),
         (&DEBOUNCE, DEBOUNCE_DEPTH),
         (&REGS, REGS_DEPTH),
+        (&RECUR, RECUR_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {

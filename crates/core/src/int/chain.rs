@@ -28,7 +28,9 @@
 //! R within `|R(lo)| + K + d·max|Δ¹|`), plus a sign bit. A piece needing more than the
 //! caller's widths is a typed error, never a wrong edge.
 
+use super::chain_recurrence::ChainRecurrence;
 use super::cubic::{nearest_tick, shr_floor};
+use super::recurrence::RecurrenceCount;
 use super::track::{floor_u64, places, round_ticks, scaled, split, Si, W};
 use crate::piece::Law;
 use crate::profile::Profile;
@@ -345,11 +347,11 @@ fn sub_from(a: &mut ChainValue, b: &ChainValue) {
 
 /// A chain running: the registers at tick `e`.
 #[derive(Clone, Copy, Debug)]
-struct Running {
-    piece: ChainPiece,
-    e: u64,
-    r: ChainValue,
-    diff: [ChainValue; 4],
+pub(super) struct Running {
+    pub(super) piece: ChainPiece,
+    pub(super) e: u64,
+    pub(super) r: ChainValue,
+    pub(super) diff: [ChainValue; 4],
 }
 
 impl Running {
@@ -391,6 +393,9 @@ pub struct ChainEdges {
     piece: usize,
     run: Option<Running>,
     widths: ChainWidths,
+    /// Edges by the per-step recurrence instead of a tick at a time
+    /// ([`ChainEdges::by_recurrence`]).
+    recurrence: Option<ChainRecurrence>,
 }
 
 impl ChainEdges {
@@ -422,7 +427,20 @@ impl ChainEdges {
             piece: 0,
             run: None,
             widths,
+            recurrence: None,
         })
+    }
+
+    /// The same edges by the per-step recurrence (chain_recurrence.rs), its work counted
+    /// in [`ChainEdges::recurrence_tally`].
+    pub fn by_recurrence(mut self) -> Self {
+        self.recurrence = Some(ChainRecurrence::default());
+        self
+    }
+
+    /// What the recurrence did so far (None without it).
+    pub fn recurrence_tally(&self) -> Option<&RecurrenceCount> {
+        self.recurrence.as_ref().map(|r| &r.count)
     }
 
     /// The widest each register gets over the move.
@@ -467,6 +485,9 @@ impl Iterator for ChainEdges {
         self.next += 1;
         if i == n {
             self.last_edge = self.end_tick.max(self.last_edge);
+            if let Some(rc) = &mut self.recurrence {
+                rc.count.steps += 1;
+            }
             return Some(self.last_edge);
         }
         if self.run.map_or(true, |r| r.piece.last < i) {
@@ -485,8 +506,20 @@ impl Iterator for ChainEdges {
                 diff: piece.diff,
             });
         }
-        let e = self.run.as_mut()?.edge().max(self.last_edge);
+        let run = self.run.as_mut()?;
+        let e = match &mut self.recurrence {
+            Some(rc) => {
+                let guess = rc.history.predict();
+                run.edge_by_recurrence(guess, &mut rc.count)
+            }
+            None => run.edge(),
+        }
+        .max(self.last_edge);
         self.last_edge = e;
+        if let Some(rc) = &mut self.recurrence {
+            rc.history.push(e);
+            rc.count.steps += 1;
+        }
         Some(e)
     }
 }

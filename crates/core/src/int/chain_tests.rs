@@ -1,5 +1,6 @@
 //! The forward-difference chain against the float edge generator (`multistep plan`'s
-//! edges) on random S-curve and scurve4 moves, and its width check.
+//! edges) on random S-curve and scurve4 moves, the per-step recurrence on the chain
+//! (chain_recurrence.rs) against both, and the chain's width check.
 
 extern crate std;
 
@@ -15,11 +16,24 @@ const WIDE: ChainWidths = ChainWidths::uniform(510);
 fn chain_equals_plan(m: &Move<'_>) -> Result<(), TestCaseError> {
     let profile = Profile::plan_on_clock(m, F as f64).unwrap();
     let want: Vec<u64> = edges(m, F as f64).unwrap().collect();
-    let got: Vec<u64> = ChainEdges::new(profile, F, WIDE).unwrap().collect();
+    let got: Vec<u64> = ChainEdges::new(profile.clone(), F, WIDE).unwrap().collect();
     prop_assert_eq!(got.len(), want.len());
     if let Some(i) = got.iter().zip(&want).position(|(a, b)| a != b) {
         prop_assert!(false, "step {}: chain {} plan {}", i + 1, got[i], want[i]);
     }
+    let mut r = ChainEdges::new(profile, F, WIDE).unwrap().by_recurrence();
+    let by_recurrence: Vec<u64> = r.by_ref().collect();
+    if let Some(i) = by_recurrence.iter().zip(&want).position(|(a, b)| a != b) {
+        prop_assert!(
+            false,
+            "step {}: recurrence {} plan {}",
+            i + 1,
+            by_recurrence[i],
+            want[i]
+        );
+    }
+    prop_assert_eq!(by_recurrence.len(), want.len());
+    prop_assert_eq!(r.recurrence_tally().unwrap().steps, want.len() as u64);
     Ok(())
 }
 
@@ -31,7 +45,7 @@ fn family() -> impl Strategy<Value = Family> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
     #[test]
     fn phase_moves_equal_plan(
@@ -135,4 +149,30 @@ fn widths_of_typical_moves() {
     let w = pieces(&p, F).fold(ChainWidths::default(), |w, c| w.union(c.unwrap().widths));
     std::eprintln!("limits scurve4 200k steps, 100k/2e6/1e8/1e10: {w:?}");
     assert!(w.max() <= 510);
+}
+
+/// One calculator running the recurrence on chains keeps more than 32 axes fed, each on an
+/// all-ramp S-curve from rest to 100 k steps/s and back (10 000 steps in 0.2 s), FIFOs of
+/// 16 periods (a model: `RecurrenceClocks::CHAIN_MODEL`).
+#[test]
+fn one_calculator_feeds_over_32_scurve_axes_at_100k_steps_a_second() {
+    use super::recurrence::{peak_load, RecurrenceClocks};
+    for family in [
+        Family::SCurve { phi: 0.5 },
+        Family::SCurve4 { phi: 0.5, psi: 0.5 },
+    ] {
+        let m = Move::Phase(PhaseMove::new(10_000, family, 0.1, 0.0, 0.1));
+        let p = Profile::plan_on_clock(&m, F as f64).unwrap();
+        let mut edges = ChainEdges::new(p, F, WIDE).unwrap().by_recurrence();
+        let peak = peak_load::<16>(&mut edges, &RecurrenceClocks::CHAIN_MODEL);
+        assert!(
+            peak > 0.0 && peak < 1.0 / 32.0,
+            "{family:?}: peak load {peak}"
+        );
+        let c = edges.recurrence_tally().unwrap();
+        std::println!(
+            "{family:?}: {c:?}\n  peak load {peak:.5}: {:.1} axes",
+            1.0 / peak
+        );
+    }
 }

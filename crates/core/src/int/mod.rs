@@ -63,6 +63,7 @@
 
 // the kernel's items are described in the module docs above; item docs to follow
 mod chain;
+mod chain_recurrence;
 mod cubic;
 mod exact;
 #[allow(missing_docs)]
@@ -71,6 +72,7 @@ pub mod isqrt;
 #[allow(missing_docs)]
 mod piece;
 mod plan;
+pub mod recurrence;
 pub mod track;
 
 pub use chain::{
@@ -125,6 +127,8 @@ pub enum IntError {
 
 #[cfg(test)]
 mod chain_tests;
+#[cfg(test)]
+mod recurrence_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
