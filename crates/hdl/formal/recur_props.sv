@@ -1,4 +1,4 @@
-// ms_recur at WE = 3, WA = 5, WB = 5, WU = 9, LIMIT = 3, for every input: with
+// ms_recur at WE = 3, WA = 4, WB = 4, WU = 8, LIMIT = 2, for every input: with
 // U(e) = (2e + 1)·(2A + B·(2e + 1)) increasing on [lo − 1, hi] (the piece's ticks where P
 // increases) and lo <= e0 <= hi,
 //  - `done` answers the edge: lo <= at <= hi and U(at − 1) < 4M <= U(at);
@@ -12,11 +12,11 @@ module recur_props (
     input wire [2:0]          e0,
     input wire [2:0]          lo,
     input wire [2:0]          hi,
-    input wire [4:0]          two_a,
-    input wire signed [4:0]   b,
-    input wire [8:0]          m4
+    input wire [3:0]          two_a,
+    input wire signed [3:0]   b,
+    input wire [7:0]          m4
 );
-    localparam LIMIT = 3;
+    localparam LIMIT = 2;
 `ifdef MUTATE
     localparam REACH = LIMIT + 1;
 `else
@@ -25,7 +25,7 @@ module recur_props (
     wire busy, done, fail;
     wire [2:0] at;
     wire [4:0] moves;
-    ms_recur #(.WE(3), .WA(5), .WB(5), .WU(9), .LIMIT(LIMIT)) dut (
+    ms_recur #(.WE(3), .WA(4), .WB(4), .WU(8), .LIMIT(LIMIT)) dut (
         .clk(clk), .rst(1'b0), .go(go), .e0(e0), .lo(lo), .hi(hi), .two_a(two_a), .b(b),
         .m4(m4), .busy(busy), .done(done), .fail(fail), .at(at), .moves(moves));
 

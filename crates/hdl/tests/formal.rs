@@ -67,13 +67,13 @@ const REGS: Props = Props {
 };
 const REGS_DEPTH: u32 = 16;
 
-/// The per-step recurrence's jump and walk: WE = 3, LIMIT = 3, one step asked in the first
-/// clock with every input free; its answer comes by clock 5 + LIMIT, so 10 clocks hold it.
+/// The per-step recurrence's jump and walk: WE = 3, LIMIT = 2, one step asked in the first
+/// clock with every input free; its answer comes by clock 5 + LIMIT, so 9 clocks hold it.
 const RECUR: Props = Props {
     top: "recur_props",
     rtl: &["rtl/ms_recur.v"],
 };
-const RECUR_DEPTH: u32 = 10;
+const RECUR_DEPTH: u32 = 9;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
