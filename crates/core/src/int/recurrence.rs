@@ -45,7 +45,7 @@ pub struct RecurrenceCount {
     pub abandoned: u64,
     /// Chain steps found by a search of probes (no prediction, or an abandoned walk).
     pub searched: u64,
-    /// Jumps (one per step the recurrence tried).
+    /// Jumps: one per step the recurrence tried, and one per probe of a chain's search.
     pub jumps: u64,
     /// Tick moves of all walks, abandoned ones included.
     pub moves: u64,
