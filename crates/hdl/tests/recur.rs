@@ -117,6 +117,7 @@ fn the_unit_walks_as_the_model() {
         "{found} {abandoned} {bounded}"
     );
     let n = vectors.len();
+    println!("{n} steps: {found} found, {abandoned} abandoned, {bounded} stopped at a boundary");
     let dir = tempfile::tempdir().unwrap();
     let mut files = [String::new(), String::new(), String::new(), String::new()];
     for (w, _, _) in &vectors {
