@@ -27,19 +27,24 @@ fn binomial(d: u64, l: usize) -> U512 {
     for k in 0..l as u64 {
         num = num.wrapping_mul(&U512::from_u64(d.wrapping_sub(k)));
     }
-    let fact = [1u64, 1, 2, 6, 24][l];
-    let (q, _) = num.div_rem_vartime(&NonZero::new(U512::from_u64(fact)).expect("l! > 0"));
+    let (q, _) = num.div_rem_vartime(&FACTORIAL[l]);
     q
 }
+
+/// `l!` for `l ≤ 4`, the divisors of [`binomial`].
+const FACTORIAL: [NonZero<U512>; 5] = [
+    NonZero::<U512>::ONE,
+    NonZero::<U512>::ONE,
+    NonZero::<U512>::new_unwrap(U512::from_u64(2)),
+    NonZero::<U512>::new_unwrap(U512::from_u64(6)),
+    NonZero::<U512>::new_unwrap(U512::from_u64(24)),
+];
 
 impl Running {
     /// The registers `d` ticks after `self.e` (two's complement, wrapping: the true values
     /// fit, chain.rs's widths).
     fn at(&self, d: u64) -> (ChainValue, [ChainValue; 4]) {
         let c: [U512; 5] = core::array::from_fn(|l| binomial(d, l));
-        let r = (c[1..].iter().zip(&self.diff)).fold(wide(&self.r), |r, (cl, dl)| {
-            r.wrapping_add(&cl.wrapping_mul(&wide(dl)))
-        });
         let diff = core::array::from_fn(|m| {
             (m..4)
                 .fold(U512::ZERO, |s, l| {
@@ -47,12 +52,25 @@ impl Running {
                 })
                 .to_words()
         });
-        (r.to_words(), diff)
+        (self.r_with(&c).to_words(), diff)
+    }
+
+    /// R `d` ticks after `self.e` alone, as [`Running::at`] gives it: `R + Σ C(d, l)·Δₗ`
+    /// (Newton's forward formula).
+    fn r_at(&self, d: u64) -> ChainValue {
+        let c: [U512; 5] = core::array::from_fn(|l| binomial(d, l));
+        self.r_with(&c).to_words()
+    }
+
+    fn r_with(&self, c: &[U512; 5]) -> U512 {
+        (c[1..].iter().zip(&self.diff)).fold(wide(&self.r), |r, (cl, dl)| {
+            r.wrapping_add(&cl.wrapping_mul(&wide(dl)))
+        })
     }
 
     /// Whether step i is due at tick `self.e + d`: `R ≥ 0` there.
     fn due(&self, d: u64) -> bool {
-        self.at(d).0[CHAIN_LIMBS - 1] >> 63 == 0
+        self.r_at(d)[CHAIN_LIMBS - 1] >> 63 == 0
     }
 
     /// The next step's edge by the recurrence from the prediction `guess` (absolute); the

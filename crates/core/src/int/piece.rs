@@ -168,6 +168,14 @@ pub(crate) struct IntRamp {
     narrow: bool,
 }
 
+/// `4·P(t / 2) = 2A·t + B·t²`, as `t·(2A + B·t)`: at `t = 2e ± 1`, four times P at the
+/// half ticks around e, the values of the exact edge test `P(e − ½) < M ≤ P(e + ½)`.
+/// Every exact value of a planned piece lies below 2^127, so wrapping gives it exactly.
+#[inline(always)]
+pub(crate) fn four_p(two_a: i128, b: i128, t: i128) -> i128 {
+    t.wrapping_mul(two_a.wrapping_add(b.wrapping_mul(t)))
+}
+
 impl IntRamp {
     /// The local edge of the current step if the f64 guess proves itself
     /// (`P(e − ½) < M ≤ P(e + ½)`, as [`IntPiece::checked_guess`]); moves on to the next
@@ -200,8 +208,7 @@ impl IntRamp {
                 .wrapping_sub((self.eight_b as i64).wrapping_mul(e as i64));
             return (above >= m4 && below < m4).then_some(e);
         }
-        let t = (2 * e + 1) as i128;
-        let above = t.wrapping_mul(self.two_a.wrapping_add(self.b.wrapping_mul(t)));
+        let above = four_p(self.two_a, self.b, (2 * e + 1) as i128);
         let below = above
             .wrapping_sub(self.four_a)
             .wrapping_sub(self.eight_b.wrapping_mul(e as i128));
@@ -488,13 +495,7 @@ impl IntPiece {
             .wrapping_mul((self.first + j) as u128)
             .wrapping_sub(self.c);
         let m4 = (4 * m) as i128;
-        let two_a = 2 * self.a as i128;
-        let p4 = |t: u64| {
-            let t = t as i128;
-            two_a
-                .wrapping_mul(t)
-                .wrapping_add(self.b.wrapping_mul(t * t))
-        };
+        let p4 = |t: u64| four_p(2 * self.a as i128, self.b, t as i128);
         (p4(2 * e + 1) >= m4 && p4(2 * e - 1) < m4).then_some(e)
     }
 

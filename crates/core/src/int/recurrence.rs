@@ -26,7 +26,7 @@
 //! [`IntPiece::edge`]'s check), so wrapping i128 arithmetic gives it exactly.
 
 use super::gen::IntEdgeGenerator;
-use super::piece::IntPiece;
+use super::piece::{four_p, IntPiece};
 use super::plan::IntProfile;
 use crate::MAX_PIECES;
 
@@ -241,7 +241,7 @@ impl WalkInputs {
         let mut e = self.e0 as i128;
         let t = 2 * e + 1;
         let bt = b.wrapping_mul(t);
-        let mut u = t.wrapping_mul(two_a.wrapping_add(bt));
+        let mut u = four_p(two_a, b, t);
         // G(e) = U(e) − U(e − 1) = 4A + 8B·e = 4h with h = A + 2B·e = A + B·t − B
         let mut h = (two_a / 2).wrapping_add(bt).wrapping_sub(b);
         let mut moves = 0;
