@@ -1,4 +1,4 @@
-//! `estop` and `stop` do not queue behind slow work on the board: asked for while a dozen
+//! `estop` and `stop` do not queue behind slow work on the board: asked for while four
 //! previews of a long group are being timed, they are applied before any preview is done.
 //! The order is checked with events, not clocks.
 
@@ -8,7 +8,7 @@ use multistep_controller::{AxisSettings, AxisState, Controller, CtlError};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Barrier};
 
-const PREVIEWS: usize = 12;
+const PREVIEWS: usize = 4;
 
 fn config() -> BoardConfig {
     let axis = |name: &str| AxisConfig {
@@ -32,11 +32,12 @@ fn config() -> BoardConfig {
     }
 }
 
-/// A group whose TDM timing takes a while (a second or so unoptimized).
+/// A group whose TDM timing takes a while: tens of milliseconds in the test profile,
+/// against the microseconds a halt takes.
 fn long_group() -> Vec<(String, Amount)> {
     vec![
-        ("X".to_string(), Amount::Steps(4_000_000)),
-        ("Y".to_string(), Amount::Steps(3_000_000)),
+        ("X".to_string(), Amount::Steps(3_000_000)),
+        ("Y".to_string(), Amount::Steps(2_250_000)),
     ]
 }
 
