@@ -163,7 +163,8 @@ struct ReportArgs {
     #[arg(long)]
     work: Option<PathBuf>,
     /// Also place and route (iCE40 UP5K, ECP5 LFE5U-25F) the TDM core and the K independent
-    /// cores of each row with the YoWASP flow: a "fits / Fmax" column and placed LUTs (slow)
+    /// cores of each row with the YoWASP flow: a "fits / Fmax" column and placed LUTs (slow).
+    /// When the K cores do not fit the device, one is placed and counted K times
     #[arg(long)]
     pnr: bool,
     #[command(flatten)]
@@ -173,17 +174,29 @@ struct ReportArgs {
 /// A row's place-and-route result, or why it has none.
 #[derive(Debug)]
 struct PlacedRow {
+    axes: u32,
     tdm: Result<Placed, String>,
     independent: Result<Placed, String>,
+    /// One single-axis core, placed when the K independent cores do not fit: they share
+    /// nothing, so K of them use K times its logic (as synthesis's scaled baseline).
+    one: Option<Result<Placed, String>>,
 }
 
 impl PlacedRow {
     fn fits(&self) -> String {
         fits_fmax(&self.tdm)
     }
+    /// The independent cores' placed logic: all K placed, or K × one core's.
+    fn independent_lut(&self) -> Option<u64> {
+        match (&self.independent, &self.one) {
+            (Ok(i), _) => Some(i.lut.used),
+            (Err(_), Some(Ok(one))) => Some(one.lut.used * u64::from(self.axes)),
+            _ => None,
+        }
+    }
     fn lut_ratio(&self) -> Option<f64> {
-        match (&self.tdm, &self.independent) {
-            (Ok(t), Ok(i)) if i.lut.used > 0 => Some(t.lut.used as f64 / i.lut.used as f64),
+        match (&self.tdm, self.independent_lut()) {
+            (Ok(t), Some(i)) if i > 0 => Some(t.lut.used as f64 / i as f64),
             _ => None,
         }
     }
@@ -219,13 +232,26 @@ fn place_rows(
                 axes: r.axes,
                 ..base.clone()
             };
+            let independent = one(
+                &p,
+                Arch::Independent,
+                work.join(format!("pnr-indep-{}", r.axes)),
+            )?;
+            let single = CoreParams {
+                axes: 1,
+                ..base.clone()
+            };
+            let one_core = match &independent {
+                Err(_) if r.axes > 1 => {
+                    Some(one(&single, Arch::Independent, work.join("pnr-indep-1"))?)
+                }
+                _ => None,
+            };
             Ok(PlacedRow {
+                axes: r.axes,
                 tdm: one(&p, Arch::Tdm, work.join(format!("pnr-tdm-{}", r.axes)))?,
-                independent: one(
-                    &p,
-                    Arch::Independent,
-                    work.join(format!("pnr-indep-{}", r.axes)),
-                )?,
+                independent,
+                one: one_core,
             })
         })
         .collect()
@@ -476,6 +502,8 @@ fn report(a: &ReportArgs) -> anyhow::Result<()> {
                             "fits_fmax": p.fits(),
                             "tdm": p.tdm.as_ref().ok(),
                             "independent": p.independent.as_ref().ok(),
+                            "one_independent_core": p.one.as_ref().and_then(|o| o.as_ref().ok()),
+                            "independent_lut": p.independent_lut(),
                             "lut_ratio": p.lut_ratio(),
                         });
                     }
@@ -509,6 +537,10 @@ fn write_placed(out: &mut impl Write, rows: &[Row], placed: &[PlacedRow]) -> std
             x.as_ref()
                 .map_or("-".to_string(), |p| p.lut.used.to_string())
         };
+        let ind_lut = match (&p.independent, &p.one) {
+            (Err(_), Some(Ok(one))) => format!("{} x {}", r.axes, one.lut.used),
+            _ => lut(&p.independent),
+        };
         writeln!(
             out,
             "{:>4} | {:<40} | {:>8} | {:<40} | {:>8} | {:>9}",
@@ -516,8 +548,16 @@ fn write_placed(out: &mut impl Write, rows: &[Row], placed: &[PlacedRow]) -> std
             p.fits(),
             lut(&p.tdm),
             fits_fmax(&p.independent),
-            lut(&p.independent),
+            ind_lut,
             p.lut_ratio().map_or("-".to_string(), |x| format!("{x:.3}"))
+        )?;
+    }
+    if let Some(Some(Ok(one))) = placed.iter().map(|p| &p.one).find(|o| o.is_some()) {
+        writeln!(
+            out,
+            "(K x N: the K cores do not fit; one single-axis core placed alone: {}, {} LUT)",
+            fits_fmax(&Ok(one.clone())),
+            one.lut.used
         )?;
     }
     Ok(())
@@ -649,5 +689,48 @@ mod tests {
             text.contains("LUT ratio 0.663, FF ratio 0.713, DSP ratio 0.833"),
             "{text}"
         );
+    }
+
+    fn placed(lut: u64) -> Placed {
+        let u = |used| multistep_hdl::pnr::Use {
+            used,
+            available: 24288,
+        };
+        Placed {
+            lut: u(lut),
+            ff: 0,
+            dsp: u(0),
+            bram: u(0),
+            fmax_mhz: 63.8,
+            constraint_mhz: 50.0,
+            bitstream: None,
+        }
+    }
+
+    #[test]
+    fn k_cores_that_do_not_fit_are_counted_as_k_times_one() {
+        let mut p = PlacedRow {
+            axes: 8,
+            tdm: Ok(placed(5985)),
+            independent: Err("DP16KD 72 of 56 (129 %)".into()),
+            one: Some(Ok(placed(2842))),
+        };
+        assert_eq!(p.independent_lut(), Some(22736));
+        assert!((p.lut_ratio().unwrap() - 5985.0 / 22736.0).abs() < 1e-12);
+        let mut out = Vec::new();
+        let rows = [Row { axes: 8, ..row() }];
+        write_placed(&mut out, &rows, std::slice::from_ref(&p)).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.contains("8 x 2842") && text.contains("0.263"),
+            "{text}"
+        );
+        assert!(text.contains("one single-axis core placed alone"), "{text}");
+        // placed together, the K cores are the baseline; neither placed: no ratio
+        p.independent = Ok(placed(20000));
+        assert_eq!(p.independent_lut(), Some(20000));
+        p.independent = Err("no".into());
+        p.one = Some(Err("no".into()));
+        assert_eq!((p.independent_lut(), p.lut_ratio()), (None, None));
     }
 }

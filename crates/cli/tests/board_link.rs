@@ -1124,11 +1124,19 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
         .unwrap_err()
         .to_string()
         .contains("error:19"));
-    // a computed move still runs (every piece within 2^20 ticks at 18 MHz: 58 ms)
-    r.req("move X 120 vmax=2000");
+    // a computed move runs, its 0.4 s cruise split into seven of the board's 16 slots
+    // (2^20 − 1 ticks, 58 ms at 18 MHz): plan's edges
+    r.req("move X 900 vmax=2000");
     let x = r.wait_idle("X");
-    assert_eq!((x.position, x.state), (120, AxisState::Idle));
-    assert_eq!(r.check_counters()[0], 120, "the board's Position register");
+    assert_eq!((x.position, x.state), (900, AxisState::Idle));
+    let [ex, _] = r.move_edges([0, 0], 900);
+    let params = multistep_core::MoveParams {
+        vmax: Some(2000.0),
+        amax: Some(40000.0),
+        ..Default::default()
+    };
+    same_edges("X", &ex, &plan_edges_at("trapezoid", 900, params, 18e6));
+    assert_eq!(r.check_counters()[0], 900, "the board's Position register");
 }
 
 /// `track X 1000` then `track X 2`: a step of 0.5 s is longer than the 2^24 − 1 ticks (0.34 s

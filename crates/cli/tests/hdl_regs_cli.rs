@@ -121,8 +121,8 @@ fn segments_and_limits_moves_list_too() {
 }
 
 /// The iCEBreaker's 20 tick bits: a 5000-step move with 0.1 s ramps (1.8 M ticks each)
-/// is loaded as four pieces, split by the host; with a 0.1 s cruise too it needs six, more
-/// than the four slots.
+/// is loaded as four pieces, split by the host; with a 0.8 s cruise too it needs 18, more
+/// than the 16 slots.
 #[test]
 fn ramps_longer_than_the_tick_bits_are_split() {
     let ramps = [
@@ -150,11 +150,12 @@ fn ramps_longer_than_the_tick_bits_are_split() {
     want.push((s.reg.addr(), s.data));
     let got: Vec<(u16, u32)> = got.iter().map(|r| (r.1, r.2)).collect();
     assert_eq!(got, want, "{text}");
-    a.extend(["--cruise-time", "0.1"]);
+    a.extend(["--cruise-time", "0.8"]);
     let o = multistep(&a);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("6 pieces with steps"), "{err}");
+    assert!(err.contains("18 pieces with steps"), "{err}");
+    assert!(err.contains("the core holds 1..=16"), "{err}");
 }
 
 #[test]

@@ -1,10 +1,11 @@
-// ms_recur at WE = 3, WA = 4, WB = 4, WU = 8, LIMIT = 2, for every input: with
-// U(e) = (2e + 1)·(2A + B·(2e + 1)) increasing on [lo − 1, hi] (the piece's ticks where P
-// increases) and lo <= e0 <= hi,
-//  - `done` answers the edge: lo <= at <= hi and U(at − 1) < 4M <= U(at);
-//  - `fail` only when the edge is not in [lo, hi] or lies more than LIMIT ticks from e0
-//    (the correction bound: every edge within LIMIT ticks of the prediction is found);
-//  - the answer comes 5 + moves clocks after the go, so at most LIMIT + 5.
+// ms_recur at WE = 3, WA = 4, WB = 4, WU = 8, LIMIT = 2, for every input, twice: with
+// full-width multiplies (MD = 0, LAT = 5) and digit-serial (MD = 2: t's 4 bits in two
+// digits, LAT = 8). With U(e) = (2e + 1)·(2A + B·(2e + 1)) increasing on [lo − 1, hi] (the
+// piece's ticks where P increases) and lo <= e0 <= hi, each unit:
+//  - answers `done` with the edge: lo <= at <= hi and U(at − 1) < 4M <= U(at);
+//  - says `fail` only when the edge is not in [lo, hi] or lies more than LIMIT ticks from
+//    e0 (the correction bound: every edge within LIMIT ticks of the prediction is found);
+//  - answers LAT + moves clocks after the go, so at most LIMIT + LAT.
 // MUTATE claims the walk finds edges LIMIT + 1 ticks away: the check must then fail.
 module recur_props (
     input wire                clk,
@@ -22,12 +23,16 @@ module recur_props (
 `else
     localparam REACH = LIMIT;
 `endif
-    wire busy, done, fail;
-    wire [2:0] at;
-    wire [4:0] moves;
+    localparam LAT0 = 5, LAT1 = 8;
+    wire busy, done, fail, busy1, done1, fail1;
+    wire [2:0] at, at1;
+    wire [4:0] moves, moves1;
     ms_recur #(.WE(3), .WA(4), .WB(4), .WU(8), .LIMIT(LIMIT)) dut (
         .clk(clk), .rst(1'b0), .go(go), .e0(e0), .lo(lo), .hi(hi), .two_a(two_a), .b(b),
         .m4(m4), .busy(busy), .done(done), .fail(fail), .at(at), .moves(moves));
+    ms_recur #(.WE(3), .WA(4), .WB(4), .WU(8), .LIMIT(LIMIT), .MD(2)) dut1 (
+        .clk(clk), .rst(1'b0), .go(go), .e0(e0), .lo(lo), .hi(hi), .two_a(two_a), .b(b),
+        .m4(m4), .busy(busy1), .done(done1), .fail(fail1), .at(at1), .moves(moves1));
 
     // the step being answered, as it was asked
     reg signed [7:0]  c_e0 = 0, c_lo = 0, c_hi = 0, c_a2 = 0, c_b = 0;
@@ -58,13 +63,23 @@ module recur_props (
             assert(u_at($signed({1'b0, at}) - 1) < c_m && c_m <= u_at($signed({1'b0, at})));
         end
         if (asked && fail) assert(!in_range || far_up || far_dn);
-        if (asked && (done || fail)) assert(clocks == 5 + moves && moves <= LIMIT);
-        if (asked && busy) assert(clocks < 5 + LIMIT);
+        if (asked && (done || fail)) assert(clocks == LAT0 + moves && moves <= LIMIT);
+        if (asked && busy) assert(clocks < LAT0 + LIMIT);
         assert(!(done && fail));
+        if (asked && done1) begin
+            assert(c_lo <= $signed({1'b0, at1}) && $signed({1'b0, at1}) <= c_hi);
+            assert(u_at($signed({1'b0, at1}) - 1) < c_m && c_m <= u_at($signed({1'b0, at1})));
+        end
+        if (asked && fail1) assert(!in_range || far_up || far_dn);
+        if (asked && (done1 || fail1)) assert(clocks == LAT1 + moves1 && moves1 <= LIMIT);
+        if (asked && busy1) assert(clocks < LAT1 + LIMIT);
+        assert(!(done1 && fail1));
         cover(asked && done && moves == LIMIT);
         cover(asked && fail && in_range);
         cover(asked && fail && !in_range);
         cover(asked && done && c_b < 0 && moves > 0);
+        cover(asked && done1 && moves1 == LIMIT);
+        cover(asked && fail1 && in_range);
     end
 
     always @(posedge clk) begin
@@ -78,7 +93,7 @@ module recur_props (
             c_m    <= $signed({1'b0, m4});
             clocks <= 0;
             asked  <= 1'b1;
-        end else if (busy) begin
+        end else if (asked) begin
             clocks <= clocks + 1;
         end
     end

@@ -9,15 +9,20 @@
 //   U(e) − 4h >= 4M  : e − 1, U −= 4h, h −= 2B
 // until neither holds (`done`, `at`), or `fail` when a move would leave [lo, hi] (P may
 // not increase at a piece's first and last tick) or would be the (LIMIT + 1)-th: the step
-// then takes the closed form. A step takes 5 + `moves` clocks from `go` to done or fail:
-// B·t, then 2A + B·t, then its two partial products by t's halves, then U (each
-// multiply and addition in its own clock: 50 MHz on an ECP5), then the walk.
+// then takes the closed form. A step takes LAT + `moves` clocks from `go` to done or fail.
+// MD = 0 (LAT = 5): B·t, then 2A + B·t, then its two partial products by t's halves,
+// then U (each multiply and addition in its own clock: 50 MHz on an ECP5), then the walk.
+// MD > 0 (LAT = 2·ND + 4, ND = ceil((WE + 1) / MD) digits of t): one multiplier of a WS-bit
+// signed number by an MD-bit digit serves both products, a digit a clock from t's top,
+// each product added into the sum the clock after it (Horner: sum·2^MD + product), so a
+// device with few DSP blocks (the UP5K's 8 SB_MAC16) holds the unit.
 module ms_recur #(
     parameter WE    = 24,   // local tick bits
     parameter WA    = 66,   // 2A (unsigned)
     parameter WB    = 68,   // B (two's complement)
     parameter WU    = 128,  // 4M (unsigned)
-    parameter LIMIT = 16    // most ticks a walk moves (< 32)
+    parameter LIMIT = 16,   // most ticks a walk moves (< 32)
+    parameter MD    = 0     // 0: full-width multiplies; 1..WE + 1: digit-serial, MD-bit digits
 ) (
     input  wire                 clk,
     input  wire                 rst,
@@ -40,8 +45,15 @@ module ms_recur #(
     localparam WV = ((WS + WT > WU + 1) ? WS + WT : WU + 1) + 2; // U and 4M, signed
     localparam [4:0] LIM = LIMIT[4:0];
     localparam TL = WT / 2;                           // t's low half
+    localparam ND = (MD == 0) ? 1 : (WT + MD - 1) / MD; // t's digits (MD > 0)
+    localparam MDW = (MD == 0) ? 1 : MD;
+    localparam WTD = (MD == 0) ? WT : ND * MD;          // t padded to whole digits
+    localparam [4:0] NDC = ND[4:0];
+    /* verilator lint_off UNUSED */
+    localparam LAT = (MD == 0) ? 5 : 2 * ND + 4;        // clocks from go to U, plus one
+    /* verilator lint_on UNUSED */
     localparam [2:0] IDLE = 3'd0, MUL1 = 3'd1, SUM1 = 3'd2, MUL2 = 3'd3, SUM2 = 3'd4,
-                     WALK = 3'd5;
+                     WALK = 3'd5, DIGB = 3'd6, DIGS = 3'd7;
     reg  [2:0]           st;
     reg  [WE-1:0]        e, lo_q, hi_q;
     reg  signed [WB-1:0] b_q;
@@ -50,6 +62,13 @@ module ms_recur #(
     reg  signed [WS-1:0] h, s;
     reg  signed [WP-1:0] bt;
     reg  signed [WV-1:0] p_lo, p_hi;   // s·t's partial products
+    // digit-serial (MD > 0): t's digits from the top, the product of the last digit and
+    // whether there is one, the sum so far, the digits taken
+    reg  [WTD-1:0]       tsh;
+    reg  signed [WS+MDW:0] prod;
+    reg                  pv;
+    reg  signed [WV-1:0] acc;
+    reg  [4:0]           dc;
     initial begin
         st = IDLE;
         busy = 1'b0;
@@ -68,6 +87,12 @@ module ms_recur #(
     wire signed [WV-1:0] u_dn = u - g_dn;                     // U(e − 1)
     wire                 up   = u < m_q;
     wire                 dn   = u_dn >= m_q;
+    // the shared multiplier: B on the first product, 2A + B·t on the second
+    wire signed [WS-1:0]   mx   = (st == DIGB) ? b_s : s;
+    wire signed [MDW:0]    dig  = $signed({1'b0, tsh[WTD-1:WTD-MDW]});
+    wire signed [WV-1:0]   prod_v = {{(WV - WS - MDW - 1){prod[WS+MDW]}}, prod};
+    wire signed [WV-1:0]   acc_n  = pv ? (acc <<< MDW) + prod_v : acc;
+    wire [WTD-1:0]         t_pad  = {{(WTD - WT){1'b0}}, e, 1'b1};
     always @(posedge clk) begin
         done <= 1'b0;
         fail <= 1'b0;
@@ -85,20 +110,49 @@ module ms_recur #(
                     m_q   <= $signed({{(WV - WU){1'b0}}, m4});
                     moves <= 5'd0;
                     busy  <= 1'b1;
-                    st    <= MUL1;
+                    tsh   <= {{(WTD - WT){1'b0}}, e0, 1'b1};
+                    acc   <= {WV{1'b0}};
+                    pv    <= 1'b0;
+                    dc    <= 5'd0;
+                    st    <= (MD == 0) ? MUL1 : DIGB;
                 end
+                // a digit a clock: its product now, added into acc the clock after
+                DIGB, DIGS: begin
+                    if (MD != 0) prod <= mx * dig;
+                    tsh  <= tsh << MDW;
+                    pv   <= (dc != NDC);
+                    acc  <= acc_n;
+                    dc   <= dc + 1'b1;
+                    if (dc == NDC) begin
+                        if (st == DIGB) begin
+                            bt <= acc_n[WP-1:0];
+                            st <= SUM1;
+                        end else begin
+                            u  <= acc_n;
+                            st <= WALK;
+                        end
+                    end
+                end
+                // (each multiplier only in the MD it serves: synthesis does not see that the
+                // other states are never reached)
                 MUL1: begin
-                    bt <= b_q * t;
+                    if (MD == 0) bt <= b_q * t;
                     st <= SUM1;
                 end
                 SUM1: begin
-                    s  <= s0;
-                    h  <= h0;
-                    st <= MUL2;
+                    s   <= s0;
+                    h   <= h0;
+                    tsh <= t_pad;
+                    acc <= {WV{1'b0}};
+                    pv  <= 1'b0;
+                    dc  <= 5'd0;
+                    st  <= (MD == 0) ? MUL2 : DIGS;
                 end
                 MUL2: begin
-                    p_lo <= s * $signed({1'b0, t[TL-1:0]});
-                    p_hi <= s * $signed({1'b0, t[WT-1:TL]});
+                    if (MD == 0) begin
+                        p_lo <= s * $signed({1'b0, t[TL-1:0]});
+                        p_hi <= s * $signed({1'b0, t[WT-1:TL]});
+                    end
                     st   <= SUM2;
                 end
                 SUM2: begin

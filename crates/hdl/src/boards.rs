@@ -265,7 +265,9 @@ pub const BOARDS: [Board; 4] = [
         baud: 1_000_000,
         core: BoardCore {
             fifo_depth: 2,
-            pieces: 4,
+            // the piece memory is block RAM, as wide as it is for 4 slots: 16 hold a move
+            // whose phases split into many 58-ms pieces at 20 tick bits
+            pieces: 16,
             step_bits: 14,
             tick_bits: 20,
             radicand_bits: 48,

@@ -67,13 +67,14 @@ const REGS: Props = Props {
 };
 const REGS_DEPTH: u32 = 16;
 
-/// The per-step recurrence's jump and walk: WE = 3, LIMIT = 2, one step asked in the first
-/// clock with every input free; its answer comes by clock 5 + LIMIT, so 9 clocks hold it.
+/// The per-step recurrence's jump and walk, full-width and digit-serial: WE = 3, LIMIT = 2,
+/// one step asked in the first clock with every input free; the digit-serial answer comes
+/// by clock 8 + LIMIT, so 12 clocks hold both.
 const RECUR: Props = Props {
     top: "recur_props",
     rtl: &["rtl/ms_recur.v"],
 };
-const RECUR_DEPTH: u32 = 9;
+const RECUR_DEPTH: u32 = 12;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]

@@ -3,7 +3,8 @@
 //! random trapezoids, limits moves and seed 000 segment chains at 50 MHz, from candidates
 //! around the edge (walks of 0 to 24 ticks: found, abandoned at the walk limit, or
 //! stopped at a piece's first or last tick), the same edge or failure, the same ticks
-//! moved, in 5 + moves clocks; and the model's edges are the closed form's.
+//! moved, in 5 + moves clocks (8 + moves digit-serial); and the model's edges are the
+//! closed form's.
 
 use multistep_core::int::recurrence::{WalkInputs, WALK_LIMIT};
 use multistep_core::int::{IntClock, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
@@ -82,8 +83,11 @@ fn hex(x: u128, bits: u32) -> String {
     format!("{:x}", x & m)
 }
 
-#[test]
-fn the_unit_walks_as_the_model() {
+/// Every step of [`profiles`] from a candidate 0 to 24 ticks off its edge: the walk's
+/// inputs, the model's answer and ticks moved.
+type Vectors = Vec<(WalkInputs, Option<u64>, u32)>;
+
+fn vectors() -> Vectors {
     let mut r = Rng(TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     let mut vectors: Vec<(WalkInputs, Option<u64>, u32)> = Vec::new();
     let (mut found, mut abandoned, mut bounded) = (0, 0, 0);
@@ -118,9 +122,16 @@ fn the_unit_walks_as_the_model() {
     );
     let n = vectors.len();
     println!("{n} steps: {found} found, {abandoned} abandoned, {bounded} stopped at a boundary");
+    vectors
+}
+
+/// The unit with multiply digits of `md` bits (0: full width) answers every vector as the
+/// model, in `lat` + moves clocks.
+fn unit_agrees(vectors: &Vectors, md: u32, lat: u32) {
+    let n = vectors.len();
     let dir = tempfile::tempdir().unwrap();
     let mut files = [String::new(), String::new(), String::new(), String::new()];
-    for (w, _, _) in &vectors {
+    for (w, _, _) in vectors {
         writeln!(files[0], "{}", hex(w.two_a, WA)).unwrap();
         writeln!(files[1], "{}", hex(w.b as u128, WB)).unwrap();
         writeln!(files[2], "{}", hex(w.m4, 128)).unwrap();
@@ -148,7 +159,7 @@ module tb;
     wire busy, done, fail;
     wire [{WE}-1:0] at;
     wire [4:0] moves;
-    ms_recur #(.WE({WE}), .WA({WA}), .WB({WB}), .WU(128), .LIMIT({WALK_LIMIT})) dut (
+    ms_recur #(.WE({WE}), .WA({WA}), .WB({WB}), .WU(128), .LIMIT({WALK_LIMIT}), .MD({md})) dut (
         .clk(clk), .rst(1'b0), .go(go), .e0(ee[71:48]), .lo(ee[47:24]), .hi(ee[23:0]),
         .two_a(two_a), .b(bb), .m4(m4), .busy(busy), .done(done), .fail(fail),
         .at(at), .moves(moves));
@@ -193,16 +204,28 @@ endmodule
     let text = String::from_utf8(out.stdout).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), n, "{}", &text[..text.len().min(2000)]);
-    for (i, (line, (w, edge, moves))) in lines.iter().zip(&vectors).enumerate() {
+    for (i, (line, (w, edge, moves))) in lines.iter().zip(vectors).enumerate() {
         let f: Vec<&str> = line.split(' ').collect();
         let got_edge = (f[0] == "v").then(|| f[1].parse::<u64>().unwrap());
         let (got_moves, clocks): (u32, u32) = (f[2].parse().unwrap(), f[3].parse().unwrap());
         assert_eq!(
             (got_edge, got_moves, clocks),
-            (*edge, *moves, 5 + moves),
-            "vector {i}: {w:?}"
+            (*edge, *moves, lat + moves),
+            "vector {i}, MD = {md}: {w:?}"
         );
     }
+}
+
+#[test]
+fn the_unit_walks_as_the_model() {
+    unit_agrees(&vectors(), 0, 5);
+}
+
+/// Digit-serial: t's 25 bits in two digits of 13 (2·2 + 4 clocks to U), the products
+/// through one 70 × 14-bit multiplier.
+#[test]
+fn the_digit_serial_unit_walks_as_the_model() {
+    unit_agrees(&vectors(), 13, 8);
 }
 
 /// Verilator's lint, every warning on, at the board's widths and at narrow ones.
@@ -213,6 +236,15 @@ fn the_unit_lints_clean() {
     for params in [
         vec![],
         vec!["-GWE=4", "-GWA=6", "-GWB=6", "-GWU=12", "-GLIMIT=3"],
+        vec!["-GMD=13"],
+        vec![
+            "-GWE=4",
+            "-GWA=6",
+            "-GWB=6",
+            "-GWU=12",
+            "-GLIMIT=3",
+            "-GMD=2",
+        ],
     ] {
         let mut args = vec!["--lint-only", "-Wall", RECURRENCE_UNIT.0];
         args.extend(params);

@@ -251,37 +251,41 @@ fn split_at_any_step_is_exact() {
     }
 }
 
-/// The iCEBreaker (20 tick bits at 18 MHz): a 5000-step trapezoid with 0.1 s ramps
-/// (1.8 M ticks each) is two pieces of two, its edges `plan`'s; with a 0.1 s cruise too
-/// it is six, more than the core's four slots, refused saying so.
+/// The iCEBreaker (20 tick bits at 18 MHz, 16 slots): a 5000-step trapezoid with 0.1 s
+/// ramps (1.8 M ticks each) is two pieces of two, its edges `plan`'s; with a 0.3 s cruise
+/// too it is ten, still edge for edge; with a 0.8 s cruise it is 18, more than the core's
+/// slots, refused saying so.
 #[test]
 fn icebreaker_takes_a_move_of_long_ramps() {
     let board = Board::by_name("icebreaker").unwrap();
     let p = board.params(1).unwrap();
+    assert_eq!(p.pieces, 16);
     let clock = p.clock_hz as u64;
-    let mv = Move::Phase(PhaseMove::new(5_000, Family::Trapezoid, 0.1, 0.0, 0.1));
-    let profile = int_profile(&mv, clock).unwrap();
-    assert!(profile.pieces().iter().all(|pc| pc.dur == 1_800_000));
-    let m = AxisMove::from_profile(&profile, true, &p).unwrap();
-    assert_eq!(m.pieces.len(), 4);
-    let plan: Vec<u64> = multistep_core::edges(&mv, clock as f64).unwrap().collect();
-    assert_eq!(m.edges(), plan);
-    assert!(move_writes(&p, 0, &m, 0).is_ok());
-    let mv = Move::Phase(PhaseMove::new(5_000, Family::Trapezoid, 0.1, 0.1, 0.1));
+    for (cruise, pieces) in [(0.0, 4), (0.3, 10)] {
+        let mv = Move::Phase(PhaseMove::new(5_000, Family::Trapezoid, 0.1, cruise, 0.1));
+        let profile = int_profile(&mv, clock).unwrap();
+        assert_eq!(profile.pieces()[0].dur, 1_800_000);
+        let m = AxisMove::from_profile(&profile, true, &p).unwrap();
+        assert_eq!(m.pieces.len(), pieces, "cruise {cruise} s");
+        let plan: Vec<u64> = multistep_core::edges(&mv, clock as f64).unwrap().collect();
+        assert_eq!(m.edges(), plan, "cruise {cruise} s");
+        assert!(move_writes(&p, 0, &m, 0).is_ok());
+    }
+    let mv = Move::Phase(PhaseMove::new(5_000, Family::Trapezoid, 0.1, 0.8, 0.1));
     let e = AxisMove::from_profile(&int_profile(&mv, clock).unwrap(), true, &p).unwrap_err();
     assert!(matches!(e, FitError::Move(_)), "{e}");
-    assert!(e.to_string().contains("6 pieces with steps"), "{e}");
+    assert!(e.to_string().contains("18 pieces with steps"), "{e}");
 }
 
 /// The RTL at the iCEBreaker's widths (20 tick bits, 14 step bits, 48-bit radicand,
-/// 26-bit kernels, radix 2) on a move whose ramps are 1.08 M ticks, once refused: split
-/// into four pieces, every STEP rise is `plan`'s edge. Verilator by default
-/// (`MULTISTEP_SIM=icarus` for Icarus); 2.2 M clocks.
+/// 26-bit kernels, radix 2, 16 slots) on a move whose ramps are 1.08 M ticks and cruise
+/// 2.16 M: split into seven pieces, every STEP rise is `plan`'s edge. Verilator by default
+/// (`MULTISTEP_SIM=icarus` for Icarus); 4.4 M clocks.
 #[test]
 fn cosim_split_move_on_icebreaker_widths() {
     let p = Board::by_name("icebreaker").unwrap().params(1).unwrap();
     let clock = p.clock_hz as u64;
-    let mv = Move::Phase(PhaseMove::new(1_200, Family::Trapezoid, 0.06, 0.0, 0.06));
+    let mv = Move::Phase(PhaseMove::new(1_200, Family::Trapezoid, 0.06, 0.12, 0.06));
     let profile = int_profile(&mv, clock).unwrap();
     let max_dur = profile.pieces().iter().map(|pc| pc.dur).max().unwrap();
     assert!(
@@ -289,7 +293,7 @@ fn cosim_split_move_on_icebreaker_widths() {
         "{max_dur} ticks fit: nothing to split"
     );
     let m = AxisMove::from_profile(&profile, false, &p).unwrap();
-    assert_eq!(m.pieces.len(), 4);
+    assert_eq!(m.pieces.len(), 7);
     let plan: Vec<u64> = multistep_core::edges(&mv, clock as f64).unwrap().collect();
     let d = Design::new(&p, Arch::Tdm).unwrap();
     let dir = tempfile::Builder::new().prefix("split").tempdir().unwrap();
