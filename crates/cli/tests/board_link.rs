@@ -1124,8 +1124,8 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
         .unwrap_err()
         .to_string()
         .contains("error:19"));
-    // a computed move runs, its 0.4 s cruise split into seven of the board's 16 slots
-    // (2^20 − 1 ticks, 58 ms at 18 MHz): plan's edges
+    // a computed move runs in nine of the board's 16 slots, its 0.4 s cruise split into
+    // seven pieces of up to 2^20 − 1 ticks (58 ms at 18 MHz): plan's edges
     r.req("move X 900 vmax=2000");
     let x = r.wait_idle("X");
     assert_eq!((x.position, x.state), (900, AxisState::Idle));
