@@ -168,6 +168,7 @@ scenario('the telescope panel reads the mount, tracks, slews, guides, aborts and
 });
 
 scenario('a move is followed live until its position arrives', async ({ page }) => {
+  const p0 = (await readCard(page, 'X')).pos;
   await moveAxis(page, 'X', 6000);
   await waitAxis(page, 'X', (s) => s.state === 'moving', 'moving');
   // Count what the page itself shows while the axis moves.
@@ -184,7 +185,10 @@ scenario('a move is followed live until its position arrives', async ({ page }) 
   await waitAxis(page, 'X', (s) => s.pos === 6000 && s.state === 'idle', 'arrival at 6000');
   const distinct = new Set(shown.vals).size;
   console.log(`#   X: ${distinct} distinct positions shown during ${shown.ms.toFixed(0)} ms of motion (${(distinct / shown.ms * 1000).toFixed(1)}/s)`);
-  if (distinct < 5) throw new Error(`the position was not updated live (${distinct} values)`);
+  // Live: positions on the way, not only the ends (the service sends 20 snapshots a second
+  // while an axis moves, but a machine busy with other work may deliver only a few).
+  const between = new Set(shown.vals.map(Number).filter((v) => v > p0 && v < p0 + 6000)).size;
+  if (between < 2) throw new Error(`the position was not updated live (${between} positions on the way)`);
 });
 
 scenario('an out-of-limit target shows the service error next to the axis', async ({ page }) => {
