@@ -46,8 +46,10 @@ impl Props {
             None => vec![],
         }
     }
-    /// `name` in Alert with the reason: a refused value or a controller error.
+    /// `name` in Alert with the reason: a refused value or a controller error. The reason
+    /// also goes to stderr, which indiserver writes to its log.
     pub fn alert(&mut self, name: &str, why: &str) -> Vec<Out> {
+        eprintln!("{name}: {why}");
         self.state(name, State::Alert, Some(why))
     }
 }

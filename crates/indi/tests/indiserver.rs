@@ -197,6 +197,9 @@ impl Rig {
                 "MULTISTEP_INDI_CONTROLLER",
                 format!("tcp://127.0.0.1:{}", relay.port),
             )
+            // a machine loaded by other tests can take seconds to answer (the service's
+            // database commits): a generous deadline, which a test may set shorter
+            .env("MULTISTEP_INDI_TIMEOUT", "30")
             .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())

@@ -8,7 +8,8 @@ const TRACE_SECONDS = 10;
 const STALE_MS = 3000;
 // Press-and-hold jog: the axis tracks at the jog speed under a lease the page renews while
 // the button is held; a page that vanishes stops renewing, and the service stops the axis.
-const JOG_LEASE_S = 1;
+// Eight renewals a lease: a busy machine that delays a few still keeps a held jog going.
+const JOG_LEASE_S = 2;
 const JOG_RENEW_MS = 250;
 
 const $ = (id) => document.getElementById(id);
