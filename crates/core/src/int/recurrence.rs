@@ -29,6 +29,7 @@ use super::gen::IntEdgeGenerator;
 use super::piece::{four_p, IntPiece};
 use super::plan::IntProfile;
 use crate::MAX_PIECES;
+use core::borrow::Borrow;
 
 /// Tick moves after which a walk gives up and the step takes the closed form.
 pub const WALK_LIMIT: u32 = 16;
@@ -109,10 +110,11 @@ impl RecurrenceCount {
 }
 
 /// The edges of an [`IntProfile`] by the recurrence, in absolute ticks: the same as
-/// [`IntEdgeGenerator`]'s.
+/// [`IntEdgeGenerator`]'s. It holds the profile (`Recurrence<IntProfile<N>, N>`) or a
+/// reference to one, as [`IntEdgeGenerator`] does.
 #[derive(Clone, Debug)]
-pub struct Recurrence<'a, const N: usize = MAX_PIECES> {
-    profile: &'a IntProfile<N>,
+pub struct Recurrence<P: Borrow<IntProfile<N>> = IntProfile, const N: usize = MAX_PIECES> {
+    profile: P,
     piece: usize,
     /// The next step within the piece (0-based).
     j: u64,
@@ -147,9 +149,9 @@ impl EdgeHistory {
     }
 }
 
-impl<'a, const N: usize> Recurrence<'a, N> {
-    /// The edges of `profile`.
-    pub fn new(profile: &'a IntProfile<N>) -> Self {
+impl<P: Borrow<IntProfile<N>>, const N: usize> Recurrence<P, N> {
+    /// The edges of `profile` (an `IntProfile` or a reference to one).
+    pub fn new(profile: P) -> Self {
         Recurrence {
             profile,
             piece: 0,
@@ -159,27 +161,38 @@ impl<'a, const N: usize> Recurrence<'a, N> {
         }
     }
 
+    /// Steps of the whole move.
+    pub fn steps(&self) -> u64 {
+        self.profile.borrow().steps()
+    }
+
+    /// Tick of the move's end.
+    pub fn end_tick(&self) -> u64 {
+        self.profile.borrow().end_tick()
+    }
+
     /// What it did so far.
     pub fn tally(&self) -> &RecurrenceCount {
         &self.count
     }
+}
 
-    /// Step j of piece `p` by the recurrence: its local edge, or None for the closed form.
-    fn walk(&mut self, p: &IntPiece) -> Option<u64> {
-        let guess = self.history.predict()?;
-        let w = WalkInputs::new(p, self.j, guess - p.t0 as i128)?.walk();
-        self.count.jumps += 1;
-        self.count.moves += w.moves as u64;
-        match w.edge {
-            Some(e) => {
-                self.count.by_moves[(w.moves as usize).min(3)] += 1;
-                self.count.max_moves = self.count.max_moves.max(w.moves);
-                Some(e)
-            }
-            None => {
-                self.count.abandoned += w.abandoned as u64;
-                None
-            }
+/// Step j of piece `p` by the recurrence after the edges in `history`: its local edge, or
+/// None for the closed form; its work added to `count`.
+fn walk(history: &EdgeHistory, count: &mut RecurrenceCount, p: &IntPiece, j: u64) -> Option<u64> {
+    let guess = history.predict()?;
+    let w = WalkInputs::new(p, j, guess - p.t0 as i128)?.walk();
+    count.jumps += 1;
+    count.moves += w.moves as u64;
+    match w.edge {
+        Some(e) => {
+            count.by_moves[(w.moves as usize).min(3)] += 1;
+            count.max_moves = count.max_moves.max(w.moves);
+            Some(e)
+        }
+        None => {
+            count.abandoned += w.abandoned as u64;
+            None
         }
     }
 }
@@ -275,17 +288,17 @@ impl WalkInputs {
     }
 }
 
-impl<const N: usize> Iterator for Recurrence<'_, N> {
+impl<P: Borrow<IntProfile<N>>, const N: usize> Iterator for Recurrence<P, N> {
     type Item = u64;
 
     fn next(&mut self) -> Option<u64> {
-        let pieces = self.profile.pieces();
+        let pieces = self.profile.borrow().pieces();
         while pieces.get(self.piece)?.steps <= self.j {
             self.piece += 1;
             self.j = 0;
         }
         let p = &pieces[self.piece];
-        let edge = match self.walk(p) {
+        let edge = match walk(&self.history, &mut self.count, p, self.j) {
             Some(local) => p.t0 + local,
             None => {
                 self.count.closed += 1;
@@ -301,9 +314,9 @@ impl<const N: usize> Iterator for Recurrence<'_, N> {
 
 /// Whether the recurrence gives `profile`'s edges (against [`IntEdgeGenerator`]), and
 /// its count; the first step where they differ otherwise.
-pub fn check(profile: &IntProfile) -> Result<RecurrenceCount, u64> {
+pub fn check<const N: usize>(profile: &IntProfile<N>) -> Result<RecurrenceCount, u64> {
     let mut r = Recurrence::new(profile);
-    let mut g = IntEdgeGenerator::new(profile);
+    let mut g = IntEdgeGenerator::<&IntProfile<N>, N>::new(profile);
     let mut i = 0;
     loop {
         match (r.next(), g.next()) {
@@ -320,7 +333,7 @@ pub trait CountedEdges: Iterator<Item = u64> {
     fn counted(&self) -> RecurrenceCount;
 }
 
-impl<const N: usize> CountedEdges for Recurrence<'_, N> {
+impl<P: Borrow<IntProfile<N>>, const N: usize> CountedEdges for Recurrence<P, N> {
     fn counted(&self) -> RecurrenceCount {
         self.count
     }

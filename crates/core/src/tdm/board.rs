@@ -7,7 +7,9 @@
 //!
 //! The simulation is event-driven: time jumps from one calculator decision to the next
 //! (idle stretches are skipped); a computation starts every `interval` cycles at most and
-//! its period is in the FIFO `latency` cycles after it starts ([`Latencies`]). When a period is computed the engine already knows when
+//! its period is in the FIFO `latency` cycles after it starts ([`Latencies`]); on an axis
+//! whose periods the recurrence finds ([`Axis::recurrent`]) each period takes its own
+//! cycles, one period at a time. When a period is computed the engine already knows when
 //! its pulse unit needs it (the previous edge), so it knows at once whether it is in time
 //! (slack = needed − ready ≥ 0) or an underrun (ready later than needed: the edge and
 //! every later one of that axis are late by the difference). Each pulse goes to the sink
@@ -21,7 +23,8 @@ pub use super::scheduler::MAX_AXES;
 use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
-use crate::int::IntTracker;
+use crate::int::recurrence::{CountedEdges, Recurrence, RecurrenceClocks, WALK_LIMIT};
+use crate::int::{IntProfile, IntTracker};
 use crate::profile::Profile;
 use crate::step_dir::StepDirTiming;
 use crate::track::{Rate, TrackError, Tracker};
@@ -89,34 +92,86 @@ impl AxisStats {
 /// unchanged).
 const LOOKAHEAD: usize = 64;
 
+/// The next edge of a recurrence and the clocks it spent on it (out of line: inlined,
+/// its code cost the closed-form axes' loop 4 instructions a period).
+#[inline(never)]
+fn next_by_recurrence(
+    r: &mut Recurrence<IntProfile<3>, 3>,
+    clocks: &RecurrenceClocks,
+) -> Option<(u64, u64)> {
+    let before = r.counted().clocks(clocks);
+    let e = r.next()?;
+    Some((e, r.counted().clocks(clocks) - before))
+}
+
 /// Marks the branch whose block calls it as rare, so the compiler lays the other one out
 /// as the fall-through (a call behind a further test in that block gives no hint).
 #[cold]
 #[inline(always)]
 fn cold() {}
 
-/// Where an axis's edges come from: a move (a known number of steps) or open-ended motion
-/// (a tracker, float or integer, with its state at the start so the axis can run again).
+/// Where an axis's edges come from: a move (a known number of steps), a move whose
+/// periods the calculator finds by the per-step recurrence (each costing what the
+/// recurrence spends on it), or open-ended motion (a tracker, float or integer); each with
+/// its state at the start, so the axis can run again.
 // the sources are large, but boxing would allocate (the crate is no_std, no alloc)
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Source {
     Move(EdgeGenerator),
-    Track { now: Tracker, start: Tracker },
-    IntTrack { now: IntTracker, start: IntTracker },
+    Recur {
+        now: Recurrence<IntProfile<3>, 3>,
+        start: Recurrence<IntProfile<3>, 3>,
+        clock: f64,
+        clocks: RecurrenceClocks,
+    },
+    Track {
+        now: Tracker,
+        start: Tracker,
+    },
+    IntTrack {
+        now: IntTracker,
+        start: IntTracker,
+    },
 }
 
 impl Source {
+    fn is_recurrent(&self) -> bool {
+        matches!(self, Source::Recur { .. })
+    }
+
+    /// On a recurrence's axis, a bound on its periods' cycles plus its last edge: every
+    /// period at most a jump, a walk to its limit and a closed form (0 on other sources).
+    fn recurrent_bound(&self) -> u128 {
+        let Source::Recur { now, clocks, .. } = self else {
+            return 0;
+        };
+        let worst = clocks.jump as u128 + WALK_LIMIT as u128 * clocks.tick as u128;
+        now.steps() as u128 * (worst + clocks.closed as u128) + now.end_tick() as u128
+    }
+
+    /// A recurrence's cycles for its next `n` periods (None on other sources).
+    fn prefill_cost(&self, n: u64) -> Option<u64> {
+        let Source::Recur { now, clocks, .. } = self else {
+            return None;
+        };
+        let mut ahead = now.clone();
+        let before = ahead.counted().clocks(clocks);
+        ahead.by_ref().take(n as usize).for_each(drop);
+        Some(ahead.counted().clocks(clocks) - before)
+    }
+
     fn clock(&self) -> f64 {
         match self {
             Source::Move(g) => g.clock(),
+            Source::Recur { clock, .. } => *clock,
             Source::Track { now, .. } => now.clock_hz() as f64,
             Source::IntTrack { now, .. } => now.clock_hz() as f64,
         }
     }
 
     fn is_tracking(&self) -> bool {
-        !matches!(self, Source::Move(_))
+        matches!(self, Source::Track { .. } | Source::IntTrack { .. })
     }
 }
 
@@ -172,6 +227,8 @@ pub struct Axis {
     fifo: Fifo,
     pulse: PulseUnit,
     stats: AxisStats,
+    /// Calculator cycles of the last period computed, on a recurrence's axis.
+    cost: u64,
 }
 
 impl Axis {
@@ -179,6 +236,28 @@ impl Axis {
         Axis::with_source(
             profile.steps(),
             Source::Move(EdgeGenerator::new(profile, clock_hz)?),
+        )
+    }
+
+    /// A move of at most three pieces (phase or limits mode) planned on `clock_hz`, whose
+    /// periods the calculator finds by the per-step recurrence: each period costs the
+    /// clocks the recurrence spends on it at `clocks` (a closed form for the first two
+    /// steps and where a walk gives up), instead of the board's latency. Its edges are
+    /// the profile's exactly.
+    pub fn recurrent(
+        profile: IntProfile<3>,
+        clock_hz: u64,
+        clocks: RecurrenceClocks,
+    ) -> Result<Axis, TdmError> {
+        let r = Recurrence::new(profile);
+        Axis::with_source(
+            r.steps(),
+            Source::Recur {
+                now: r.clone(),
+                start: r,
+                clock: clock_hz as f64,
+                clocks,
+            },
         )
     }
 
@@ -213,6 +292,7 @@ impl Axis {
             ahead_pos: LOOKAHEAD,
             shift: 0,
             on_time_from: i64::MAX,
+            cost: 0,
             fifo: Fifo::new(1)?,
             pulse: PulseUnit::default(),
             stats: AxisStats::NEW,
@@ -224,12 +304,14 @@ impl Axis {
         match &mut self.gen {
             // back to step 1 in place (no copy of the profile)
             Source::Move(g) => g.seek(1),
+            Source::Recur { now, start, .. } => *now = start.clone(),
             Source::Track { now, start } => *now = start.clone(),
             Source::IntTrack { now, start } => *now = start.clone(),
         }
         self.ahead_pos = LOOKAHEAD;
         self.shift = 0;
         self.on_time_from = i64::MAX;
+        self.cost = 0;
         self.fifo = Fifo::new(depth)?;
         self.pulse = PulseUnit::new(shape);
         self.stats = AxisStats::NEW;
@@ -272,17 +354,23 @@ impl Axis {
                 self.ahead_pos = from + 1;
                 Some(self.ahead[from])
             }
+            Source::Recur { now, clocks, .. } => {
+                let (e, cost) = next_by_recurrence(now, clocks)?;
+                self.cost = cost;
+                Some(e)
+            }
             Source::Track { now, .. } => now.next(),
             Source::IntTrack { now, .. } => now.next(),
         }
     }
 
-    /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later and
-    /// is needed at `due`, and loads it into the pulse unit (closing the previous pulse into `sink`): an underrun
-    /// if it is late. Returns the step's rise tick and the tick the FIFO has room again,
-    /// `None` if no step was left. `TRACK`: in `run_tracking`'s loop.
+    /// Computes the next period, which starts at tick `t`, is ready `lat` ticks later
+    /// (`COST`: the period's own cost, [`Axis::cost`], instead) and is needed at `due`,
+    /// and loads it into the pulse unit (closing the previous pulse into `sink`): an
+    /// underrun if it is late. Returns the step's rise tick and the tick the FIFO has room
+    /// again, `None` if no step was left. `TRACK`: in `run_tracking`'s loop.
     #[inline]
-    fn compute<const TRACK: bool, const HALF: bool, F: FnMut(StepPulse)>(
+    fn compute<const TRACK: bool, const HALF: bool, const COST: bool, F: FnMut(StepPulse)>(
         &mut self,
         m: usize,
         t: u64,
@@ -294,12 +382,19 @@ impl Axis {
         // `due` is the previous rise, the previous edge plus `shift`
         let rise = edge + self.shift;
         let period = rise - due;
-        // ticks are below 2^57 (checked by the board): the difference fits
-        let ahead = due as i64 - t as i64;
+        // ticks are below 2^57 (checked by the board): the difference fits. With
+        // per-period costs, `ahead` is counted as if this period took `lat`, so the
+        // slack tests below (made for one latency) hold as they are.
+        let own = if COST && self.gen.is_recurrent() {
+            self.cost
+        } else {
+            lat
+        };
+        let ahead = due as i64 - t as i64 - (own as i64 - lat as i64);
         let n = self.computed();
         if ahead < self.on_time_from {
             if ahead < lat as i64 || n == 0 {
-                let (rise, room, closed) = self.load_late_or_first(m, t, lat, due, period);
+                let (rise, room, closed) = self.load_late_or_first(m, t + own, lat, due, period);
                 self.shift = rise - edge;
                 if let Some(p) = closed {
                     sink(p);
@@ -324,18 +419,18 @@ impl Axis {
     /// tick (read here: read by the caller, it was merged with the in-time path's read
     /// through a computed address, 3 instructions per period) and the pulse it closes,
     /// which the caller hands to the sink (when this call took the sink, the loop
-    /// reloaded the sink's state every period).
+    /// reloaded the sink's state every period). `ready`: the tick the period is in the
+    /// FIFO; `lat`: the board's latency, the reference of the slack tests.
     #[inline(never)]
     fn load_late_or_first(
         &mut self,
         m: usize,
-        t: u64,
+        ready: u64,
         lat: u64,
         due: u64,
         period: u64,
     ) -> (u64, u64, Option<StepPulse>) {
         self.resume_pulse(due);
-        let ready = t + lat;
         let load = if ready > due {
             self.stats.underruns += 1;
             self.stats.late_ticks += ready - due;
@@ -387,6 +482,7 @@ impl Axis {
     fn remaining(&self) -> u64 {
         match &self.gen {
             Source::Move(g) => g.remaining() + (LOOKAHEAD - self.ahead_pos) as u64,
+            Source::Recur { now, .. } => now.steps() - now.counted().steps,
             Source::Track { now, .. } if !now.rate().is_zero() || now.ramp_profile().is_some() => {
                 u64::MAX
             }
@@ -410,7 +506,7 @@ impl Axis {
     /// Gives a tracking axis's source a new rate; `Ok(false)` on a move.
     fn set_rate(&mut self, rate: Rate) -> Result<bool, TrackError> {
         match &mut self.gen {
-            Source::Move(_) => Ok(false),
+            Source::Move(_) | Source::Recur { .. } => Ok(false),
             Source::Track { now, .. } => now.set_rate(rate).map(|_| true),
             Source::IntTrack { now, .. } => now.set_rate(rate).map(|_| true),
         }
@@ -438,7 +534,8 @@ pub struct Report {
     pub interval_cycles: u64,
     /// Cycles from a computation's start to its FIFO write.
     pub latency_cycles: u64,
-    /// Issue cycles used: `interval_cycles` per period computed.
+    /// Issue cycles used: `interval_cycles` per period computed (on a recurrence's axis,
+    /// each period's own cycles).
     pub busy_cycles: u64,
     /// Latest minus earliest axis start tick (a synchronous group must show 0).
     pub start_skew_ticks: u64,
@@ -493,7 +590,11 @@ impl<'a> Board<'a> {
                 .map(|g| g.last_edge_tick() as u128)
                 .max()
                 .unwrap_or(0)
-            + cfg.step_dir.dir_setup_ticks as u128;
+            + cfg.step_dir.dir_setup_ticks as u128
+            + axes
+                .iter()
+                .map(|a| a.gen.recurrent_bound())
+                .fold(0, u128::saturating_add);
         if work >= TICK_LIMIT as u128 {
             return Err(TdmError::TooLong);
         }
@@ -517,10 +618,26 @@ impl<'a> Board<'a> {
         let depth = self.cfg.fifo_depth as u64;
         let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
         let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
-        let fill = match prefill {
+        let mut fill = match prefill {
             0 => 0,
             p => (p - 1).saturating_mul(ii).saturating_add(lat),
         };
+        if self.costs_vary() {
+            // one period after the other: the recurrence's at their own costs, the
+            // others at the interval (the last one's latency after its start)
+            let (mut spent, mut closed) = (0u64, false);
+            for a in self.axes.iter() {
+                let n = a.remaining().min(depth);
+                match a.gen.prefill_cost(n) {
+                    Some(c) => spent += c,
+                    None => {
+                        spent += n * ii;
+                        closed |= n > 0;
+                    }
+                }
+            }
+            fill = spent + if closed { lat - ii } else { 0 };
+        }
         self.cfg.step_dir.dir_setup_ticks.max(fill)
     }
 
@@ -528,10 +645,18 @@ impl<'a> Board<'a> {
     /// (tracking) axes have no last step: this run ends with the last move, and cuts
     /// them there (with no move, at once); they run by [`Board::run_tracking`].
     pub fn run<F: FnMut(StepPulse)>(self, sink: F) -> Report {
-        match self.cfg.step_dir.pulse {
-            PulseShape::HalfInterval => self.run_inner::<false, true, F>(TICK_LIMIT, &mut [], sink),
-            _ => self.run_inner::<false, false, F>(TICK_LIMIT, &mut [], sink),
+        let half = self.cfg.step_dir.pulse == PulseShape::HalfInterval;
+        match (half, self.costs_vary()) {
+            (true, false) => self.run_inner::<false, true, false, F>(TICK_LIMIT, &mut [], sink),
+            (false, false) => self.run_inner::<false, false, false, F>(TICK_LIMIT, &mut [], sink),
+            (true, true) => self.run_inner::<false, true, true, F>(TICK_LIMIT, &mut [], sink),
+            (false, true) => self.run_inner::<false, false, true, F>(TICK_LIMIT, &mut [], sink),
         }
+    }
+
+    /// Some axis's periods each cost their own cycles ([`Axis::recurrent`]).
+    fn costs_vary(&self) -> bool {
+        self.axes.iter().any(|a| a.gen.is_recurrent())
     }
 
     /// Runs until the calculator's clock passes `until` (or every axis is done), handing
@@ -556,16 +681,20 @@ impl<'a> Board<'a> {
         if commands.windows(2).any(|w| w[1].tick < w[0].tick) {
             return Err(TdmError::CommandOrder);
         }
-        Ok(match self.cfg.step_dir.pulse {
-            PulseShape::HalfInterval => self.run_inner::<true, true, F>(until, commands, sink),
-            _ => self.run_inner::<true, false, F>(until, commands, sink),
+        let half = self.cfg.step_dir.pulse == PulseShape::HalfInterval;
+        Ok(match (half, self.costs_vary()) {
+            (true, false) => self.run_inner::<true, true, false, F>(until, commands, sink),
+            (false, false) => self.run_inner::<true, false, false, F>(until, commands, sink),
+            (true, true) => self.run_inner::<true, true, true, F>(until, commands, sink),
+            (false, true) => self.run_inner::<true, false, true, F>(until, commands, sink),
         })
     }
 
     /// The engine's loop. `TRACK`: tracking commands and a horizon (`run_tracking`);
     /// without, `run` drops their checks from the per-edge path. `HALF`: every pulse unit
-    /// has half-interval pulses (the in-time path then does not test the shape).
-    fn run_inner<const TRACK: bool, const HALF: bool, F: FnMut(StepPulse)>(
+    /// has half-interval pulses (the in-time path then does not test the shape). `COST`:
+    /// some axis's periods each take their own cycles (a recurrence's), one at a time.
+    fn run_inner<const TRACK: bool, const HALF: bool, const COST: bool, F: FnMut(StepPulse)>(
         self,
         until: u64,
         commands: &mut [TrackCommand],
@@ -593,6 +722,7 @@ impl<'a> Board<'a> {
         // the axis served last (round-robin goes on after it)
         let mut last = usize::MAX;
         let mut cmd = 0usize;
+        let mut busy = 0u64;
         let mut done = [false; MAX_AXES];
         let mut moves_left = self
             .axes
@@ -630,7 +760,8 @@ impl<'a> Board<'a> {
             t = now;
             last = m;
             let a = &mut self.axes[m];
-            let Some((rise, room)) = a.compute::<TRACK, HALF, F>(m, t, lat, need[m], &mut sink)
+            let Some((rise, room)) =
+                a.compute::<TRACK, HALF, COST, F>(m, t, lat, need[m], &mut sink)
             else {
                 // a tracker that stopped: its last pulse closes as a move's last pulse
                 done[m] = true;
@@ -640,7 +771,13 @@ impl<'a> Board<'a> {
                 continue;
             };
             need[m] = rise;
-            t += ii;
+            if COST {
+                let spent = if a.gen.is_recurrent() { a.cost } else { ii };
+                busy += spent;
+                t += spent;
+            } else {
+                t += ii;
+            }
             if a.computed() == a.steps {
                 done[m] = true;
                 moves_left -= 1;
@@ -658,10 +795,11 @@ impl<'a> Board<'a> {
                 a.finish(m, need[m], &mut sink);
             }
         }
-        self.report(start)
+        self.report(start, COST.then_some(busy))
     }
 
-    fn report(&self, start_tick: u64) -> Report {
+    /// The run's figures; `busy`: the calculator's cycles, when its periods' costs vary.
+    fn report(&self, start_tick: u64, busy: Option<u64>) -> Report {
         let mut r = Report {
             axes: self.axes.len(),
             start_tick,
@@ -689,8 +827,8 @@ impl<'a> Board<'a> {
             last = last.max(s.start_tick);
         }
         r.start_skew_ticks = last - first;
-        // one issue interval per period computed
-        r.busy_cycles = r.edges * r.interval_cycles;
+        // else one issue interval per period computed
+        r.busy_cycles = busy.unwrap_or(r.edges * r.interval_cycles);
         r
     }
 }
