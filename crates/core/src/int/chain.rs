@@ -438,6 +438,27 @@ impl ChainEdges {
         self
     }
 
+    /// Back to the move's first step, with the recurrence's count cleared.
+    pub fn restart(&mut self) {
+        self.next = 1;
+        self.last_edge = 0;
+        self.piece = 0;
+        self.run = None;
+        if self.recurrence.is_some() {
+            self.recurrence = Some(ChainRecurrence::default());
+        }
+    }
+
+    /// Steps of the move.
+    pub fn steps(&self) -> u64 {
+        self.profile.steps()
+    }
+
+    /// The clock (Hz) its ticks count.
+    pub fn clock(&self) -> u64 {
+        self.clock
+    }
+
     /// What the recurrence did so far (None without it).
     pub fn recurrence_tally(&self) -> Option<&RecurrenceCount> {
         self.recurrence.as_ref().map(|r| &r.count)

@@ -161,6 +161,14 @@ impl<P: Borrow<IntProfile<N>>, const N: usize> Recurrence<P, N> {
         }
     }
 
+    /// Back to the move's first step, with the count cleared.
+    pub fn restart(&mut self) {
+        self.piece = 0;
+        self.j = 0;
+        self.history = EdgeHistory::default();
+        self.count = RecurrenceCount::default();
+    }
+
     /// Steps of the whole move.
     pub fn steps(&self) -> u64 {
         self.profile.borrow().steps()

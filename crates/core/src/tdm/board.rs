@@ -24,7 +24,7 @@ use super::scheduler::{Policy, Queue, TICK_LIMIT};
 use super::TdmError;
 use crate::edges::EdgeGenerator;
 use crate::int::recurrence::{CountedEdges, Recurrence, RecurrenceClocks, WALK_LIMIT};
-use crate::int::{IntProfile, IntTracker};
+use crate::int::{ChainEdges, IntProfile, IntTracker};
 use crate::profile::Profile;
 use crate::step_dir::StepDirTiming;
 use crate::track::{Rate, TrackError, Tracker};
@@ -92,16 +92,80 @@ impl AxisStats {
 /// unchanged).
 const LOOKAHEAD: usize = 64;
 
-/// The next edge of a recurrence and the clocks it spent on it (out of line: inlined,
-/// its code cost the closed-form axes' loop 4 instructions a period).
-#[inline(never)]
-fn next_by_recurrence(
-    r: &mut Recurrence<IntProfile<3>, 3>,
-    clocks: &RecurrenceClocks,
-) -> Option<(u64, u64)> {
-    let before = r.counted().clocks(clocks);
-    let e = r.next()?;
-    Some((e, r.counted().clocks(clocks) - before))
+/// A move whose periods the per-step recurrence finds: on quadratic pieces (three at
+/// most: phase or limits mode), or on a chain's polynomial pieces.
+// the chain is large, but boxing would allocate (the crate is no_std, no alloc)
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+enum Recurrent {
+    Quadratic {
+        edges: Recurrence<IntProfile<3>, 3>,
+        clock: u64,
+    },
+    Chain(ChainEdges),
+}
+
+impl Recurrent {
+    /// The next edge and the clocks the recurrence spent on it (out of line: inlined,
+    /// its code cost the closed-form axes' loop 4 instructions a period).
+    #[inline(never)]
+    fn next_with_cost(&mut self, clocks: &RecurrenceClocks) -> Option<(u64, u64)> {
+        let before = self.counted().clocks(clocks);
+        let e = match self {
+            Recurrent::Quadratic { edges, .. } => edges.next(),
+            Recurrent::Chain(c) => c.next(),
+        }?;
+        Some((e, self.counted().clocks(clocks) - before))
+    }
+
+    fn counted(&self) -> crate::int::recurrence::RecurrenceCount {
+        match self {
+            Recurrent::Quadratic { edges, .. } => edges.counted(),
+            Recurrent::Chain(c) => c.counted(),
+        }
+    }
+
+    /// A bound on one period's clocks: a quadratic step's jump, its walk to the limit and
+    /// the closed form; a chain step's search, at most one probe per bit of its ticks
+    /// twice (doubling, then halving) and a walk.
+    fn worst_cost(&self, clocks: &RecurrenceClocks) -> u128 {
+        let walk = clocks.jump as u128 + WALK_LIMIT as u128 * clocks.tick as u128;
+        match self {
+            Recurrent::Quadratic { .. } => walk + clocks.closed as u128,
+            Recurrent::Chain(c) => {
+                let bits = 64 - c.end_tick().leading_zeros() as u128;
+                walk + 2 * (bits + 1) * clocks.jump as u128
+            }
+        }
+    }
+
+    fn restart(&mut self) {
+        match self {
+            Recurrent::Quadratic { edges, .. } => edges.restart(),
+            Recurrent::Chain(c) => c.restart(),
+        }
+    }
+
+    fn steps(&self) -> u64 {
+        match self {
+            Recurrent::Quadratic { edges, .. } => edges.steps(),
+            Recurrent::Chain(c) => c.steps(),
+        }
+    }
+
+    fn end_tick(&self) -> u64 {
+        match self {
+            Recurrent::Quadratic { edges, .. } => edges.end_tick(),
+            Recurrent::Chain(c) => c.end_tick(),
+        }
+    }
+
+    fn clock(&self) -> u64 {
+        match self {
+            Recurrent::Quadratic { clock, .. } => *clock,
+            Recurrent::Chain(c) => c.clock(),
+        }
+    }
 }
 
 /// Marks the branch whose block calls it as rare, so the compiler lays the other one out
@@ -120,9 +184,7 @@ fn cold() {}
 enum Source {
     Move(EdgeGenerator),
     Recur {
-        now: Recurrence<IntProfile<3>, 3>,
-        start: Recurrence<IntProfile<3>, 3>,
-        clock: f64,
+        edges: Recurrent,
         clocks: RecurrenceClocks,
     },
     Track {
@@ -143,28 +205,30 @@ impl Source {
     /// On a recurrence's axis, a bound on its periods' cycles plus its last edge: every
     /// period at most a jump, a walk to its limit and a closed form (0 on other sources).
     fn recurrent_bound(&self) -> u128 {
-        let Source::Recur { now, clocks, .. } = self else {
+        let Source::Recur { edges, clocks } = self else {
             return 0;
         };
-        let worst = clocks.jump as u128 + WALK_LIMIT as u128 * clocks.tick as u128;
-        now.steps() as u128 * (worst + clocks.closed as u128) + now.end_tick() as u128
+        edges.steps() as u128 * edges.worst_cost(clocks) + edges.end_tick() as u128
     }
 
     /// A recurrence's cycles for its next `n` periods (None on other sources).
     fn prefill_cost(&self, n: u64) -> Option<u64> {
-        let Source::Recur { now, clocks, .. } = self else {
+        let Source::Recur { edges, clocks } = self else {
             return None;
         };
-        let mut ahead = now.clone();
-        let before = ahead.counted().clocks(clocks);
-        ahead.by_ref().take(n as usize).for_each(drop);
-        Some(ahead.counted().clocks(clocks) - before)
+        let mut ahead = edges.clone();
+        Some(
+            (0..n)
+                .map_while(|_| ahead.next_with_cost(clocks))
+                .map(|(_, c)| c)
+                .sum(),
+        )
     }
 
     fn clock(&self) -> f64 {
         match self {
             Source::Move(g) => g.clock(),
-            Source::Recur { clock, .. } => *clock,
+            Source::Recur { edges, .. } => edges.clock() as f64,
             Source::Track { now, .. } => now.clock_hz() as f64,
             Source::IntTrack { now, .. } => now.clock_hz() as f64,
         }
@@ -249,16 +313,24 @@ impl Axis {
         clock_hz: u64,
         clocks: RecurrenceClocks,
     ) -> Result<Axis, TdmError> {
-        let r = Recurrence::new(profile);
-        Axis::with_source(
-            r.steps(),
-            Source::Recur {
-                now: r.clone(),
-                start: r,
-                clock: clock_hz as f64,
-                clocks,
-            },
-        )
+        let edges = Recurrent::Quadratic {
+            edges: Recurrence::new(profile),
+            clock: clock_hz,
+        };
+        Axis::with_source(edges.steps(), Source::Recur { edges, clocks })
+    }
+
+    /// A move of polynomial pieces (scurve, scurve4) whose periods a chain finds by the
+    /// per-step recurrence (`edges`, made [`ChainEdges::by_recurrence`]; without, it is
+    /// made so here): each period costs the clocks the recurrence spends on it at
+    /// `clocks` (its jumps, the ticks walked and the probes of its searches).
+    pub fn chain_recurrent(edges: ChainEdges, clocks: RecurrenceClocks) -> Result<Axis, TdmError> {
+        let edges = match edges.recurrence_tally() {
+            Some(_) => edges,
+            None => edges.by_recurrence(),
+        };
+        let edges = Recurrent::Chain(edges);
+        Axis::with_source(edges.steps(), Source::Recur { edges, clocks })
     }
 
     /// An open-ended axis whose edges are `tracker`'s (from its current state); rates
@@ -304,7 +376,7 @@ impl Axis {
         match &mut self.gen {
             // back to step 1 in place (no copy of the profile)
             Source::Move(g) => g.seek(1),
-            Source::Recur { now, start, .. } => *now = start.clone(),
+            Source::Recur { edges, .. } => edges.restart(),
             Source::Track { now, start } => *now = start.clone(),
             Source::IntTrack { now, start } => *now = start.clone(),
         }
@@ -354,8 +426,8 @@ impl Axis {
                 self.ahead_pos = from + 1;
                 Some(self.ahead[from])
             }
-            Source::Recur { now, clocks, .. } => {
-                let (e, cost) = next_by_recurrence(now, clocks)?;
+            Source::Recur { edges, clocks } => {
+                let (e, cost) = edges.next_with_cost(clocks)?;
                 self.cost = cost;
                 Some(e)
             }
@@ -482,7 +554,7 @@ impl Axis {
     fn remaining(&self) -> u64 {
         match &self.gen {
             Source::Move(g) => g.remaining() + (LOOKAHEAD - self.ahead_pos) as u64,
-            Source::Recur { now, .. } => now.steps() - now.counted().steps,
+            Source::Recur { edges, .. } => edges.steps() - edges.counted().steps,
             Source::Track { now, .. } if !now.rate().is_zero() || now.ramp_profile().is_some() => {
                 u64::MAX
             }
