@@ -849,7 +849,7 @@ fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
     assert_eq!(got, (1500, -1200, AxisState::Idle, AxisState::Idle, None));
 }
 
-/// Fourteen axes on one ULX3S-25F (`ulx3s-25f-14`: every header pin an axis wire, 45 MHz,
+/// Fourteen axes on one ULX3S-25F (`ulx3s-25f-14`: every header pin an axis wire, 50 MHz,
 /// docs/HDL.md "Wiring"), a move each, all running at once: trapezoids computed by the
 /// board's one calculator (phase mode, and limits mode on whole ticks), scurve, scurve4,
 /// exponential and sine streamed through the axes' replay units. Every STEP rise of every
@@ -887,7 +887,7 @@ fn fourteen_axes_run_every_family_at_once_edge_exact() {
         "vmax = 4000.0\namax = 40000.0\n",
         "vmax = 1000000.0\namax = 1000000000.0\n",
     );
-    const HZ: f64 = 45e6;
+    const HZ: f64 = 50e6;
     let mut r = Rig::on_board_with(Pins::Hil, &text, ("ulx3s-25f-14", K), 3_000_000, false, &[]);
     // one move after the other: axis a starts with the a-th group start
     for (n, &(profile, steps, times)) in names.iter().zip(&moves) {

@@ -1,6 +1,7 @@
 // ms_fifo under its handshake (the calculator pushes only when not full; the pulse unit
 // pops only when not empty or while the word is pushed, which then passes by): the count
-// stays in 0..=2^LD and matches empty/full, and a tracked word leaves in order, unchanged.
+// stays in 0..=2^LD and matches empty/full/afull, and a tracked word leaves in order,
+// unchanged.
 // MUTATE makes the count bound one short: the check must then fail.
 module fifo_props #(
     parameter W  = 4,
@@ -14,10 +15,10 @@ module fifo_props #(
     input wire         mark      // the solver's choice of the word to track
 );
     wire [W-1:0] dout;
-    wire         empty, full;
+    wire         empty, full, afull;
     ms_fifo #(.W(W), .LD(LD)) dut (
         .clk(clk), .clear(clear), .push(push), .din(din), .pop(pop),
-        .dout(dout), .empty(empty), .full(full));
+        .dout(dout), .empty(empty), .full(full), .afull(afull));
 
     localparam [LD+1:0] DEPTH = 1 << LD;
 `ifdef MUTATE
@@ -37,6 +38,7 @@ module fifo_props #(
         assert(count <= BOUND);
         assert(empty == (count == 0));
         assert(full == (count == DEPTH));
+        assert(afull == (count == DEPTH - 1'b1));
         if (tracking) assert(ahead < count);
         if (tracking && ahead == 0) assert(dout == tdata);
         // every checked case is reached (yosys-smtbmc -c)

@@ -121,40 +121,49 @@ module ms_core #(
     reg            sel;       // free to select (no period in flight)
     reg            cstart;    // the calculator's start cycle
     reg  [LK-1:0]  m;         // axis in the calculator
-    reg  [LK-1:0]  rr;        // round-robin pointer: the axis after the last served
     reg  [WST-1:0] cur;       // m's state, read at select
     reg  [WP-WY-1:0] rd;      // m's piece but dy, read at select
     wire [WY-1:0]  rdy;       // its dy
-    wire [K-1:0]   fifo_full, fifo_empty, fifo_pop, running;
+    wire [K-1:0]   fifo_full, fifo_afull, fifo_empty, fifo_push, fifo_pop, running;
     wire [K*WD-1:0] fifo_dout;
 
-    // lowest axis with a pending start (initialised first, one per cycle)
-    reg          ini_any;
-    reg [LK-1:0] ini_ax;
-    // first eligible axis from rr on, wrapping
-    wire [K-1:0] elig = calc_act & ~fifo_full & ~init_pend;
-    reg          pick_any;
-    reg [LK-1:0] pick;
-    integer o, x;
+    integer o;
+    // lowest axis with a pending start (initialised first, one per cycle): the lowest set
+    // bit, x & -x (a carry chain), and its index
+    wire          ini_any = |init_pend;
+    wire [K-1:0]  ini_bit = init_pend & (~init_pend + 1'b1);
+    reg  [LK-1:0] ini_ax;
     always @(*) begin
-        ini_any = 1'b0;
         ini_ax = {LK{1'b0}};
-        for (o = K - 1; o >= 0; o = o - 1) begin
-            if (init_pend[o]) begin
-                ini_any = 1'b1;
-                ini_ax = o[LK-1:0];
-            end
-        end
-        pick_any = 1'b0;
+        for (o = 0; o < K; o = o + 1)
+            if (ini_bit[o]) ini_ax = ini_ax | o[LK-1:0];
+    end
+    // The pick is a register: the first eligible axis from rr on, wrapping, found in the
+    // clock before from what calc_act, init_pend and the FIFOs' fill will be at the clock
+    // edge, so a select's read addresses start at flip-flops (the pick over K axes and the
+    // memories' addresses were one path: 41.49 MHz at K = 32 on the ECP5-25F). rr is taken
+    // as it is: after a select, the clock that follows selects nothing. So it picks the
+    // axis the search over the registers would pick whenever a select can happen. The
+    // search: the lowest eligible axis at or above rr (rr_mask, the axes from rr on), else
+    // the lowest eligible one; lowest set bits as x & -x. The register holds the pick
+    // one-hot; its index is decoded after it, in the select's path (short: it starts at
+    // the register).
+    reg  [K-1:0]  rr_mask;
+    reg           pick_any;
+    reg  [K-1:0]  pick_bit;
+    wire [K-1:0]  calc_act_d, init_pend_d, full_d;
+    wire [K-1:0]  elig_d  = calc_act_d & ~full_d & ~init_pend_d;
+    wire [K-1:0]  from_rr = elig_d & rr_mask;
+    wire [K-1:0]  cand    = (|from_rr) ? from_rr : elig_d;
+    always @(posedge clk) begin
+        pick_any <= |elig_d;
+        pick_bit <= cand & (~cand + 1'b1);
+    end
+    reg  [LK-1:0] pick;
+    always @(*) begin
         pick = {LK{1'b0}};
-        for (o = K - 1; o >= 0; o = o - 1) begin
-            x = {{(32-LK){1'b0}}, rr} + o;
-            if (x >= K) x = x - K;
-            if (elig[x]) begin
-                pick_any = 1'b1;
-                pick = x[LK-1:0];
-            end
-        end
+        for (o = 0; o < K; o = o + 1)
+            if (pick_bit[o]) pick = pick | o[LK-1:0];
     end
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
@@ -211,10 +220,13 @@ module ms_core #(
     // first cycle; both hold until `done` (the inputs do not change while it runs).
     reg [WT-1:0]   base_t0;   // c_base + k_t0
     reg            last_j;    // the period is the piece's last
+    reg            last_s;    // the piece is the move's last (only a divert changes that,
+                              // at the period's end)
     always @(posedge clk) begin
         if (cstart) begin
             base_t0 <= c_base + k_t0;
             last_j  <= (c_j + 1'b1 == k_steps);
+            last_s  <= (c_slot == last_slot[m]);
         end
     end
     wire [WT-1:0]  edge_t   = base_t0 + qx;
@@ -223,7 +235,7 @@ module ms_core #(
     /* verilator lint_on UNUSED */
     wire [WN-1:0]  j_next   = c_j + 1'b1;
     wire           piece_end = last_j;
-    wire           mov_end  = piece_end && (c_slot == last_slot[m]);
+    wire           mov_end  = piece_end && last_s;
     assign         div_now  = done && div_req[m] && !mov_end;
     wire [WST-1:0] next_st  = div_now ? {div_slot[m*LS +: LS], {WN{1'b0}}, edge_t, edge_t}
                             : piece_end ? {c_slot + 1'b1, {WN{1'b0}}, edge_t, c_base}
@@ -246,7 +258,9 @@ module ms_core #(
     end
     initial begin
         m = {LK{1'b0}};
-        rr = {LK{1'b0}};
+        rr_mask = {K{1'b1}};
+        pick_bit = {K{1'b0}};
+        pick_any = 1'b0;
         init_pend = {K{1'b0}};
         calc_act = {K{1'b0}};
         sel = 1'b1;
@@ -255,29 +269,35 @@ module ms_core #(
         group = {K{1'b0}};
         div_req = {K{1'b0}};
     end
-    wire [K-1:0] ini_bit = {{(K-1){1'b0}}, 1'b1} << ini_ax;
     wire [K-1:0] m_bit   = {{(K-1){1'b0}}, 1'b1} << m;
+    // the next values of the scheduler's registers (the pick above is found from them)
+    assign calc_act_d = (calc_act | (do_init ? ini_bit & ~stream : {K{1'b0}}))
+                      & ~((done && mov_end) ? m_bit : {K{1'b0}}) & ~halt;
+    assign init_pend_d = (start_wr ? init_pend | wr_data[K-1:0] : init_pend)
+                       & ~(do_init ? ini_bit : {K{1'b0}}) & ~halt;
+    // full after this clock: full and not popped without a push, or one short of full
+    // and pushed without a pop; a FIFO cleared at an axis's start is empty
+    assign full_d = ((fifo_full & ~(fifo_pop & ~fifo_push))
+                     | (fifo_afull & fifo_push & ~fifo_pop))
+                  & ~(do_init ? ini_bit : {K{1'b0}});
     always @(posedge clk) begin
         cstart <= do_sel;
         if (do_sel) begin
             sel <= 1'b0;
             m   <= pick;
-            rr  <= ({1'b0, pick} == K - 1) ? {LK{1'b0}} : pick + 1'b1;
         end else if (done) begin
             sel <= 1'b1;
         end
-        calc_act <= (calc_act | (do_init ? ini_bit & ~stream : {K{1'b0}}))
-                  & ~((done && mov_end) ? m_bit : {K{1'b0}}) & ~halt;
+        // the axes above the one picked (none after the last: then every axis)
+        if (do_sel) rr_mask <= ~((pick_bit << 1) - 1'b1);
+        calc_act  <= calc_act_d;
+        init_pend <= init_pend_d;
         div_req  <= (div_req | (divert & calc_act)) & ~(done ? m_bit : {K{1'b0}})
                   & ~halt & ~(do_init ? ini_bit : {K{1'b0}});
         if (start_wr) begin
-            init_pend <= (init_pend | wr_data[K-1:0]) & ~(do_init ? ini_bit : {K{1'b0}})
-                       & ~halt;
             group     <= wr_data[K-1:0] & ~halt;
             pending   <= 1'b1;
         end else begin
-            if (do_init) init_pend <= init_pend & ~ini_bit & ~halt;
-            else init_pend <= init_pend & ~halt;
             group <= group & ~halt;
             if (go || (group & ~halt) == {K{1'b0}}) pending <= 1'b0;
         end
@@ -293,12 +313,13 @@ module ms_core #(
         for (a = 0; a < K; a = a + 1) begin : axis
             // a replayed axis never has the calculator, so the two pushes never collide
             wire          push = (done && ({1'b0, m} == a)) || s_push[a];
+            assign fifo_push[a] = push;
             wire [WD-1:0] din  = s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
             ms_fifo #(.W(WD), .LD(LF)) u_fifo (
                 .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
                 .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
-                .empty(fifo_empty[a]), .full(fifo_full[a]));
+                .empty(fifo_empty[a]), .full(fifo_full[a]), .afull(fifo_afull[a]));
             ms_pulse #(.WP(WD)) u_pulse (
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .more(calc_act[a] || s_more[a]),

@@ -10,7 +10,8 @@ module ms_fifo #(
     input  wire         pop,
     output wire [W-1:0] dout,
     output wire         empty,
-    output wire         full
+    output wire         full,
+    output wire         afull    // one entry short of full
 );
     reg [W-1:0] mem [0:(1<<LD)-1];
     reg [LD:0]  wp;
@@ -22,6 +23,8 @@ module ms_fifo #(
     assign dout  = mem[rp[LD-1:0]];
     assign empty = (wp == rp);
     assign full  = (wp == {~rp[LD], rp[LD-1:0]});
+    wire [LD:0] wp1 = wp + 1'b1;
+    assign afull = (wp1 == {~rp[LD], rp[LD-1:0]});
     always @(posedge clk) begin
         if (push) mem[wp[LD-1:0]] <= din;
     end
