@@ -22,6 +22,10 @@ pub struct BoardSimArgs {
     /// UART baud (default: the board's)
     #[arg(long)]
     baud: Option<u32>,
+    /// The core with the per-step recurrence, its multiplier digit in bits (0..=15, 0: full
+    /// width; default: the board's choice)
+    #[arg(long, value_name = "BITS")]
+    recurrence: Option<u32>,
     /// Motor: a built-in name (42mm, …) or a motor file
     #[arg(long, default_value = "42mm")]
     motor: String,
@@ -112,6 +116,7 @@ pub fn run(a: &BoardSimArgs) -> anyhow::Result<()> {
         edges: a.edges.clone(),
         realtime: a.realtime,
         cache_dir: a.cache_dir.clone(),
+        recurrence: a.recurrence,
     };
     if a.boards > 1 || !a.ppm.is_empty() || !a.power_up_us.is_empty() {
         if a.realtime {

@@ -58,6 +58,10 @@ struct BuildArgs {
     /// (the ULX3S-85F's 8-axis build needs this; YoWASP's runs on one core for hours)
     #[arg(long, value_name = "EXE")]
     nextpnr: Option<PathBuf>,
+    /// Build the core with the per-step recurrence, its multiplier digit in bits (0..=15,
+    /// 0: full width), instead of the board's choice
+    #[arg(long, value_name = "BITS")]
+    recurrence: Option<u32>,
 }
 
 #[derive(Args, Debug)]
@@ -71,6 +75,9 @@ struct ModulesArgs {
     /// Keep the Verilog and yosys's stat.json here (default: a temporary directory)
     #[arg(long)]
     out: Option<PathBuf>,
+    /// The core with the per-step recurrence, its multiplier digit in bits (as `build`)
+    #[arg(long, value_name = "BITS")]
+    recurrence: Option<u32>,
     #[arg(long, value_enum, default_value_t = ReportFormat::Table)]
     format: ReportFormat,
 }
@@ -108,6 +115,10 @@ struct CoreArgs {
     /// Longest piece (s)
     #[arg(long, default_value_t = 0.3)]
     max_piece: f64,
+    /// Find steps by the per-step recurrence too, with this multiplier digit (bits, 0 for
+    /// full-width multiplies, up to 15); default: the closed form alone
+    #[arg(long)]
+    recurrence: Option<u32>,
 }
 
 impl CoreArgs {
@@ -124,6 +135,7 @@ impl CoreArgs {
             clock_hz: self.clock,
             max_rate: self.max_rate,
             max_piece_s: self.max_piece,
+            recurrence: self.recurrence,
         }
     }
 }
@@ -290,8 +302,17 @@ fn boards() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The board `name`, with the per-step recurrence's digit if one is asked for.
+fn board_with(name: &str, recurrence: Option<u32>) -> anyhow::Result<Board> {
+    let mut board = *Board::by_name(name)?;
+    if recurrence.is_some() {
+        board.core.recurrence = recurrence;
+    }
+    Ok(board)
+}
+
 fn modules(a: &ModulesArgs) -> anyhow::Result<()> {
-    let board = Board::by_name(&a.board)?;
+    let board = &board_with(&a.board, a.recurrence)?;
     let axes = a.axes.unwrap_or(board.default_axes);
     board.params(axes)?;
     tools::find("yosys", "yosys")?;
@@ -364,7 +385,7 @@ fn write_modules_table(
 }
 
 fn build(a: &BuildArgs) -> anyhow::Result<()> {
-    let board = Board::by_name(&a.board)?;
+    let board = &board_with(&a.board, a.recurrence)?;
     let axes = a.axes.unwrap_or(board.default_axes);
     let nextpnr = a.nextpnr.clone().map_or(Nextpnr::YoWasp, Nextpnr::Native);
     let r = multistep_hdl::build::build_with(board, axes, &a.out, nextpnr)?;

@@ -46,7 +46,10 @@ impl BoardSim {
     fn start_board(board: &str, baud: u32, axes: usize, config: &Path, edges: &Path) -> BoardSim {
         let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("verilator");
         let mut child = Command::new(BIN)
-            .args(["board-sim", "--board", board, "--axes", &axes.to_string()])
+            // the board's name, then any more board-sim options ("ulx3s-25f --recurrence 13")
+            .args(["board-sim", "--board"])
+            .args(board.split_whitespace())
+            .args(["--axes", &axes.to_string()])
             .arg("--config")
             .arg(config)
             .arg("--edges")
@@ -1025,6 +1028,53 @@ fn scurve_moves_are_computed_on_a_board_with_chain_units() {
             "{kind}: {bytes} bytes for {steps} steps"
         );
     }
+}
+
+#[test]
+fn a_core_with_the_recurrence_is_driven_edge_exact() {
+    // the ULX3S-25F's core with the per-step recurrence: serve reads it from the board's
+    // build id and loads each piece's recurrence fields (a split piece its own): a fast
+    // trapezoid, a limits move and a cruise longer than a piece, every edge plan's
+    let axis = |n: &str| format!("[[axis]]\nname = \"{n}\"{AXIS}");
+    let text = format!("{CONFIG}{}{}{}", axis("X"), axis("Y"), axis("Z")).replace(
+        "vmax = 4000.0\namax = 40000.0\n",
+        "vmax = 1000000.0\namax = 1000000000.0\n",
+    );
+    let board = ("ulx3s-25f --recurrence 13", 3);
+    let mut r = Rig::on_board_with(Pins::Hil, &text, board, 3_000_000, false, &[]);
+    r.req("move X 3000 accel=0.02 cruise=0.01 decel=0.02");
+    r.req("move Y -1500 vmax=60000 amax=3000000");
+    r.req("move Z 90 vmax=250 amax=40000");
+    for a in ["X", "Y", "Z"] {
+        let s = r.wait_idle(a);
+        assert_eq!((s.state, s.fault), (AxisState::Idle, None), "{a}");
+    }
+    let edges = r.axes_edges(&[0, 1, 2], 4590);
+    same_edges(
+        "X",
+        &edges[0],
+        &plan_edges("trapezoid", 3000, (0.02, 0.01, 0.02)),
+    );
+    let limits = |vmax: f64, amax: f64| multistep_core::MoveParams {
+        vmax: Some(vmax),
+        amax: Some(amax),
+        ..Default::default()
+    };
+    same_edges(
+        "Y",
+        &edges[1],
+        &plan_edges_of("trapezoid", 1500, limits(6e4, 3e6)),
+    );
+    same_edges(
+        "Z",
+        &edges[2],
+        &plan_edges_of("trapezoid", 90, limits(250.0, 4e4)),
+    );
+    assert_eq!(
+        r.check_counters(),
+        vec![3000, -1500, 90],
+        "the Position registers"
+    );
 }
 
 #[test]

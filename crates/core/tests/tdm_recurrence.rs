@@ -112,14 +112,18 @@ fn the_calculator_is_busy_for_exactly_the_recurrences_clocks() {
 fn one_calculator_feeds_32_axes_on_the_worst_move_at_100k_steps_a_second() {
     // every axis on the all-ramp move at once (all at their fastest together), FIFOs of
     // 16 periods, 50 MHz: the recurrence's clocks of the Verilog unit (5 to the jump's
-    // test, one a tick moved), and with the digit-serial unit's 8 plus 2 for the core's
-    // select and FIFO write
+    // test, one a tick moved), and of ms_core with its digit-serial unit (RECUR = 1,
+    // MR = 13: select, the prediction, 8 to the test, the answer and the FIFO write: 12,
+    // the co-simulation's figure)
     let p = ramp_100k();
-    let serial = RecurrenceClocks {
-        jump: 10,
+    let core = RecurrenceClocks {
+        jump: 12,
         ..RecurrenceClocks::MODEL
     };
-    for (name, c) in [("MODEL", RecurrenceClocks::MODEL), ("digit-serial", serial)] {
+    for (name, c) in [
+        ("MODEL", RecurrenceClocks::MODEL),
+        ("ms_core, MR = 13", core),
+    ] {
         let profiles = vec![p.clone(); 32];
         let (r, rises) = run(&profiles, c, 16);
         assert_exact(&r, &profiles, &rises);

@@ -12,6 +12,10 @@
 //   wr_addr = {1'b1, axis[LK], 5'd0}: commit: piece slot data[LS-1:0] of `axis` = staging
 //   wr_addr = {1'b1, axis[LK], 5'd1}: axis control: bit 31 = DIR, data[LS-1:0] = last slot
 //   wr_addr = {1'b1, *, 5'd2}: start; data bits K-1:0 = the axes of a synchronous group.
+//   With the per-step recurrence (RECUR = 1) staging words 17-31 hold its piece fields:
+//     17-19 2A, 20-22 B (two's complement), 23-26 4M of the piece's first step, 27-30 4Den
+//     (4M's increase a step), 31 hi = D - 1, the last tick a walk may visit (0: the piece
+//     takes the closed form for every step; word 31 is cleared by each commit).
 // Slots 0..last hold the axis's pieces with steps in order (pieces of 0 steps are not
 // loaded). The group's pulse units start together (tick 0) once every member's FIFO is
 // full or holds its whole move. Do not write an axis's pieces while busy[axis] is high.
@@ -31,6 +35,12 @@
 //
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
+// With RECUR = 1 a step after the move's first two, on a piece with hi > 0, is found by
+// ms_recur (multistep_core::int::recurrence) from the prediction of the last three periods:
+// select, the prediction, ms_recur's LR + 1 + moves and the FIFO write, LR + 4 + moves
+// cycles (LR: ms_recur's clocks to U). A walk that fails hands the step to the closed form
+// two cycles after its answer, so the step costs the two sums exactly (the core TDM
+// model's RecurrenceClocks { jump: LR + 4, tick: 1, closed: ND + NS + NQ + 4 }).
 module ms_core #(
     parameter K   = 2,
     parameter LK  = 1,     // axis index bits (>= 1)
@@ -45,7 +55,12 @@ module ms_core #(
     parameter RB  = 2,
     parameter MD  = 16,
     parameter AW  = 7,     // 1 + LK + 5
-    parameter LUTRAM = 0   // 1: the family has distributed RAM (ECP5): dy's memory is there
+    parameter LUTRAM = 0,  // 1: the family has distributed RAM (ECP5): dy's memory is there
+    parameter RECUR = 0,   // 1: the per-step recurrence (ms_recur) beside the closed form
+    parameter MR  = 0,     // ms_recur's multiplier digit bits (0: full width)
+    parameter WRA = 56,    // its 2A (unsigned), B (two's complement) and 4M bits: fewer
+    parameter WRB = 40,    // than the closed form's (which squares A); the host gives a
+    parameter WRU = 80     // piece whose fields do not fit hi = 0
 ) (
     input  wire          clk,
     input  wire          wr_en,
@@ -73,6 +88,13 @@ module ms_core #(
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
     localparam WST = LS + WN + 2 * WT;   // per-axis state {slot, j, last edge, base}
+    // the recurrence's widths: 2A, B, 4M
+    localparam WA  = WRA;
+    localparam WB  = WRB;
+    localparam WU  = WRU;
+    localparam WRP = WA + WB + 2 * WU + WQ;   // its piece word {hi, 4Den, 4M0, B, 2A}
+    localparam WRS = 3 + 3 * WD + WU;         // its axis state {known, p1, p2, p3, 4M}
+    localparam NW  = (RECUR != 0) ? 32 : 17;  // staging words
 
     // ---- register bus ----
     wire          is_cmd = wr_addr[AW-1];
@@ -80,14 +102,18 @@ module ms_core #(
     wire [LK-1:0] wax    = wr_addr[LK+4:5];
     wire          ax_ok  = ({1'b0, wax} < K);
     /* verilator lint_off UNUSED */  // bits of staging words beyond the field widths
-    reg [17*32-1:0] stg;    // staging words 0..16
+    reg [NW*32-1:0] stg;    // staging words 0..NW-1
     /* verilator lint_on UNUSED */
     // one write enable per word: a run-time part-select would synthesize as two shifters
     // the width of the whole staging register
     integer sw;
+    // hi (word 31) reads 0 from configuration and after every commit, so a host that
+    // writes the first 17 words only gets the closed form, never a stale piece's walk
+    initial if (RECUR != 0) stg[32*(NW-1) +: 32] = 32'd0;
     always @(posedge clk) begin
-        for (sw = 0; sw <= 16; sw = sw + 1)
+        for (sw = 0; sw < NW; sw = sw + 1)
             if (wr_en && !is_cmd && word == sw[4:0]) stg[32*sw +: 32] <= wr_data;
+        if (RECUR != 0 && commit) stg[32*(NW-1) +: 32] <= 32'd0;
     end
     wire [WP-WY-1:0] stg_word = {stg[16*32 +: 2], stg[15*32 +: WN], stg[14*32 +: WT],
                                  stg[11*32 +: WK], stg[8*32 +: WK+1], stg[0 +: WY]};
@@ -205,11 +231,14 @@ module ms_core #(
     wire [WN-1:0] c_j     = cur[WN+2*WT-1:2*WT];
     wire [WT-1:0] c_last  = cur[2*WT-1:WT];
     wire [WT-1:0] c_base  = cur[WT-1:0];   // 0, or the last edge before a divert
-    wire          done;
-    wire [WQ-1:0] q;
+    // the closed form, or the recurrence's answer (RECUR = 1, below)
+    wire          c_start, c_done, r_done;
+    wire [WQ-1:0] c_q, r_at;
     ms_calc #(.WY(WY), .WK(WK), .WN(WN), .WQ(WQ), .RB(RB), .MD(MD)) u_calc (
-        .clk(clk), .start(cstart), .mode(k_mode), .y0(k_y0), .dy(k_dy), .k(k_k), .dv(k_dv),
-        .j(c_j), .done(done), .q(q));
+        .clk(clk), .start(c_start), .mode(k_mode), .y0(k_y0), .dy(k_dy), .k(k_k), .dv(k_dv),
+        .j(c_j), .done(c_done), .q(c_q));
+    wire          done = c_done || r_done;
+    wire [WQ-1:0] q    = r_done ? r_at : c_q;
     reg [WT-1:0] qx;
     always @(*) begin
         qx = {WT{1'b0}};
@@ -234,6 +263,90 @@ module ms_core #(
     wire [WT-1:0]  period   = edge_t - c_last;
     /* verilator lint_on UNUSED */
     wire [WN-1:0]  j_next   = c_j + 1'b1;
+
+    // ---- the per-step recurrence (RECUR = 1) ----
+    generate
+        if (RECUR != 0) begin : recur
+            // its piece fields, beside the piece memory (block RAM, as it is), and each
+            // axis's last periods and next 4M; both read at select into registers
+            (* no_rw_check, ram_style = "block" *)
+            reg [WRP-1:0] rpmem [0:(1<<(LK+LS))-1];
+            reg [WRS-1:0] rsmem [0:K-1];
+            reg [WRP-1:0] rp;
+            reg [WRS-1:0] rs;
+            wire [WA-1:0]        r_2a   = rp[WA-1:0];
+            wire signed [WB-1:0] r_b    = rp[WA+WB-1:WA];
+            wire [WU-1:0]        r_m40  = rp[WA+WB+WU-1:WA+WB];
+            wire [WU-1:0]        r_4den = rp[WA+WB+2*WU-1:WA+WB+WU];
+            wire [WQ-1:0]        r_hi   = rp[WRP-1:WRP-WQ];
+            wire [2:0]           known  = rs[WRS-1:WRS-3];   // edges so far, up to 4
+            wire [WD-1:0]        p1 = rs[WU+3*WD-1:WU+2*WD];  // the last period
+            wire [WD-1:0]        p2 = rs[WU+2*WD-1:WU+WD];
+            wire [WD-1:0]        p3 = rs[WU+WD-1:WU];
+            wire [WU-1:0]        r_m4   = rs[WU-1:0];
+            // select's cycle: the cstart cycle predicts, the next one starts the walk
+            wire use_r = (r_hi != {WQ{1'b0}}) && (known >= 3'd2);
+            // the prediction (int::recurrence's EdgeHistory::predict): with four edges the
+            // last plus floor((4(p1 + p2) + 6(p1 - p3)) / 8), the mean of the last two
+            // periods plus 1.5 times their mean second difference; else the last period
+            localparam WG = WT + 4;
+            wire signed [WG-1:0] sp1 = $signed({{(WG-WD){1'b0}}, p1});
+            wire signed [WG-1:0] sp2 = $signed({{(WG-WD){1'b0}}, p2});
+            wire signed [WG-1:0] sp3 = $signed({{(WG-WD){1'b0}}, p3});
+            wire signed [WG-1:0] d4  = ((sp1 <<< 3) + (sp1 <<< 1) + (sp2 <<< 2)
+                                        - (sp3 <<< 2) - (sp3 <<< 1)) >>> 3;
+            wire signed [WG-1:0] delta  = (known >= 3'd4) ? d4 : sp1;
+            // the last edge from the piece's origin (the state's ticks are the move's)
+            wire signed [WG-1:0] last_l = $signed({4'b0, c_last}) - $signed({4'b0, c_base})
+                                        - $signed({4'b0, k_t0});
+            reg signed [WG-1:0] g_d, g_l;
+            reg                 rgo, fa1, fa2;
+            reg [WU-1:0]        m4_q;   // the step's 4M
+            reg [WU-1:0]        m4_n;   // the next step's, settled long before done
+            wire                r_fail;
+            always @(posedge clk) begin
+                rgo <= cstart && use_r;
+                if (cstart) begin
+                    g_d  <= delta;
+                    g_l  <= last_l;
+                    m4_q <= (c_j == {WN{1'b0}}) ? r_m40 : r_m4;
+                end
+                m4_n <= m4_q + r_4den;
+                fa1  <= r_fail;
+                fa2  <= fa1;
+            end
+            // the walk's first tick: the prediction clamped to [1, hi]
+            wire signed [WG-1:0] guess = g_l + g_d;
+            wire signed [WG-1:0] hi_s  = $signed({{(WG-WQ){1'b0}}, r_hi});
+            wire [WQ-1:0] e0 = (guess < $signed({{(WG-1){1'b0}}, 1'b1})) ? {{(WQ-1){1'b0}}, 1'b1}
+                             : (guess > hi_s) ? r_hi : guess[WQ-1:0];
+            /* verilator lint_off PINCONNECTEMPTY */
+            ms_recur #(.WE(WQ), .WA(WA), .WB(WB), .WU(WU), .LIMIT(16), .MD(MR)) u_recur (
+                .clk(clk), .rst(1'b0), .go(rgo), .e0(e0), .lo({{(WQ-1){1'b0}}, 1'b1}),
+                .hi(r_hi), .two_a(r_2a), .b(r_b), .m4(m4_q), .busy(), .done(r_done),
+                .fail(r_fail), .at(r_at), .moves());
+            /* verilator lint_on PINCONNECTEMPTY */
+            // a failed walk's step takes the closed form two cycles after the answer
+            assign c_start = (cstart && !use_r) || fa2;
+            wire [2:0]     known_n = (known == 3'd4) ? known : known + 3'd1;
+            wire [WRS-1:0] rs_next = {known_n, period[WD-1:0], p1, p2, m4_n};
+            always @(posedge clk) begin
+                if (commit)
+                    rpmem[{wax, wr_data[LS-1:0]}] <= {stg[31*32 +: WQ], stg[27*32 +: WU],
+                        stg[23*32 +: WU], stg[20*32 +: WB], stg[17*32 +: WA]};
+                if (do_init) rsmem[ini_ax] <= {WRS{1'b0}};
+                else if (done) rsmem[m] <= rs_next;
+                if (do_sel) begin
+                    rp <= rpmem[{pick, pick_slot}];
+                    rs <= rsmem[pick];
+                end
+            end
+        end else begin : closed
+            assign c_start = cstart;
+            assign r_done  = 1'b0;
+            assign r_at    = {WQ{1'b0}};
+        end
+    endgenerate
     wire           piece_end = last_j;
     wire           mov_end  = piece_end && last_s;
     assign         div_now  = done && div_req[m] && !mov_end;

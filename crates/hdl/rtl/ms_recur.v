@@ -87,8 +87,11 @@ module ms_recur #(
     wire signed [WV-1:0] u_dn = u - g_dn;                     // U(e − 1)
     wire                 up   = u < m_q;
     wire                 dn   = u_dn >= m_q;
-    // the shared multiplier: B on the first product, 2A + B·t on the second
-    wire signed [WS-1:0]   mx   = (st == DIGB) ? b_s : s;
+    // the shared multiplier: B on the first product, 2A + B·t on the second, held in a
+    // register loaded as each is known (at go and in SUM1), so no multiplexer lies
+    // between a flip-flop and the DSP blocks (their input and the product's sum are the
+    // unit's longest path)
+    reg  signed [WS-1:0]   mx;
     wire signed [MDW:0]    dig  = $signed({1'b0, tsh[WTD-1:WTD-MDW]});
     wire signed [WV-1:0]   prod_v = {{(WV - WS - MDW - 1){prod[WS+MDW]}}, prod};
     wire signed [WV-1:0]   acc_n  = pv ? (acc <<< MDW) + prod_v : acc;
@@ -114,6 +117,7 @@ module ms_recur #(
                     acc   <= {WV{1'b0}};
                     pv    <= 1'b0;
                     dc    <= 5'd0;
+                    mx    <= {{(WS - WB){b[WB-1]}}, b};
                     st    <= (MD == 0) ? MUL1 : DIGB;
                 end
                 // a digit a clock: its product now, added into acc the clock after
@@ -141,6 +145,7 @@ module ms_recur #(
                 end
                 SUM1: begin
                     s   <= s0;
+                    mx  <= s0;
                     h   <= h0;
                     tsh <= t_pad;
                     acc <= {WV{1'b0}};

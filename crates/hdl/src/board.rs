@@ -162,8 +162,10 @@ impl BoardTop {
     /// Every Verilog file of the board (the core's library and the board's), checked first.
     pub fn files(&self) -> Result<Vec<(String, String)>, HdlError> {
         self.widths()?;
+        let recur = self.core.recurrence.is_some();
         Ok(LIBRARY
             .iter()
+            .chain(std::iter::once(&crate::RECURRENCE_UNIT).filter(|_| recur))
             .chain(BOARD_LIBRARY.iter())
             .chain(CHAIN_LIBRARY.iter().filter(|_| self.chains))
             .map(|(n, t)| (n.to_string(), t.to_string()))

@@ -74,6 +74,9 @@ pub struct BoardCore {
     pub max_rate: f64,
     /// Longest piece (s).
     pub max_piece_s: f64,
+    /// The per-step recurrence's digit bits (`CoreParams::recurrence`); None: the closed
+    /// form alone.
+    pub recurrence: Option<u32>,
 }
 
 /// A board's pin layout: its constraint file and the axis wires it has.
@@ -114,6 +117,7 @@ const ULX3S_25F_CORE: BoardCore = BoardCore {
     radix_bits: 2,
     max_rate: 200_000.0,
     max_piece_s: 0.3,
+    recurrence: None,
 };
 
 /// nextpnr's device options for the ULX3S's LFE5U-25F.
@@ -274,6 +278,7 @@ pub const BOARDS: [Board; 4] = [
             radix_bits: 1,
             max_rate: 100_000.0,
             max_piece_s: 0.04,
+            recurrence: None,
         },
         pinout: Pinout {
             axes: 4,
@@ -338,6 +343,7 @@ impl Board {
             clock_hz: self.clock_hz(),
             max_rate: c.max_rate,
             max_piece_s: c.max_piece_s,
+            recurrence: c.recurrence,
         };
         p.widths()?;
         Ok(p)

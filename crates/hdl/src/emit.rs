@@ -19,8 +19,7 @@ pub const LIBRARY: [(&str, &str); 8] = [
 ];
 
 /// The per-step recurrence's jump-and-walk unit (`ms_recur`, docs/HDL.md "The per-step
-/// recurrence"): verified alone against `multistep_core::int::recurrence`, not yet part
-/// of the core.
+/// recurrence"): in `ms_core` when its parameters ask for it (`CoreParams::recurrence`).
 pub const RECURRENCE_UNIT: (&str, &str) = ("ms_recur.v", include_str!("../rtl/ms_recur.v"));
 
 /// Which top to build.
@@ -59,6 +58,9 @@ impl Design {
             .iter()
             .map(|(n, t)| (n.to_string(), t.to_string()))
             .collect();
+        if widths.recur.is_some() {
+            files.push((RECURRENCE_UNIT.0.into(), RECURRENCE_UNIT.1.into()));
+        }
         let top = match arch {
             Arch::Tdm => tdm_top(params, &widths),
             Arch::Independent => indep_top(params, &widths),

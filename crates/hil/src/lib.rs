@@ -123,6 +123,9 @@ pub struct Options {
     pub realtime: bool,
     /// Where built models are kept (default [`default_cache_dir`]).
     pub cache_dir: Option<PathBuf>,
+    /// The core with the per-step recurrence, its multiplier digit in bits (default: the
+    /// board's choice).
+    pub recurrence: Option<u32>,
 }
 
 impl Default for Options {
@@ -138,6 +141,7 @@ impl Default for Options {
             edges: None,
             realtime: false,
             cache_dir: None,
+            recurrence: None,
         }
     }
 }
@@ -445,7 +449,10 @@ impl World {
     /// The board's model (built or loaded from the cache), its pty and its axes.
     fn new(opts: &Options) -> Result<(World, BoardTop), HilError> {
         let b = Board::by_name(&opts.board)?;
-        let params = b.params(opts.axes.unwrap_or(b.default_axes))?;
+        let mut params = b.params(opts.axes.unwrap_or(b.default_axes))?;
+        if opts.recurrence.is_some() {
+            params.recurrence = opts.recurrence;
+        }
         // the board's own build: its stream buffers (none on the iCEBreaker) and SYNC
         let top = BoardTop {
             baud: opts.baud.unwrap_or(b.baud),

@@ -28,6 +28,10 @@ pub struct CoreParams {
     pub max_rate: f64,
     /// Longest piece (s).
     pub max_piece_s: f64,
+    /// The per-step recurrence beside the closed form (`ms_recur` in `ms_core`): its
+    /// multiplier's digit bits, 0 for full-width multiplies or 1..=15; None: the closed
+    /// form alone.
+    pub recurrence: Option<u32>,
 }
 
 impl Default for CoreParams {
@@ -44,6 +48,7 @@ impl Default for CoreParams {
             clock_hz: multistep_core::DEFAULT_CLOCK_HZ,
             max_rate: 200_000.0,
             max_piece_s: 0.3,
+            recurrence: None,
         }
     }
 }
@@ -75,6 +80,8 @@ pub struct Widths {
     pub md: u32,
     /// bus address bits: 1 + lk + 5
     pub aw: u32,
+    /// the recurrence's multiplier digit bits (0: full width); None without it
+    pub recur: Option<u32>,
 }
 
 fn bad(msg: String) -> FitError {
@@ -106,6 +113,7 @@ impl From<&crate::BuildId> for CoreParams {
             // the default 0.3 s needs 24 bits at 50 MHz
             max_piece_s: ((1u64 << id.tick_bits.min(63)) - 1) as f64
                 / f64::from(id.clock_hz.max(1)),
+            recurrence: id.recurrence,
             ..CoreParams::default()
         }
     }
@@ -193,6 +201,13 @@ impl CoreParams {
                 self.step_bits, self.max_piece_s, self.max_rate, piece_steps
             )));
         }
+        let wq = self.tick_bits.div_ceil(rb) * rb;
+        // the digit is 4 bits of the Config register
+        if let Some(md) = self.recurrence.filter(|&md| md > 15) {
+            return Err(bad(format!(
+                "recurrence digit bits must be 0..=15 (0: full width), got {md}"
+            )));
+        }
         let lk = index_bits(self.axes);
         Ok(Widths {
             lk,
@@ -200,13 +215,14 @@ impl CoreParams {
             lf: self.fifo_depth.trailing_zeros(),
             wn: self.step_bits,
             wd: self.tick_bits,
-            wq: self.tick_bits.div_ceil(rb) * rb,
+            wq,
             wt: self.tick_bits + ls + 1,
             wy: self.radicand_bits,
             wk: self.kernel_bits,
             rb,
             md: MUL_DIGIT_BITS,
             aw: 1 + lk + 5,
+            recur: self.recurrence,
         })
     }
 }
@@ -214,8 +230,8 @@ impl CoreParams {
 impl Widths {
     /// `ms_core`'s parameters and their values for `axes` axes indexed by `lk` bits (the
     /// bus address: command bit, axis index, 5 word bits).
-    pub fn core_param_list(&self, axes: u32, lk: u32) -> [(&'static str, u32); 13] {
-        [
+    pub fn core_param_list(&self, axes: u32, lk: u32) -> Vec<(&'static str, u32)> {
+        let mut list = vec![
             ("K", axes),
             ("LK", lk),
             ("LS", self.ls),
@@ -229,7 +245,49 @@ impl Widths {
             ("RB", self.rb),
             ("MD", self.md),
             ("AW", 1 + lk + 5),
-        ]
+        ];
+        if let Some(md) = self.recur {
+            let (wa, wb, wu) = self.recur_bits();
+            list.extend([
+                ("RECUR", 1),
+                ("MR", md),
+                ("WRA", wa),
+                ("WRB", wb),
+                ("WRU", wu),
+            ]);
+        }
+        list
+    }
+
+    /// The recurrence's `2A`, `B` and `4M` bits (`ms_core.v`'s WRA, WRB, WRU): fewer than
+    /// the closed form's, which squares A. Phase moves at 50 MHz have B below 2^25 and 4M
+    /// below 2^58, limits moves B up to 2^36 and 4M up to 2^76 (3 000 random ones); a
+    /// piece beyond them takes the closed form.
+    pub fn recur_bits(&self) -> (u32, u32, u32) {
+        ((self.wk - 2).min(56), self.wk.min(40), self.wy.min(80))
+    }
+
+    /// Clocks of `ms_recur` from its start to `U(e0)` (its LAT): 5 at full width, two
+    /// digit-serial products of ⌈(wq + 1) / md⌉ digits plus 4 otherwise.
+    pub fn recur_jump_cycles(&self) -> Option<u32> {
+        self.recur.map(|md| {
+            if md == 0 {
+                5
+            } else {
+                2 * (self.wq + 1).div_ceil(md) + 4
+            }
+        })
+    }
+
+    /// The core's clocks per recurrence step in the core TDM model's terms (`ms_core.v`):
+    /// select, the prediction, the unit's jump and its answer, the FIFO write; a tick a
+    /// move; a closed-form period as without the recurrence.
+    pub fn recurrence_clocks(&self) -> Option<multistep_core::int::recurrence::RecurrenceClocks> {
+        Some(multistep_core::int::recurrence::RecurrenceClocks {
+            jump: self.recur_jump_cycles()? + 4,
+            tick: 1,
+            closed: self.period_cycles(),
+        })
     }
 
     /// Cycles of the multiply j·dy (`ms_nmul.v`): one per digit of j.
@@ -288,9 +346,11 @@ mod tests {
             kernel_bits: 72,
             clock_hz: 50_000_000,
             baud: 3_000_000,
+            recurrence: Some(13),
         };
         let p = CoreParams::from(&id);
         assert_eq!((p.axes, p.fifo_depth, p.pieces), (2, 16, 4));
+        assert_eq!(p.recurrence, Some(13));
         assert_eq!((p.tick_bits, p.kernel_bits, p.radix_bits), (24, 72, 4));
         // 2^24 − 1 ticks at 50 MHz
         assert!(
@@ -299,6 +359,29 @@ mod tests {
             p.max_piece_s
         );
         assert_eq!(p.max_rate, CoreParams::default().max_rate);
+    }
+
+    /// The recurrence in the Config register's low byte, beside the radix bits, both ways;
+    /// a digit beyond the register's 4 bits is refused.
+    #[test]
+    fn the_recurrence_is_in_the_build_id() {
+        for recurrence in [None, Some(0), Some(13), Some(15)] {
+            let p = CoreParams {
+                recurrence,
+                ..Default::default()
+            };
+            let id = crate::BuildId::of(&p, 3_000_000).unwrap();
+            let byte = id.radix_bits | recurrence.map_or(0, |md| 0x80 | md << 3);
+            let config = 2 << 24 | 4 << 16 | 2 << 8 | byte;
+            let back =
+                crate::BuildId::decode(0x4D53_0001, config, 0x1418_8044, 50_000_000, 3).unwrap();
+            assert_eq!((back.radix_bits, back.recurrence), (2, recurrence));
+        }
+        let p = CoreParams {
+            recurrence: Some(16),
+            ..Default::default()
+        };
+        assert!(p.widths().is_err());
     }
 
     #[test]

@@ -300,6 +300,9 @@ pub struct BuildId {
     pub kernel_bits: u32,
     pub clock_hz: u32,
     pub baud: u32,
+    /// The per-step recurrence's digit bits, if the core has it (`Config` byte 0: bit 7,
+    /// the digit in bits 6–3, the radix bits in 2–0).
+    pub recurrence: Option<u32>,
 }
 
 impl BuildId {
@@ -322,7 +325,8 @@ impl BuildId {
             axes: b(config, 3),
             fifo_depth_bits: b(config, 2),
             slot_bits: b(config, 1),
-            radix_bits: b(config, 0),
+            radix_bits: b(config, 0) & 7,
+            recurrence: (b(config, 0) & 0x80 != 0).then_some((b(config, 0) >> 3) & 15),
             step_bits: b(widths, 3),
             tick_bits: b(widths, 2),
             radicand_bits: b(widths, 1),
@@ -347,6 +351,7 @@ impl BuildId {
             kernel_bits: w.wk,
             clock_hz: p.clock_hz as u32,
             baud,
+            recurrence: w.recur,
         })
     }
 }

@@ -3,8 +3,8 @@
 //! plan's moves as the board's integer moves.
 
 use crate::{
-    core_addr, mode_code, AxisMove, AxisReg, BoardReg, CoreParams, LinkError, PieceRegs, Reg,
-    Request, Widths,
+    core_addr, mode_code, AxisMove, AxisReg, BoardReg, CoreParams, LinkError, PieceRegs, RecurRegs,
+    Reg, Request, Widths,
 };
 
 /// One register write.
@@ -33,10 +33,15 @@ pub fn staging_words(p: &PieceRegs) -> [u32; 17] {
     w
 }
 
-/// The writes that load piece `slot` of `axis`: 17 staging words and the commit.
+/// The writes that load piece `slot` of `axis`: 17 staging words (32 with the
+/// recurrence's, [`RecurRegs`]) and the commit.
 pub fn piece_writes(w: &Widths, axis: u32, slot: u32, p: &PieceRegs) -> Vec<RegWrite> {
+    let recur = w
+        .recur
+        .map(|_| RecurRegs::words(RecurRegs::of(p, w).as_ref()));
     let mut out: Vec<RegWrite> = staging_words(p)
         .iter()
+        .chain(recur.iter().flatten())
         .enumerate()
         .map(|(i, &data)| RegWrite {
             reg: Reg::Core(core_addr(w, false, axis, i as u32)),

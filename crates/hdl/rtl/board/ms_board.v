@@ -26,7 +26,12 @@ module ms_board #(
     parameter SYNC     = 1,            // 1: the SYNC line (Arm, Fire, SyncTick); 0: none
     parameter CHAINS   = 0,            // 1: a chain unit per axis (ms_chain_axis; LB > 0)
     parameter LUTRAM   = 0,            // 1: the family has distributed RAM (ms_core)
-    parameter LIMITS   = 1             // 0: the pins have no limit inputs (they read 0)
+    parameter LIMITS   = 1,            // 0: the pins have no limit inputs (they read 0)
+    parameter RECUR    = 0,            // 1: the per-step recurrence in the core (ms_core)
+    parameter MR       = 0,            // its multiplier digit bits (0: full width, <= 15)
+    parameter WRA      = 56,           // and its widths (ms_core)
+    parameter WRB      = 40,
+    parameter WRU      = 80
 ) (
     input  wire         clk,
     input  wire         rst_n_async,
@@ -103,7 +108,7 @@ module ms_board #(
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
               .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR), .SYNC(SYNC),
-              .CHAINS((CHAINS != 0 && LB > 0) ? CHAIN_BYTES : 0)) u_regs (
+              .CHAINS((CHAINS != 0 && LB > 0) ? CHAIN_BYTES : 0), .RECUR(RECUR), .MR(MR)) u_regs (
         .clk(clk), .rst(rst), .req(req), .req_wr(req_wr), .req_addr(req_addr),
         .req_data(req_data), .req_bulk(req_bulk), .s_arm(s_arm), .s_retarget(s_retarget),
         .s_commit(s_commit), .s_chain(s_chain),
@@ -118,7 +123,8 @@ module ms_board #(
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
-              .WK(WK), .RB(RB), .MD(MD), .AW(AW), .LUTRAM(LUTRAM)) u_core (
+              .WK(WK), .RB(RB), .MD(MD), .AW(AW), .LUTRAM(LUTRAM), .RECUR(RECUR),
+              .MR(MR), .WRA(WRA), .WRB(WRB), .WRU(WRU)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),

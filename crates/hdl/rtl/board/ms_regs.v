@@ -38,7 +38,9 @@ module ms_regs #(
     parameter BAUD    = 3000000,
     parameter LB      = 9,
     parameter SYNC    = 1,
-    parameter CHAINS  = 0      // a chain record's bytes (ChainSteps), 0: no chain units
+    parameter CHAINS  = 0,     // a chain record's bytes (ChainSteps), 0: no chain units
+    parameter RECUR   = 0,     // Config: the core has the per-step recurrence
+    parameter MR      = 0      // and its digit bits (0..15)
 ) (
     input  wire          clk,
     input  wire          rst,
@@ -187,7 +189,8 @@ module ms_regs #(
     wire [4:0]  c_word   = req_addr[4:0];
     wire [5:0]  c_ax     = {{(6-LK){1'b0}}, req_addr[AW-2:5]};
     wire        c_ok     = is_core && (req_addr[11:AW] == 0) &&
-                           (c_cmd ? (c_word <= 5'd1 && {26'd0, c_ax} < K) : (c_word <= 5'd16));
+                           (c_cmd ? (c_word <= 5'd1 && {26'd0, c_ax} < K)
+                                  : (c_word <= 5'd16 || RECUR != 0));   // staging words
     wire        c_busy   = c_cmd && core_busy[c_ax[LK-1:0]];
     integer n, i;
     always @(*) begin
@@ -224,7 +227,7 @@ module ms_regs #(
         if (is_board) begin
             case (breg)
                 8'h00: rd = {16'h4D53, VERSION[15:0]};
-                8'h01: rd = {K[7:0], LF[7:0], LS[7:0], RB[7:0]};
+                8'h01: rd = {K[7:0], LF[7:0], LS[7:0], RECUR[0], MR[3:0], RB[2:0]};
                 8'h02: rd = {WN[7:0], WD[7:0], WY[7:0], WK[7:0]};
                 8'h03: rd = CLK_HZ;
                 8'h04: rd = BAUD;

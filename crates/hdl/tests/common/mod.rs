@@ -266,5 +266,6 @@ pub fn narrow_params(axes: u32, fifo_depth: u32, pieces: u32) -> CoreParams {
         clock_hz: 1e6,
         max_rate: 5e3,
         max_piece_s: 0.05,
+        recurrence: None,
     }
 }
