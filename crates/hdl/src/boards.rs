@@ -178,7 +178,12 @@ pub const BOARDS: [Board; 4] = [
         max_axes: 8,
         default_axes: 8,
         baud: 3_000_000,
-        core: ULX3S_25F_CORE,
+        // trapezoids by the per-step recurrence (two digits of t): 57.17 MHz routed, 69 %
+        // of the LUTs (docs/HDL.md, Boards); beside 14 axes it does not fit yet
+        core: BoardCore {
+            recurrence: Some(13),
+            ..ULX3S_25F_CORE
+        },
         pinout: ULX3S_8,
         top: "ms_ulx3s_top",
         stream_buffer_bits: 9,
