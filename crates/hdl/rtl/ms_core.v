@@ -57,10 +57,12 @@ module ms_core #(
     parameter AW  = 7,     // 1 + LK + 5
     parameter LUTRAM = 0,  // 1: the family has distributed RAM (ECP5): dy's memory is there
     parameter RECUR = 0,   // 1: the per-step recurrence (ms_recur) beside the closed form
+    /* verilator lint_off UNUSEDPARAM */  // the recurrence's, unused without it
     parameter MR  = 0,     // ms_recur's multiplier digit bits (0: full width)
     parameter WRA = 56,    // its 2A (unsigned), B (two's complement) and 4M bits: fewer
     parameter WRB = 40,    // than the closed form's (which squares A); the host gives a
     parameter WRU = 80     // piece whose fields do not fit hi = 0
+    /* verilator lint_on UNUSEDPARAM */
 ) (
     input  wire          clk,
     input  wire          wr_en,
