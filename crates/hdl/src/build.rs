@@ -90,12 +90,15 @@ fn axes_by_recurrence(
         let board = TdmBoard::new(cfg, &mut axes).map_err(|e| bad(e.to_string()))?;
         Ok(board.run(|_| {}).underruns == 0)
     };
-    let mut most = 0;
-    for k in 1..=32 {
-        if !fed(k)? {
-            break;
+    // more axes on one calculator never feed better: a binary search for the last fed
+    let (mut most, mut over) = (0, 33);
+    while over - most > 1 {
+        let k = (most + over) / 2;
+        if fed(k)? {
+            most = k;
+        } else {
+            over = k;
         }
-        most = k;
     }
     Ok(most)
 }

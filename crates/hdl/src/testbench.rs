@@ -3,7 +3,7 @@
 //! calculator select and FIFO write as `sel|push cycle core`, then `go CYCLE`,
 //! `underrun MASK` and `dir MASK`.
 
-use crate::link::RecurRegs;
+use crate::link::piece_words;
 use crate::{Arch, AxisMove, Design, HdlError};
 use std::fmt::Write as _;
 
@@ -104,14 +104,7 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
     for (a, m) in moves.iter().enumerate() {
         let a = a as u32;
         for (slot, pc) in m.pieces.iter().enumerate() {
-            let recur = d
-                .widths
-                .recur
-                .map(|_| RecurRegs::words(RecurRegs::of(pc, &d.widths).as_ref()));
-            let words = staging_words(pc)
-                .into_iter()
-                .chain(recur.into_iter().flatten());
-            for (word, v) in words.enumerate() {
+            for (word, v) in piece_words(&d.widths, pc).into_iter().enumerate() {
                 let _ = writeln!(
                     s,
                     "        wr({}, 32'd{v});",

@@ -33,17 +33,25 @@ pub fn staging_words(p: &PieceRegs) -> [u32; 17] {
     w
 }
 
-/// The writes that load piece `slot` of `axis`: 17 staging words (32 with the
-/// recurrence's, [`RecurRegs`]) and the commit.
-pub fn piece_writes(w: &Widths, axis: u32, slot: u32, p: &PieceRegs) -> Vec<RegWrite> {
+/// The staging words of piece `p` on a core of widths `w`: the 17 of [`staging_words`],
+/// then the recurrence's 15 ([`RecurRegs`]) when the core has it.
+pub fn piece_words(w: &Widths, p: &PieceRegs) -> Vec<u32> {
     let recur = w
         .recur
         .map(|_| RecurRegs::words(RecurRegs::of(p, w).as_ref()));
-    let mut out: Vec<RegWrite> = staging_words(p)
-        .iter()
-        .chain(recur.iter().flatten())
+    staging_words(p)
+        .into_iter()
+        .chain(recur.into_iter().flatten())
+        .collect()
+}
+
+/// The writes that load piece `slot` of `axis`: its staging words ([`piece_words`]) and
+/// the commit.
+pub fn piece_writes(w: &Widths, axis: u32, slot: u32, p: &PieceRegs) -> Vec<RegWrite> {
+    let mut out: Vec<RegWrite> = piece_words(w, p)
+        .into_iter()
         .enumerate()
-        .map(|(i, &data)| RegWrite {
+        .map(|(i, data)| RegWrite {
             reg: Reg::Core(core_addr(w, false, axis, i as u32)),
             data,
         })
