@@ -854,8 +854,9 @@ fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
 
 /// Fourteen axes on one ULX3S-25F (`ulx3s-25f-14`: every header pin an axis wire, 50 MHz,
 /// docs/HDL.md "Wiring"), a move each, all running at once: trapezoids computed by the
-/// board's one calculator (phase mode, and limits mode on whole ticks), scurve, scurve4,
-/// exponential and sine streamed through the axes' replay units. Every STEP rise of every
+/// board's one calculator with the per-step recurrence (phase mode, and limits mode on
+/// whole ticks), scurve, scurve4, exponential and sine streamed through the shared replay
+/// decoder. Every STEP rise of every
 /// axis is plan's edge at the board's clock, and every Position register the move's steps.
 #[test]
 fn fourteen_axes_run_every_family_at_once_edge_exact() {

@@ -157,7 +157,7 @@ enum Pending {
     Abs { got: u8, acc: u32 },
 }
 
-/// Decodes bytes back into periods (the board's replay unit, `ms_stream.v`, does the same).
+/// Decodes bytes back into periods (the board's replay unit, `ms_replay.v`, does the same).
 #[derive(Clone, Copy, Debug)]
 pub struct StreamDecoder {
     prev: u32,

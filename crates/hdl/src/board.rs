@@ -5,7 +5,7 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 11] = [
+pub const BOARD_LIBRARY: [(&str, &str); 13] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
@@ -14,14 +14,20 @@ pub const BOARD_LIBRARY: [(&str, &str); 11] = [
     ("ms_link.v", include_str!("../rtl/board/ms_link.v")),
     ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
-    ("ms_stream.v", include_str!("../rtl/board/ms_stream.v")),
+    ("ms_nibble.v", include_str!("../rtl/board/ms_nibble.v")),
+    (
+        "ms_replay_axis.v",
+        include_str!("../rtl/board/ms_replay_axis.v"),
+    ),
+    ("ms_replay.v", include_str!("../rtl/board/ms_replay.v")),
     ("ms_regs.v", include_str!("../rtl/board/ms_regs.v")),
     ("ms_board.v", include_str!("../rtl/board/ms_board.v")),
 ];
 
 /// The chain units' modules, in a build only when [`BoardTop::chains`] is set (so a board
 /// without them is synthesized from exactly the files above).
-pub const CHAIN_LIBRARY: [(&str, &str); 2] = [
+pub const CHAIN_LIBRARY: [(&str, &str); 3] = [
+    ("ms_stream.v", include_str!("../rtl/board/ms_stream.v")),
     ("ms_chain.v", include_str!("../rtl/board/ms_chain.v")),
     (
         "ms_chain_axis.v",

@@ -196,8 +196,9 @@ pub const BOARDS: [Board; 4] = [
         device: "LFE5U-25F-6BG381C",
         nextpnr_args: ULX3S_25F_NEXTPNR,
         osc_hz: 25e6,
-        // ecppll -i 25 -o 50: VCO 600 MHz. 14 axes take 86 % of the 25F's LUTs and route
-        // at 56.69 MHz since the scheduler's pick is a register (docs/HDL.md, Boards)
+        // ecppll -i 25 -o 50: VCO 600 MHz. 14 axes with the per-step recurrence (the
+        // closed form alone feeds 10 at 100 k steps/s) and the shared replay decoder take
+        // 91 % of the 25F's LUTs and route at 54.36 MHz (docs/HDL.md, Boards)
         pll: Pll::Ehxplll {
             clki_div: 1,
             clkfb_div: 2,
@@ -207,7 +208,10 @@ pub const BOARDS: [Board; 4] = [
         max_axes: 14,
         default_axes: 14,
         baud: 3_000_000,
-        core: ULX3S_25F_CORE,
+        core: BoardCore {
+            recurrence: Some(13),
+            ..ULX3S_25F_CORE
+        },
         pinout: ULX3S_14,
         top: "ms_ulx3s_top",
         stream_buffer_bits: 9,

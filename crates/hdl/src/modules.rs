@@ -63,6 +63,7 @@ pub const PER_AXIS: &[&str] = &[
     "ms_pulse",
     "ms_axis_io",
     "ms_debounce",
+    "ms_replay_axis",
     "ms_stream",
     "ms_chain_axis",
 ];

@@ -1,5 +1,5 @@
-//! Formal properties of the per-axis units, the register map's DIR setup and the per-step
-//! recurrence's walk (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3
+//! Formal properties of the per-axis units, the register map's DIR setup, the shared replay
+//! decoder and the per-step recurrence's walk (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3
 //! at small widths: bounded from the initial state, or proven for every depth by
 //! k-induction where it converges. The checks are not vacuous: every wrapper's covers
 //! (each checked case) are reached, and each wrapper built with `MUTATE`, a deliberately
@@ -75,6 +75,19 @@ const RECUR: Props = Props {
     rtl: &["rtl/ms_recur.v"],
 };
 const RECUR_DEPTH: u32 = 12;
+
+/// The shared replay decoder: K = 2, WD = 4, 256-byte buffers, FIFOs of depth 2, 3-bit
+/// step counts; 12 clocks hold an arm, a bulk frame, its commit, the start and two turns
+/// of the decoder filling the FIFO (the covers are reached by clock 11).
+const REPLAY: Props = Props {
+    top: "replay_props",
+    rtl: &[
+        "rtl/board/ms_nibble.v",
+        "rtl/board/ms_replay_axis.v",
+        "rtl/board/ms_replay.v",
+    ],
+};
+const REPLAY_DEPTH: u32 = 12;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
@@ -216,6 +229,12 @@ fn the_recurrence_answers_every_edge_within_its_walk_limit() {
 }
 
 #[test]
+fn the_shared_replay_decoder_never_overfills_a_fifo_nor_passes_the_armed_steps() {
+    holds(&REPLAY, Mode::Bmc(REPLAY_DEPTH));
+    holds(&REPLAY, Mode::Cover(REPLAY_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
@@ -224,6 +243,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&DEBOUNCE, DEBOUNCE_DEPTH),
         (&REGS, REGS_DEPTH),
         (&RECUR, RECUR_DEPTH),
+        (&REPLAY, REPLAY_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {

@@ -11,20 +11,22 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-05 (LUT each): ms_fifo 16, ms_pulse 305-358 (K = 8, 2, 4), ms_axis_io
-/// 180, ms_debounce 76, ms_stream 482-513; one axis 1140-1188.
+/// Measured 2026-12-06 (LUT each): ms_fifo 19, ms_pulse 326-351 (K = 4, 2), ms_axis_io
+/// 180, ms_debounce 76, ms_replay_axis 229-261 (the replay unit's per-axis part; its
+/// shared decoder, ms_replay, is not an axis's); one axis 886-963.
 const ULX3S: Budgets = &[
-    ("ms_fifo", 20),
+    ("ms_fifo", 22),
     ("ms_pulse", 400),
     ("ms_axis_io", 200),
     ("ms_debounce", 84),
-    ("ms_stream", 560),
+    ("ms_replay_axis", 290),
 ];
-const ULX3S_AXIS: u64 = 1300;
+const ULX3S_AXIS: u64 = 1080;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
-/// readback and per-axis registers included: (K = 4 − K = 2) / 2, measured 1726 and 1760.
-const ULX3S_ADDED_AXIS: u64 = 1900;
+/// readback and per-axis registers and the shared replay decoder's multiplexers included:
+/// (K = 4 − K = 2) / 2, measured 1216 (1726 and 1760 with a whole replay unit per axis).
+const ULX3S_ADDED_AXIS: u64 = 1600;
 
 /// Measured 2026-12-05: ms_fifo 30, ms_pulse 192, ms_axis_io 159, ms_debounce 70; one axis
 /// 521 (no replay unit on this board).

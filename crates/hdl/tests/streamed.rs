@@ -1,7 +1,7 @@
 //! Streamed moves on the whole board (`ms_board` co-simulated, UART included): moves
 //! of every profile family and mode, with start and end speeds, planned by `plan`'s edge
 //! generator, coded (`multistep_core::stream`), sent in bulk writes at the link's real
-//! baud while they run, and replayed by the axes' `ms_stream` units: every STEP rise at
+//! baud while they run, and replayed by the board's `ms_replay` unit: every STEP rise at
 //! `go + t + 1` for plan's t. A host that falls behind: the underrun is flagged.
 
 mod common;

@@ -1,7 +1,7 @@
 //! Streamed moves: any profile family on the board. The host runs `plan`'s exact edge
 //! generator (`multistep_core::edges`), codes the edges losslessly
 //! (`multistep_core::stream`) and sends them in bulk writes to the axis's replay unit
-//! (`rtl/board/ms_stream.v`), which turns them back into periods for the axis's FIFO and
+//! (`rtl/board/ms_replay.v`), which turns them back into periods for the axis's FIFO and
 //! pulse unit. The host keeps the axis's buffer ahead; if it falls behind, the pulse unit
 //! underruns and `State` says so.
 

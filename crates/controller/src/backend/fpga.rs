@@ -10,7 +10,7 @@
 //! and answered once (`HostLink`); a start whose outcome stays unknown (the link failed)
 //! untrusts its axes.
 //!
-//! On a board with replay units (`ms_stream`) every other move — any family, non-whole
+//! On a board with replay units (`ms_replay`) every other move — any family, non-whole
 //! speeds, more pieces than slots once split to the tick width — and tracking run
 //! streamed: the host codes the exact edges of `plan` (or of the tracker) and keeps each
 //! axis's buffer fed from the poll loop ([`stream::Feed`]).

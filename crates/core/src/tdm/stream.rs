@@ -28,6 +28,10 @@ pub const REQUEST_BYTES: u64 = 11;
 /// Cycles the replay unit may take from a frame's last byte to a period in the FIFO
 /// (commit, fetch, decode: a few cycles per byte; generous).
 pub const DECODE_CYCLES: u64 = 64;
+/// And as many more for each streamed axis: one decoder serves every axis of a board, a
+/// period at a time, in turns of at most 14 cycles (`ms_replay.v`), so an axis's period
+/// may wait for a turn of each other axis.
+pub const DECODE_TURN: u64 = 16;
 
 /// One chunk of a schedule.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -192,6 +196,7 @@ pub fn run(
         return None;
     }
     let byte_ticks = 10.0 * link.clock_hz / link.baud;
+    let decode = DECODE_CYCLES + DECODE_TURN * axes.len() as u64;
     let frame_ticks = |n: u64| fm::ceil((n as f64) * byte_ticks) as u64;
     let mut runs: [Option<AxisRun<'_>>; MAX] = Default::default();
     for (a, &e) in axes.iter().enumerate() {
@@ -241,7 +246,7 @@ pub fn run(
             let i = r.need.steps() - 1;
             // period i is loaded at edge i − 1 (period 0 at the start)
             let need = go + if i == 0 { 0 } else { axes[a][i - 1] };
-            let slack = need as i64 - (at + DECODE_CYCLES) as i64;
+            let slack = need as i64 - (at + decode) as i64;
             o.min_slack_ticks = o.min_slack_ticks.min(slack);
             if slack < 0 && o.first_underrun.is_none() {
                 o.first_underrun = Some(i as u64);

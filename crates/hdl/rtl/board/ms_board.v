@@ -134,6 +134,22 @@ module ms_board #(
     wire          b_data = (bulk_addr[15:10] == 6'b001000) && (bulk_addr[3:0] == 4'h7);
     wire [5:0]    b_ax   = bulk_addr[9:4];
 
+    // ---- the replay units: one decoder for every axis (the chain boards: one per axis) ----
+    wire [WD-1:0] r_period;
+    generate
+        if (LB > 0 && CHAINS == 0) begin : shared_replay
+            ms_replay #(.K(K), .LK(LK), .WD(WD), .LB(LBR)) u_replay (
+                .clk(clk), .rst(rst), .arm(s_arm), .arm_steps(req_data),
+                .retarget_in(s_retarget), .bsel(b_data && ({26'd0, b_ax} < K)),
+                .bax(b_ax[LK-1:0]), .bopen(bulk_open), .blen(bulk_len), .bwr(bulk_wr),
+                .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit), .init(init_ax),
+                .halt(halt), .full(ax_full), .armed(s_armed), .bok(s_bok), .free(s_free),
+                .push(s_push), .period(r_period), .more(s_more), .fault(s_fault));
+        end else begin : per_axis_replay
+            assign r_period = {WD{1'b0}};
+        end
+    endgenerate
+
     // ---- per axis ----
     wire kill = estop_act || estop;
     wire en_off = levels[5] && estop;
@@ -152,22 +168,8 @@ module ms_board #(
                     .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
                     .fault(s_fault[a]));
             end else if (LB > 0) begin : replay
-                wire mine = b_data && (b_ax == a);
-                /* verilator lint_off UNUSED */  // the chain port (no chain unit here)
-                wire n_avail, n_feed;
-                wire [7:0] n_rbyte;
-                wire n_unused = n_avail ^ n_feed ^ (^n_rbyte);
-                /* verilator lint_on UNUSED */
-                ms_stream #(.WD(WD), .LB(LBR)) u_stream (
-                    .clk(clk), .rst(rst), .arm(s_arm[a]), .arm_steps(req_data),
-                    .retarget_in(s_retarget[a]),
-                    .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
-                    .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
-                    .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
-                    .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
-                    .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
-                    .fault(s_fault[a]), .arm_ch(1'b0), .pop(1'b0), .xpush(1'b0),
-                    .avail(n_avail), .rbyte(n_rbyte), .feed(n_feed));
+                // the shared replay unit (above)
+                assign s_din[a*WD +: WD] = r_period;
             end else begin : no_replay
                 assign s_armed[a] = 1'b0;
                 assign s_bok[a] = 1'b0;
@@ -213,6 +215,6 @@ module ms_board #(
     assign led = led_q;
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_chain) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_chain) ^ (^r_period) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

@@ -2,9 +2,8 @@
 // stream, docs/HDL.md "Streamed moves"). The host arms it with the move's step count
 // (which clears its byte buffer), fills the buffer with bulk frames and keeps it ahead;
 // from the core's init of the axis at the group's start the unit decodes the nibble code
-// into periods and pushes them into the axis's FIFO, whose pulse unit makes the edges as
-// for computed pieces. Nibbles, low first: 0 pad; 1-13 the previous period + (n - 7);
-// 14 + 2 nibbles: + a signed 8-bit change; 15 + 6 nibbles: the period itself.
+// into periods (ms_nibble) and pushes them into the axis's FIFO, whose pulse unit makes
+// the edges as for computed pieces. (ms_replay is the same for K axes with one decoder.)
 // A bulk frame's bytes are written past the committed data and committed only when its
 // CRC checked (bcommit), and only if it fit the free space when it began (bok).
 // A decoded period of 0 or wider than WD bits stops the decoder (fault): the axis
@@ -108,25 +107,13 @@ module ms_stream #(
 
     // ---- the nibble decoder ----
     wire [3:0]  n      = half ? cur[7:4] : cur[3:0];
-    wire [7:0]  d8     = {n, acc[19:16]};
-    // one adder for both relative codes: n - 7 (-7..6) or the signed 8-bit change
-    wire [7:0]  dp     = (esc == 2'd1) ? d8 : {4'd0, n} - 8'd7;
-    wire [24:0] p_rel  = prev + {{17{dp[7]}}, dp};
-    wire [24:0] p_abs = {1'b0, n, acc[19:0]};
-    reg         done_p;
-    reg  [24:0] p;
-    always @(*) begin
-        done_p = 1'b0;
-        p = p_rel;
-        if (esc == 2'd0) begin
-            done_p = (n != 4'd0) && (n != 4'd14) && (n != 4'd15);
-        end else if (esc == 2'd1) begin
-            done_p = (got == 3'd1);
-        end else begin
-            done_p = (got == 3'd5);
-            p = p_abs;
-        end
-    end
+    wire        done_p;
+    wire [24:0] p;
+    wire [1:0]  esc_n;
+    wire [2:0]  got_n;
+    wire [19:0] acc_n;
+    ms_nibble u_nib (.n(n), .esc(esc), .got(got), .acc(acc), .prev(prev), .done(done_p), .p(p),
+        .esc_n(esc_n), .got_n(got_n), .acc_n(acc_n));
     // a decoded period waits one clock in pv (checked there), so no nibble is decoded
     // while one waits: the FIFO's room seen at decode is still there at the push
     reg         pv_ok;     // pv holds a decoded period
@@ -200,14 +187,10 @@ module ms_stream #(
                             left_nz <= lt_1;
                             pv    <= p;
                             pv_ok <= 1'b1;
-                        end else if (esc == 2'd0) begin
-                            if (n == 4'd14) esc <= 2'd1;
-                            if (n == 4'd15) esc <= 2'd2;
-                            got <= 3'd0;
-                            acc <= 20'd0;
                         end else begin
-                            got <= got + 1'b1;
-                            acc <= {n, acc[19:4]};
+                            esc <= esc_n;
+                            got <= got_n;
+                            acc <= acc_n;
                         end
                     end
                 endcase

@@ -1,0 +1,176 @@
+// ms_replay: the replay units of K axes with one decoder (docs/HDL.md "Streamed moves"):
+// each axis keeps what ms_stream keeps but the decoder (ms_replay_axis), the axes' byte
+// buffers are one block RAM (2^LB bytes each), their last periods one small memory, and
+// one decoder serves the axes in turn.
+// A turn picks the next axis with a nibble to decode, a period to go and FIFO room, and
+// decodes from where the axis stands (ms_nibble) up to one whole period; that period and
+// the axis's new place are taken together, the period pushed the clock after (as
+// ms_stream's). A turn that runs out of bytes, or whose axis stops, leaves the axis as it
+// was: it decodes the same nibbles again once more bytes are there. A turn takes at most
+// 14 clocks (the pick, 5 fetches, 8 nibbles: a 7-nibble code after a pad), so an axis
+// with bytes and FIFO room has its next period within a turn of each axis
+// (multistep_core::tdm::stream::DECODE_TURN).
+// A bulk frame goes to axis bax (bsel: a valid axis); the host side and the registers
+// are the same as with K ms_stream units.
+module ms_replay #(
+    parameter K  = 2,
+    parameter LK = 1,
+    parameter WD = 24,
+    parameter LB = 9
+) (
+    input  wire                clk,
+    input  wire                rst,
+    input  wire [K-1:0]        arm,
+    input  wire [31:0]         arm_steps,
+    input  wire [K-1:0]        retarget_in,
+    input  wire                bsel,      // the open bulk frame is for an axis here
+    input  wire [LK-1:0]       bax,       // that axis
+    input  wire                bopen,
+    input  wire [7:0]          blen,
+    input  wire                bwr,
+    input  wire [7:0]          bidx,
+    input  wire [7:0]          bbyte,
+    input  wire [K-1:0]        bcommit,
+    input  wire [K-1:0]        init,
+    input  wire [K-1:0]        halt,
+    input  wire [K-1:0]        full,
+    output wire [K-1:0]        armed,
+    output wire [K-1:0]        bok,
+    output wire [K*(LB+1)-1:0] free,
+    output wire [K-1:0]        push,
+    output wire [WD-1:0]       period,
+    output wire [K-1:0]        more,
+    output wire [K-1:0]        fault
+);
+    localparam [1:0] S_PICK = 2'd0, S_FETCH = 2'd1, S_DEC = 2'd2;
+
+    // ---- the axes ----
+    wire [LB:0]  wp_w [0:K-1];
+    wire [LB:0]  rp_w [0:K-1];
+    wire [3:0]   hn_w [0:K-1];
+    wire [K-1:0] hp_v, fresh_v, live_v, want_v, serve;
+    reg  [LK-1:0] s;           // the axis served
+    reg  [LB:0]   wr;          // its next byte to fetch
+    reg           lo;          // the fetched byte's low nibble is next (else nh)
+    reg  [3:0]    nh;          // the next nibble when !lo: a byte's high nibble
+    reg  [1:0]    st;
+    reg  [1:0]    esc;
+    reg  [2:0]    got;
+    reg  [19:0]   acc;
+    reg  [24:0]   pmem [0:(1<<LK)-1];   // each axis's last period (valid unless fresh)
+    reg  [24:0]   pm;          // pmem[s], read every clock: the served axis's from its pick
+    reg  [7:0]    rdata;
+    reg           pv_ok;       // pv holds a period of axis pv_ax, pushed now
+    reg  [24:0]   pv;
+    reg  [LK-1:0] pv_ax;
+    wire          done_p;      // the decoder's nibble ends a period: p
+    wire [24:0]   p;
+    wire          pbad = (pv == 25'd0) || (pv[24:WD] != {(25-WD){1'b0}});
+    initial begin
+        st = S_PICK;
+        s = {LK{1'b0}};
+        pv_ok = 1'b0;
+    end
+    genvar g;
+    generate
+        for (g = 0; g < K; g = g + 1) begin : ax
+            /* verilator lint_off WIDTH */  // the genvar against LK-bit indices
+            wire mine = bsel && (bax == g);
+            wire penq = pv_ok && (pv_ax == g);
+            /* verilator lint_on WIDTH */
+            ms_replay_axis #(.LB(LB)) u_axis (
+                .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
+                .retarget_in(retarget_in[g]), .bopen(bopen && mine),
+                .blen(blen), .bcommit(bcommit[g]), .init(init[g]), .halt(halt[g]),
+                .full(full[g]), .serve(serve[g]), .n_rp(wr), .n_hp(lo), .n_hn(rdata[7:4]),
+                .pend(penq), .pbad(pbad), .armed(armed[g]),
+                .bok(bok[g]), .free(free[g*(LB+1) +: LB+1]), .push(push[g]),
+                .more(more[g]), .fault(fault[g]), .wp(wp_w[g]), .rp(rp_w[g]), .hp(hp_v[g]),
+                .hn(hn_w[g]), .fresh(fresh_v[g]), .live(live_v[g]), .want(want_v[g]));
+        end
+    endgenerate
+    assign period = pv[WD-1:0];
+
+    // ---- the buffers: one memory, axis-major ----
+    reg  [7:0] mem [0:(1<<(LK+LB))-1];
+    wire [LB:0] bwp = wp_w[bax];
+    /* verilator lint_off WIDTH */
+    wire [LB-1:0] waddr = bwp[LB-1:0] + bidx;
+    /* verilator lint_on WIDTH */
+    /* verilator lint_off UNUSED */  // the pointer's wrap bit: the address is modulo 2^LB
+    wire unused_wrap = bwp[LB];
+    /* verilator lint_on UNUSED */
+    always @(posedge clk) begin
+        if (bwr && bsel && bok[bax]) mem[{bax, waddr}] <= bbyte;
+        rdata <= mem[{s, wr[LB-1:0]}];
+    end
+
+    // ---- the decoder ----
+    wire [3:0]  n = lo ? rdata[3:0] : nh;
+    wire [24:0] pw = fresh_v[s] ? 25'd0 : pm;   // the axis's last period
+    wire [1:0]  esc_n;
+    wire [2:0]  got_n;
+    wire [19:0] acc_n;
+    ms_nibble u_nib (.n(n), .esc(esc), .got(got), .acc(acc), .prev(pw), .done(done_p), .p(p),
+        .esc_n(esc_n), .got_n(got_n), .acc_n(acc_n));
+    wire          s_live = live_v[s];
+    wire          take   = (st == S_DEC) && s_live && done_p && !full[s];
+    localparam [31:0]   KM1  = K - 1;
+    localparam [LK-1:0] LAST = KM1[LK-1:0];
+    wire [LK-1:0] s_next = (s == LAST) ? {LK{1'b0}} : s + 1'b1;
+    generate
+        for (g = 0; g < K; g = g + 1) begin : sv
+            /* verilator lint_off WIDTH */
+            assign serve[g] = take && (s == g);
+            /* verilator lint_on WIDTH */
+        end
+    endgenerate
+    always @(posedge clk) begin
+        pm <= pmem[s];
+        if (take) pmem[s] <= p;
+    end
+    always @(posedge clk) begin
+        pv_ok <= take;
+        if (take) begin
+            pv    <= p;
+            pv_ax <= s;
+        end
+        if (rst) begin
+            st <= S_PICK;
+            s  <= {LK{1'b0}};
+        end else begin
+            case (st)
+                S_PICK: if (want_v[s]) begin
+                    wr  <= rp_w[s];
+                    lo  <= 1'b0;
+                    nh  <= hn_w[s];
+                    esc <= 2'd0;
+                    st  <= hp_v[s] ? S_DEC : S_FETCH;
+                end else begin
+                    s <= s_next;
+                end
+                // the read of {s, wr} is in flight; its byte is rdata in S_DEC
+                S_FETCH: if (!s_live || wr == wp_w[s]) begin
+                    st <= S_PICK;
+                    s  <= s_next;
+                end else begin
+                    wr <= wr + 1'b1;
+                    lo <= 1'b1;
+                    st <= S_DEC;
+                end
+                // a period ends the turn, taken (take) if the FIFO has room
+                default: if (!s_live || done_p) begin
+                    st <= S_PICK;
+                    s  <= s_next;
+                end else begin
+                    if (lo) nh <= rdata[7:4];
+                    lo <= 1'b0;
+                    if (!lo) st <= S_FETCH;
+                    esc <= esc_n;
+                    got <= got_n;
+                    acc <= acc_n;
+                end
+            endcase
+        end
+    end
+endmodule

@@ -1,0 +1,113 @@
+// ms_replay_axis: one axis's part of the shared replay unit (ms_replay): its buffer's
+// pointers, its step count, and where its decoding stands between the decoder's turns:
+// the next byte to fetch (rp), the high nibble of the byte before when that nibble is
+// still to be decoded (hp, hn; the byte itself is free for the host again), and whether
+// it has a last period yet (`fresh`: not since init; the period itself is in ms_replay's
+// memory). Arm, retarget, init, halt and the fault are ms_stream's.
+module ms_replay_axis #(
+    parameter LB = 9
+) (
+    input  wire          clk,
+    input  wire          rst,
+    input  wire          arm,       // StreamSteps write: the next start of the axis replays
+    input  wire [31:0]   arm_steps, // that many steps (0 disarms)
+    input  wire          retarget_in, // StreamSteps write while the axis runs: its count
+    input  wire          bopen,     // a bulk frame for this axis begins, blen bytes
+    input  wire [7:0]    blen,
+    input  wire          bcommit,   // its CRC checked and it was accepted
+    input  wire          init,      // the core initializes the axis (the group's start)
+    input  wire          halt,
+    input  wire          full,      // the axis's FIFO
+    // the decoder
+    input  wire          serve,     // it decoded this axis's next period: take n_*
+    input  wire [LB:0]   n_rp,
+    input  wire          n_hp,
+    input  wire [3:0]    n_hn,
+    input  wire          pend,      // a decoded period of this axis is pushed this clock
+    input  wire          pbad,      // ... unless it is bad (0 or too wide): the fault
+    output wire          armed,
+    output reg           bok,       // the open bulk frame fits
+    output wire [LB:0]   free,      // free bytes in the buffer
+    output wire          push,
+    output wire          more,      // periods still to push
+    output reg           fault,
+    output reg  [LB:0]   wp,
+    output reg  [LB:0]   rp,
+    output reg           hp,
+    output reg  [3:0]    hn,
+    output reg           fresh,
+    output wire          live,      // a period decoded now may be taken
+    output wire          want       // ... and there is a nibble to decode and FIFO room
+);
+    reg        arm_q, run;
+    reg [31:0] steps, done;
+    reg        left_nz;    // done < steps, registered
+    reg        retarget_d; // a retarget took effect last clock: left_nz follows it now
+    initial begin
+        wp = {(LB+1){1'b0}};
+        rp = {(LB+1){1'b0}};
+        hp = 1'b0;
+        fresh = 1'b1;
+        arm_q = 1'b0;
+        run = 1'b0;
+        left_nz = 1'b0;
+        retarget_d = 1'b0;
+        fault = 1'b0;
+        bok = 1'b0;
+    end
+    assign armed = arm_q;
+    assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
+    assign more  = run && (left_nz || pend || fault);
+    assign push  = pend && !pbad && run;
+    assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
+    assign want  = live && !full && (hp || rp != wp);
+    wire retarget = retarget_in && more;
+    // left_nz after a step (done + 1 < count) or a retarget alone (done < count), from one
+    // subtract, count - (done + 1), as in ms_stream
+    wire [32:0] done_1w = {1'b0, done} + 1'b1;
+    wire [33:0] gap     = {2'b0, steps} - {1'b0, done_1w};
+    wire        le_1    = !gap[33];
+    wire        lt_1    = le_1 && (gap[32:0] != 33'd0);
+
+    always @(posedge clk)
+        retarget_d <= retarget && !rst && !arm && !halt && !init;
+    always @(posedge clk) begin
+        if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
+        if (rst) begin
+            wp    <= {(LB+1){1'b0}};
+            rp    <= {(LB+1){1'b0}};
+            arm_q <= 1'b0;
+            run   <= 1'b0;
+            fault <= 1'b0;
+        end else if (arm) begin
+            wp    <= {(LB+1){1'b0}};
+            rp    <= {(LB+1){1'b0}};
+            hp    <= 1'b0;
+            steps <= arm_steps;
+            arm_q <= (arm_steps != 32'd0);
+        end else if (halt) begin
+            run <= 1'b0;
+        end else if (init) begin
+            run     <= arm_q;
+            arm_q   <= 1'b0;
+            done    <= 32'd0;
+            left_nz <= (steps != 32'd0);
+            fresh   <= 1'b1;
+            hp      <= 1'b0;
+            fault   <= 1'b0;
+        end else begin
+            if (pend && pbad) fault <= 1'b1;
+            if (retarget) steps <= arm_steps;
+            if (retarget_d) left_nz <= le_1;
+            if (serve) begin
+                rp      <= n_rp;
+                hp      <= n_hp;
+                hn      <= n_hn;
+                fresh   <= 1'b0;
+                done    <= done_1w[31:0];
+                left_nz <= lt_1;
+            end
+        end
+        if (bopen) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;
+    end
+endmodule
