@@ -225,6 +225,12 @@ pub trait BoardBackend: Send {
     /// Shifts the count by `delta` (homing's re-reference, a periodic axis's wrap);
     /// `mechanics`: the simulated mechanics shift with it (the same place, renamed).
     fn rebase(&mut self, axis: usize, delta: i64, mechanics: bool) -> Result<(), CtlError>;
+    /// A periodic axis's wrap: the count shifted by whole periods, the same place renamed
+    /// (mechanics too). A backend may keep it lazily while the axis moves: a host killed
+    /// meanwhile reads the same place under its old name, which it wraps again.
+    fn wrap(&mut self, axis: usize, delta: i64) -> Result<(), CtlError> {
+        self.rebase(axis, delta, true)
+    }
     /// The sensor's accepted level.
     fn sensor(&self, axis: usize) -> bool;
     /// Restarts the sensor filter on the present level at `now`.

@@ -62,6 +62,11 @@ struct Running {
     end_tick: u64,
     /// Steps of the stop ramp loaded for a Hall stop.
     ramp_steps: u64,
+    /// Periods a periodic axis's count was wrapped by while it runs, not yet in the kept
+    /// session: a durable write there (an fsync, which a busy disk can make last hundreds
+    /// of milliseconds) would hold up the poll that feeds the axis's stream. Kept once
+    /// the axis rests.
+    wraps: i64,
 }
 
 struct FpgaAxis {
@@ -277,6 +282,7 @@ impl BoardBackend for FpgaBackend {
             stopping: false,
             end_tick,
             ramp_steps: 0,
+            wraps: 0,
         });
         ax.late_told = false;
         ax.feed = Some(feed);
@@ -437,18 +443,13 @@ impl BoardBackend for FpgaBackend {
     }
 
     fn rebase(&mut self, axis: usize, delta: i64, _mechanics: bool) -> Result<(), CtlError> {
-        let ax = &mut self.axes[axis];
-        if ax.running.is_some() {
+        if self.axes[axis].running.is_some() {
             // the counter runs (and is not writable): the host shifts its reading
-            ax.offset += delta;
-            ax.count += delta;
-            if let Some(f) = ax.feed.as_mut() {
-                f.count0 += delta;
-            }
+            self.shift_reading(axis, delta);
             self.keep_session_now();
             return Ok(());
         }
-        if ax.offset != 0 {
+        if self.axes[axis].offset != 0 {
             // the write below sets the whole count
             self.fold_offset(axis).map_err(|e| self.failed(e))?;
         }
@@ -465,6 +466,17 @@ impl BoardBackend for FpgaBackend {
                 Ok(())
             }
             Err(e) => Err(self.failed(e)),
+        }
+    }
+
+    fn wrap(&mut self, axis: usize, delta: i64) -> Result<(), CtlError> {
+        match self.axes[axis].running.as_mut() {
+            Some(run) => {
+                run.wraps += delta;
+                self.shift_reading(axis, delta);
+                Ok(())
+            }
+            None => self.rebase(axis, delta, true),
         }
     }
 

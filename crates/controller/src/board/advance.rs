@@ -40,11 +40,16 @@ impl Board {
     /// Shifts axis `i`'s count by `delta` (motor and load alike: the slack is kept).
     pub(super) fn rebase(&mut self, i: usize, delta: i64, mechanics: bool) -> Result<(), CtlError> {
         self.pins.rebase(i, delta, mechanics)?;
+        self.shifted(i, delta);
+        Ok(())
+    }
+
+    /// The motion's reference follows a shift of the backend's count by `delta`.
+    fn shifted(&mut self, i: usize, delta: i64) {
         if let Some(m) = self.axes[i].motion.as_mut() {
             m.motor0 += delta;
         }
         self.sync_count(i);
-        Ok(())
     }
 
     pub(super) fn on_event(&mut self, i: usize, ev: PinEvent) {
@@ -159,9 +164,12 @@ impl Board {
         if shift == 0 {
             return;
         }
-        if let Err(e) = self.rebase(i, shift, true) {
-            let name = &self.axes[i].name;
-            self.warnings.push(format!("axis {name}: {e}"));
+        match self.pins.wrap(i, shift) {
+            Ok(()) => self.shifted(i, shift),
+            Err(e) => {
+                let name = &self.axes[i].name;
+                self.warnings.push(format!("axis {name}: {e}"));
+            }
         }
     }
 

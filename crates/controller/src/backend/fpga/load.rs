@@ -90,6 +90,7 @@ impl FpgaBackend {
             stopping: false,
             end_tick: now + (l.profile.duration() * clock).round() as u64,
             ramp_steps: 0,
+            wraps: 0,
         };
         if let Some(c) = self.chained(l) {
             // computed on the board: every record goes before the start
@@ -263,6 +264,7 @@ impl FpgaBackend {
             stopping: false,
             end_tick: now + ip.end_tick(),
             ramp_steps,
+            wraps: 0,
         };
         Ok((w, run, None))
     }

@@ -48,7 +48,12 @@ impl FpgaBackend {
     fn session_record(&self, streamed: u32, armed: u32) -> LinkSession {
         let mut r = LinkSession {
             token: self.session,
-            offsets: self.axes.iter().map(|a| a.offset).collect(),
+            // a running axis's wraps are kept once it rests (`Running::wraps`)
+            offsets: self
+                .axes
+                .iter()
+                .map(|a| a.offset - a.running.as_ref().map_or(0, |r| r.wraps))
+                .collect(),
             streamed,
             armed: self.armed | armed,
             folding: self.folding,
@@ -90,6 +95,17 @@ impl FpgaBackend {
             );
         }
         self.kept = Some(r);
+    }
+
+    /// A running axis's count shifted by `delta` in the host's reading (its `offset`): the
+    /// board's counter is not writable while it runs.
+    pub(super) fn shift_reading(&mut self, axis: usize, delta: i64) {
+        let ax = &mut self.axes[axis];
+        ax.offset += delta;
+        ax.count += delta;
+        if let Some(f) = ax.feed.as_mut() {
+            f.count0 += delta;
+        }
     }
 
     pub(super) fn keep_session_now(&mut self) {
@@ -184,6 +200,7 @@ impl FpgaBackend {
                     stopping: false,
                     end_tick: UNKNOWN_END,
                     ramp_steps: 0,
+                    wraps: 0,
                 });
                 continue;
             }

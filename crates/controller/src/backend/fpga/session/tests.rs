@@ -63,6 +63,19 @@ fn poll_until(
     all
 }
 
+/// A host restarted while its board runs axis 0 forward (700 steps to go, the counter at
+/// 100) with the session it kept (axis 0's offset 3600).
+fn adopting_a_running_move() -> (Arc<Mutex<Model>>, FpgaBackend, Arc<Mutex<Vec<LinkSession>>>) {
+    let m = model(|m| {
+        (m.session, m.busy, m.dir) = (TOKEN, 0b01, 0b01);
+        (m.position, m.steps) = ([100, 5], 700);
+    });
+    let mut before = kept(0);
+    before.offsets = vec![3600, 0];
+    let (b, log) = resume(&m, Some(before));
+    (m, b, log)
+}
+
 #[test]
 fn a_board_that_lost_power_while_the_host_was_down_untrusts_every_axis() {
     // power-up values: Session 0, the counts 0 as the store has them
@@ -163,15 +176,51 @@ fn an_adopted_idle_offset_is_folded_in_only_once_the_session_is_kept() {
     );
 }
 
+/// A periodic axis wrapped while it runs: the host's reading shifts at once, the kept
+/// session only once the axis rests (a durable write mid-motion would hold up the poll
+/// that feeds a stream; a host killed meanwhile reads the same place, whole periods off).
+/// A re-reference mid-motion (homing's) is kept at once, the wraps still left out.
+#[test]
+fn a_wrap_while_the_axis_runs_is_kept_once_it_rests() {
+    let (m, mut b, log) = adopting_a_running_move();
+    assert!(events(&mut b).is_empty(), "still moving");
+    b.wrap(0, -3240).unwrap();
+    assert_eq!(b.count(0), 460, "the reading shifts at once");
+    assert!(events(&mut b).is_empty(), "still moving");
+    let offsets = |log: &Arc<Mutex<Vec<LinkSession>>>| -> Vec<i64> {
+        log.lock().unwrap().iter().map(|s| s.offsets[0]).collect()
+    };
+    assert!(
+        offsets(&log).iter().all(|&o| o == 3600),
+        "kept mid-motion: {:?}",
+        offsets(&log)
+    );
+    b.rebase(0, 10, false).unwrap();
+    assert_eq!(b.count(0), 470);
+    assert_eq!(
+        offsets(&log).last(),
+        Some(&3610),
+        "a re-reference, kept at once"
+    );
+    m.lock().unwrap().finish();
+    let ev = events(&mut b);
+    assert!(matches!(ev[..], [(0, PinEvent::End { .. })]), "{ev:?}");
+    assert_eq!(b.count(0), 1170);
+    assert_eq!(m.lock().unwrap().position[0], 1170, "folded in at rest");
+    let log = log.lock().unwrap();
+    let fold = log
+        .iter()
+        .position(|s| s.folding.is_some_and(|f| f.offset == 370));
+    assert!(
+        fold.is_some(),
+        "the wrapped offset kept before the fold: {log:?}"
+    );
+    assert_eq!(log.last().unwrap().offsets, vec![0, 0]);
+}
+
 #[test]
 fn a_restarted_host_adopts_a_running_computed_move_and_trusts_its_end() {
-    let m = model(|m| {
-        (m.session, m.busy, m.dir) = (TOKEN, 0b01, 0b01);
-        (m.position, m.steps) = ([100, 5], 700);
-    });
-    let mut before = kept(0);
-    before.offsets = vec![3600, 0];
-    let (mut b, _) = resume(&m, Some(before));
+    let (m, mut b, _) = adopting_a_running_move();
     assert!(b.adopted());
     assert_eq!(m.lock().unwrap().session, TOKEN, "the session kept");
     assert_eq!(b.adopted_motion(0), Some(1), "running forward");
