@@ -23,11 +23,11 @@ fn model(set: impl FnOnce(&mut Model)) -> Arc<Mutex<Model>> {
     Arc::new(Mutex::new(m))
 }
 
+/// Every session the backend kept, in order.
+type Kept = Arc<Mutex<Vec<LinkSession>>>;
+
 /// A backend connecting to `m` with the session `before`.
-fn resume(
-    m: &Arc<Mutex<Model>>,
-    before: Option<LinkSession>,
-) -> (FpgaBackend, Arc<Mutex<Vec<LinkSession>>>) {
+fn resume(m: &Arc<Mutex<Model>>, before: Option<LinkSession>) -> (FpgaBackend, Kept) {
     let port = m.clone();
     let open: Opener = Box::new(move || Ok(Box::new(ModelPort(port.clone())) as Box<dyn Port>));
     let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, before)
@@ -65,7 +65,7 @@ fn poll_until(
 
 /// A host restarted while its board runs axis 0 forward (700 steps to go, the counter at
 /// 100) with the session it kept (axis 0's offset 3600).
-fn adopting_a_running_move() -> (Arc<Mutex<Model>>, FpgaBackend, Arc<Mutex<Vec<LinkSession>>>) {
+fn adopting_a_running_move() -> (Arc<Mutex<Model>>, FpgaBackend, Kept) {
     let m = model(|m| {
         (m.session, m.busy, m.dir) = (TOKEN, 0b01, 0b01);
         (m.position, m.steps) = ([100, 5], 700);
@@ -187,9 +187,8 @@ fn a_wrap_while_the_axis_runs_is_kept_once_it_rests() {
     b.wrap(0, -3240).unwrap();
     assert_eq!(b.count(0), 460, "the reading shifts at once");
     assert!(events(&mut b).is_empty(), "still moving");
-    let offsets = |log: &Arc<Mutex<Vec<LinkSession>>>| -> Vec<i64> {
-        log.lock().unwrap().iter().map(|s| s.offsets[0]).collect()
-    };
+    let offsets =
+        |log: &Kept| -> Vec<i64> { log.lock().unwrap().iter().map(|s| s.offsets[0]).collect() };
     assert!(
         offsets(&log).iter().all(|&o| o == 3600),
         "kept mid-motion: {:?}",
