@@ -64,6 +64,7 @@ pub const PER_AXIS: &[&str] = &[
     "ms_axis_io",
     "ms_debounce",
     "ms_replay_axis",
+    "ms_step_count",
     "ms_stream",
     "ms_chain_axis",
 ];

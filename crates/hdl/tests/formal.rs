@@ -83,6 +83,7 @@ const REPLAY: Props = Props {
     top: "replay_props",
     rtl: &[
         "rtl/board/ms_nibble.v",
+        "rtl/board/ms_step_count.v",
         "rtl/board/ms_replay_axis.v",
         "rtl/board/ms_replay.v",
     ],

@@ -11,15 +11,16 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-06 (LUT each): ms_fifo 19, ms_pulse 326-351 (K = 4, 2), ms_axis_io
-/// 180, ms_debounce 76, ms_replay_axis 229-261 (the replay unit's per-axis part; its
-/// shared decoder, ms_replay, is not an axis's); one axis 886-963.
+/// Measured 2026-12-06 (LUT each): ms_fifo 19, ms_pulse 293-351, ms_axis_io 180,
+/// ms_debounce 76, ms_replay_axis 97 and its ms_step_count 173 (the replay unit's per-axis
+/// part; its shared decoder, ms_replay, is not an axis's); one axis 886-963.
 const ULX3S: Budgets = &[
     ("ms_fifo", 22),
     ("ms_pulse", 400),
     ("ms_axis_io", 200),
     ("ms_debounce", 84),
-    ("ms_replay_axis", 290),
+    ("ms_replay_axis", 130),
+    ("ms_step_count", 200),
 ];
 const ULX3S_AXIS: u64 = 1080;
 

@@ -3,7 +3,8 @@
 // the next byte to fetch (rp), the high nibble of the byte before when that nibble is
 // still to be decoded (hp, hn; the byte itself is free for the host again), and whether
 // it has a last period yet (`fresh`: not since init; the period itself is in ms_replay's
-// memory). Arm, retarget, init, halt and the fault are ms_stream's.
+// memory). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
+// ms_step_count.
 module ms_replay_axis #(
     parameter LB = 9
 ) (
@@ -40,9 +41,7 @@ module ms_replay_axis #(
     output wire          want       // ... and there is a nibble to decode and FIFO room
 );
     reg        arm_q, run;
-    reg [31:0] steps, done;
-    reg        left_nz;    // done < steps, registered
-    reg        retarget_d; // a retarget took effect last clock: left_nz follows it now
+    wire       left_nz;    // periods to go (ms_step_count)
     initial begin
         wp = {(LB+1){1'b0}};
         rp = {(LB+1){1'b0}};
@@ -50,8 +49,6 @@ module ms_replay_axis #(
         fresh = 1'b1;
         arm_q = 1'b0;
         run = 1'b0;
-        left_nz = 1'b0;
-        retarget_d = 1'b0;
         fault = 1'b0;
         bok = 1'b0;
     end
@@ -61,16 +58,9 @@ module ms_replay_axis #(
     assign push  = pend && !pbad && run;
     assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
     assign want  = live && !full && (hp || rp != wp);
-    wire retarget = retarget_in && more;
-    // left_nz after a step (done + 1 < count) or a retarget alone (done < count), from one
-    // subtract, count - (done + 1), as in ms_stream
-    wire [32:0] done_1w = {1'b0, done} + 1'b1;
-    wire [33:0] gap     = {2'b0, steps} - {1'b0, done_1w};
-    wire        le_1    = !gap[33];
-    wire        lt_1    = le_1 && (gap[32:0] != 33'd0);
+    ms_step_count u_steps (.clk(clk), .rst(rst), .load(arm), .halt(halt), .init(init),
+        .retarget(retarget_in && more), .step(serve), .count(arm_steps), .left_nz(left_nz));
 
-    always @(posedge clk)
-        retarget_d <= retarget && !rst && !arm && !halt && !init;
     always @(posedge clk) begin
         if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
         if (rst) begin
@@ -83,29 +73,22 @@ module ms_replay_axis #(
             wp    <= {(LB+1){1'b0}};
             rp    <= {(LB+1){1'b0}};
             hp    <= 1'b0;
-            steps <= arm_steps;
             arm_q <= (arm_steps != 32'd0);
         end else if (halt) begin
             run <= 1'b0;
         end else if (init) begin
             run     <= arm_q;
             arm_q   <= 1'b0;
-            done    <= 32'd0;
-            left_nz <= (steps != 32'd0);
             fresh   <= 1'b1;
             hp      <= 1'b0;
             fault   <= 1'b0;
         end else begin
             if (pend && pbad) fault <= 1'b1;
-            if (retarget) steps <= arm_steps;
-            if (retarget_d) left_nz <= le_1;
             if (serve) begin
-                rp      <= n_rp;
-                hp      <= n_hp;
-                hn      <= n_hn;
-                fresh   <= 1'b0;
-                done    <= done_1w[31:0];
-                left_nz <= lt_1;
+                rp    <= n_rp;
+                hp    <= n_hp;
+                hn    <= n_hn;
+                fresh <= 1'b0;
             end
         end
         if (bopen) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;

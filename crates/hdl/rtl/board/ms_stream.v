@@ -53,9 +53,7 @@ module ms_stream #(
     reg [7:0]  rdata, cur;
     reg        arm_q, run, half;
     reg        ch_q, ch;   // armed for / running a chain
-    reg [31:0] steps, done;
-    reg        left_nz;    // done < steps, registered (off the register-check paths)
-    reg        retarget_d; // a retarget took effect last clock: left_nz follows it now
+    wire       left_nz;    // periods to go (ms_step_count)
     reg [1:0]  st;
     reg [1:0]  esc;        // 0 op, 1 change (2 nibbles), 2 period (6 nibbles)
     reg [2:0]  got;
@@ -69,28 +67,12 @@ module ms_stream #(
         ch_q = 1'b0;
         ch = 1'b0;
         pv_ok = 1'b0;
-        left_nz = 1'b0;
-        retarget_d = 1'b0;
         fault = 1'b0;
         bok = 1'b0;
     end
     assign armed = arm_q;
     assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
     assign more  = run && (left_nz || pv_ok || fault);
-    wire retarget = retarget_in && more;
-    // A retarget writes the count now and updates left_nz from it the clock after, as if
-    // the write had come a clock later (the host cannot tell): no multiplexer between the
-    // written and the running count in front of the subtract (68 LUT4-eq less on ECP5)
-    // one comparator for both updates of left_nz: done + 1 against the count, < after a
-    // step, <= (that is done < count) after a retarget alone; 33 bits, so done + 1 does not
-    // wrap
-    wire [32:0] done_1w = {1'b0, done} + 1'b1;
-    wire [31:0] done_1  = done_1w[31:0];
-    // one subtract, steps - (done + 1): its sign and whether it is zero (as two
-    // comparisons of a multiplexed operand this synthesized 173 LUT4-eq larger on ECP5)
-    wire [33:0] gap     = {2'b0, steps} - {1'b0, done_1w};
-    wire        le_1    = !gap[33];
-    wire        lt_1    = le_1 && (gap[32:0] != 33'd0);
     wire        chain   = (CH != 0) && ch;
     assign avail = (rp != wp);
     assign rbyte = rdata;
@@ -123,9 +105,11 @@ module ms_stream #(
     assign push   = pv_ok && !p_bad && run;
     assign period = pv[WD-1:0];
 
-    // a retarget took effect (in the clock's last branch below)
-    always @(posedge clk)
-        retarget_d <= retarget && !rst && !arm && !(arm_ch && CH != 0) && !halt && !init;
+    // a step: a chain run's period pushed, or a decoded one (pushed the clock after)
+    wire stepped = run && (chain ? xpush : (st == S_DEC && dec && done_p));
+    ms_step_count u_steps (.clk(clk), .rst(rst), .load(arm || (arm_ch && CH != 0)),
+        .halt(halt), .init(init), .retarget(retarget_in && more), .step(stepped),
+        .count(arm_steps), .left_nz(left_nz));
     always @(posedge clk) begin
         if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
         if (rst) begin
@@ -138,7 +122,6 @@ module ms_stream #(
         end else if (arm || (arm_ch && CH != 0)) begin
             wp    <= {(LB+1){1'b0}};
             rp    <= {(LB+1){1'b0}};
-            steps <= arm_steps;
             arm_q <= (arm_steps != 32'd0);
             ch_q  <= arm_ch && !arm;
         end else if (halt) begin
@@ -148,8 +131,6 @@ module ms_stream #(
             run   <= arm_q;
             ch    <= ch_q;
             arm_q <= 1'b0;
-            done  <= 32'd0;
-            left_nz <= (steps != 32'd0);
             prev  <= 25'd0;
             st    <= S_FETCH;
             esc   <= 2'd0;
@@ -158,14 +139,8 @@ module ms_stream #(
         end else begin
             pv_ok <= 1'b0;
             if (pv_ok && p_bad) fault <= 1'b1;
-            if (retarget) steps <= arm_steps;
-            if (retarget_d) left_nz <= le_1;
             if (run && chain) begin
                 if (pop && avail) rp <= rp + 1'b1;
-                if (xpush) begin
-                    done    <= done_1;
-                    left_nz <= lt_1;
-                end
             end else if (run) begin
                 case (st)
                     S_FETCH: if (rp != wp && left_nz) begin
@@ -183,8 +158,6 @@ module ms_stream #(
                         if (done_p) begin
                             esc   <= 2'd0;
                             prev  <= p;
-                            done  <= done_1;
-                            left_nz <= lt_1;
                             pv    <= p;
                             pv_ok <= 1'b1;
                         end else begin
