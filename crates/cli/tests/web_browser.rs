@@ -79,7 +79,7 @@ fn operator_page_in_headless_chromium() {
     eprintln!("{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "browser scenarios failed (see above)");
     assert!(
-        stdout.contains("15 passed, 0 failed"),
+        stdout.contains("16 passed, 0 failed"),
         "not every scenario ran"
     );
     let png = std::fs::read(&screenshot).expect("screenshot written");

@@ -159,12 +159,23 @@ const heldJogs = new Set();
 
 function holdToJog(board, axis, btn, sign, err) {
   let timer = null;
+  // One request at a time, each after the reply to the one before: a renewal still on its
+  // way at the release would otherwise reach the service after the stop (requests travel
+  // side by side) and start the jog again for a whole lease.
+  let queue = Promise.resolve();
+  let renewing = false;
+  const send = (line) => (queue = queue.then(() => cmd(board, line, err)));
+  const renew = (line) => {
+    if (renewing) return; // the last renewal is unanswered yet: its lease still runs
+    renewing = true;
+    send(line).then(() => { renewing = false; });
+  };
   const release = () => {
     if (!heldJogs.has(release)) return;
     heldJogs.delete(release);
     clearInterval(timer);
     btn.classList.remove('held');
-    cmd(board, `stop ${axis}`, err);
+    send(`stop ${axis}`);
   };
   btn.addEventListener('pointerdown', (e) => {
     if (e.button !== 0 || heldJogs.has(release)) return;
@@ -174,8 +185,8 @@ function holdToJog(board, axis, btn, sign, err) {
     heldJogs.add(release);
     btn.classList.add('held');
     if (btn.setPointerCapture) btn.setPointerCapture(e.pointerId);
-    cmd(board, line, err);
-    timer = setInterval(() => cmd(board, line, err), JOG_RENEW_MS);
+    renew(line);
+    timer = setInterval(() => renew(line), JOG_RENEW_MS);
   });
   for (const ev of ['pointerup', 'pointercancel', 'lostpointercapture', 'blur']) btn.addEventListener(ev, release);
 }

@@ -362,6 +362,33 @@ scenario('tracking controls: a rate, a stored rate, stop; press-and-hold jog sto
   if (p2 !== p1 || p1 <= p0 + 1000) throw new Error(`jog positions ${p0} → ${p1} → ${p2}`);
 });
 
+scenario('a renewal still on its way at the release does not start the jog again', async ({ page, serviceUrl }) => {
+  await page.locator(`${card('Y')} .hold-plus`).hover();
+  await page.mouse.down();
+  await waitAxis(page, 'Y', (s) => s.state === 'tracking', 'jogging forward');
+  // From now on every renewal takes 600 ms to reach the service; the stop does not.
+  await page.route('**/api/cmd', async (route) => {
+    if ((route.request().postData() || '').includes('track Y')) await sleep(600);
+    await route.continue();
+  });
+  await sleep(400); // a renewal is on its way
+  await page.mouse.up();
+  const t0 = Date.now();
+  let s = await serviceAxis(serviceUrl(), 'Y');
+  while (s.state !== 'idle' && Date.now() - t0 < T) {
+    await sleep(50);
+    s = await serviceAxis(serviceUrl(), 'Y');
+  }
+  console.log(`#   Y: at rest ${Date.now() - t0} ms after the release, a renewal delayed 600 ms`);
+  // longer than the 2-s lease a late renewal would have started
+  await sleep(2500);
+  const later = await serviceAxis(serviceUrl(), 'Y');
+  await page.unroute('**/api/cmd');
+  if (later.state !== 'idle' || later.position !== s.position) {
+    throw new Error(`the jog started again after the release: ${s.position} → ${JSON.stringify(later)}`);
+  }
+});
+
 scenario('a held jog stops when the page loses its connection', async ({ page, serviceUrl }) => {
   await page.locator(`${card('Y')} .hold-minus`).hover();
   await page.mouse.down();
