@@ -231,6 +231,9 @@ pub trait BoardBackend: Send {
     fn wrap(&mut self, axis: usize, delta: i64) -> Result<(), CtlError> {
         self.rebase(axis, delta, true)
     }
+    /// A durable write (an fsync) is about to hold up the thread that feeds the board:
+    /// a backend that streams sends its streams code far enough ahead first.
+    fn before_blocking_write(&mut self) {}
     /// The sensor's accepted level.
     fn sensor(&self, axis: usize) -> bool;
     /// Restarts the sensor filter on the present level at `now`.

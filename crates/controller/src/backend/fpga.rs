@@ -62,8 +62,8 @@ struct Running {
     end_tick: u64,
     /// Steps of the stop ramp loaded for a Hall stop.
     ramp_steps: u64,
-    /// Periods a periodic axis's count was wrapped by while it runs, not yet in the kept
-    /// session: a durable write there (an fsync, which a busy disk can make last hundreds
+    /// What a periodic axis's count was shifted by in wraps (whole periods) while it runs,
+    /// not yet in the kept session: a durable write there (an fsync, which a busy disk can make last hundreds
     /// of milliseconds) would hold up the poll that feeds the axis's stream. Kept once
     /// the axis rests.
     wraps: i64,
@@ -466,6 +466,12 @@ impl BoardBackend for FpgaBackend {
                 Ok(())
             }
             Err(e) => Err(self.failed(e)),
+        }
+    }
+
+    fn before_blocking_write(&mut self) {
+        if self.link.is_some() {
+            self.fill_ahead_of_a_write();
         }
     }
 

@@ -99,6 +99,10 @@ impl Board {
         purpose: Purpose,
         start: u64,
     ) -> Result<(), CtlError> {
+        if !self.axes[i].marked {
+            // the marker's durable write below holds up the other axes' streams
+            self.pins.before_blocking_write();
+        }
         let sim_pos = mechanics(&*self.pins, i);
         let ax = &mut self.axes[i];
         let moved = dir * steps as i64;

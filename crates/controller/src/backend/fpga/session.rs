@@ -13,6 +13,7 @@
 //! board bounds it too (`ArmTimeout`, written with every `Arm`, sync.rs), for a host that
 //! dies: a share it cut is told as the fault `arm_expired` when the host next reads it.
 
+use super::stream::{TRACK_LEAD_S, WRITE_LEAD_S};
 use super::{FpgaBackend, Running};
 use crate::backend::PinEvent;
 use crate::store::{Fold, LinkSession};
@@ -80,9 +81,10 @@ impl FpgaBackend {
             return;
         }
         let r = self.session_record(streamed, armed);
-        if self.kept.as_ref() == Some(&r) {
+        if self.kept.as_ref() == Some(&r) || self.keep.is_none() {
             return;
         }
+        self.fill_ahead_of_a_write();
         let Some(keep) = self.keep.as_mut() else {
             return;
         };
@@ -105,6 +107,26 @@ impl FpgaBackend {
         ax.count += delta;
         if let Some(f) = ax.feed.as_mut() {
             f.count0 += delta;
+        }
+    }
+
+    /// Sends every tracking stream [`WRITE_LEAD_S`] of code ahead: a durable write is
+    /// coming, and no stream is topped up until it is done. A link error is left to the
+    /// next poll, which makes the same exchange.
+    pub(super) fn fill_ahead_of_a_write(&mut self) {
+        let mut any = false;
+        for ax in &mut self.axes {
+            if let Some(f) = ax.feed.as_mut().filter(|f| f.open || f.lead_limited) {
+                f.lead_s = WRITE_LEAD_S;
+                any = true;
+            }
+        }
+        if !any {
+            return;
+        }
+        let _ = self.feed_streams();
+        for f in self.axes.iter_mut().filter_map(|a| a.feed.as_mut()) {
+            f.lead_s = TRACK_LEAD_S;
         }
     }
 

@@ -219,3 +219,24 @@ fn a_tracking_streams_lead_counts_as_steps_ahead() {
     assert!(ahead >= coded, "{ahead} steps ahead, {coded} coded");
     assert_eq!(b.tracking().unwrap().steps_ahead(1), 0, "an idle axis");
 }
+
+/// Before a durable write (which holds up the next top-up) a tracking stream is sent
+/// `WRITE_LEAD_S` of code ahead, and the stop that may follow counts those steps.
+#[test]
+fn a_tracking_stream_is_filled_ahead_of_a_durable_write() {
+    let (mut b, _m) = connect();
+    b.start_source(0, tracker(2_000, 200_000.0), 1, 0).unwrap();
+    events(&mut b, 1);
+    let before = b.axes[0].feed.as_ref().unwrap().coded();
+    b.before_blocking_write();
+    let f = b.axes[0].feed.as_ref().unwrap();
+    let after = f.coded();
+    // 0.05 s against 0.5 s at up to 2000 steps/s
+    assert!(
+        before <= 110 && after >= 900,
+        "{before} then {after} steps coded"
+    );
+    assert_eq!(f.lead_s, stream::TRACK_LEAD_S, "the usual lead again");
+    let ahead = b.tracking().unwrap().steps_ahead(0);
+    assert!(ahead >= after, "{ahead} steps ahead, {after} coded");
+}
