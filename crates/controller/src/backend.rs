@@ -231,9 +231,12 @@ pub trait BoardBackend: Send {
     fn wrap(&mut self, axis: usize, delta: i64) -> Result<(), CtlError> {
         self.rebase(axis, delta, true)
     }
-    /// A durable write (an fsync) is about to hold up the thread that feeds the board:
-    /// a backend that streams sends its streams code far enough ahead first.
-    fn before_blocking_write(&mut self) {}
+    /// Runs `write`, a durable write (an fsync), exactly once. A backend that streams to
+    /// the board runs it on another thread and keeps its streams fed meanwhile: the
+    /// caller holds the board, so nothing else feeds them.
+    fn during_write(&mut self, write: &mut (dyn FnMut() + Send)) {
+        write()
+    }
     /// The sensor's accepted level.
     fn sensor(&self, axis: usize) -> bool;
     /// Restarts the sensor filter on the present level at `now`.

@@ -430,6 +430,17 @@ impl Board {
     pub fn clock_hz(&self) -> f64 {
         self.clock_hz
     }
+
+    /// A durable write to the store (an fsync); a backend that streams keeps its streams
+    /// fed meanwhile ([`BoardBackend::during_write`]).
+    pub(crate) fn durably<R: Send>(&mut self, write: impl FnOnce(&Store) -> R + Send) -> R {
+        let store = &*self.store;
+        let mut write = Some(write);
+        let mut out = None;
+        self.pins
+            .during_write(&mut || out = write.take().map(|w| w(store)));
+        out.unwrap_or_else(|| unreachable!("during_write runs the write exactly once"))
+    }
     pub fn now(&self) -> u64 {
         self.now
     }

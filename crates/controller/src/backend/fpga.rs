@@ -63,9 +63,8 @@ struct Running {
     /// Steps of the stop ramp loaded for a Hall stop.
     ramp_steps: u64,
     /// What a periodic axis's count was shifted by in wraps (whole periods) while it runs,
-    /// not yet in the kept session: a durable write there (an fsync, which a busy disk can make last hundreds
-    /// of milliseconds) would hold up the poll that feeds the axis's stream. Kept once
-    /// the axis rests.
+    /// not yet in the kept session: one durable write (an fsync) per wrap would be a
+    /// busy disk's every few seconds while the axis tracks. Kept once the axis rests.
     wraps: i64,
 }
 
@@ -123,6 +122,8 @@ pub struct FpgaBackend {
     /// Keeps the session across a restart of the host (session.rs), and what it kept.
     keep: Option<SessionKeeper>,
     kept: Option<LinkSession>,
+    /// A durable write runs beside the thread that feeds the streams (`fed_during`).
+    writing: bool,
     /// The board kept the stored session: its counts and motions are this host's.
     adopted: bool,
     /// The axes of a group armed for the SYNC line, and since when.
@@ -469,10 +470,8 @@ impl BoardBackend for FpgaBackend {
         }
     }
 
-    fn before_blocking_write(&mut self) {
-        if self.link.is_some() {
-            self.fill_ahead_of_a_write();
-        }
+    fn during_write(&mut self, write: &mut (dyn FnMut() + Send)) {
+        self.fed_during(write);
     }
 
     fn wrap(&mut self, axis: usize, delta: i64) -> Result<(), CtlError> {

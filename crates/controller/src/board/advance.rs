@@ -188,8 +188,8 @@ impl Board {
         ax.marked = marker.is_some();
         ax.marker = marker.as_ref().map(|m| (m.from, m.target));
         let rec = ax.record(marker, mechanics(&*self.pins, i));
-        self.pins.before_blocking_write();
-        if let Err(e) = self.store.put_axis(&self.axes[i].name, &rec) {
+        let name = self.axes[i].name.clone();
+        if let Err(e) = self.durably(|st| st.put_axis(&name, &rec)) {
             // The disk holds an older record (the store writes this one once it can).
             self.axis_fault(i, format!("position not stored: {e}"));
         }

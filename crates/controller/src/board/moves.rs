@@ -99,27 +99,27 @@ impl Board {
         purpose: Purpose,
         start: u64,
     ) -> Result<(), CtlError> {
-        if !self.axes[i].marked {
-            // the marker's durable write below holds up the other axes' streams
-            self.pins.before_blocking_write();
-        }
         let sim_pos = mechanics(&*self.pins, i);
-        let ax = &mut self.axes[i];
+        let ax = &self.axes[i];
         let moved = dir * steps as i64;
         let target = ax.count + ax.slack + moved - slack_after(ax.slack, moved, ax.backlash());
         if !ax.marked {
+            let from = ax.count;
             let rec = ax.record(
                 Some(MovingMarker {
-                    from: ax.count,
+                    from,
                     target,
                     homing: matches!(purpose, Purpose::Home(_)),
                 }),
                 sim_pos,
             );
-            self.store.put_axis(&ax.name, &rec)?;
+            let name = ax.name.clone();
+            self.durably(|st| st.put_axis(&name, &rec))?;
+            let ax = &mut self.axes[i];
             ax.marked = true;
-            ax.marker = Some((ax.count, target));
+            ax.marker = Some((from, target));
         }
+        let ax = &mut self.axes[i];
         ax.motion = Some(Motion {
             dir,
             target,

@@ -97,7 +97,7 @@ impl Board {
         s.set(key, value)?;
         // stored under the name, also when the axis was given by number
         let name = self.axes[i].name.clone();
-        self.store.put_settings(&name, &s)?;
+        self.durably(|st| st.put_settings(&name, &s))?;
         self.pins.configure(i, &s);
         let ax = &self.axes[i];
         let slack = new_slack(ax.slack, ax.backlash(), s.backlash as i64, ax.last_dir);
@@ -137,7 +137,7 @@ impl Board {
             }
             pos.insert(ax.name.clone(), ax.count);
         }
-        self.store.put_named(name, &pos)?;
+        self.durably(|st| st.put_named(name, &pos))?;
         Ok(pos)
     }
 
@@ -167,7 +167,7 @@ impl Board {
         self.store.mount(key)
     }
     pub fn put_mount_record(&mut self, key: &str, r: &MountRecord) -> Result<(), CtlError> {
-        self.store.put_mount(key, r)
+        self.durably(|st| st.put_mount(key, r))
     }
 
     pub fn named_positions(&self) -> Result<BTreeMap<String, NamedPosition>, CtlError> {
@@ -175,7 +175,7 @@ impl Board {
     }
 
     pub fn forget(&mut self, name: &str) -> Result<(), CtlError> {
-        if self.store.forget_named(name)? {
+        if self.durably(|st| st.forget_named(name))? {
             Ok(())
         } else {
             Err(CtlError::UnknownName {
@@ -188,7 +188,7 @@ impl Board {
     /// Stores a speed preset once its family and values pass a move's checks.
     pub fn set_preset(&mut self, name: &str, opts: &MoveOpts) -> Result<(), CtlError> {
         opts.check_values()?;
-        self.store.put_preset(name, opts)
+        self.durably(|st| st.put_preset(name, opts))
     }
 
     pub fn presets(&self) -> Result<BTreeMap<String, MoveOpts>, CtlError> {

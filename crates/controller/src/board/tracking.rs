@@ -380,7 +380,8 @@ impl Board {
 
     /// `rate NAME VALUE`: stores a named rate.
     pub fn set_rate_preset(&mut self, name: &str, rate: &SignedRate) -> Result<(), CtlError> {
-        self.store.put_rate(name, &rate.to_string())
+        let text = rate.to_string();
+        self.durably(|st| st.put_rate(name, &text))
     }
 
     /// Every named rate, as its text.

@@ -87,6 +87,7 @@ impl FpgaBackend {
             arming: false,
             keep: None,
             kept: None,
+            writing: false,
             adopted: false,
             armed: 0,
             armed_at: None,
@@ -157,7 +158,10 @@ impl FpgaBackend {
     pub(super) fn feed_streams(&mut self) -> Result<(), LinkError> {
         for i in 0..self.axes.len() {
             let ax = &mut self.axes[i];
-            let (Some(f), Some(l)) = (ax.feed.as_mut(), self.link.as_mut()) else {
+            // only while the axis runs: a StreamSteps write to an idle axis arms it
+            let (Some(f), Some(l), Some(_)) =
+                (ax.feed.as_mut(), self.link.as_mut(), ax.running.as_ref())
+            else {
                 continue;
             };
             if f.lost.is_some() {

@@ -41,6 +41,8 @@ pub struct Model {
     pub ticks: u32,
     /// The `StreamSteps` written to each axis, in order.
     pub stream_steps: [Vec<u32>; 2],
+    /// Reads of each axis's `Position`.
+    pub position_reads: [usize; 2],
     last: Option<(Vec<u8>, Reply)>,
     out: Vec<u8>,
 }
@@ -153,7 +155,10 @@ impl Model {
                 };
                 (Status::Ok, st.encode())
             }
-            (0x2000..=0x201F, false) if ar == 1 => (Status::Ok, self.position[a] as u32),
+            (0x2000..=0x201F, false) if ar == 1 => {
+                self.position_reads[a] += 1;
+                (Status::Ok, self.position[a] as u32)
+            }
             (0x2000..=0x201F, false) if ar == 3 || ar == 6 => (Status::Ok, 0),
             (0x2000..=0x201F, true) if ar == 1 || ar == 5 => {
                 if ar == 1 {

@@ -112,10 +112,11 @@ impl FpgaBackend {
                 let ax = &mut self.axes[i];
                 ax.running = None;
                 ax.speed = 0.0;
+                // with its motion: a stream is fed only while its axis runs (a StreamSteps
+                // write to an idle axis arms its next start)
+                let feed = ax.feed.take();
                 // at rest: the board's counter takes the wrapped count
                 self.fold_offset(i)?;
-                let ax = &mut self.axes[i];
-                let feed = ax.feed.take();
                 self.events.push_back((i, PinEvent::End { end: self.now }));
                 if let Some(f) = &feed {
                     stream_stats(i, f, count);

@@ -19,10 +19,6 @@ pub const MIN_FRAME: usize = 64;
 pub const TRACK_LEAD_S: f64 = 0.05;
 /// Steps a tracking axis's code may always run ahead (the FIFO's, and a slow rate's).
 pub const TRACK_LEAD_MIN: u64 = 16;
-/// How far a tracking axis's code is sent ahead just before the host blocks on a durable
-/// write (an fsync: up to 170 ms measured with a disk-writing job beside it, longer on an
-/// SD card), which holds up every stream's next top-up.
-pub const WRITE_LEAD_S: f64 = 0.5;
 
 /// One axis's stream: its edge source, the coder, and the code not yet sent.
 pub struct Feed {
@@ -69,9 +65,6 @@ pub struct Feed {
     pub lost: Option<String>,
     /// The stop for a lost stream was written.
     pub stopped: bool,
-    /// How far (in time at the speed coded) the code may run ahead: [`TRACK_LEAD_S`], or
-    /// [`WRITE_LEAD_S`] while the host fills ahead of a durable write.
-    pub lead_s: f64,
 }
 
 impl Feed {
@@ -99,7 +92,6 @@ impl Feed {
             resent: 0,
             lost: None,
             stopped: false,
-            lead_s: TRACK_LEAD_S,
         }
     }
 
@@ -240,7 +232,7 @@ impl Feed {
         if !self.open && !self.lead_limited {
             return u64::MAX;
         }
-        let lead = (self.speed() * self.lead_s).ceil().min(1e9) as u64;
+        let lead = (self.speed() * TRACK_LEAD_S).ceil().min(1e9) as u64;
         done.saturating_add(lead.max(TRACK_LEAD_MIN))
     }
 }

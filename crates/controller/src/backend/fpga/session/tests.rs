@@ -177,8 +177,8 @@ fn an_adopted_idle_offset_is_folded_in_only_once_the_session_is_kept() {
 }
 
 /// A periodic axis wrapped while it runs: the host's reading shifts at once, the kept
-/// session only once the axis rests (a durable write mid-motion would hold up the poll
-/// that feeds a stream; a host killed meanwhile reads the same place, whole periods off).
+/// session only once the axis rests (no durable write per wrap; a host killed meanwhile
+/// reads the same place, whole periods off).
 /// Any other shift of a running count (`rebase`) is kept at once, the wraps left out.
 #[test]
 fn a_wrap_while_the_axis_runs_is_kept_once_it_rests() {
