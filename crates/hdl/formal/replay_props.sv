@@ -56,6 +56,8 @@ module replay_props (
 
     integer a;
     always @(*) begin
+        // ms_regs arms one axis a clock (a StreamSteps write)
+        assume(arm != 2'b11);
         for (a = 0; a < 2; a = a + 1) begin
             // the core starts, and the host arms, only an axis with nothing to go
             if (init[a] || arm[a]) assume(!more[a]);

@@ -16,8 +16,8 @@ pub const BOARD_LIBRARY: [(&str, &str); 14] = [
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
     ("ms_nibble.v", include_str!("../rtl/board/ms_nibble.v")),
     (
-        "ms_step_count.v",
-        include_str!("../rtl/board/ms_step_count.v"),
+        "ms_step_counts.v",
+        include_str!("../rtl/board/ms_step_counts.v"),
     ),
     (
         "ms_replay_axis.v",
@@ -30,7 +30,11 @@ pub const BOARD_LIBRARY: [(&str, &str); 14] = [
 
 /// The chain units' modules, in a build only when [`BoardTop::chains`] is set (so a board
 /// without them is synthesized from exactly the files above).
-pub const CHAIN_LIBRARY: [(&str, &str); 3] = [
+pub const CHAIN_LIBRARY: [(&str, &str); 4] = [
+    (
+        "ms_step_count.v",
+        include_str!("../rtl/board/ms_step_count.v"),
+    ),
     ("ms_stream.v", include_str!("../rtl/board/ms_stream.v")),
     ("ms_chain.v", include_str!("../rtl/board/ms_chain.v")),
     (

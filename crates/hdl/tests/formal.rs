@@ -1,5 +1,5 @@
 //! Formal properties of the per-axis units, the register map's DIR setup, the shared replay
-//! decoder and the per-step recurrence's walk (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3
+//! decoder and its step counts (against one count per axis), the per-step recurrence's walk (`crates/hdl/formal/*.sv`), checked by yosys and yosys-smtbmc with z3
 //! at small widths: bounded from the initial state, or proven for every depth by
 //! k-induction where it converges. The checks are not vacuous: every wrapper's covers
 //! (each checked case) are reached, and each wrapper built with `MUTATE`, a deliberately
@@ -83,12 +83,20 @@ const REPLAY: Props = Props {
     top: "replay_props",
     rtl: &[
         "rtl/board/ms_nibble.v",
-        "rtl/board/ms_step_count.v",
+        "rtl/board/ms_step_counts.v",
         "rtl/board/ms_replay_axis.v",
         "rtl/board/ms_replay.v",
     ],
 };
 const REPLAY_DEPTH: u32 = 12;
+
+/// The shared replay unit's step counts in memories against two `ms_step_count`: K = 2,
+/// 32-bit counts; 12 clocks hold a reset, loads, starts, steps and retargets of both axes.
+const STEP_COUNTS: Props = Props {
+    top: "step_counts_props",
+    rtl: &["rtl/board/ms_step_count.v", "rtl/board/ms_step_counts.v"],
+};
+const STEP_COUNTS_DEPTH: u32 = 12;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
@@ -236,6 +244,12 @@ fn the_shared_replay_decoder_never_overfills_a_fifo_nor_passes_the_armed_steps()
 }
 
 #[test]
+fn the_shared_step_counts_equal_one_count_per_axis() {
+    holds(&STEP_COUNTS, Mode::Bmc(STEP_COUNTS_DEPTH));
+    holds(&STEP_COUNTS, Mode::Cover(STEP_COUNTS_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
@@ -245,6 +259,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&REGS, REGS_DEPTH),
         (&RECUR, RECUR_DEPTH),
         (&REPLAY, REPLAY_DEPTH),
+        (&STEP_COUNTS, STEP_COUNTS_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {

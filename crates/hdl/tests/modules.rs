@@ -11,23 +11,24 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-06 (LUT each): ms_fifo 19, ms_pulse 293-351, ms_axis_io 180,
-/// ms_debounce 76, ms_replay_axis 97 and its ms_step_count 173 (the replay unit's per-axis
-/// part; its shared decoder, ms_replay, is not an axis's); one axis 886-963.
+/// Measured 2026-12-06 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 310-365,
+/// ms_axis_io 180, ms_debounce 76, ms_replay_axis 103-149 (the replay unit's per-axis
+/// part; the shared decoder, ms_replay, and the step counts, ms_step_counts, are not an
+/// axis's); one axis 810-858.
 const ULX3S: Budgets = &[
     ("ms_fifo", 22),
     ("ms_pulse", 400),
     ("ms_axis_io", 200),
     ("ms_debounce", 84),
-    ("ms_replay_axis", 130),
-    ("ms_step_count", 200),
+    ("ms_replay_axis", 175),
 ];
-const ULX3S_AXIS: u64 = 1080;
+const ULX3S_AXIS: u64 = 960;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
-/// readback and per-axis registers and the shared replay decoder's multiplexers included:
-/// (K = 4 − K = 2) / 2, measured 1216 (1726 and 1760 with a whole replay unit per axis).
-const ULX3S_ADDED_AXIS: u64 = 1600;
+/// readback and per-axis registers and the shared replay decoder's multiplexers and step
+/// count memories included: (K = 4 − K = 2) / 2, measured 910 (1216 with a step count per
+/// axis, 1726 and 1760 with a whole replay unit per axis).
+const ULX3S_ADDED_AXIS: u64 = 1150;
 
 /// Measured 2026-12-05: ms_fifo 30, ms_pulse 192, ms_axis_io 159, ms_debounce 70; one axis
 /// 521 (no replay unit on this board).

@@ -1,7 +1,8 @@
 // ms_replay: the replay units of K axes with one decoder (docs/HDL.md "Streamed moves"):
-// each axis keeps what ms_stream keeps but the decoder (ms_replay_axis), the axes' byte
-// buffers are one block RAM (2^LB bytes each), their last periods one small memory, and
-// one decoder serves the axes in turn.
+// each axis keeps what ms_stream keeps but the decoder and the step count (ms_replay_axis),
+// the axes' byte buffers are one block RAM (2^LB bytes each), their last periods one small
+// memory, their step counts two more (ms_step_counts), and one decoder serves the axes in
+// turn.
 // A turn picks the next axis with a nibble to decode, a period to go and FIFO room, and
 // decodes from where the axis stands (ms_nibble) up to one whole period; that period and
 // the axis's new place are taken together, the period pushed the clock after (as
@@ -48,7 +49,7 @@ module ms_replay #(
     wire [LB:0]  wp_w [0:K-1];
     wire [LB:0]  rp_w [0:K-1];
     wire [3:0]   hn_w [0:K-1];
-    wire [K-1:0] hp_v, fresh_v, live_v, want_v, serve;
+    wire [K-1:0] hp_v, fresh_v, live_v, want_v, serve, left_nz_v, retarget_v;
     reg  [LK-1:0] s;           // the axis served
     reg  [LB:0]   wr;          // its next byte to fetch
     reg           lo;          // the fetched byte's low nibble is next (else nh)
@@ -82,10 +83,11 @@ module ms_replay #(
                 .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
                 .retarget_in(retarget_in[g]), .bopen(bopen && mine),
                 .blen(blen), .bcommit(bcommit[g]), .init(init[g]), .halt(halt[g]),
-                .full(full[g]), .serve(serve[g]), .n_rp(wr), .n_hp(lo), .n_hn(rdata[7:4]),
-                .pend(penq), .pbad(pbad), .armed(armed[g]),
+                .full(full[g]), .left_nz(left_nz_v[g]), .serve(serve[g]), .n_rp(wr),
+                .n_hp(lo), .n_hn(rdata[7:4]), .pend(penq), .pbad(pbad), .armed(armed[g]),
                 .bok(bok[g]), .free(free[g*(LB+1) +: LB+1]), .push(push[g]),
-                .more(more[g]), .fault(fault[g]), .wp(wp_w[g]), .rp(rp_w[g]), .hp(hp_v[g]),
+                .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wp(wp_w[g]),
+                .rp(rp_w[g]), .hp(hp_v[g]),
                 .hn(hn_w[g]), .fresh(fresh_v[g]), .live(live_v[g]), .want(want_v[g]));
         end
     endgenerate
@@ -118,6 +120,9 @@ module ms_replay #(
     localparam [31:0]   KM1  = K - 1;
     localparam [LK-1:0] LAST = KM1[LK-1:0];
     wire [LK-1:0] s_next = (s == LAST) ? {LK{1'b0}} : s + 1'b1;
+    ms_step_counts #(.K(K), .LK(LK)) u_counts (.clk(clk), .rst(rst), .load(arm), .halt(halt),
+        .init(init), .retarget(retarget_v), .s(s), .step(take), .count(arm_steps),
+        .left_nz(left_nz_v));
     generate
         for (g = 0; g < K; g = g + 1) begin : sv
             /* verilator lint_off WIDTH */

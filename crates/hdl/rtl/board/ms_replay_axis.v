@@ -4,7 +4,7 @@
 // still to be decoded (hp, hn; the byte itself is free for the host again), and whether
 // it has a last period yet (`fresh`: not since init; the period itself is in ms_replay's
 // memory). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
-// ms_step_count.
+// ms_replay's (ms_step_counts, all axes' in two memories), which tells `left_nz`.
 module ms_replay_axis #(
     parameter LB = 9
 ) (
@@ -19,6 +19,7 @@ module ms_replay_axis #(
     input  wire          init,      // the core initializes the axis (the group's start)
     input  wire          halt,
     input  wire          full,      // the axis's FIFO
+    input  wire          left_nz,   // periods to go (ms_step_counts)
     // the decoder
     input  wire          serve,     // it decoded this axis's next period: take n_*
     input  wire [LB:0]   n_rp,
@@ -31,6 +32,7 @@ module ms_replay_axis #(
     output wire [LB:0]   free,      // free bytes in the buffer
     output wire          push,
     output wire          more,      // periods still to push
+    output wire          retarget,  // the count's retarget: the stream runs
     output reg           fault,
     output reg  [LB:0]   wp,
     output reg  [LB:0]   rp,
@@ -41,7 +43,6 @@ module ms_replay_axis #(
     output wire          want       // ... and there is a nibble to decode and FIFO room
 );
     reg        arm_q, run;
-    wire       left_nz;    // periods to go (ms_step_count)
     initial begin
         wp = {(LB+1){1'b0}};
         rp = {(LB+1){1'b0}};
@@ -58,8 +59,7 @@ module ms_replay_axis #(
     assign push  = pend && !pbad && run;
     assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
     assign want  = live && !full && (hp || rp != wp);
-    ms_step_count u_steps (.clk(clk), .rst(rst), .load(arm), .halt(halt), .init(init),
-        .retarget(retarget_in && more), .step(serve), .count(arm_steps), .left_nz(left_nz));
+    assign retarget = retarget_in && more;
 
     always @(posedge clk) begin
         if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
