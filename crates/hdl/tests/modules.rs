@@ -26,9 +26,10 @@ const ULX3S_AXIS: u64 = 960;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// readback and per-axis registers and the shared replay decoder's multiplexers and step
-/// count memories included: (K = 4 − K = 2) / 2, measured 910 (1216 with a step count per
-/// axis, 1726 and 1760 with a whole replay unit per axis).
-const ULX3S_ADDED_AXIS: u64 = 1150;
+/// count memories included: (K = 4 − K = 2) / 2, measured 910 and 1200 in two runs (ABC's
+/// variance; 1216 with a step count per axis, 1726 and 1760 with a whole replay unit per
+/// axis).
+const ULX3S_ADDED_AXIS: u64 = 1450;
 
 /// Measured 2026-12-05: ms_fifo 30, ms_pulse 192, ms_axis_io 159, ms_debounce 70; one axis
 /// 521 (no replay unit on this board).

@@ -46,14 +46,12 @@ module ms_axis_io #(
 );
     reg          core_d;   // the core's STEP one clock ago
     reg          s;        // STEP, active high, before the e-stop gate
-    reg [WD-1:0] hc;       // clocks of a fixed-width pulse left, this one included (1: the
-                           // last): loaded with `width` itself, no per-axis width - 1
-    reg [WD-1:0] pc;       // clocks since the last rise (saturating)
+    reg [WD-1:0] pc;       // clocks since the last rise (saturating): the period meter's,
+                           // and a fixed-width pulse's, which ends when it reaches `width`
     reg          have;     // a rise since the start
     initial begin
         core_d = 1'b0;
         s = 1'b0;
-        hc = {{(WD-1){1'b0}}, 1'b1};
         pos = 32'd0;
         hall_flag = 1'b0;
         period = {WD{1'b0}};
@@ -65,16 +63,14 @@ module ms_axis_io #(
     always @(posedge clk) begin
         core_d <= core_step;
         if (rst || halt || kill) begin
-            s  <= 1'b0;
-            hc <= {{(WD-1){1'b0}}, 1'b1};
+            s <= 1'b0;
         end else if (!fixed) begin
             s <= core_step;
         end else if (rise) begin
-            s  <= 1'b1;
-            hc <= width;
-        end else if (hc != {{(WD-1){1'b0}}, 1'b1}) begin
-            hc <= hc - 1'b1;
-        end else begin
+            s <= 1'b1;
+        end else if (pc >= width) begin
+            // `width` clocks high: pc is 1 the clock after the rise (the width is written
+            // only while the axis is idle; a smaller one mid-pulse ends it at once)
             s <= 1'b0;
         end
     end
@@ -85,19 +81,18 @@ module ms_axis_io #(
         else if (pos_wr) pos <= pos_in;
         else if (out_rise) pos <= pos + {{31{!dir}}, 1'b1};   // one adder for +1 and -1
     end
+    // A start clears the meter (no period before its second rise) but not pc, which a
+    // fixed-width pulse still high at the start counts.
     always @(posedge clk) begin
+        if (rst) pc <= {WD{1'b0}};
+        else if (out_rise) pc <= {{(WD-1){1'b0}}, 1'b1};
+        else if (pc != {WD{1'b1}}) pc <= pc + 1'b1;
         if (rst || start) begin
             have   <= 1'b0;
             period <= {WD{1'b0}};
-            pc     <= {WD{1'b0}};
-        end else begin
-            if (out_rise) begin
-                if (have) period <= pc;
-                have <= 1'b1;
-                pc   <= {{(WD-1){1'b0}}, 1'b1};
-            end else if (pc != {WD{1'b1}}) begin
-                pc <= pc + 1'b1;
-            end
+        end else if (out_rise) begin
+            if (have) period <= pc;
+            have <= 1'b1;
         end
     end
     wire accept;
