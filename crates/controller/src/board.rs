@@ -441,6 +441,7 @@ impl Board {
             .during_write(&mut || out = write.take().map(|w| w(store)));
         out.unwrap_or_else(|| unreachable!("during_write runs the write exactly once"))
     }
+
     pub fn now(&self) -> u64 {
         self.now
     }

@@ -117,12 +117,15 @@ impl FpgaBackend {
     /// job beside it) on a thread of its own while this one, holding the board, keeps
     /// every stream fed: the streams' lead is 50 ms ([`super::stream::TRACK_LEAD_S`]).
     pub(super) fn fed_during(&mut self, write: &mut (dyn FnMut() + Send)) {
-        let feeding = self.axes.iter().any(|a| a.feed.is_some());
+        let feeding = self
+            .axes
+            .iter()
+            .any(|a| a.running.is_some() && a.feed.is_some());
         if self.writing || self.link.is_none() || !feeding {
             return write();
         }
         self.writing = true;
-        std::thread::scope(|s| {
+        let done = std::thread::scope(|s| {
             let w = s.spawn(write);
             while !w.is_finished() {
                 if self.link.is_some() {
@@ -132,11 +135,12 @@ impl FpgaBackend {
                 }
                 std::thread::sleep(FEED_DURING_WRITE);
             }
-            if let Err(panic) = w.join() {
-                std::panic::resume_unwind(panic);
-            }
+            w.join()
         });
         self.writing = false;
+        if let Err(panic) = done {
+            std::panic::resume_unwind(panic);
+        }
     }
 
     /// Reads the count of every axis a stream feeds and tops its stream up to the lead
