@@ -29,9 +29,9 @@ impl FpgaBackend {
             let a = i as u32;
             let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let st = l.axis_state(a)?;
+            let count = self.read_count(i)?;
+            let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
             let ax = &mut self.axes[i];
-            let count = readback::count(l.read(Reg::Axis(a, AxisReg::Position))?, ax.offset);
-            ax.count = count;
             ax.sensor = st.hall;
             let Some(r) = ax.running.as_mut() else {
                 if st.stream_armed {

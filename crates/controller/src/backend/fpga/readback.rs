@@ -4,6 +4,21 @@
 // A position register as a count, and a count at rest as the register's value.
 pub(super) use multistep_link::{position_count as count, position_register as register};
 
+use super::FpgaBackend;
+use multistep_link::{AxisReg, LinkError, Reg};
+
+impl FpgaBackend {
+    /// Reads axis `i`'s position register into its count (the register less the axis's
+    /// offset) and returns it.
+    pub(super) fn read_count(&mut self, i: usize) -> Result<i64, LinkError> {
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let raw = l.read(Reg::Axis(i as u32, AxisReg::Position))?;
+        let ax = &mut self.axes[i];
+        ax.count = count(raw, ax.offset);
+        Ok(ax.count)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::exactly_once::launch;

@@ -13,7 +13,7 @@
 //! board bounds it too (`ArmTimeout`, written with every `Arm`, sync.rs), for a host that
 //! dies: a share it cut is told as the fault `arm_expired` when the host next reads it.
 
-use super::{readback, FpgaBackend, Running};
+use super::{FpgaBackend, Running};
 use crate::backend::PinEvent;
 use crate::store::{Fold, LinkSession};
 use multistep_link::{status_bits, AxisReg, BoardReg, LinkError, Reg};
@@ -82,7 +82,7 @@ impl FpgaBackend {
             return;
         }
         let r = self.session_record(streamed, armed);
-        if self.kept.as_ref() == Some(&r) || self.keep.is_none() {
+        if self.kept.as_ref() == Some(&r) {
             return;
         }
         let Some(mut keep) = self.keep.take() else {
@@ -151,10 +151,7 @@ impl FpgaBackend {
             if ax.running.is_none() || ax.feed.as_ref().is_none_or(|f| f.lost.is_some()) {
                 continue;
             }
-            let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
-            let raw = l.read(Reg::Axis(i as u32, AxisReg::Position))?;
-            let ax = &mut self.axes[i];
-            ax.count = readback::count(raw, ax.offset);
+            self.read_count(i)?;
         }
         self.feed_streams()
     }
@@ -416,9 +413,8 @@ impl FpgaBackend {
                 continue;
             }
             l.write(Reg::Board(BoardReg::Stop), 1 << i)?;
+            self.read_count(i)?;
             let ax = &mut self.axes[i];
-            ax.count =
-                super::readback::count(l.read(Reg::Axis(i as u32, AxisReg::Position))?, ax.offset);
             ax.running = None;
             self.fold_offset(i)?;
             let ax = &mut self.axes[i];
