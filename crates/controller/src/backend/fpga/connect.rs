@@ -200,12 +200,23 @@ impl FpgaBackend {
     /// debounce, no Hall stops, each axis's DIR and ENABLE levels, ENABLE on.
     pub(super) fn setup(&mut self) -> Result<(), LinkError> {
         let clock = self.params.clock_hz;
-        let debounce = self
+        let want = self
             .axes
             .iter()
             .map(|a| (a.settings.debounce * clock).ceil())
-            .fold(0.0, f64::max)
-            .min(u32::MAX as f64) as u32;
+            .fold(0.0, f64::max);
+        // the register holds a period's bits: a longer filter time would wrap
+        let most = ((1u64 << self.params.tick_bits.min(32)) - 1) as f64;
+        if want > most {
+            eprintln!(
+                "warning: board link {}: a debounce of {} s is longer than the board's \
+                 filter holds; it filters {} s",
+                self.name,
+                want / clock,
+                most / clock
+            );
+        }
+        let debounce = want.min(most) as u32;
         let mask = self.mask();
         let enabled = self.enabled;
         let axes_where = |f: fn(&AxisSettings) -> bool| -> u32 {
@@ -257,5 +268,33 @@ impl FpgaBackend {
             eprintln!("warning: board link {}: {e}", self.name);
         }
         link_err(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::model::connect;
+    use super::AxisSettings;
+    use crate::backend::BoardBackend;
+
+    #[test]
+    fn a_debounce_longer_than_the_register_holds_is_clamped_not_wrapped() {
+        let (mut b, m) = connect();
+        let clock = b.params.clock_hz;
+        let most = (1u64 << b.params.tick_bits) - 1;
+        let mut s = AxisSettings {
+            debounce: 0.002,
+            ..AxisSettings::default()
+        };
+        b.configure(0, &s);
+        assert_eq!(
+            f64::from(m.lock().unwrap().debounce),
+            (0.002 * clock).ceil()
+        );
+        // the largest of the axes' filter times; 1001 ticks more than the register holds
+        // would wrap to 1000 ticks
+        s.debounce = (most + 1001) as f64 / clock;
+        b.configure(1, &s);
+        assert_eq!(u64::from(m.lock().unwrap().debounce), most);
     }
 }

@@ -43,6 +43,8 @@ pub struct Model {
     pub stream_steps: [Vec<u32>; 2],
     /// Reads of each axis's `Position`.
     pub position_reads: [usize; 2],
+    /// The Hall and limit filter time written, ticks.
+    pub debounce: u32,
     last: Option<(Vec<u8>, Reply)>,
     out: Vec<u8>,
 }
@@ -142,7 +144,11 @@ impl Model {
                 }
                 (Status::Ok, 0)
             }
-            (0x0D | 0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
+            (0x0D, true) => {
+                self.debounce = r.data;
+                (Status::Ok, 0)
+            }
+            (0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
             (0x1000..=0x1FFF, true) => (Status::Ok, 0),
             (0x2000..=0x201F, false) if ar == 0 => {
                 let busy = self.busy >> a & 1 == 1;
