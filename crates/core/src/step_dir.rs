@@ -4,7 +4,8 @@
 
 /// The high time of STEP pulses. The driver and the TDM pulse unit give the same widths:
 /// half the interval to the next edge (the last pulse: half its own interval), at least one
-/// tick; or a fixed number of ticks. A pulse that would reach the next rise is cut there on
+/// tick (after an underrun in the TDM engine: half the late period after it arrived); or a
+/// fixed number of ticks. A pulse that would reach the next rise is cut there on
 /// a pin (the TDM model reports it as merged).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PulseShape {

@@ -606,12 +606,13 @@ fn reference_pulses(cfg: &TdmConfig, run: &RefRun) -> (Vec<StepPulse>, Vec<AxisS
         let rise = a.rises[j];
         match cfg.step_dir.pulse {
             PulseShape::Fixed { ticks } => rise + ticks,
+            // half of the next period after its load; the last pulse half of its own
             PulseShape::HalfInterval => match a.rises.get(j + 1) {
-                Some(&next) => a.loads[j + 1].max(rise + ((next - rise) / 2).max(1)),
-                None => {
-                    let prev = if j == 0 { a.loads[0] } else { a.rises[j - 1] };
-                    rise + ((rise - prev) / 2).max(1)
+                Some(&next) => {
+                    let load = a.loads[j + 1];
+                    load + ((next - load) / 2).max(1)
                 }
+                None => rise + ((rise - a.loads[j]) / 2).max(1),
             },
         }
     };

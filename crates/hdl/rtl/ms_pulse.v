@@ -1,17 +1,16 @@
 // ms_pulse: one axis's pulse unit, the core TDM model's (multistep_core::tdm::pulse). On
 // `go` it takes the first period from its FIFO; STEP rises when a period has elapsed (the
-// edge tick) and stays high for half of the interval to the next edge (50 % duty, seed 000;
-// the last pulse for half of its own interval, at least one tick). An underrun (period
-// over, FIFO empty, more steps to come) is flagged; the period is loaded as it arrives, so
-// that edge and the later ones are late by the delay, and STEP stays high until then, then
-// for what is left of half the interval from its rise to the next edge. The wait is
-// counted up to 2^(WP-1) ticks (0.168 s at 50 MHz, WP = 24); a longer one as that long.
+// edge tick) and falls half that period after it was loaded (50 % duty on time, seed 000;
+// the last pulse half of its own period, at least one tick). An underrun (period over,
+// FIFO empty, more steps to come) is flagged; STEP stays high, and the period is loaded as
+// it arrives, so that edge and the later ones are late by the delay and STEP falls half
+// the late period after its arrival: whatever the wait, the line is low for the second
+// half of every period.
 //
-// One counter and one period: `u` counts the clocks since STEP's last rise, `per` is the
-// interval from that rise to the next edge, so the edge is `u == per` and the fall
-// `u == per / 2`: half an interval is wiring, not a second counter (ECP5 327 LUT4-eq and 55
-// flip-flops alone, against 379 and 77 for a down-counter of the period, one of the high
-// time and a register of the half; iCE40 224 SB_LUT4 against 359).
+// One counter and one period: `u` counts the clocks since the period was loaded, `per` is
+// that period, so the edge is `u == per` and the fall `u == per / 2`: half a period is
+// wiring, not a second counter. Every load (the go, an edge, a late arrival) is the same
+// `u <= 1, per <= next`, and a wait needs no count, so it is exact however long.
 module ms_pulse #(
     parameter WP = 24
 ) (
@@ -28,28 +27,21 @@ module ms_pulse #(
     output reg           running,
     output reg           underrun
 );
-    // after an underrun the interval is the wait (at most 2^(WP-1)) plus a period: WP+1 bits
-    reg [WP:0] u;       // clocks since the last rise (or the start); saturates while waiting
-    reg [WP:0] per;     // the interval that ends at the next edge (the last one's after it)
-    reg        waiting; // an underrun: STEP high until the period arrives
-    reg        last;    // the edge of the last step has been made
-    localparam [WP:0] ONE = 1;
-    localparam [WP:0] SAT = ONE << (WP - 1);
+    reg [WP-1:0] u;       // clocks since the period was loaded
+    reg [WP-1:0] per;     // that period: it ends at the next edge
+    reg          waiting; // an underrun: STEP high until the period arrives
+    reg          last;    // the edge of the last step has been made
+    localparam [WP-1:0] ONE = 1;
     wire edge_now = running && !waiting && !last && (u == per);
     wire start    = go && !running && !empty;
     wire late_in  = waiting && arrive;   // the missing period, loaded as it is pushed
     assign pop = !halt && (start || late_in || (edge_now && (!empty || arrive)));
     // the next period: the FIFO's head, or the one being pushed into an empty FIFO (`start`
-    // needs a non-empty FIFO, so din there)
+    // needs a non-empty FIFO, so din there; a late one arrives while the FIFO is empty)
     wire [WP-1:0] nx   = empty ? ain : din;
-    wire [WP:0]   u1   = u + ONE;
-    // a late period: the interval from the held rise is the wait plus the period
-    wire [WP:0]   span = u + {1'b0, ain};
-    // STEP falls when half the interval (at least 1) has passed since the rise; at a late
-    // arrival at once if that half is already over: span / 2 <= u, that is ain <= u + 1
-    wire [WP:0]   h    = (per[WP:1] == {WP{1'b0}}) ? ONE : {1'b0, per[WP:1]};
+    // STEP falls when half the period (at least 1) has passed since its load
+    wire [WP-1:0] h    = (per[WP-1:1] == {(WP-1){1'b0}}) ? ONE : {1'b0, per[WP-1:1]};
     wire          fall = (u == h);
-    wire          fall_now = ({1'b0, ain} <= u1);
     initial begin
         step = 1'b0;
         running = 1'b0;
@@ -65,7 +57,7 @@ module ms_pulse #(
             last    <= 1'b0;
         end else if (start) begin
             u        <= ONE;
-            per      <= {1'b0, nx};
+            per      <= nx;
             running  <= 1'b1;
             underrun <= 1'b0;
             waiting  <= 1'b0;
@@ -76,9 +68,9 @@ module ms_pulse #(
                 u    <= ONE;
                 if (!empty || arrive) begin
                     // from the FIFO, or the period arrives just in time
-                    per <= {1'b0, nx};
+                    per <= nx;
                 end else if (more) begin
-                    // STEP stays high until the period arrives; u counts the wait
+                    // STEP stays high until the period arrives
                     underrun <= 1'b1;
                     waiting  <= 1'b1;
                 end else begin
@@ -86,22 +78,16 @@ module ms_pulse #(
                     last <= 1'b1;
                 end
             end else if (late_in) begin
-                per     <= span;
-                u       <= u1;
+                u       <= ONE;
+                per     <= nx;
                 waiting <= 1'b0;
-                if (fall_now) step <= 1'b0;
             end else if (waiting) begin
-                // the wait saturates at 2^(WP-1) rather than wrap: a longer wait is taken
-                // as 2^(WP-1) ticks for the held pulse's fall (before the next edge, later
-                // than the model's when ain > 2^(WP-1) + 1) and the half interval after it
-                // (the last pulse's width); the edges stay exact
-                if (u != SAT) u <= u1;
                 if (!more) begin
                     waiting <= 1'b0;   // cannot happen: `more` falls with the last push
                     running <= 1'b0;
                 end
             end else begin
-                u <= u1;
+                u <= u + ONE;
                 if (step && fall) begin
                     step <= 1'b0;
                     if (last) running <= 1'b0;

@@ -11,35 +11,35 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-06 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 310-365,
-/// ms_axis_io 180, ms_debounce 76, ms_replay_axis 103-149 (the replay unit's per-axis
+/// Measured 2026-12-06 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 182-211,
+/// ms_axis_io 171-177, ms_debounce 76, ms_replay_axis 103-148 (the replay unit's per-axis
 /// part; the shared decoder, ms_replay, and the step counts, ms_step_counts, are not an
-/// axis's); one axis 810-858.
+/// axis's); one axis 656-678.
 const ULX3S: Budgets = &[
     ("ms_fifo", 22),
-    ("ms_pulse", 400),
+    ("ms_pulse", 240),
     ("ms_axis_io", 200),
     ("ms_debounce", 84),
     ("ms_replay_axis", 175),
 ];
-const ULX3S_AXIS: u64 = 960;
+const ULX3S_AXIS: u64 = 760;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// readback and per-axis registers and the shared replay decoder's multiplexers and step
-/// count memories included: (K = 4 − K = 2) / 2, measured 910 and 1200 in two runs (ABC's
-/// variance; 1216 with a step count per axis, 1726 and 1760 with a whole replay unit per
-/// axis).
-const ULX3S_ADDED_AXIS: u64 = 1450;
+/// count memories included: (K = 4 − K = 2) / 2, measured 995 (910 and 1200 in two runs
+/// with the pulse unit's wait counter, ABC's variance; 1216 with a step count per axis,
+/// 1726 and 1760 with a whole replay unit per axis).
+const ULX3S_ADDED_AXIS: u64 = 1350;
 
-/// Measured 2026-12-05: ms_fifo 30, ms_pulse 192, ms_axis_io 159, ms_debounce 70; one axis
-/// 521 (no replay unit on this board).
+/// Measured 2026-12-06: ms_fifo 31, ms_pulse 108, ms_axis_io 148, ms_debounce 70; one axis
+/// 427 (no replay unit on this board).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 34),
-    ("ms_pulse", 215),
-    ("ms_axis_io", 175),
+    ("ms_pulse", 125),
+    ("ms_axis_io", 170),
     ("ms_debounce", 77),
 ];
-const ICEBREAKER_AXIS: u64 = 580;
+const ICEBREAKER_AXIS: u64 = 480;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();

@@ -1,14 +1,12 @@
 //! The pulse unit (`ms_pulse`) alone in Icarus Verilog at WP = 8, against the core TDM
 //! model's `PulseUnit`: late periods shift their edge and the later ones by the delay, the
-//! held pulse falls before the next edge, and a wait longer than 2^(WP-1) ticks (where the
-//! unit's wait count saturates) loses and merges no pulse.
+//! held pulse falls half the late period after its arrival, and waits longer than any
+//! WP-bit count (the unit counts none) are exact too.
 
 use multistep_core::tdm::pulse::{PulseShape, PulseUnit, StepPulse};
 use multistep_hdl::{tools, LIBRARY};
 
 const WP: u32 = 8;
-/// The longest wait the unit counts exactly.
-const SATURATED: u64 = 1 << (WP - 1);
 
 /// One period of the move: the tick it is pushed (`None`: in the FIFO before the go) and
 /// its length.
@@ -127,36 +125,32 @@ fn model(periods: &[Period]) -> Vec<(u64, u64)> {
     out.iter().map(|s| (s.rise, s.fall)).collect()
 }
 
-/// The unit's pulses: the model's, except that a wait past 2^(WP-1) ticks is taken as
-/// 2^(WP-1) ticks for the held pulse's fall and for the half interval of the last pulse.
-fn saturated(periods: &[Period]) -> Vec<(u64, u64)> {
-    let loads = loads(periods);
-    let mut out = Vec::new();
-    // the previous rise as the unit sees it
-    let (mut rise, mut seen) = (periods[0].1, 0);
-    for (&load, &(_, p)) in loads[1..].iter().zip(&periods[1..]) {
-        let next = load + p;
-        seen = load - (load - rise).min(SATURATED);
-        out.push((rise, load.max(seen + ((next - seen) / 2).max(1))));
-        rise = next;
+/// Pulses as the STEP line shows them: one whose fall is the next one's rise (merged, no
+/// low time between) is one pulse.
+fn joined(pulses: Vec<(u64, u64)>) -> Vec<(u64, u64)> {
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for (rise, fall) in pulses {
+        match out.last_mut() {
+            Some(last) if last.1 == rise => last.1 = fall,
+            _ => out.push((rise, fall)),
+        }
     }
-    out.push((rise, rise + ((rise - seen) / 2).max(1)));
     out
 }
 
 fn check(periods: &[Period]) {
     let (pulses, end) = simulate(periods);
-    assert_eq!(pulses.len(), periods.len(), "{periods:?}: {pulses:?}");
-    for w in pulses.windows(2) {
-        assert!(
-            w[0].1 < w[1].0,
-            "{periods:?}: STEP high through an edge: {pulses:?}"
-        );
-    }
+    // only a period of one tick leaves no low time before its edge
+    let merged = periods[1..].iter().filter(|p| p.1 == 1).count();
+    assert_eq!(
+        pulses.len(),
+        periods.len() - merged,
+        "{periods:?}: {pulses:?}"
+    );
     let waits: Vec<u64> = loads(periods)[1..]
         .iter()
-        .zip(&pulses)
-        .map(|(&load, &(rise, _))| load - rise)
+        .zip(model(periods))
+        .map(|(&load, (rise, _))| load - rise)
         .collect();
     let underrun = waits.iter().any(|&w| w > 0);
     let levels = format!("0 0 {}", u8::from(underrun));
@@ -164,26 +158,22 @@ fn check(periods: &[Period]) {
         end, levels,
         "{periods:?}: STEP, running, underrun at the end"
     );
-    assert_eq!(pulses, saturated(periods), "{periods:?}");
-    let short = waits.iter().all(|&w| w <= SATURATED);
-    if short {
-        assert_eq!(pulses, model(periods), "{periods:?}");
-    }
+    assert_eq!(pulses, joined(model(periods)), "{periods:?}");
 }
 
 #[test]
 fn late_periods_after_long_waits_lose_no_pulse() {
-    // period 2 arrives 200 ticks after edge 1, more than the 128 the count holds
+    // period 2 arrives 200 ticks after edge 1, more than the 128 a WP - 1 bit count holds
     check(&[
         (None, 20),
         (Some(220), 30),
         (Some(230), 20),
         (Some(240), 20),
     ]);
-    // a late period longer than the counted wait: the held pulse falls before its edge
+    // a late period longer than the wait: the held pulse falls before its edge
     check(&[(None, 20), (Some(220), 250), (Some(230), 40)]);
     check(&[(None, 20), (Some(1_000), 255), (Some(1_100), 255)]);
-    // the shortest late period after a long wait, then the last step
+    // the shortest late period after a long wait (merged), then the last step
     check(&[(None, 5), (Some(1_000), 1)]);
     check(&[(None, 5), (Some(1_000), 1), (Some(1_001), 2)]);
     // two underruns in a row, one long and one short
@@ -193,7 +183,10 @@ fn late_periods_after_long_waits_lose_no_pulse() {
         (Some(400), 200),
         (Some(410), 20),
     ]);
-    // around the saturation: waits of 124..=132 ticks
+    // waits of 124..=132 ticks, and past 2^WP
+    for wait in [300, 600] {
+        check(&[(None, 10), (Some(10 + wait), 200), (Some(10 + wait + 5), 7)]);
+    }
     for wait in 124..=132 {
         for p in [1, 2, 3, 127, 128, 129, 130, 131, 200, 255] {
             check(&[

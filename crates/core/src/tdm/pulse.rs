@@ -6,11 +6,13 @@
 //! arrives, so that edge — and every later one of the axis — is late by the delay; the
 //! engine counts and reports it.
 //!
-//! Falling edge: by default STEP stays high for half of the interval to the next edge
-//! (seed 000's 50 % duty PWM), at least one tick; the last pulse of a move takes half of
-//! its own interval. While an underrun delays the next period, the line stays high until
-//! it arrives. With a fixed width the line is high for exactly that many ticks. A pulse
-//! whose fall is not before the next rise (no low time: a driver would see one step
+//! Falling edge: by default STEP falls half a period (at least one tick) after that period
+//! was loaded, so on time it is high for half of the interval to the next edge (seed 000's
+//! 50 % duty PWM); the last pulse of a move takes half of its own period. While an
+//! underrun delays the next period, the line stays high until it arrives and falls half
+//! the late period after that: the line is low for the second half of every period,
+//! however long the wait. With a fixed width the line is high for exactly that many ticks.
+//! A pulse whose fall is not before the next rise (no low time: a driver would see one step
 //! instead of two) is counted as merged.
 
 pub use crate::step_dir::PulseShape;
@@ -33,10 +35,11 @@ pub struct PulseUnit {
     /// Pulses started so far; the last one is still open (its fall not yet known).
     steps: u64,
     start: u64,
-    prev_rise: u64,
+    /// Tick the last period was loaded: the previous rise on time, later after an underrun.
+    last_load: u64,
     last_rise: u64,
     merged: u64,
-    /// `steps` when `prev_rise` and `last_rise` were last written: the loads after it
+    /// `steps` when `last_load` and `last_rise` were last written: the loads after it
     /// were [`load_kept`](Self::load_kept) ones, whose rises the caller keeps.
     kept_from: u64,
 }
@@ -81,9 +84,7 @@ impl PulseUnit {
             self.last_rise = load;
         } else {
             let fall = match self.shape {
-                PulseShape::HalfInterval => {
-                    load.max(self.last_rise + ((rise - self.last_rise) / 2).max(1))
-                }
+                PulseShape::HalfInterval => load + (period / 2).max(1),
                 PulseShape::Fixed { ticks } => self.last_rise + ticks,
             };
             if fall >= rise {
@@ -97,7 +98,7 @@ impl PulseUnit {
             });
         }
         self.steps += 1;
-        self.prev_rise = self.last_rise;
+        self.last_load = load;
         self.last_rise = rise;
         self.kept_from = self.steps;
         rise
@@ -119,7 +120,7 @@ impl PulseUnit {
         debug_assert_eq!(last, self.last_rise);
         self.load_kept::<false, F>(axis, last, period, sink);
         let rise = last + period;
-        self.prev_rise = last;
+        self.last_load = last;
         self.last_rise = rise;
         self.kept_from = self.steps;
         rise
@@ -181,7 +182,7 @@ impl PulseUnit {
     #[inline]
     pub(crate) fn resume(&mut self, last: u64, loaded: u64) {
         if self.steps != self.kept_from {
-            self.prev_rise = loaded;
+            self.last_load = loaded;
             self.last_rise = last;
             self.kept_from = self.steps;
         }
@@ -199,7 +200,7 @@ impl PulseUnit {
             return;
         }
         let high = match self.shape {
-            PulseShape::HalfInterval => ((self.last_rise - self.prev_rise) / 2).max(1),
+            PulseShape::HalfInterval => ((self.last_rise - self.last_load) / 2).max(1),
             PulseShape::Fixed { ticks } => ticks,
         };
         sink(StepPulse {
@@ -244,10 +245,15 @@ mod tests {
 
     #[test]
     fn late_period_shifts_the_next_edge_and_holds_the_line_high() {
-        // period 2 arrives 500 ticks after edge 1 (tick 110): edge 2 at 610 + 60
+        // period 2 arrives 500 ticks after edge 1 (tick 110): edge 2 at 610 + 60; pulse 1
+        // falls half of period 2 after its arrival, pulse 2 half of period 2 after its rise
         let (p, _) = play(PulseShape::HalfInterval, &[(10, 100), (610, 60)]);
-        assert_eq!((p[0].rise, p[0].fall), (110, 610));
-        assert_eq!(p[1].rise, 670);
+        assert_eq!((p[0].rise, p[0].fall), (110, 640));
+        assert_eq!((p[1].rise, p[1].fall), (670, 700));
+        // a late period of one tick: no low time before its edge
+        let (p, merged) = play(PulseShape::HalfInterval, &[(0, 10), (50, 1), (51, 4)]);
+        assert_eq!((p[0].fall, p[1].rise, p[1].fall), (51, 51, 53));
+        assert_eq!(merged, 1);
     }
 
     /// The in-time path against the general one, for both shapes, periods of 0, 1, 2 ticks
