@@ -270,8 +270,9 @@ pub const BOARDS: [Board; 4] = [
             filter_range: 1,
         },
         max_axes: 4,
-        // two axes: 84 % of the logic cells with SYNC; three do not fit (docs/HDL.md)
-        default_axes: 2,
+        // three axes: 91 % of the logic cells with SYNC and no limit filters; four do not
+        // fit (docs/HDL.md)
+        default_axes: 3,
         baud: 1_000_000,
         core: BoardCore {
             fifo_depth: 2,
@@ -289,11 +290,11 @@ pub const BOARDS: [Board; 4] = [
         },
         pinout: Pinout {
             axes: 4,
-            limits: true,
+            limits: false,
             file: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
         },
         top: "ms_icebreaker_top",
-        // the UP5K is full with two computing axes
+        // the UP5K is full with three computing axes
         stream_buffer_bits: 0,
         sync: true,
         chains: false,

@@ -32,14 +32,14 @@ const ULX3S_AXIS: u64 = 760;
 const ULX3S_ADDED_AXIS: u64 = 1350;
 
 /// Measured 2026-12-06: ms_fifo 31, ms_pulse 108, ms_axis_io 148, ms_debounce 70; one axis
-/// 427 (no replay unit on this board).
+/// 356 (no replay unit and no limit input on this board: one filter an axis).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 34),
     ("ms_pulse", 125),
     ("ms_axis_io", 170),
     ("ms_debounce", 77),
 ];
-const ICEBREAKER_AXIS: u64 = 480;
+const ICEBREAKER_AXIS: u64 = 400;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();
@@ -54,8 +54,13 @@ fn check(t: &ModuleTable, budgets: Budgets, axis: u64) {
         let row = t
             .row(module)
             .unwrap_or_else(|| panic!("{}: no {module} in\n{shown}", t.board));
-        // one per axis; two debounce filters (Hall and limit) per axis
-        let per = if module == "ms_debounce" { 2 } else { 1 };
+        // one per axis; two debounce filters per axis where it has a limit input
+        let limits = Board::by_name(&t.board).unwrap().pinout.limits;
+        let per = if module == "ms_debounce" && limits {
+            2
+        } else {
+            1
+        };
         assert_eq!(row.instances, per * k, "{}: {module} instances", t.board);
         assert!(
             row.each.lut <= lut,
