@@ -155,7 +155,24 @@ impl FpgaBackend {
     /// The board was reset or lost power (its session register no longer holds this
     /// host's token): every axis lost its count, whatever the timing, and the board is
     /// claimed with a new token. `running`: the axes moving before the poll that saw it.
+    /// The loss is told before the claim's first write: a link failure part way through
+    /// the claim would otherwise leave the board holding this host's token, so that no
+    /// later poll sees the reset, and the reset counts trusted.
     pub(super) fn session_changed(&mut self, session: u32, running: u32) -> Result<(), LinkError> {
+        for i in 0..self.axes.len() {
+            let ax = &mut self.axes[i];
+            ax.feed = None;
+            ax.offset = 0;
+            ax.speed = 0.0;
+            let moved = ax.running.take().is_some() || running >> i & 1 == 1;
+            let why = format!(
+                "the board was reset or lost power (its session register reads {session:#010x}, \
+                 not this host's token); its count {} was lost{}; untrusted until homed",
+                ax.count,
+                if moved { " mid-move" } else { "" }
+            );
+            self.events.push_back((i, PinEvent::Lost { why }));
+        }
         let token = link::session_token();
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         l.write(Reg::Board(BoardReg::Session), token)?;
@@ -165,21 +182,7 @@ impl FpgaBackend {
         self.estopped = false;
         self.setup()?;
         for i in 0..self.axes.len() {
-            let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
-            let count = readback::count(l.read(Reg::Axis(i as u32, AxisReg::Position))?, 0);
-            let ax = &mut self.axes[i];
-            ax.feed = None;
-            ax.offset = 0;
-            let moved = ax.running.take().is_some() || running >> i & 1 == 1;
-            let why = format!(
-                "the board was reset or lost power (its session register reads {session:#010x}, \
-                 not this host's token); its count {} was lost{}; untrusted until homed",
-                ax.count,
-                if moved { " mid-move" } else { "" }
-            );
-            self.events.push_back((i, PinEvent::Lost { why }));
-            ax.count = count;
-            ax.speed = 0.0;
+            self.read_count(i)?;
         }
         Ok(())
     }

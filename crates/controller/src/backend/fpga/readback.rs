@@ -74,6 +74,34 @@ mod tests {
         assert_eq!(b.count(1), 0, "the board's count after the reset");
     }
 
+    /// A link failure part way through claiming a reset board (the token written, the
+    /// setup's first reply lost) still tells the loss: the next polls find the board
+    /// holding this host's token and would never see the reset.
+    #[test]
+    fn a_reset_is_told_even_when_the_claim_fails_part_way() {
+        let (mut b, m) = connect();
+        m.lock().unwrap().steps = 300;
+        m.lock().unwrap().position[1] = 500;
+        let l = launch(&b, 0, 300);
+        b.start(vec![l], None, &Default::default(), 0).unwrap();
+        assert!(events(&mut b, 1).is_empty());
+        {
+            let mut m = m.lock().unwrap();
+            m.power_cycle();
+            // every reply to a Debounce write is lost: the claim's setup fails after
+            // the Session write
+            m.mute = Some(0x0D);
+        }
+        let ev = events(&mut b, 2);
+        let lost: Vec<usize> = ev
+            .iter()
+            .filter(|(_, e)| matches!(e, PinEvent::Lost { .. }))
+            .map(|(i, _)| *i)
+            .collect();
+        assert_eq!(lost, [0, 1], "{ev:?}");
+        assert_ne!(m.lock().unwrap().session, 0, "the token was written");
+    }
+
     /// A count kept partly outside the register (adopted after a restart) is folded into
     /// the register once, at rest: later moves count from the register alone.
     #[test]
