@@ -343,6 +343,12 @@ impl Rig {
             .timeout(Duration::from_millis(2000))
             .open()
             .expect("the pty opens");
+        // The killed `serve` may have had a request in flight: its reply (seq 0 once in 256
+        // requests, as this link's first) would be taken as the first read's. Let the
+        // board answer it, then drop it.
+        std::thread::sleep(Duration::from_millis(300));
+        port.clear(serialport::ClearBuffer::Input)
+            .expect("the pty's input clears");
         let mut l = HostLink::new(port);
         let mut counters = Vec::new();
         for (a, last) in self.last.iter().enumerate() {
