@@ -75,14 +75,29 @@ impl<T: Read + Write + Send> Port for T {}
 /// Opens the stream (again, after a failure).
 pub type Opener = Box<dyn FnMut() -> Result<Box<dyn Port>, String> + Send>;
 
-/// Opens the serial device of `spec` (8N1, its reply timeout).
+/// How long a serial line just opened is listened to before what came is thrown away. A host killed mid-request leaves a request that the board still
+/// answers; a reply carries only its seq, so that reply, taken for this host's first one of
+/// the same seq, would give another register's value.
+///
+/// A tenth of the reply timeout, from 50 ms (a board answers within a millisecond and a USB
+/// serial adapter holds bytes for up to 16 ms) to 0.5 s (`timeout=3`, a simulated board
+/// on a busy machine: 0.3 s).
+pub fn stale_reply_wait(timeout: Duration) -> Duration {
+    (timeout / 10).clamp(Duration::from_millis(50), Duration::from_millis(500))
+}
+
+/// Opens the serial device of `spec` (8N1, its reply timeout), waits
+/// [`stale_reply_wait`] and empties its input.
 pub fn serial_opener(spec: &LinkSpec) -> Opener {
     let spec = spec.clone();
     Box::new(move || {
-        serialport::new(&spec.device, spec.baud)
+        let err = |e: serialport::Error| format!("{}: {e}", spec.device);
+        let port = serialport::new(&spec.device, spec.baud)
             .timeout(spec.timeout)
             .open()
-            .map(|p| Box::new(p) as Box<dyn Port>)
-            .map_err(|e| format!("{}: {e}", spec.device))
+            .map_err(err)?;
+        std::thread::sleep(stale_reply_wait(spec.timeout));
+        port.clear(serialport::ClearBuffer::Input).map_err(err)?;
+        Ok(Box::new(port) as Box<dyn Port>)
     })
 }

@@ -52,6 +52,12 @@ fn link_specs_parse_or_say_what_is_expected() {
     }
 }
 
+#[test]
+fn a_new_line_is_listened_to_a_tenth_of_the_reply_timeout_from_50_ms_to_half_a_second() {
+    let ms = |t: u64| stale_reply_wait(Duration::from_millis(t)).as_millis();
+    assert_eq!([ms(10), ms(500), ms(3000), ms(60_000)], [50, 50, 300, 500]);
+}
+
 /// A stream that never answers: the link fails with an I/O error (the port's timeout).
 struct Silent;
 impl Read for Silent {
