@@ -194,7 +194,8 @@ struct Rig {
 }
 
 /// Rigs share the machine, but one on a board of more than 4 axes (14 streamed moves at
-/// once) runs alone: beside it the others' simulated boards fall behind their links.
+/// once) runs alone: beside it the others' simulated boards fall behind their links. So
+/// does a tracking rig ([`Rig::tracking`]).
 static MACHINE: RwLock<()> = RwLock::new(());
 
 /// A rig's hold on [`MACHINE`], released when the rig is dropped.
@@ -205,8 +206,8 @@ enum Share {
 }
 
 impl Share {
-    fn take(axes: usize) -> Share {
-        if axes > 4 {
+    fn take(alone: bool) -> Share {
+        if alone {
             Share::Alone(MACHINE.write().unwrap_or_else(|e| e.into_inner()))
         } else {
             Share::Shared(MACHINE.read().unwrap_or_else(|e| e.into_inner()))
@@ -250,6 +251,14 @@ impl Rig {
         Rig::on_board(pins, text, "ulx3s-25f", 3_000_000)
     }
 
+    /// [`Rig::with_config`] for a tracking axis, alone on the machine: its stream runs only
+    /// 50 ms of board time ahead of the board (`TRACK_LEAD_S`), and beside other rigs'
+    /// simulated boards on a loaded machine the link fell that far behind.
+    fn tracking(pins: Pins, text: &str) -> Rig {
+        let board = ("ulx3s-25f", 2);
+        Rig::on_board_with(Share::take(true), pins, text, board, 3_000_000, false, &[])
+    }
+
     /// With the board config `text`, on `board`'s build for [`Pins::Hil`].
     fn on_board(pins: Pins, text: &str, board: &str, baud: u32) -> Rig {
         Rig::on_board_logged(pins, text, board, baud, false)
@@ -258,12 +267,13 @@ impl Rig {
     /// As [`Rig::on_board`]; `stats`: the service writes its link statistics and other
     /// diagnostics to `serve.log` in the rig's directory.
     fn on_board_logged(pins: Pins, text: &str, board: &str, baud: u32, stats: bool) -> Rig {
-        Rig::on_board_with(pins, text, (board, 2), baud, stats, &[])
+        Rig::on_board_with(Share::take(false), pins, text, (board, 2), baud, stats, &[])
     }
 
     /// As [`Rig::on_board_logged`], with board-sim's `(board, axes)` and `extra`
-    /// arguments to `serve` (the rig checks the first two axes).
+    /// arguments to `serve` (the rig checks the first two axes), holding `share`.
     fn on_board_with(
+        share: Share,
         pins: Pins,
         text: &str,
         (board, axes): (&str, usize),
@@ -271,7 +281,6 @@ impl Rig {
         stats: bool,
         extra: &[&str],
     ) -> Rig {
-        let share = Share::take(axes);
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, text).unwrap();
@@ -898,7 +907,9 @@ fn fourteen_axes_run_every_family_at_once_edge_exact() {
         "vmax = 1000000.0\namax = 1000000000.0\n",
     );
     const HZ: f64 = 50e6;
-    let mut r = Rig::on_board_with(Pins::Hil, &text, ("ulx3s-25f-14", K), 3_000_000, false, &[]);
+    let board = ("ulx3s-25f-14", K);
+    let alone = Share::take(true);
+    let mut r = Rig::on_board_with(alone, Pins::Hil, &text, board, 3_000_000, false, &[]);
     // one move after the other: axis a starts with the a-th group start
     for (n, &(profile, steps, times)) in names.iter().zip(&moves) {
         let shape = match times {
@@ -1048,7 +1059,8 @@ fn a_core_with_the_recurrence_is_driven_edge_exact() {
         "vmax = 1000000.0\namax = 1000000000.0\n",
     );
     let board = ("ulx3s-25f --recurrence 13", 3);
-    let mut r = Rig::on_board_with(Pins::Hil, &text, board, 3_000_000, false, &[]);
+    let shared = Share::take(false);
+    let mut r = Rig::on_board_with(shared, Pins::Hil, &text, board, 3_000_000, false, &[]);
     r.req("move X 3000 accel=0.02 cruise=0.01 decel=0.02");
     r.req("move Y -1500 vmax=60000 amax=3000000");
     r.req("move Z 90 vmax=250 amax=40000");
@@ -1131,7 +1143,7 @@ fn a_starved_stream_is_flagged_and_the_count_stays_exact() {
 #[test]
 fn tracking_rate_change_reversal_and_stop_on_both_backends() {
     let got = on_both(|pins| {
-        let mut r = Rig::new(pins);
+        let mut r = Rig::tracking(pins, &config());
         r.req("track X 3000");
         std::thread::sleep(Duration::from_millis(150));
         r.req("track X 3500");
@@ -1201,7 +1213,7 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
 /// and is seen to, and the stop completes.
 #[test]
 fn a_tracking_rate_the_replay_unit_cannot_time_is_refused_up_front() {
-    let mut r = Rig::new(Pins::Hil);
+    let mut r = Rig::tracking(Pins::Hil, &config());
     r.req("track X 1000");
     let e = r.client.request("track X 2").unwrap_err().to_string();
     assert!(
@@ -1229,7 +1241,7 @@ fn tracking_stops_before_the_soft_limit_on_both_backends() {
     // the stop must allow for them, or the axis crosses the limit
     let text = config().replacen("vmax = 4000.0", "soft_max = 400\nvmax = 4000.0", 1);
     let got = on_both(|pins| {
-        let mut r = Rig::with_config(pins, &text);
+        let mut r = Rig::tracking(pins, &text);
         r.req("track X 3000");
         let t0 = Instant::now();
         while r.status("X").state == AxisState::Tracking {
@@ -1257,7 +1269,7 @@ fn a_periodic_axis_wraps_while_it_tracks_on_both_backends() {
     // and writes the counter once the axis rests
     let text = config().replacen("vmax = 4000.0", "period = 500\nvmax = 4000.0", 1);
     on_both(|pins| {
-        let mut r = Rig::with_config(pins, &text);
+        let mut r = Rig::tracking(pins, &text);
         r.req("track X 3000");
         let t0 = Instant::now();
         while r.status("X").speed < 2999.0 {
@@ -1918,6 +1930,7 @@ fn estop_under_load_on_the_board_with_a_streamed_group() {
         "vmax = 1000000.0\namax = 1000000000.0\n",
     );
     let mut r = Rig::on_board_with(
+        Share::take(false),
         Pins::Hil,
         &four,
         ("ulx3s-25f", 4),
