@@ -1,4 +1,4 @@
-//! The pulse unit of one axis: a down-counter loaded with one period at a time.
+//! The pulse unit of one axis: a counter of the ticks since one period was loaded.
 //!
 //! Loading period j at tick `load` makes STEP rise at `load + period_j` (the step's edge
 //! tick). On time, `load` is the previous edge (or the group's start tick for step 1), so

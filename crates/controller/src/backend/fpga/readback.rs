@@ -48,16 +48,21 @@ mod tests {
         assert_eq!(b.count(0), -300);
     }
 
-    #[test]
-    fn a_reset_marks_an_idle_axis_lost_and_takes_the_boards_count() {
+    /// Axis 0 on a 300-step move, axis 1 at rest at 500, after a first quiet poll.
+    fn moving_beside_a_resting_axis() -> (FpgaBackend, Arc<Mutex<Model>>) {
         let (mut b, m) = connect();
         m.lock().unwrap().steps = 300;
-        // axis 1 at rest at 500 while axis 0 moves
         m.lock().unwrap().position[1] = 500;
         let l = launch(&b, 0, 300);
         b.start(vec![l], None, &Default::default(), 0).unwrap();
-        assert!(events(&mut b, 1).is_empty());
-        assert_eq!(b.count(1), 500);
+        assert!(events(&mut b, 1).is_empty(), "still moving");
+        assert_eq!(b.count(1), 500, "an idle axis read while another moves");
+        (b, m)
+    }
+
+    #[test]
+    fn a_reset_marks_an_idle_axis_lost_and_takes_the_boards_count() {
+        let (mut b, m) = moving_beside_a_resting_axis();
         m.lock().unwrap().power_cycle();
         let ev = events(&mut b, 2);
         let idle: Vec<&str> = ev
@@ -79,12 +84,7 @@ mod tests {
     /// holding this host's token and would never see the reset.
     #[test]
     fn a_reset_is_told_even_when_the_claim_fails_part_way() {
-        let (mut b, m) = connect();
-        m.lock().unwrap().steps = 300;
-        m.lock().unwrap().position[1] = 500;
-        let l = launch(&b, 0, 300);
-        b.start(vec![l], None, &Default::default(), 0).unwrap();
-        assert!(events(&mut b, 1).is_empty());
+        let (mut b, m) = moving_beside_a_resting_axis();
         {
             let mut m = m.lock().unwrap();
             m.power_cycle();
