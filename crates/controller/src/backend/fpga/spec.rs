@@ -75,9 +75,10 @@ impl<T: Read + Write + Send> Port for T {}
 /// Opens the stream (again, after a failure).
 pub type Opener = Box<dyn FnMut() -> Result<Box<dyn Port>, String> + Send>;
 
-/// How long a serial line just opened is listened to before what came is thrown away. A host killed mid-request leaves a request that the board still
-/// answers; a reply carries only its seq, so that reply, taken for this host's first one of
-/// the same seq, would give another register's value.
+/// How long a serial line just opened is listened to before what came is thrown away. A
+/// host killed mid-request leaves a request that the board still answers; a reply carries
+/// only its seq, so that reply, taken for this host's first one of the same seq, would give
+/// another register's value.
 ///
 /// A tenth of the reply timeout, from 50 ms (a board answers within a millisecond and a USB
 /// serial adapter holds bytes for up to 16 ms) to 0.5 s (`timeout=3`, a simulated board
