@@ -8,6 +8,7 @@
 mod common;
 
 use common::EchoedStderr;
+use multistep_controller::backend::fpga::{serial_opener, LinkSpec};
 use multistep_controller::client::{Client, Endpoint};
 use multistep_controller::{AxisState, AxisStatus};
 use multistep_hdl::link::{position_count, AxisReg, HostLink, Reg};
@@ -348,16 +349,14 @@ impl Rig {
             return Vec::new();
         };
         self.server.kill9();
-        let port = serialport::new(&b.pty, b.baud)
-            .timeout(Duration::from_millis(2000))
-            .open()
-            .expect("the pty opens");
-        // The killed `serve` may have had a request in flight: its reply (seq 0 once in 256
-        // requests, as this link's first) would be taken as the first read's. Let the
-        // board answer it, then drop it.
-        std::thread::sleep(Duration::from_millis(300));
-        port.clear(serialport::ClearBuffer::Input)
-            .expect("the pty's input clears");
+        // The killed `serve` may have had a request in flight: its reply would be taken as
+        // the first read's. `serve`'s own opener waits for it and drops it.
+        let spec = LinkSpec {
+            device: b.pty.clone(),
+            baud: b.baud,
+            timeout: Duration::from_millis(2000),
+        };
+        let port = serial_opener(&spec)().expect("the pty opens");
         let mut l = HostLink::new(port);
         let mut counters = Vec::new();
         for (a, last) in self.last.iter().enumerate() {

@@ -5,13 +5,17 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 14] = [
+pub const BOARD_LIBRARY: [(&str, &str); 15] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
     ("ms_uart_tx.v", include_str!("../rtl/board/ms_uart_tx.v")),
     ("ms_crc16.v", include_str!("../rtl/board/ms_crc16.v")),
     ("ms_link.v", include_str!("../rtl/board/ms_link.v")),
+    (
+        "ms_filter_clock.v",
+        include_str!("../rtl/board/ms_filter_clock.v"),
+    ),
     ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
     ("ms_nibble.v", include_str!("../rtl/board/ms_nibble.v")),
@@ -46,6 +50,21 @@ pub const CHAIN_LIBRARY: [(&str, &str); 4] = [
 /// Most a UART bit time may be off the nominal baud (the receiver samples once per bit,
 /// at its middle, so 10 bits tolerate about 5 % between both ends; half of it is ours).
 pub const MAX_BAUD_ERROR: f64 = 0.025;
+
+/// The bits of each Hall and limit filter's counter (`ms_board`'s `WB`).
+pub const FILTER_BITS: u32 = 10;
+
+/// The longest a changed input level is held before its filter accepts it, in clocks from
+/// its first one, for a `Debounce` of `ticks` clocks (`ms_filter_clock`): exactly `ticks`
+/// (at least 1) below 2^(FILTER_BITS - 1); longer, (ticks / P + 2) P with P the least power
+/// of two that brings ticks / P below that (the shortest is more than `ticks`).
+pub fn filter_latest(ticks: u64) -> u64 {
+    let half = 1u64 << (FILTER_BITS - 1);
+    match (0..64).map(|s| 1u64 << s).find(|&p| ticks / p < half) {
+        Some(1) | None => ticks.max(1),
+        Some(p) => (ticks / p + 2) * p,
+    }
+}
 
 /// What `ms_board` is built with.
 #[derive(Clone, Debug, PartialEq)]
@@ -190,6 +209,21 @@ impl BoardTop {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn filter_times_exact_below_512_clocks_and_under_one_percent_late_above() {
+        assert!(include_str!("../rtl/board/ms_board.v")
+            .contains(&format!("parameter WB       = {FILTER_BITS},")));
+        assert_eq!(filter_latest(0), 1);
+        assert_eq!(filter_latest(511), 511);
+        // P = 2: 512 / 2 + 2 strobes
+        assert_eq!(filter_latest(512), 516);
+        assert_eq!(filter_latest(1800), 1808);
+        for t in [512u64, 1000, 25_000, 100_000, (1 << 24) - 1] {
+            let late = filter_latest(t) - t;
+            assert!(late > 0 && late * 100 < t, "{t}: {late}");
+        }
+    }
 
     #[test]
     fn three_megabaud_at_the_default_clock() {

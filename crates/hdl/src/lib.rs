@@ -17,7 +17,9 @@ pub mod testbench;
 pub mod tools;
 pub mod verilator;
 
-pub use board::{BoardTop, BOARD_LIBRARY, CHAIN_LIBRARY, MAX_BAUD_ERROR};
+pub use board::{
+    filter_latest, BoardTop, BOARD_LIBRARY, CHAIN_LIBRARY, FILTER_BITS, MAX_BAUD_ERROR,
+};
 pub use emit::{Arch, Design, LIBRARY, RECURRENCE_UNIT};
 pub use error::HdlError;
 // The host link, the core's parameters and the move writes, at their old paths.

@@ -42,7 +42,7 @@ impl Target {
         match self {
             Target::Xilinx => format!("synth_xilinx -top {top}"),
             Target::Ice40 => format!("synth_ice40 -dsp -noflatten -top {top}"),
-            Target::Ecp5 => format!("synth_ecp5 -noflatten -top {top}"),
+            Target::Ecp5 => format!("synth_ecp5 -nowidelut -noflatten -top {top}"),
         }
     }
 

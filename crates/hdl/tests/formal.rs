@@ -51,13 +51,22 @@ const AXIS_IO: Props = Props {
 };
 const AXIS_IO_DEPTH: u32 = 12;
 
-/// Hall and limit filter: W = 3, filter times up to 7 clocks; 20 clocks hold a reset, a
-/// glitch one clock short of the longest filter and an accepted change after it.
+/// Hall and limit filter on its shared time base: filter times up to 15 clocks in 3-bit
+/// counters (prescalers of 1, 2 and 4 clocks); 24 clocks hold a reset and the longest
+/// accepted change (20 clocks).
 const DEBOUNCE: Props = Props {
     top: "debounce_props",
-    rtl: &["rtl/board/ms_debounce.v"],
+    rtl: &["rtl/board/ms_filter_clock.v", "rtl/board/ms_debounce.v"],
 };
-const DEBOUNCE_DEPTH: u32 = 20;
+const DEBOUNCE_DEPTH: u32 = 24;
+
+/// The Hall latch: 3-bit filter counters; 16 clocks hold a reset, a level accepted with the
+/// flag clear and one accepted after it while it was still set.
+const HALL_LATCH: Props = Props {
+    top: "hall_latch_props",
+    rtl: &["rtl/board/ms_debounce.v", "rtl/board/ms_axis_io.v"],
+};
+const HALL_LATCH_DEPTH: u32 = 16;
 
 /// The register map's DIR setup: K = 2; 16 clocks hold the reset, a DirSetup write, a start
 /// write 4 clocks later and its go after DirSetup 2 + n 2 + 2 clocks.
@@ -219,10 +228,17 @@ fn axis_pin_estop_and_fixed_width_are_proven_by_induction() {
 }
 
 #[test]
-fn debounce_accepts_exactly_after_the_filter_time_proven_by_induction() {
+fn debounce_accepts_after_the_filter_time_and_at_most_its_prescaler_later_proven_by_induction() {
     holds(&DEBOUNCE, Mode::Bmc(DEBOUNCE_DEPTH));
     holds(&DEBOUNCE, Mode::Induction(DEBOUNCE_DEPTH));
     holds(&DEBOUNCE, Mode::Cover(DEBOUNCE_DEPTH));
+}
+
+#[test]
+fn the_hall_position_is_where_the_accepted_level_began_proven_by_induction() {
+    holds(&HALL_LATCH, Mode::Bmc(HALL_LATCH_DEPTH));
+    holds(&HALL_LATCH, Mode::Induction(HALL_LATCH_DEPTH));
+    holds(&HALL_LATCH, Mode::Cover(HALL_LATCH_DEPTH));
 }
 
 #[test]
@@ -256,6 +272,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&PULSE, PULSE_DEPTH),
         (&AXIS_IO, AXIS_IO_DEPTH),
         (&DEBOUNCE, DEBOUNCE_DEPTH),
+        (&HALL_LATCH, HALL_LATCH_DEPTH),
         (&REGS, REGS_DEPTH),
         (&RECUR, RECUR_DEPTH),
         (&REPLAY, REPLAY_DEPTH),

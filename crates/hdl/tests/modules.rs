@@ -1,8 +1,9 @@
 //! The per-module table of each board (`multistep hdl modules`), checked against budgets:
 //! a change that makes an axis larger fails here at once, with the whole table printed.
-//! Budgets are Debian's Yosys 0.23 counts plus a margin for ABC's run-to-run variance
-//! (small structural changes move a module by up to ~10 %); lower them when an axis
-//! shrinks.
+//! Budgets are Debian's Yosys 0.23 counts (ECP5 without wide-LUT mapping, as the command
+//! synthesizes) plus a margin for ABC's run-to-run variance (small structural changes move
+//! a module by up to ~15 %: `ms_pulse` 121-182 on the ULX3S for the same RTL); lower them
+//! when an axis shrinks.
 
 use multistep_hdl::boards::Board;
 use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
@@ -11,33 +12,32 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-06 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 182-211,
-/// ms_axis_io 171-177, ms_debounce 76, ms_replay_axis 103-148 (the replay unit's per-axis
+/// Measured 2026-12-07 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 163-182,
+/// ms_axis_io 170-173, ms_debounce 31-32, ms_replay_axis 91-92 (the replay unit's per-axis
 /// part; the shared decoder, ms_replay, and the step counts, ms_step_counts, are not an
-/// axis's); one axis 656-678.
+/// axis's); one axis 511-528.
 const ULX3S: Budgets = &[
     ("ms_fifo", 22),
-    ("ms_pulse", 240),
-    ("ms_axis_io", 200),
-    ("ms_debounce", 84),
-    ("ms_replay_axis", 175),
+    ("ms_pulse", 210),
+    ("ms_axis_io", 195),
+    ("ms_debounce", 36),
+    ("ms_replay_axis", 105),
 ];
-const ULX3S_AXIS: u64 = 760;
+const ULX3S_AXIS: u64 = 600;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// readback and per-axis registers and the shared replay decoder's multiplexers and step
-/// count memories included: (K = 4 − K = 2) / 2, measured 995 (910 and 1200 in two runs
-/// with the pulse unit's wait counter, ABC's variance; 1216 with a step count per axis,
-/// 1726 and 1760 with a whole replay unit per axis).
-const ULX3S_ADDED_AXIS: u64 = 1350;
+/// count memories included: (K = 4 − K = 2) / 2, measured 787.
+const ULX3S_ADDED_AXIS: u64 = 900;
 
-/// Measured 2026-12-06: ms_fifo 31, ms_pulse 108, ms_axis_io 148, ms_debounce 70; one axis
-/// 356 (no replay unit and no limit input on this board: one filter an axis).
+/// Measured 2026-12-07: ms_fifo 31, ms_pulse 126 (108 at K = 3, the same RTL), ms_axis_io
+/// 149, ms_debounce 40; one axis 346 (no replay unit and no limit input on this board: one
+/// filter an axis).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 34),
-    ("ms_pulse", 125),
+    ("ms_pulse", 145),
     ("ms_axis_io", 170),
-    ("ms_debounce", 77),
+    ("ms_debounce", 46),
 ];
 const ICEBREAKER_AXIS: u64 = 400;
 

@@ -425,7 +425,7 @@ struct World {
     cut: bool,
     /// The reset pin is low until this cycle.
     reset_until: u64,
-    /// An input changed: run until its debounce time has passed.
+    /// An input changed: run until its filter has accepted it, or never will.
     settle_until: u64,
     /// Host bytes read, not yet on the line.
     host: Vec<u8>,
@@ -697,7 +697,8 @@ impl World {
         inp.estop = self.estop;
         inp.sync = self.sync_in;
         if inp.hall != self.inputs.hall {
-            self.settle_until = cycle + self.model.outputs().debounce + 16;
+            self.settle_until =
+                cycle + multistep_hdl::filter_latest(self.model.outputs().debounce) + 16;
         }
         if inp != self.inputs {
             self.model.set_inputs(&inp);

@@ -256,16 +256,17 @@ fn hall_pass_latches_the_sensor_position_and_short_glitches_are_rejected() {
     assert!(st.hall_flag, "the pass was seen");
     assert!(!st.hall, "past the window at the end");
     let hp = l.read(Reg::Axis(0, AxisReg::HallPosition)).unwrap() as i32 as f64;
-    // the count at the accepted edge: the sensor edge, plus the steps the command leads
-    // the rotor by (its lag), plus the steps during the debounce time
-    let during_debounce = v as f64 * f64::from(DEBOUNCE) / p.clock_hz;
-    let lag = hp - 1200.0 - during_debounce;
-    // a glitch next to the sensor edge (they come at random simulated times) moves the
-    // accepted edge by up to its length: 0.2 ms, 3.2 steps at v
+    // the count where the accepted level began: the sensor edge plus the steps the command
+    // leads the rotor by (its lag)
+    let lag = hp - 1200.0;
+    // glitches come at random simulated times: one next to the sensor edge moves the
+    // level's start by up to its length (0.2 ms, 3.2 steps at v); a dropout less than a
+    // debounce time after the edge starts the level again after it
     let glitch_steps = v as f64 * 0.0002;
+    let debounce_steps = v as f64 * f64::from(DEBOUNCE) / p.clock_hz;
     assert!(
-        (-1.0 - glitch_steps..=32.0 + glitch_steps).contains(&lag),
-        "HallPosition {hp}: lag {lag} microsteps (debounce {during_debounce} steps)"
+        (-1.0 - glitch_steps..=32.0 + glitch_steps + debounce_steps).contains(&lag),
+        "HallPosition {hp}: lag {lag} microsteps"
     );
     let s = sim.state().unwrap();
     let a = &s.axes[0];

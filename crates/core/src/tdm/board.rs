@@ -688,13 +688,8 @@ impl<'a> Board<'a> {
     /// latency after its start: `max(dir_setup, (P − 1)·interval + latency)`.
     pub fn start_tick(&self) -> u64 {
         let depth = self.cfg.fifo_depth as u64;
-        let prefill: u64 = self.axes.iter().map(|a| a.remaining().min(depth)).sum();
         let (ii, lat) = (self.cfg.latencies.interval(), self.cfg.latencies.latency());
-        let mut fill = match prefill {
-            0 => 0,
-            p => (p - 1).saturating_mul(ii).saturating_add(lat),
-        };
-        if self.costs_vary() {
+        let fill = if self.costs_vary() {
             // one period after the other: the recurrence's at their own costs, the
             // others at the interval (the last one's latency after its start)
             let (mut spent, mut closed) = (0u64, false);
@@ -708,8 +703,18 @@ impl<'a> Board<'a> {
                     }
                 }
             }
-            fill = spent + if closed { lat - ii } else { 0 };
-        }
+            spent + if closed { lat - ii } else { 0 }
+        } else {
+            match self
+                .axes
+                .iter()
+                .map(|a| a.remaining().min(depth))
+                .sum::<u64>()
+            {
+                0 => 0,
+                p => (p - 1).saturating_mul(ii).saturating_add(lat),
+            }
+        };
         self.cfg.step_dir.dir_setup_ticks.max(fill)
     }
 

@@ -6,11 +6,15 @@
 //  - the position counter: +1 / -1 (by DIR) at every STEP rise of the core that is not cut
 //    by `kill` or `halt` (one cut only by `kill_pin`, in the synchronizer's 2 clocks, is
 //    counted); the period meter: clocks between the last two rises (0 before the second).
-//  - Hall and limit inputs (synchronized and made active-high by the caller): debounced;
-//    at the accepted Hall edge the position is latched and the flag set.
+//  - Hall and limit inputs (synchronized and made active-high by the caller): debounced on
+//    the shared time base; the Hall edge is time-stamped: the position is latched in the
+//    clock the accepted level began (the rises before it), and the flag set when it is
+//    accepted. A level that began while the last edge's flag was still set is latched
+//    when accepted instead, so the flag never pairs with an older edge's position.
 //  - output levels: STEP, DIR, ENABLE active high when their `lvl_*` bit is 1.
 module ms_axis_io #(
     parameter WD    = 24,
+    parameter WB    = 10,   // the filters' counters (ms_filter_clock)
     parameter LIMIT = 1     // 0: no limit input wired (its level and edge read 0)
 ) (
     input  wire          clk,
@@ -22,7 +26,8 @@ module ms_axis_io #(
     input  wire          kill,       // the e-stop, synchronized: STEP low at the next clock
     input  wire          kill_pin,   // the e-stop input itself: gates the STEP pin only
     input  wire [WD-1:0] width,      // 0: 50 % duty; else the fixed STEP high time
-    input  wire [WD-1:0] debounce,
+    input  wire          strobe,     // the filters' time base
+    input  wire [WB-1:0] load,
     input  wire          hall,       // active-high, synchronized
     input  wire          limit,      // active-high, synchronized
     input  wire          pos_wr,
@@ -95,16 +100,14 @@ module ms_axis_io #(
             have <= 1'b1;
         end
     end
-    wire accept;
-    /* verilator lint_off PINCONNECTEMPTY */
-    ms_debounce #(.W(WD)) u_hall (.clk(clk), .rst(rst), .d(hall), .ticks(debounce),
-        .q(hall_lvl), .accept(accept), .rise(hall_edge));
-    /* verilator lint_on PINCONNECTEMPTY */
+    wire begins, accept;
+    ms_debounce #(.W(WB)) u_hall (.clk(clk), .rst(rst), .d(hall), .strobe(strobe),
+        .load(load), .q(hall_lvl), .begins(begins), .accept(accept), .rise(hall_edge));
     generate
         if (LIMIT != 0) begin : lim
             /* verilator lint_off PINCONNECTEMPTY */
-            ms_debounce #(.W(WD)) u_limit (.clk(clk), .rst(rst), .d(limit), .ticks(debounce),
-                .q(limit_lvl), .accept(), .rise(limit_edge));
+            ms_debounce #(.W(WB)) u_limit (.clk(clk), .rst(rst), .d(limit), .strobe(strobe),
+                .load(load), .q(limit_lvl), .begins(), .accept(), .rise(limit_edge));
             /* verilator lint_on PINCONNECTEMPTY */
         end else begin : no_lim
             assign limit_lvl  = 1'b0;
@@ -114,13 +117,18 @@ module ms_axis_io #(
             /* verilator lint_on UNUSED */
         end
     endgenerate
-    // latched in the clock the edge is accepted: the rises up to the one before
+    // the Hall position: latched where an active level begins while the flag is clear
+    // (`caught`), else where it is accepted
+    reg  caught;
+    wire enter  = begins && hall;
+    wire caught_now = enter ? !hall_flag : caught;
+    initial caught = 1'b0;
     always @(posedge clk) begin
         if (rst || hall_clr) hall_flag <= 1'b0;
-        if (accept) begin
-            hall_pos  <= pos;
-            hall_flag <= 1'b1;
-        end
+        if (rst) caught <= 1'b0;
+        else if (enter) caught <= !hall_flag;
+        if ((enter && !hall_flag) || (accept && !caught_now)) hall_pos <= pos;
+        if (accept) hall_flag <= 1'b1;
     end
     // the only use of the unsynchronized e-stop: a gate, no flip-flop sees it
     assign step_pin = (s && !kill && !kill_pin) ? lvl_step : !lvl_step;

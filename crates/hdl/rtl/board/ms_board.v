@@ -27,6 +27,7 @@ module ms_board #(
     parameter CHAINS   = 0,            // 1: a chain unit per axis (ms_chain_axis; LB > 0)
     parameter LUTRAM   = 0,            // 1: the family has distributed RAM (ms_core)
     parameter LIMITS   = 1,            // 0: the pins have no limit inputs (they read 0)
+    parameter WB       = 10,           // the Hall and limit filters' counters (ms_filter_clock)
     parameter RECUR    = 0,            // 1: the per-step recurrence in the core (ms_core)
     parameter MR       = 0,            // its multiplier digit bits (0: full width, <= 15)
     parameter WRA      = 56,           // and its widths (ms_core)
@@ -151,6 +152,11 @@ module ms_board #(
     endgenerate
 
     // ---- per axis ----
+    // the Hall and limit filters' shared time base
+    wire          filter_strobe;
+    wire [WB-1:0] filter_load;
+    ms_filter_clock #(.WD(WD), .WB(WB)) u_filter_clock (.clk(clk), .ticks(debounce),
+        .load(filter_load), .strobe(filter_strobe));
     wire kill = estop_act || estop;
     wire en_off = levels[5] && estop;
     genvar a;
@@ -179,11 +185,11 @@ module ms_board #(
                 assign s_more[a] = 1'b0;
                 assign s_fault[a] = 1'b0;
             end
-            ms_axis_io #(.WD(WD), .LIMIT(LIMITS)) u_io (
+            ms_axis_io #(.WD(WD), .WB(WB), .LIMIT(LIMITS)) u_io (
                 .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
                 .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
                 .width(pulse_width),
-                .debounce(debounce), .hall(hall_s[a] == levels[3]),
+                .strobe(filter_strobe), .load(filter_load), .hall(hall_s[a] == levels[3]),
                 .limit(limit_s[a] == levels[4]), .pos_wr(pos_wr[a]), .pos_in(req_data),
                 .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),
                 .lvl_dir(levels[1] ^ dir_inv[a]), .lvl_en(levels[2] ^ en_low[a]),
