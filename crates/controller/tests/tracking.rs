@@ -298,6 +298,18 @@ fn a_periodic_axis_wraps_while_tracking() {
     assert!(r.taken > 30_000);
 }
 
+/// A jog at 1000 steps/s under a 0.3 s lease, renewed every 0.2 s from 0 to 1.8 s.
+fn jog_renewed_to_1_8_s(b: &mut Board) {
+    let opts = TrackOpts {
+        amax: None,
+        lease: Some(0.3),
+    };
+    for k in 0..10u64 {
+        b.track("X", &rate("1000"), &opts, Some(300_000), k * 200_000)
+            .unwrap();
+    }
+}
+
 #[test]
 fn a_jog_lease_stops_the_axis_unless_renewed() {
     let dir = tempfile::tempdir().unwrap();
@@ -305,15 +317,8 @@ fn a_jog_lease_stops_the_axis_unless_renewed() {
         dir.path(),
         &config(1e6, vec![("X", tracking_axis(5000.0, 20000.0))]),
     );
-    let opts = TrackOpts {
-        amax: None,
-        lease: Some(0.3),
-    };
     // renewed every 0.2 s for 2 s: runs all along
-    for k in 0..10u64 {
-        b.track("X", &rate("1000"), &opts, Some(300_000), k * 200_000)
-            .unwrap();
-    }
+    jog_renewed_to_1_8_s(&mut b);
     b.advance(2_000_000);
     assert_eq!(st(&mut b, "X").state, AxisState::Tracking);
     // renewals do not touch the stream: one cruise from the start
@@ -329,6 +334,30 @@ fn a_jog_lease_stops_the_axis_unless_renewed() {
     assert_eq!(s.state, AxisState::Idle);
     let n = r.count_to(2_100_000) as i64;
     assert!((s.position - n - 25).abs() <= 2, "{} vs {n}", s.position);
+}
+
+/// A lease counts from the command's arrival, not from the board's clock: a backend that
+/// falls behind under load (the service's work budget) and then catches up does not lapse
+/// a jog renewed in time, and an unrenewed one still stops a lease after its last renewal.
+#[test]
+fn a_jog_lease_counts_from_the_command_not_from_a_lagging_board_clock() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = open(
+        dir.path(),
+        &config(1e6, vec![("X", tracking_axis(5000.0, 20000.0))]),
+    );
+    b.set_work_budget(Some(64));
+    jog_renewed_to_1_8_s(&mut b);
+    let lag = 1_800_000 - b.now();
+    assert!(lag > 300_000, "the board's clock lags by {lag} ticks only");
+    b.set_work_budget(None);
+    b.advance(2_000_000);
+    assert_eq!(st(&mut b, "X").state, AxisState::Tracking);
+    // the last renewal came at 1.8 s: stopping from 2.1 s
+    b.advance(2_090_000);
+    assert_eq!(st(&mut b, "X").rate, Some(1000.0));
+    b.advance(2_200_000);
+    assert_ne!(st(&mut b, "X").state, AxisState::Tracking);
 }
 
 #[test]

@@ -80,7 +80,9 @@ impl Board {
                 s.amax
             )));
         }
-        let lease = lease_ticks.map(|l| self.now.saturating_add(l));
+        // From the command's arrival: the board's clock lags it when the service is behind
+        // (its work budget), and a lease counted from there lapses as the board catches up.
+        let lease = lease_ticks.map(|l| now.max(self.now).saturating_add(l));
         let signed = if negative { -v } else { v };
         let tracking = self.axes[i]
             .motion
