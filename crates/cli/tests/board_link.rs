@@ -870,10 +870,24 @@ fn streamed_exponential_and_scurve4_moves_are_edge_exact_on_the_board() {
 /// docs/HDL.md "Wiring"), a move each, all running at once: trapezoids computed by the
 /// board's one calculator with the per-step recurrence (phase mode, and limits mode on
 /// whole ticks), scurve, scurve4, exponential and sine streamed through the shared replay
-/// decoder. Every STEP rise of every
-/// axis is plan's edge at the board's clock, and every Position register the move's steps.
+/// decoder. Every STEP rise of every axis is plan's edge at the board's clock, and every
+/// Position register the move's steps.
+///
+/// A streamed move starves when the service falls behind the board-sim for long enough
+/// (the simulation runs about 30 times slower than the board; the service's round trips
+/// on the link cost wall time). It happened once, in a CI run beside Verilator and C++
+/// builds, and the service reported it as a `stream_starved` fault, as it should. That
+/// one outcome is run once more; any other failure, or a second starvation, fails.
 #[test]
 fn fourteen_axes_run_every_family_at_once_edge_exact() {
+    if let Err(why) = fourteen_axes_once() {
+        eprintln!("the link fell behind on a loaded machine ({why}); once more");
+        fourteen_axes_once().unwrap_or_else(|why| panic!("starved again: {why}"));
+    }
+}
+
+/// One run of the fourteen-axis test: `Err` only for a starved stream.
+fn fourteen_axes_once() -> Result<(), String> {
     const K: usize = 14;
     // phase times (accel, cruise, decel); None: limits mode at 20 000 steps/s, 4·10^5 steps/s²
     type Times = Option<(f64, f64, f64)>;
@@ -923,6 +937,13 @@ fn fourteen_axes_run_every_family_at_once_edge_exact() {
             let all = r.client.status().unwrap();
             let s = all.iter().find(|s| &s.axis == n).unwrap();
             if s.state != AxisState::Moving {
+                if let Some(f) = s
+                    .fault
+                    .as_deref()
+                    .filter(|f| f.starts_with("stream_starved"))
+                {
+                    return Err(format!("{n}: {f}"));
+                }
                 assert_eq!(
                     (s.state, s.fault.as_deref()),
                     (AxisState::Idle, None),
@@ -959,6 +980,7 @@ fn fourteen_axes_run_every_family_at_once_edge_exact() {
         targets,
         "the board's Position registers"
     );
+    Ok(())
 }
 
 /// The link statistics lines of the rig's service (`serve.log`): each motion's kind
