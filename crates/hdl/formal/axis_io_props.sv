@@ -21,9 +21,9 @@ module axis_io_props #(
     ms_axis_io #(.WD(WD)) dut (
         .clk(clk), .rst(rst), .core_step(core_step), .dir(dir), .start(1'b0),
         .halt(halt), .kill(kill), .kill_pin(kill_pin), .width(width),
-        .strobe(1'b1), .load(10'd0), .hall(1'b0), .limit(1'b0), .pos_wr(1'b0), .pos_in(32'd0),
+        .strobe(1'b1), .load(10'd0), .hall(1'b0), .limit(1'b0),
         .hall_clr(1'b0), .en(1'b0), .lvl_step(lvl_step), .lvl_dir(1'b1), .lvl_en(1'b1),
-        .step_pin(step_pin), .dir_pin(), .en_pin(), .pos(), .hall_pos(), .hall_flag(),
+        .step_pin(step_pin), .dir_pin(), .en_pin(), .count(), .latch(), .hall_flag(),
         .hall_lvl(), .hall_edge(), .limit_lvl(), .limit_edge(), .period());
 
 `ifdef MUTATE

@@ -1,4 +1,5 @@
-// ms_axis_io's Hall latch: when a Hall level is accepted (the Hall edge output, a clock
+// ms_axis_io's Hall latch (with the position and latch it drives, ms_positions by its
+// definition, one axis): when a Hall level is accepted (the Hall edge output, a clock
 // later), `HallPosition` holds the position in the clock the input rose to that level if
 // the flag was clear then, and else the position in the clock it was accepted; the flag is
 // set. The input, the host's clears, position writes, STEP and DIR are free; every clock
@@ -18,16 +19,18 @@ module hall_latch_props #(
     input wire [WB-1:0] load
 );
     wire [31:0] pos, hall_pos;
-    wire        hall_flag, hall_edge;
+    wire        hall_flag, hall_edge, count, latch;
     /* the pins and the period meter are not checked here */
     ms_axis_io #(.WD(3), .WB(WB), .LIMIT(0)) dut (
         .clk(clk), .rst(rst), .core_step(core_step), .dir(dir), .start(1'b0),
         .halt(1'b0), .kill(1'b0), .kill_pin(1'b0), .width(3'd0), .strobe(1'b1),
-        .load(load), .hall(hall), .limit(1'b0), .pos_wr(pos_wr), .pos_in(pos_in),
+        .load(load), .hall(hall), .limit(1'b0),
         .hall_clr(hall_clr), .en(1'b0), .lvl_step(1'b1), .lvl_dir(1'b1), .lvl_en(1'b1),
-        .step_pin(), .dir_pin(), .en_pin(), .pos(pos), .hall_pos(hall_pos),
+        .step_pin(), .dir_pin(), .en_pin(), .count(count), .latch(latch),
         .hall_flag(hall_flag), .hall_lvl(), .hall_edge(hall_edge), .limit_lvl(),
         .limit_edge(), .period());
+    ms_positions #(.K(1), .LK(1), .MEM(0)) u_pos (.clk(clk), .rst(rst), .cnt(count), .up(dir),
+        .latch(latch), .wr(pos_wr), .din(pos_in), .rd(1'b0), .ax(1'b0), .rd_pos(pos), .rd_hall(hall_pos));
 
     reg         init = 1'b1;
     reg         hall_d = 1'b0, rst_d = 1'b0, rise_clear = 1'b0;

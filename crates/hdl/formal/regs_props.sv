@@ -44,7 +44,7 @@ module regs_props (
         .core_pending(pending), .core_ready(ready_x && pending), .go(go), .halt(),
         .divert(), .div_slot(), .start_ax(start_ax), .dir_q(dir_q), .pulse_width(),
         .debounce(), .enable(), .levels(levels), .dir_inv(dir_inv), .en_low(), .pos_wr(),
-        .hall_clr(), .pos(64'd0), .hall_pos(64'd0), .hall_flag(2'b00), .hall_lvl(2'b00),
+        .hall_clr(), .rd_pos(32'd0), .rd_hall(32'd0), .hall_flag(2'b00), .hall_lvl(2'b00),
         .hall_edge(hall_edge), .limit_lvl(2'b00), .limit_edge(limit_edge), .period(8'd0),
         .estop_in(estop_in), .estop(), .rx_line(1'b1), .bad_frame(1'b0),
         .sync_line(sync_line), .sync_oe(), .s_arm(), .s_retarget(), .s_commit(), .s_chain(),

@@ -5,7 +5,7 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 15] = [
+pub const BOARD_LIBRARY: [(&str, &str); 16] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
@@ -18,6 +18,10 @@ pub const BOARD_LIBRARY: [(&str, &str); 15] = [
     ),
     ("ms_debounce.v", include_str!("../rtl/board/ms_debounce.v")),
     ("ms_axis_io.v", include_str!("../rtl/board/ms_axis_io.v")),
+    (
+        "ms_positions.v",
+        include_str!("../rtl/board/ms_positions.v"),
+    ),
     ("ms_nibble.v", include_str!("../rtl/board/ms_nibble.v")),
     (
         "ms_step_counts.v",

@@ -42,6 +42,9 @@ impl Target {
         match self {
             Target::Xilinx => format!("synth_xilinx -top {top}"),
             Target::Ice40 => format!("synth_ice40 -dsp -noflatten -top {top}"),
+            // without wide LUTs: given one module at a time, ABC maps much of it into wide
+            // LUTs (two LUT4s and a PFUMX), and the modules summed to a third more than the
+            // placed board (docs/HDL.md, "Per module")
             Target::Ecp5 => format!("synth_ecp5 -nowidelut -noflatten -top {top}"),
         }
     }

@@ -64,7 +64,11 @@ const DEBOUNCE_DEPTH: u32 = 24;
 /// flag clear and one accepted after it while it was still set.
 const HALL_LATCH: Props = Props {
     top: "hall_latch_props",
-    rtl: &["rtl/board/ms_debounce.v", "rtl/board/ms_axis_io.v"],
+    rtl: &[
+        "rtl/board/ms_debounce.v",
+        "rtl/board/ms_axis_io.v",
+        "rtl/board/ms_positions.v",
+    ],
 };
 const HALL_LATCH_DEPTH: u32 = 16;
 
@@ -106,6 +110,15 @@ const STEP_COUNTS: Props = Props {
     rtl: &["rtl/board/ms_step_count.v", "rtl/board/ms_step_counts.v"],
 };
 const STEP_COUNTS_DEPTH: u32 = 12;
+
+/// Every axis's position and Hall latch in memories against a counter and a latch per
+/// axis: K = 3, 6-bit words; 12 clocks hold a reset, rises and latches of every axis,
+/// writes, and four turns of the scanner.
+const POSITIONS: Props = Props {
+    top: "positions_props",
+    rtl: &["rtl/board/ms_positions.v"],
+};
+const POSITIONS_DEPTH: u32 = 12;
 
 /// What yosys-smtbmc concluded.
 #[derive(Debug)]
@@ -266,6 +279,12 @@ fn the_shared_step_counts_equal_one_count_per_axis() {
 }
 
 #[test]
+fn the_positions_in_memories_equal_a_counter_and_a_latch_per_axis() {
+    holds(&POSITIONS, Mode::Bmc(POSITIONS_DEPTH));
+    holds(&POSITIONS, Mode::Cover(POSITIONS_DEPTH));
+}
+
+#[test]
 fn every_wrapper_fails_with_a_wrong_expectation() {
     for (props, depth) in [
         (&FIFO, FIFO_DEPTH),
@@ -277,6 +296,7 @@ fn every_wrapper_fails_with_a_wrong_expectation() {
         (&RECUR, RECUR_DEPTH),
         (&REPLAY, REPLAY_DEPTH),
         (&STEP_COUNTS, STEP_COUNTS_DEPTH),
+        (&POSITIONS, POSITIONS_DEPTH),
     ] {
         match check(props, Mode::Bmc(depth), true) {
             Verdict::Failed(trace, _) => {

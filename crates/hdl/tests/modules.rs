@@ -12,34 +12,34 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-07 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 163-182,
-/// ms_axis_io 170-173, ms_debounce 31-32, ms_replay_axis 91-92 (the replay unit's per-axis
-/// part; the shared decoder, ms_replay, and the step counts, ms_step_counts, are not an
-/// axis's); one axis 511-528.
+/// Measured 2026-12-07 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 164-182,
+/// ms_axis_io 104, ms_debounce 31-32, ms_replay_axis 91 (the replay unit's per-axis part;
+/// the shared decoder, ms_replay, the step counts, ms_step_counts, and the positions,
+/// ms_positions, are not an axis's); one axis 442-458.
 const ULX3S: Budgets = &[
     ("ms_fifo", 22),
     ("ms_pulse", 210),
-    ("ms_axis_io", 195),
+    ("ms_axis_io", 125),
     ("ms_debounce", 36),
     ("ms_replay_axis", 105),
 ];
-const ULX3S_AXIS: u64 = 600;
+const ULX3S_AXIS: u64 = 530;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
-/// readback and per-axis registers and the shared replay decoder's multiplexers and step
-/// count memories included: (K = 4 − K = 2) / 2, measured 787.
-const ULX3S_ADDED_AXIS: u64 = 900;
+/// per-axis registers, the positions' deltas and the shared replay decoder's multiplexers
+/// and step count memories included: (K = 4 − K = 2) / 2, measured 642.
+const ULX3S_ADDED_AXIS: u64 = 740;
 
-/// Measured 2026-12-07: ms_fifo 31, ms_pulse 126 (108 at K = 3, the same RTL), ms_axis_io
-/// 149, ms_debounce 40; one axis 346 (no replay unit and no limit input on this board: one
-/// filter an axis).
+/// Measured 2026-12-07: ms_fifo 31, ms_pulse 106 (120 at K = 3, the same RTL), ms_axis_io
+/// 89, ms_debounce 40; one axis 266 (no replay unit and no limit input on this board: one
+/// filter an axis; the positions a counter and a latch per axis in ms_positions, shared).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 34),
     ("ms_pulse", 145),
-    ("ms_axis_io", 170),
+    ("ms_axis_io", 105),
     ("ms_debounce", 46),
 ];
-const ICEBREAKER_AXIS: u64 = 400;
+const ICEBREAKER_AXIS: u64 = 320;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();

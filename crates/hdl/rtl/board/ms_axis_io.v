@@ -3,14 +3,16 @@
 //    high for exactly `width` clocks from each of the core's rises (the core TDM model's
 //    PulseShape::Fixed); forced low at once (combinationally) by `kill_pin` (the e-stop
 //    input) and from the next clock by `kill` (the synchronized e-stop) and `halt`.
-//  - the position counter: +1 / -1 (by DIR) at every STEP rise of the core that is not cut
-//    by `kill` or `halt` (one cut only by `kill_pin`, in the synchronizer's 2 clocks, is
-//    counted); the period meter: clocks between the last two rises (0 before the second).
+//  - `count`: a STEP rise of the core that is not cut by `kill` or `halt` (one cut only by
+//    `kill_pin`, in the synchronizer's 2 clocks, is counted), which moves the position
+//    (ms_positions) by +1 / -1 (by DIR); the period meter: clocks between the last two
+//    rises (0 before the second).
 //  - Hall and limit inputs (synchronized and made active-high by the caller): debounced on
-//    the shared time base; the Hall edge is time-stamped: the position is latched in the
-//    clock the accepted level began (the rises before it), and the flag set when it is
-//    accepted. A level that began while the last edge's flag was still set is latched
-//    when accepted instead, so the flag never pairs with an older edge's position.
+//    the shared time base; the Hall edge is time-stamped: `latch` copies the position into
+//    the Hall latch (ms_positions) in the clock the accepted level began (the rises before
+//    it), and the flag is set when it is accepted. A level that began while the last
+//    edge's flag was still set is latched when accepted instead, so the flag never pairs
+//    with an older edge's position.
 //  - output levels: STEP, DIR, ENABLE active high when their `lvl_*` bit is 1.
 module ms_axis_io #(
     parameter WD    = 24,
@@ -30,8 +32,6 @@ module ms_axis_io #(
     input  wire [WB-1:0] load,
     input  wire          hall,       // active-high, synchronized
     input  wire          limit,      // active-high, synchronized
-    input  wire          pos_wr,
-    input  wire [31:0]   pos_in,
     input  wire          hall_clr,
     input  wire          en,
     input  wire          lvl_step,
@@ -40,8 +40,8 @@ module ms_axis_io #(
     output wire          step_pin,
     output wire          dir_pin,
     output wire          en_pin,
-    output reg  [31:0]   pos,
-    output reg  [31:0]   hall_pos,
+    output wire          count,      // a counted rise (ms_positions)
+    output wire          latch,      // the Hall latch takes the position (ms_positions)
     output reg           hall_flag,
     output wire          hall_lvl,
     output wire          hall_edge,  // one clock at the accepted Hall edge
@@ -57,7 +57,6 @@ module ms_axis_io #(
     initial begin
         core_d = 1'b0;
         s = 1'b0;
-        pos = 32'd0;
         hall_flag = 1'b0;
         period = {WD{1'b0}};
         pc = {WD{1'b0}};
@@ -81,11 +80,7 @@ module ms_axis_io #(
     end
     // a rise that reaches the pin
     wire out_rise = rise && !(rst || halt || kill);
-    always @(posedge clk) begin
-        if (rst) pos <= 32'd0;
-        else if (pos_wr) pos <= pos_in;
-        else if (out_rise) pos <= pos + {{31{!dir}}, 1'b1};   // one adder for +1 and -1
-    end
+    assign count = out_rise;
     // A start clears the meter (no period before its second rise) but not pc, which a
     // fixed-width pulse still high at the start counts.
     always @(posedge clk) begin
@@ -120,16 +115,16 @@ module ms_axis_io #(
     // the Hall position: latched where an active level begins while the flag is clear
     // (`caught`), else where it is accepted
     reg  caught;
-    wire enter  = begins && hall;
+    wire enter = begins && hall;
     wire caught_now = enter ? !hall_flag : caught;
     initial caught = 1'b0;
     always @(posedge clk) begin
         if (rst || hall_clr) hall_flag <= 1'b0;
         if (rst) caught <= 1'b0;
         else if (enter) caught <= !hall_flag;
-        if ((enter && !hall_flag) || (accept && !caught_now)) hall_pos <= pos;
         if (accept) hall_flag <= 1'b1;
     end
+    assign latch = (enter && !hall_flag) || (accept && !caught_now);
     // the only use of the unsynchronized e-stop: a gate, no flip-flop sees it
     assign step_pin = (s && !kill && !kill_pin) ? lvl_step : !lvl_step;
     assign dir_pin  = dir ? lvl_dir : !lvl_dir;

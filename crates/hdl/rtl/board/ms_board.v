@@ -101,7 +101,8 @@ module ms_board #(
     wire [K*LS-1:0] div_slot;
     wire [WD-1:0] pulse_width, debounce;
     wire [5:0]    levels;
-    wire [K*32-1:0] pos, hall_pos;
+    wire [K-1:0]  count, latch;
+    wire [31:0]   rd_pos, rd_hall;
     wire [K*WD-1:0] period;
     // the replay units
     wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
@@ -119,7 +120,7 @@ module ms_board #(
         .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
         .start_ax(start_ax), .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
         .enable(enable), .levels(levels), .dir_inv(dir_inv), .en_low(en_low), .pos_wr(pos_wr), .hall_clr(hall_clr),
-        .pos(pos), .hall_pos(hall_pos), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
+        .rd_pos(rd_pos), .rd_hall(rd_hall), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
         .hall_edge(hall_edge), .limit_lvl(limit_lvl), .limit_edge(limit_edge),
         .period(period), .estop_in(estop_act), .estop(estop), .rx_line(rx_s),
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
@@ -190,16 +191,22 @@ module ms_board #(
                 .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
                 .width(pulse_width),
                 .strobe(filter_strobe), .load(filter_load), .hall(hall_s[a] == levels[3]),
-                .limit(limit_s[a] == levels[4]), .pos_wr(pos_wr[a]), .pos_in(req_data),
+                .limit(limit_s[a] == levels[4]),
                 .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),
                 .lvl_dir(levels[1] ^ dir_inv[a]), .lvl_en(levels[2] ^ en_low[a]),
                 .step_pin(step_out[a]),
-                .dir_pin(dir_out[a]), .en_pin(enable_out[a]), .pos(pos[a*32 +: 32]),
-                .hall_pos(hall_pos[a*32 +: 32]), .hall_flag(hall_flag[a]),
+                .dir_pin(dir_out[a]), .en_pin(enable_out[a]), .count(count[a]),
+                .latch(latch[a]), .hall_flag(hall_flag[a]),
                 .hall_lvl(hall_lvl[a]), .hall_edge(hall_edge[a]), .limit_lvl(limit_lvl[a]),
                 .limit_edge(limit_edge[a]), .period(period[a*WD +: WD]));
         end
     endgenerate
+
+    // every axis's position and Hall latch, read back at the request's axis (0x2000 |
+    // axis << 4 | r)
+    ms_positions #(.K(K), .LK(LK), .MEM(LUTRAM)) u_positions (.clk(clk), .rst(rst),
+        .cnt(count), .up(dir_q), .latch(latch), .wr(pos_wr), .din(req_data),
+        .rd(req), .ax(req_addr[4 +: LK]), .rd_pos(rd_pos), .rd_hall(rd_hall));
 
     // LEDs: 0 heartbeat (about 1.5 Hz), 1 any axis busy, 2 e-stop latched, 3 link activity
     // (registered: the K-wide busy OR ran across the die to the pin, the 14-axis ULX3S

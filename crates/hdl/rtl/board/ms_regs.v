@@ -77,8 +77,8 @@ module ms_regs #(
     output reg  [K-1:0]  en_low,
     output reg  [K-1:0]  pos_wr,
     output reg  [K-1:0]  hall_clr,
-    input  wire [K*32-1:0] pos,
-    input  wire [K*32-1:0] hall_pos,
+    input  wire [31:0]   rd_pos,     // the addressed axis's position and Hall latch
+    input  wire [31:0]   rd_hall,    // (ms_positions, read at req_addr's axis)
     input  wire [K-1:0]  hall_flag,
     input  wire [K-1:0]  hall_lvl,
     input  wire [K-1:0]  hall_edge,
@@ -203,15 +203,11 @@ module ms_regs #(
     wire [32:0] setup_sum = {1'b0, dir_setup} + {1'b0, n[31:0]} + 33'd2;
 
     wire [LB:0] ax_free = s_free[ax[LK-1:0]*(LB+1) +: LB+1];
-    // per-axis readback as arrays indexed by the axis: multiplexer trees (a run-time
-    // part-select of the K-word buses synthesized as shifters, ~300 LUT4-eq more at K = 8)
-    wire [31:0]   pos_w  [0:K-1];
-    wire [31:0]   hall_w [0:K-1];
+    // the period's readback as an array indexed by the axis: a multiplexer tree (a run-time
+    // part-select of the K-word bus synthesized as a shifter)
     wire [WD-1:0] per_w  [0:K-1];
     generate
         for (g = 0; g < K; g = g + 1) begin : rb
-            assign pos_w[g]  = pos[g*32 +: 32];
-            assign hall_w[g] = hall_pos[g*32 +: 32];
             assign per_w[g]  = period[g*WD +: WD];
         end
     endgenerate
@@ -257,8 +253,8 @@ module ms_regs #(
                 4'h0: rd = {19'd0, s_fault[ax[LK-1:0]], s_armed[ax[LK-1:0]], core_dir[ax[LK-1:0]], limit_lvl[ax[LK-1:0]], hall_lvl[ax[LK-1:0]],
                             hall_flag[ax[LK-1:0]], estopped[ax[LK-1:0]], stopped[ax[LK-1:0]],
                             core_underrun[ax[LK-1:0]], core_busy[ax[LK-1:0]], state_code};
-                4'h1: rd = pos_w[ax[LK-1:0]];
-                4'h2: rd = hall_w[ax[LK-1:0]];
+                4'h1: rd = rd_pos;
+                4'h2: rd = rd_hall;
                 4'h3: rd = {{(32-WD){1'b0}}, per_w[ax[LK-1:0]]};
                 4'h4: rd = {{(32-LS){1'b0}}, slot[ax[LK-1:0]]};
                 4'h5: rd = {31'd0, s_armed[ax[LK-1:0]]};
