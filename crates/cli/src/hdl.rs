@@ -244,11 +244,16 @@ fn place_rows(
                 axes: r.axes,
                 ..base.clone()
             };
-            let independent = one(
-                &p,
-                Arch::Independent,
-                work.join(format!("pnr-indep-{}", r.axes)),
-            )?;
+            // K independent cores with more multipliers or block RAMs than the device
+            // has are not placed (their synthesis alone takes minutes at K = 32)
+            let independent = match multistep_hdl::report::blocks_over(family, &r.independent) {
+                Some(why) => Err(why),
+                None => one(
+                    &p,
+                    Arch::Independent,
+                    work.join(format!("pnr-indep-{}", r.axes)),
+                )?,
+            };
             let single = CoreParams {
                 axes: 1,
                 ..base.clone()

@@ -311,6 +311,42 @@ pub fn pin_light_top(design: &Design) -> String {
     )
 }
 
+/// The board [`place`] uses for `family`: the first of that family in
+/// [`crate::boards::BOARDS`].
+fn place_board(family: crate::boards::Family) -> Option<&'static crate::boards::Board> {
+    crate::boards::BOARDS.iter().find(|b| b.family == family)
+}
+
+/// The hard blocks of a device [`place`] uses: (DSP, block RAM), from the data sheets.
+fn hard_blocks(device: &str) -> Option<(u64, u64)> {
+    match device {
+        // MULT18X18D, DP16KD
+        d if d.starts_with("LFE5U-25F") => Some((28, 56)),
+        d if d.starts_with("LFE5U-85F") => Some((156, 208)),
+        // SB_MAC16, SB_RAM40_4K
+        d if d.starts_with("iCE40UP5K") => Some((8, 30)),
+        _ => None,
+    }
+}
+
+/// Why a design synthesized to `r` cannot fit the device [`place`] uses for `family`,
+/// known before placing it: more DSP blocks or block RAMs than the device has (so the K
+/// independent cores of a large K are not synthesized again and handed to nextpnr only to
+/// fail). `None` when they fit, or the device is not known.
+pub fn blocks_over(family: crate::boards::Family, r: &Resources) -> Option<String> {
+    let (dsp, bram) = hard_blocks(place_board(family)?.device)?;
+    let (dsp_cell, bram_cell) = match family {
+        crate::boards::Family::Ecp5 => ("MULT18X18D", "DP16KD"),
+        crate::boards::Family::Ice40 => ("SB_MAC16", "SB_RAM40_4K"),
+    };
+    let over: Vec<String> = [(dsp_cell, r.dsp, dsp), (bram_cell, r.bram, bram)]
+        .into_iter()
+        .filter(|&(_, used, have)| used > have)
+        .map(|(cell, used, have)| format!("{cell} {used} of {have}"))
+        .collect();
+    (!over.is_empty()).then(|| format!("{} (by synthesis)", over.join(", ")))
+}
+
 /// Places and routes `design` (behind [`pin_light_top`]) on the device of the first
 /// board of `family` in [`crate::boards::BOARDS`], at the design's clock, in `dir`.
 pub fn place(
@@ -318,9 +354,7 @@ pub fn place(
     family: crate::boards::Family,
     dir: &Path,
 ) -> Result<crate::pnr::Placed, HdlError> {
-    let board = crate::boards::BOARDS
-        .iter()
-        .find(|b| b.family == family)
+    let board = place_board(family)
         .ok_or_else(|| HdlError::Param(format!("no board of family {family:?}")))?;
     let mut paths = design.write(dir)?;
     let top = dir.join("ms_place_top.v");
@@ -337,4 +371,33 @@ pub fn place(
         nextpnr: crate::pnr::Nextpnr::YoWasp,
     };
     crate::pnr::place_and_route(&flow, dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::boards::Family;
+
+    fn blocks(dsp: u64, bram: u64) -> Resources {
+        Resources {
+            dsp,
+            bram,
+            ..Resources::default()
+        }
+    }
+
+    #[test]
+    fn independent_cores_over_the_hard_blocks_are_known_before_placing() {
+        // eight independent cores on the LFE5U-25F (docs/HDL.md): 64 multipliers, 72 DP16KD
+        assert_eq!(
+            blocks_over(Family::Ecp5, &blocks(64, 72)).as_deref(),
+            Some("MULT18X18D 64 of 28, DP16KD 72 of 56 (by synthesis)")
+        );
+        assert_eq!(
+            blocks_over(Family::Ice40, &blocks(8, 31)).as_deref(),
+            Some("SB_RAM40_4K 31 of 30 (by synthesis)")
+        );
+        assert_eq!(blocks_over(Family::Ecp5, &blocks(28, 56)), None);
+        assert_eq!(blocks_over(Family::Ice40, &blocks(8, 30)), None);
+    }
 }
