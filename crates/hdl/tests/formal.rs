@@ -113,7 +113,8 @@ const STEP_COUNTS_DEPTH: u32 = 12;
 
 /// Every axis's position and Hall latch in memories against a counter and a latch per
 /// axis: K = 3, 6-bit words; 12 clocks hold a reset, rises and latches of every axis,
-/// writes, and four turns of the scanner.
+/// writes, and four turns of the scanner, and induction at that depth proves it
+/// unbounded (within 3K clocks the scanner visits every axis, so a delta is in range).
 const POSITIONS: Props = Props {
     top: "positions_props",
     rtl: &["rtl/board/ms_positions.v"],
@@ -279,8 +280,9 @@ fn the_shared_step_counts_equal_one_count_per_axis() {
 }
 
 #[test]
-fn the_positions_in_memories_equal_a_counter_and_a_latch_per_axis() {
+fn the_positions_in_memories_equal_a_counter_and_a_latch_per_axis_proven_by_induction() {
     holds(&POSITIONS, Mode::Bmc(POSITIONS_DEPTH));
+    holds(&POSITIONS, Mode::Induction(POSITIONS_DEPTH));
     holds(&POSITIONS, Mode::Cover(POSITIONS_DEPTH));
 }
 
