@@ -231,7 +231,7 @@ fn place_rows(
 ) -> anyhow::Result<Vec<PlacedRow>> {
     let one =
         |p: &CoreParams, arch: Arch, dir: PathBuf| -> anyhow::Result<Result<Placed, String>> {
-            let d = Design::new(p, arch)?;
+            let d = Design::for_family(p, arch, family)?;
             Ok(match place(&d, family, &dir) {
                 Ok(placed) => Ok(placed),
                 Err(HdlError::DoesNotFit(m)) => Err(m),
@@ -330,7 +330,7 @@ fn modules(a: &ModulesArgs) -> anyhow::Result<()> {
         }
     };
     eprintln!(
-        "synthesizing {} axes of {} with yosys (about a minute)…",
+        "synthesizing each module of {} axes of {} alone with yosys (under a minute)…",
         axes, board.name
     );
     let t = multistep_hdl::modules::per_module(board, axes, &dir)?;
@@ -352,7 +352,7 @@ fn write_modules_table(
     };
     writeln!(
         out,
-        "{} with {} axes, yosys, modules not flattened ({unit}: own cells, submodules left out)",
+        "{} with {} axes, yosys, each module alone ({unit}: own cells, submodules left out)",
         t.board, t.axes
     )?;
     writeln!(

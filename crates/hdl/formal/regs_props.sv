@@ -48,7 +48,7 @@ module regs_props (
         .hall_edge(hall_edge), .limit_lvl(2'b00), .limit_edge(limit_edge), .period(8'd0),
         .estop_in(estop_in), .estop(), .rx_line(1'b1), .bad_frame(1'b0),
         .sync_line(sync_line), .sync_oe(), .s_arm(), .s_retarget(), .s_commit(), .s_chain(),
-        .s_armed(2'b00), .s_bok(2'b11), .s_free(18'd0), .s_more(2'b00), .s_fault(2'b00));
+        .s_armed(2'b00), .s_bok(1'b1), .s_free(9'd0), .s_more(2'b00), .s_fault(2'b00));
 
 `ifdef MUTATE
     localparam [33:0] SLIP = 1;

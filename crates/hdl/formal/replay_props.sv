@@ -20,7 +20,9 @@ module replay_props (
     input wire [1:0] bcommit,
     input wire [1:0] init,
     input wire [1:0] halt,
-    input wire [1:0] pop
+    input wire [1:0] pop,
+    input wire       rd,
+    input wire       rax
 );
     localparam [2:0] DEPTH = 3'd2;
 `ifdef MUTATE
@@ -44,25 +46,29 @@ module replay_props (
         started[1] = 3'd0;
     end
     wire [1:0] full = {count[1] == DEPTH, count[0] == DEPTH};
-    wire [1:0] armed, bok, push, more, fault;
-    wire [17:0] free;
+    wire [1:0] armed, push, more, fault;
+    wire       bok;
+    wire [8:0] free;
     wire [3:0] period;
     ms_replay #(.K(2), .LK(1), .WD(4), .LB(8)) dut (
         .clk(clk), .rst(rst), .arm(arm), .arm_steps({29'd0, arm_steps}),
         .retarget_in(2'b00), .bsel(bsel), .bax(bax), .bopen(bopen), .blen({6'd0, blen}),
         .bwr(bwr), .bidx({6'd0, bidx}), .bbyte(bbyte), .bcommit(bcommit), .init(init),
-        .halt(halt), .full(full), .armed(armed), .bok(bok), .free(free), .push(push),
+        .halt(halt), .full(full), .rd(rd), .rax(rax), .armed(armed), .bok(bok), .free(free), .push(push),
         .period(period), .more(more), .fault(fault));
 
     integer a;
     always @(*) begin
-        // ms_regs arms one axis a clock (a StreamSteps write)
+        // ms_regs arms one axis a clock (a StreamSteps write) and commits one frame
         assume(arm != 2'b11);
+        assume(bcommit != 2'b11);
+        // ms_link: a request never comes in the clock a frame opens or writes a byte
+        assume(!(rd && (bopen || bwr)));
         for (a = 0; a < 2; a = a + 1) begin
             // the core starts, and the host arms, only an axis with nothing to go
             if (init[a] || arm[a]) assume(!more[a]);
-            // ms_regs commits a bulk frame only when it fit
-            if (bcommit[a]) assume(bok[a]);
+            // ms_regs commits a bulk frame only when it fit (the open frame's axis)
+            if (bcommit[a]) assume(bok && bsel && bax == a);
             assert(!push[a] || !full[a]);
             if (push[a]) assert(period != 4'd0);
             assert(count[a] <= DEPTH);

@@ -51,8 +51,24 @@ pub struct Design {
 }
 
 impl Design {
-    /// Validates the parameters, then builds the design text.
+    /// Validates the parameters, then builds the design text (dy's memory left to
+    /// synthesis: `ms_core`'s `LUTRAM = 0`).
     pub fn new(params: &CoreParams, arch: Arch) -> Result<Design, HdlError> {
+        Self::build(params, arch, false)
+    }
+
+    /// The design as a board of `family` builds its core: on ECP5 dy's memory is in
+    /// distributed RAM (`LUTRAM = 1`, [`crate::board::BoardTop::lutram`]), since yosys puts
+    /// it in block RAM from 64 words on, too slow before the multiplier at 50 MHz.
+    pub fn for_family(
+        params: &CoreParams,
+        arch: Arch,
+        family: crate::boards::Family,
+    ) -> Result<Design, HdlError> {
+        Self::build(params, arch, family == crate::boards::Family::Ecp5)
+    }
+
+    fn build(params: &CoreParams, arch: Arch, lutram: bool) -> Result<Design, HdlError> {
         let widths = params.widths()?;
         let mut files: Vec<(String, String)> = LIBRARY
             .iter()
@@ -62,8 +78,8 @@ impl Design {
             files.push((RECURRENCE_UNIT.0.into(), RECURRENCE_UNIT.1.into()));
         }
         let top = match arch {
-            Arch::Tdm => tdm_top(params, &widths),
-            Arch::Independent => indep_top(params, &widths),
+            Arch::Tdm => tdm_top(params, &widths, lutram),
+            Arch::Independent => indep_top(params, &widths, lutram),
         };
         files.push((format!("{}.v", arch.top()), top));
         Ok(Design {
@@ -110,9 +126,10 @@ fn header(p: &CoreParams, what: &str) -> String {
 }
 
 /// `.NAME(value)` parameter list of `ms_core` for `axes` axes.
-fn core_params(w: &Widths, axes: u32, lk: u32) -> String {
+fn core_params(w: &Widths, axes: u32, lk: u32, lutram: bool) -> String {
     w.core_param_list(axes, lk)
-        .iter()
+        .into_iter()
+        .chain(lutram.then_some(("LUTRAM", 1)))
         .map(|(k, v)| format!(".{k}({v})"))
         .collect::<Vec<_>>()
         .join(", ")
@@ -135,7 +152,7 @@ fn ports(p: &CoreParams, w: &Widths) -> String {
     )
 }
 
-fn tdm_top(p: &CoreParams, w: &Widths) -> String {
+fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
     let mut s = header(p, "TDM core, one calculator for all axes");
     let _ = write!(
         s,
@@ -155,7 +172,7 @@ fn tdm_top(p: &CoreParams, w: &Widths) -> String {
          \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full));\n\
          endmodule\n",
         ports(p, w),
-        core_params(w, p.axes, w.lk),
+        core_params(w, p.axes, w.lk, lutram),
         k = p.axes,
         ks = p.axes * w.ls,
         k1 = p.axes - 1,
@@ -164,7 +181,7 @@ fn tdm_top(p: &CoreParams, w: &Widths) -> String {
     s
 }
 
-fn indep_top(p: &CoreParams, w: &Widths) -> String {
+fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
     let mut s = header(p, "K independent single-axis cores (baseline)");
     let k = p.axes;
     let _ = write!(
@@ -187,7 +204,7 @@ fn indep_top(p: &CoreParams, w: &Widths) -> String {
         axh = w.lk + 4,
         k1 = k - 1,
     );
-    let params = core_params(w, 1, 1);
+    let params = core_params(w, 1, 1, lutram);
     for a in 0..k {
         let _ = write!(
             s,

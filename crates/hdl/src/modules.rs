@@ -1,11 +1,12 @@
-//! Where a board's logic goes: its Verilog synthesized without flattening, each module's
-//! own cells counted (not its submodules'), and how many instances the board has, so the
+//! Where a board's logic goes: each module of its Verilog synthesized alone, its own cells
+//! counted (not its submodules'), and how many instances the board has, so the
 //! per-axis cost and the shared part are read off one table.
 
 use crate::boards::{Board, Family};
 use crate::report::{parse_cells, Resources, Target};
 use crate::tools::run;
 use crate::HdlError;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -77,8 +78,14 @@ pub fn target_of(family: Family) -> Target {
     }
 }
 
-/// Writes `axes` axes of board `b` into `dir`, synthesizes them with yosys without
-/// flattening, and counts each module's cells.
+/// Writes `axes` axes of board `b` into `dir`, synthesizes each of its modules with
+/// yosys on its own (its submodules as black boxes), and counts each module's cells.
+///
+/// One module at a time, because ABC's mapping of a module depends on the order of its
+/// cells, and in one run of the whole board that order follows names interned for every
+/// other module: the same `ms_pulse` came out anywhere from 113 to 182 LUT4s as other
+/// modules changed. Alone, a module's count changes only when its own Verilog does (or
+/// that of a module under it, read to find its ports).
 pub fn per_module(b: &Board, axes: u32, dir: &Path) -> Result<ModuleTable, HdlError> {
     let params = b.params(axes)?;
     let files = crate::build::sources(b, &params)?;
@@ -89,20 +96,128 @@ pub fn per_module(b: &Board, axes: u32, dir: &Path) -> Result<ModuleTable, HdlEr
     }
     let target = target_of(b.family);
     let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+    // the hierarchy, elaborated: which modules, their parameters, their instances
     let script = format!(
-        "read_verilog -defer {}; {}; tee -q -o stat.json stat -json",
+        "read_verilog -defer {}; hierarchy -top {}; tee -q -o hierarchy.json stat -json; \
+         write_rtlil hierarchy.il",
         names.join(" "),
-        target.synth_hierarchy(b.top)
+        b.top
     );
     run("yosys", "yosys", &["-q", "-p", &script], dir)?;
-    let path = dir.join("stat.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))?;
+    let read = |name: &str| {
+        let path = dir.join(name);
+        std::fs::read_to_string(&path).map_err(|e| HdlError::io(&path, e))
+    };
+    let hierarchy = read("hierarchy.json")?;
+    let modules = parameters(&read("hierarchy.il")?);
+    let tree = Hierarchy::parse(&hierarchy, b.top)?;
+    let own = modules
+        .par_iter()
+        .enumerate()
+        .map(|(i, (name, params))| {
+            let base = base_name(name);
+            // its own file and those of the modules under it (all, if one is not found)
+            let mut needed: Vec<&str> = tree
+                .under(name)
+                .iter()
+                .map(|m| base_name(m))
+                .chain([base])
+                .map(|m| format!("{m}.v"))
+                .filter_map(|f| names.iter().find(|n| **n == f).copied())
+                .collect();
+            if !needed.iter().any(|f| *f == format!("{base}.v")) {
+                needed = names.clone();
+            }
+            needed.sort_unstable();
+            needed.dedup();
+            let set: String = params
+                .iter()
+                .map(|(p, v)| format!(" -set {p} {v}"))
+                .collect();
+            let chparam = if set.is_empty() {
+                String::new()
+            } else {
+                format!("chparam{set} {base}; ")
+            };
+            let out = format!("module{i}.json");
+            let script = format!(
+                "read_verilog -defer {}; {chparam}hierarchy -top {base}; blackbox A:top %n; \
+                 {}; tee -q -o {out} stat -json",
+                needed.join(" "),
+                target.synth_hierarchy(base)
+            );
+            run("yosys", "yosys", &["-q", "-p", &script], dir)?;
+            Ok((name.clone(), top_cells(&read(&out)?, target, base)?))
+        })
+        .collect::<Result<BTreeMap<String, Resources>, HdlError>>()?;
     Ok(ModuleTable {
         board: b.name.to_string(),
         axes,
         target,
-        rows: parse_hierarchy(&text, target, b.top)?,
+        rows: tree.rows(&own, b.top)?,
     })
+}
+
+/// Each module of an elaborated design (`write_rtlil`) with its parameters, as `chparam`
+/// takes them: `24`, or a sized binary constant `1'1` as `1'b1`.
+fn parameters(rtlil: &str) -> Vec<(String, Vec<(String, String)>)> {
+    let mut modules: Vec<(String, Vec<(String, String)>)> = Vec::new();
+    for line in rtlil.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["module", name] => modules.push((name.to_string(), Vec::new())),
+            // a module's own (a cell's are indented deeper)
+            ["parameter", .., p, v] if p.starts_with('\\') && line.starts_with("  parameter") => {
+                if let Some((_, ps)) = modules.last_mut() {
+                    let value = match v.split_once('\'') {
+                        Some((n, bits)) if !bits.starts_with(['b', 'd', 'h', 'o', 's']) => {
+                            format!("{n}'b{bits}")
+                        }
+                        _ => v.to_string(),
+                    };
+                    ps.push((p[1..].to_string(), value));
+                }
+            }
+            _ => {}
+        }
+    }
+    modules
+}
+
+/// The cells of module `base` itself in `stat -json` of it synthesized alone.
+fn top_cells(json: &str, target: Target, base: &str) -> Result<Resources, HdlError> {
+    let modules = stat_modules(json)?;
+    let (_, m) = modules
+        .iter()
+        .find(|(k, _)| base_name(k) == base)
+        .ok_or_else(|| stat_error(format!("no module {base}")))?;
+    let cells = m
+        .get("num_cells_by_type")
+        .and_then(|c| c.as_object())
+        .ok_or_else(|| stat_error(format!("no cells in {base}")))?;
+    // the black boxes' instances are not cells of the family: not counted
+    Ok(parse_cells(cells, target))
+}
+
+fn stat_error(m: String) -> HdlError {
+    HdlError::ToolFailed {
+        tool: "yosys",
+        detail: format!("stat -json: {m}"),
+    }
+}
+
+/// The "modules" object of `stat -json`. Only it is read: Yosys 0.23 prints the hierarchy
+/// as plain text after it, inside the JSON, when the design has a top.
+fn stat_modules(json: &str) -> Result<serde_json::Map<String, serde_json::Value>, HdlError> {
+    let at = json
+        .find("\"modules\":")
+        .ok_or_else(|| stat_error("no modules".into()))?;
+    let mut de = serde_json::Deserializer::from_str(&json[at + "\"modules\":".len()..]);
+    let v = serde_json::Value::deserialize(&mut de).map_err(|e| stat_error(e.to_string()))?;
+    match v {
+        serde_json::Value::Object(m) => Ok(m),
+        _ => Err(stat_error("modules is not an object".into())),
+    }
 }
 
 /// The base name of a (possibly parameterized) yosys module name:
@@ -115,79 +230,117 @@ fn base_name(name: &str) -> &str {
     }
 }
 
-/// Per-module rows from `stat -json` of a design synthesized without flattening.
-pub fn parse_hierarchy(json: &str, target: Target, top: &str) -> Result<Vec<ModuleRow>, HdlError> {
-    let bad = |m: String| HdlError::ToolFailed {
-        tool: "yosys",
-        detail: format!("stat -json: {m}"),
-    };
-    // Only the "modules" object is read: Yosys 0.23 prints the hierarchy as plain text
-    // after it, inside the JSON, when the design has a top.
-    let at = json
-        .find("\"modules\":")
-        .ok_or_else(|| bad("no modules".into()))?;
-    let mut de = serde_json::Deserializer::from_str(&json[at + "\"modules\":".len()..]);
-    let v = serde_json::Value::deserialize(&mut de).map_err(|e| bad(e.to_string()))?;
-    let modules = v
-        .as_object()
-        .ok_or_else(|| bad("modules is not an object".into()))?;
-    // cells of each yosys module, and the yosys modules each instantiates
-    let mut own: BTreeMap<&str, Resources> = BTreeMap::new();
-    let mut children: BTreeMap<&str, Vec<(&str, u64)>> = BTreeMap::new();
-    for (name, m) in modules {
-        let cells = m
-            .get("num_cells_by_type")
-            .and_then(|c| c.as_object())
-            .ok_or_else(|| bad(format!("no cells in {name}")))?;
-        let mut kids = Vec::new();
-        let mut leaf = serde_json::Map::new();
-        for (cell, n) in cells {
-            // a plain module is named `\name` but instantiated as `name`
-            let key = modules
-                .get_key_value(cell)
-                .or_else(|| modules.get_key_value(&format!("\\{cell}")));
-            match key {
-                Some((key, _)) => kids.push((key.as_str(), n.as_u64().unwrap_or(0))),
-                None => {
-                    leaf.insert(cell.clone(), n.clone());
+/// A design's module hierarchy from `stat -json`: which modules each instantiates, how
+/// often, and each module's own cells (those that are not instances of its modules).
+struct Hierarchy {
+    top: String,
+    children: BTreeMap<String, Vec<(String, u64)>>,
+    leaf: BTreeMap<String, serde_json::Map<String, serde_json::Value>>,
+}
+
+impl Hierarchy {
+    fn parse(json: &str, top: &str) -> Result<Hierarchy, HdlError> {
+        let modules = stat_modules(json)?;
+        let mut children = BTreeMap::new();
+        let mut leaf = BTreeMap::new();
+        for (name, m) in &modules {
+            let cells = m
+                .get("num_cells_by_type")
+                .and_then(|c| c.as_object())
+                .ok_or_else(|| stat_error(format!("no cells in {name}")))?;
+            let mut kids = Vec::new();
+            let mut own = serde_json::Map::new();
+            for (cell, n) in cells {
+                // a plain module is named `\name` but instantiated as `name`
+                let key = modules
+                    .get_key_value(cell)
+                    .or_else(|| modules.get_key_value(&format!("\\{cell}")));
+                match key {
+                    Some((key, _)) => kids.push((key.clone(), n.as_u64().unwrap_or(0))),
+                    None => {
+                        own.insert(cell.clone(), n.clone());
+                    }
+                }
+            }
+            children.insert(name.clone(), kids);
+            leaf.insert(name.clone(), own);
+        }
+        let top = modules
+            .keys()
+            .find(|k| base_name(k) == top)
+            .ok_or_else(|| stat_error(format!("no top module {top}")))?
+            .clone();
+        Ok(Hierarchy {
+            top,
+            children,
+            leaf,
+        })
+    }
+
+    /// Every module below `name` (not `name` itself).
+    fn under(&self, name: &str) -> Vec<&str> {
+        let mut seen: Vec<&str> = Vec::new();
+        let mut stack: Vec<&str> = vec![name];
+        while let Some(m) = stack.pop() {
+            for (kid, _) in self.children.get(m).into_iter().flatten() {
+                if !seen.contains(&kid.as_str()) {
+                    seen.push(kid);
+                    stack.push(kid);
                 }
             }
         }
-        own.insert(name, parse_cells(&leaf, target));
-        children.insert(name, kids);
+        seen
     }
-    let top_key = modules
-        .keys()
-        .find(|k| base_name(k) == top)
-        .ok_or_else(|| bad(format!("no top module {top}")))?;
-    // instances of every yosys module under the top, then folded by base name
-    let mut count: BTreeMap<&str, u64> = BTreeMap::new();
-    let mut stack = vec![(top_key.as_str(), 1u64)];
-    while let Some((name, n)) = stack.pop() {
-        *count.entry(name).or_default() += n;
-        for &(kid, m) in children.get(name).into_iter().flatten() {
-            stack.push((kid, n * m));
+
+    /// The rows: each module's instances under the top and `own` cells, folded by base
+    /// name (a module missing from `own` counts nothing).
+    fn rows(
+        &self,
+        own: &BTreeMap<String, Resources>,
+        top: &str,
+    ) -> Result<Vec<ModuleRow>, HdlError> {
+        let mut count: BTreeMap<&str, u64> = BTreeMap::new();
+        let mut stack = vec![(self.top.as_str(), 1u64)];
+        while let Some((name, n)) = stack.pop() {
+            *count.entry(name).or_default() += n;
+            for (kid, m) in self.children.get(name).into_iter().flatten() {
+                stack.push((kid, n * m));
+            }
         }
+        let mut rows: BTreeMap<&str, ModuleRow> = BTreeMap::new();
+        for (name, n) in count {
+            let base = base_name(name);
+            let row = rows.entry(base).or_insert_with(|| ModuleRow {
+                module: base.to_string(),
+                instances: 0,
+                each: Resources::default(),
+                total: Resources::default(),
+            });
+            row.instances += n;
+            row.total = row
+                .total
+                .plus(own.get(name).copied().unwrap_or_default().times(n));
+        }
+        let mut rows: Vec<ModuleRow> = rows.into_values().collect();
+        for r in &mut rows {
+            r.each = r.total.per(r.instances);
+        }
+        // the top first, then by total LUTs, largest first
+        rows.sort_by_key(|r| (r.module != top, std::cmp::Reverse(r.total.lut)));
+        Ok(rows)
     }
-    let mut rows: BTreeMap<&str, ModuleRow> = BTreeMap::new();
-    for (name, n) in count {
-        let base = base_name(name);
-        let row = rows.entry(base).or_insert_with(|| ModuleRow {
-            module: base.to_string(),
-            instances: 0,
-            each: Resources::default(),
-            total: Resources::default(),
-        });
-        row.instances += n;
-        row.total = row.total.plus(own[name].times(n));
-    }
-    let mut rows: Vec<ModuleRow> = rows.into_values().collect();
-    for r in &mut rows {
-        r.each = r.total.per(r.instances);
-    }
-    // the top first, then by total LUTs, largest first
-    rows.sort_by_key(|r| (r.module != top, std::cmp::Reverse(r.total.lut)));
-    Ok(rows)
+}
+
+/// Per-module rows from `stat -json` of a whole design synthesized without flattening,
+/// each module's own cells as that one run counted them.
+pub fn parse_hierarchy(json: &str, target: Target, top: &str) -> Result<Vec<ModuleRow>, HdlError> {
+    let tree = Hierarchy::parse(json, top)?;
+    let own = tree
+        .leaf
+        .iter()
+        .map(|(name, cells)| (name.clone(), parse_cells(cells, target)))
+        .collect();
+    tree.rows(&own, top)
 }
 
 #[cfg(test)]
@@ -203,6 +356,35 @@ mod tests {
         );
         assert_eq!(base_name("\\ms_board"), "ms_board");
         assert_eq!(base_name("ms_board"), "ms_board");
+    }
+
+    #[test]
+    fn module_parameters_are_read_as_chparam_takes_them() {
+        let il = "attribute \\top 1\n\
+                  module \\top\n\
+                  \x20 wire input 1 \\clk\n\
+                  \x20 cell $paramod\\leaf\\W=24 \\u\n\
+                  \x20   parameter \\WIDTH 3\n\
+                  \x20 end\n\
+                  end\n\
+                  module $paramod\\leaf\\W=24\n\
+                  \x20 parameter \\W 24\n\
+                  \x20 parameter \\BULK 1'1\n\
+                  \x20 parameter \\S 2'10\n\
+                  end\n";
+        let m = parameters(il);
+        assert_eq!(m.len(), 2);
+        assert_eq!(
+            (m[0].0.as_str(), m[0].1.len()),
+            ("\\top", 0),
+            "a cell's are not"
+        );
+        let p: Vec<(&str, &str)> = m[1]
+            .1
+            .iter()
+            .map(|(a, b)| (a.as_str(), b.as_str()))
+            .collect();
+        assert_eq!(p, [("W", "24"), ("BULK", "1'b1"), ("S", "2'b10")]);
     }
 
     #[test]

@@ -49,6 +49,14 @@ impl Target {
         }
     }
 
+    /// The design as a board of this family builds it ([`Design::for_family`]).
+    fn design(self, params: &CoreParams, arch: Arch) -> Result<Design, HdlError> {
+        match self {
+            Target::Ecp5 => Design::for_family(params, arch, crate::boards::Family::Ecp5),
+            _ => Design::new(params, arch),
+        }
+    }
+
     /// Adds one cell type's count to `r`.
     fn classify(self, cell: &str, n: u64, r: &mut Resources) {
         let is = |p: &[&str]| p.iter().any(|x| cell.starts_with(x));
@@ -249,14 +257,14 @@ pub fn sweep(
             let p = with_axes(k);
             Ok((
                 k,
-                Design::new(&p, Arch::Tdm)?,
-                Design::new(&p, Arch::Independent)?,
+                target.design(&p, Arch::Tdm)?,
+                target.design(&p, Arch::Independent)?,
             ))
         })
         .collect::<Result<Vec<_>, HdlError>>()?;
     let single = match baseline {
         Baseline::Scaled => Some(synthesize(
-            &Design::new(&with_axes(1), Arch::Independent)?,
+            &target.design(&with_axes(1), Arch::Independent)?,
             target,
             &workdir.join("indep-1"),
         )?),

@@ -1,9 +1,8 @@
 //! The per-module table of each board (`multistep hdl modules`), checked against budgets:
 //! a change that makes an axis larger fails here at once, with the whole table printed.
 //! Budgets are Debian's Yosys 0.23 counts (ECP5 without wide-LUT mapping, as the command
-//! synthesizes) plus a margin for ABC's run-to-run variance (small structural changes move
-//! a module by up to ~15 %: `ms_pulse` 121-182 on the ULX3S for the same RTL); lower them
-//! when an axis shrinks.
+//! synthesizes) plus a small margin: each module is synthesized alone, so its count moves
+//! only with its own Verilog (and the tool's version). Lower them when an axis shrinks.
 
 use multistep_hdl::boards::Board;
 use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
@@ -12,34 +11,34 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 /// iCE40: SB_LUT4).
 type Budgets = &'static [(&'static str, u64)];
 
-/// Measured 2026-12-07 (LUT each, K = 2, 4 and 8): ms_fifo 19, ms_pulse 164-182,
-/// ms_axis_io 104, ms_debounce 31-32, ms_replay_axis 91 (the replay unit's per-axis part;
-/// the shared decoder, ms_replay, the step counts, ms_step_counts, and the positions,
-/// ms_positions, are not an axis's); one axis 442-458.
+/// Measured 2026-12-07 (LUT each, the same at K = 2, 4, 8 and 14): ms_fifo 19, ms_pulse
+/// 171, ms_axis_io 105, ms_debounce 32, ms_replay_axis 51 (the replay unit's per-axis
+/// part; the shared decoder, ms_replay, the step counts, ms_step_counts, and the
+/// positions, ms_positions, are not an axis's); one axis 410.
 const ULX3S: Budgets = &[
-    ("ms_fifo", 22),
-    ("ms_pulse", 210),
-    ("ms_axis_io", 125),
-    ("ms_debounce", 36),
-    ("ms_replay_axis", 105),
+    ("ms_fifo", 21),
+    ("ms_pulse", 180),
+    ("ms_axis_io", 110),
+    ("ms_debounce", 34),
+    ("ms_replay_axis", 54),
 ];
-const ULX3S_AXIS: u64 = 530;
+const ULX3S_AXIS: u64 = 430;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// per-axis registers, the positions' deltas and the shared replay decoder's multiplexers
-/// and step count memories included: (K = 4 − K = 2) / 2, measured 642.
-const ULX3S_ADDED_AXIS: u64 = 740;
+/// and step count memories included: (K = 4 − K = 2) / 2, measured 626.
+const ULX3S_ADDED_AXIS: u64 = 660;
 
-/// Measured 2026-12-07: ms_fifo 31, ms_pulse 106 (120 at K = 3, the same RTL), ms_axis_io
-/// 89, ms_debounce 40; one axis 266 (no replay unit and no limit input on this board: one
-/// filter an axis; the positions a counter and a latch per axis in ms_positions, shared).
+/// Measured 2026-12-07: ms_fifo 31, ms_pulse 109, ms_axis_io 85, ms_debounce 40; one axis
+/// 265 (no replay unit and no limit input on this board: one filter an axis; the
+/// positions a counter and a latch per axis in ms_positions, shared).
 const ICEBREAKER: Budgets = &[
-    ("ms_fifo", 34),
-    ("ms_pulse", 145),
-    ("ms_axis_io", 105),
-    ("ms_debounce", 46),
+    ("ms_fifo", 33),
+    ("ms_pulse", 115),
+    ("ms_axis_io", 90),
+    ("ms_debounce", 42),
 ];
-const ICEBREAKER_AXIS: u64 = 320;
+const ICEBREAKER_AXIS: u64 = 280;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();

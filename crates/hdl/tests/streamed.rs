@@ -341,10 +341,12 @@ fn ten_second_moves_on(hz: u64, buffer: u64) -> usize {
 /// Bulk writes that must change nothing: one larger than the free space (status 7), one
 /// with a bad CRC (status 1), one to a register that is not `StreamData` or to an axis
 /// beyond K (3); the free count follows only the accepted ones; arming empties the buffer.
+/// Each axis's free count and fit are its own (one subtractor serves them all): a frame
+/// for axis 1 fits while axis 0's buffer is full.
 #[test]
 fn bad_bulk_writes_change_nothing() {
     use multistep_hdl::link::BulkWrite;
-    let b = BoardTop::new(params(1), 3_000_000);
+    let b = BoardTop::new(params(2), 3_000_000);
     let mut h = Host::new();
     let bulk = |h: &mut Host, addr: u16, len: usize, corrupt: bool| {
         let w = BulkWrite {
@@ -368,7 +370,9 @@ fn bad_bulk_writes_change_nothing() {
     let crc = bulk(&mut h, data, 2, true);
     let wrong = bulk(&mut h, Reg::Axis(0, AxisReg::Position).addr(), 2, false);
     let beyond = bulk(&mut h, Reg::Axis(3, AxisReg::StreamData).addr(), 2, false);
+    let other = bulk(&mut h, Reg::Axis(1, AxisReg::StreamData).addr(), 3, false);
     let f1 = h.read(Reg::Axis(0, AxisReg::StreamFree));
+    let g1 = h.read(Reg::Axis(1, AxisReg::StreamFree));
     let plain = h.sent();
     h.write(Reg::Axis(0, AxisReg::StreamData), 7); // not by a plain write
     h.write(Reg::Axis(0, AxisReg::StreamSteps), 0);
@@ -388,6 +392,8 @@ fn bad_bulk_writes_change_nothing() {
         (Status::BadAddress, Status::BadAddress)
     );
     assert_eq!(rep[f1].data, 2, "only the accepted bulk writes count");
+    assert_eq!((st(other), rep[other].data), (Status::Ok, 509));
+    assert_eq!(rep[g1].data, 509, "axis 1's buffer is its own");
     assert_eq!(st(plain), Status::BadAddress);
     assert_eq!((st(disarmed), rep[disarmed].data), (Status::Ok, 0));
     assert_eq!(rep[f2].data, 512, "arming empties the buffer");

@@ -105,8 +105,14 @@ module ms_board #(
     wire [31:0]   rd_pos, rd_hall;
     wire [K*WD-1:0] period;
     // the replay units
-    wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_bok, s_more, s_fault, s_push, init_ax, ax_full;
-    wire [K*(LBR+1)-1:0] s_free;
+    wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_more, s_fault, s_push, init_ax, ax_full;
+    wire          s_bok;    // the open bulk frame fits its axis's buffer
+    wire [LBR:0]  s_free;   // the free bytes of the request's axis
+    // per axis, from the chain boards' own replay units (unused with the shared one)
+    /* verilator lint_off UNUSED */
+    wire [K-1:0]  s_bok_v;
+    wire [K*(LBR+1)-1:0] s_free_v;
+    /* verilator lint_on UNUSED */
     wire [K*WD-1:0] s_din;
     ms_regs #(.K(K), .LK(LK), .LS(LS), .AW(AW), .WD(WD), .LF(LF), .WN(WN), .WY(WY), .WK(WK), .RB(RB),
               .VERSION(VERSION), .CLK_HZ(CLK_HZ), .BAUD(BAUD), .LB(LBR), .SYNC(SYNC),
@@ -138,6 +144,7 @@ module ms_board #(
 
     // ---- the replay units: one decoder for every axis (the chain boards: one per axis) ----
     wire [WD-1:0] r_period;
+    genvar gr;
     generate
         if (LB > 0 && CHAINS == 0) begin : shared_replay
             ms_replay #(.K(K), .LK(LK), .WD(WD), .LB(LBR)) u_replay (
@@ -145,9 +152,18 @@ module ms_board #(
                 .retarget_in(s_retarget), .bsel(b_data && ({26'd0, b_ax} < K)),
                 .bax(b_ax[LK-1:0]), .bopen(bulk_open), .blen(bulk_len), .bwr(bulk_wr),
                 .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit), .init(init_ax),
-                .halt(halt), .full(ax_full), .armed(s_armed), .bok(s_bok), .free(s_free),
+                .halt(halt), .full(ax_full), .rd(req), .rax(req_addr[4 +: LK]),
+                .armed(s_armed),
+                .bok(s_bok), .free(s_free),
                 .push(s_push), .period(r_period), .more(s_more), .fault(s_fault));
         end else begin : per_axis_replay
+            // each axis's replay unit has its own free bytes and fit flag
+            wire [LBR:0] free_w [0:K-1];
+            for (gr = 0; gr < K; gr = gr + 1) begin : rb
+                assign free_w[gr] = s_free_v[gr*(LBR+1) +: LBR+1];
+            end
+            assign s_bok    = s_bok_v[b_ax[LK-1:0]];
+            assign s_free   = free_w[req_addr[4 +: LK]];
             assign r_period = {WD{1'b0}};
         end
     endgenerate
@@ -171,16 +187,19 @@ module ms_board #(
                     .bopen(bulk_open && mine), .blen(bulk_len), .bwr(bulk_wr && mine),
                     .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit[a]),
                     .init(init_ax[a]), .halt(halt[a]), .full(ax_full[a]),
-                    .armed(s_armed[a]), .bok(s_bok[a]), .free(s_free[a*(LBR+1) +: LBR+1]),
+                    .armed(s_armed[a]), .bok(s_bok_v[a]),
+                    .free(s_free_v[a*(LBR+1) +: LBR+1]),
                     .push(s_push[a]), .period(s_din[a*WD +: WD]), .more(s_more[a]),
                     .fault(s_fault[a]));
             end else if (LB > 0) begin : replay
                 // the shared replay unit (above)
                 assign s_din[a*WD +: WD] = r_period;
+                assign s_bok_v[a] = 1'b0;
+                assign s_free_v[a*(LBR+1) +: LBR+1] = {(LBR+1){1'b0}};
             end else begin : no_replay
                 assign s_armed[a] = 1'b0;
-                assign s_bok[a] = 1'b0;
-                assign s_free[a*(LBR+1) +: LBR+1] = {(LBR+1){1'b0}};
+                assign s_bok_v[a] = 1'b0;
+                assign s_free_v[a*(LBR+1) +: LBR+1] = {(LBR+1){1'b0}};
                 assign s_push[a] = 1'b0;
                 assign s_din[a*WD +: WD] = {WD{1'b0}};
                 assign s_more[a] = 1'b0;

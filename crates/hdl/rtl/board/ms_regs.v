@@ -100,8 +100,8 @@ module ms_regs #(
     output reg  [K-1:0]  s_commit,   // one clock: commit the bulk write
     output reg  [K-1:0]  s_chain,    // one clock: ChainSteps of these axes = req_data
     input  wire [K-1:0]  s_armed,
-    input  wire [K-1:0]  s_bok,
-    input  wire [K*(LB+1)-1:0] s_free,
+    input  wire          s_bok,      // the open bulk frame fits its axis's buffer
+    input  wire [LB:0]   s_free,     // the free bytes of req_addr's axis
     input  wire [K-1:0]  s_more,
     input  wire [K-1:0]  s_fault
 );
@@ -202,7 +202,6 @@ module ms_regs #(
     // to a go without setup (the count it is compared with saturates too)
     wire [32:0] setup_sum = {1'b0, dir_setup} + {1'b0, n[31:0]} + 33'd2;
 
-    wire [LB:0] ax_free = s_free[ax[LK-1:0]*(LB+1) +: LB+1];
     // the period's readback as an array indexed by the axis: a multiplexer tree (a run-time
     // part-select of the K-word bus synthesized as a shifter)
     wire [WD-1:0] per_w  [0:K-1];
@@ -258,7 +257,7 @@ module ms_regs #(
                 4'h3: rd = {{(32-WD){1'b0}}, per_w[ax[LK-1:0]]};
                 4'h4: rd = {{(32-LS){1'b0}}, slot[ax[LK-1:0]]};
                 4'h5: rd = {31'd0, s_armed[ax[LK-1:0]]};
-                4'h6: rd = {{(31-LB){1'b0}}, ax_free};
+                4'h6: rd = {{(31-LB){1'b0}}, s_free};
                 default: rd_ok = 1'b0;
             endcase
         end else begin
@@ -301,7 +300,7 @@ module ms_regs #(
         end else if (c_ok) begin
             wst = c_busy ? E_BUSY : OK;
         end
-        if (req_bulk) wst = (ax_ok && areg == 4'h7) ? (s_bok[ax[LK-1:0]] ? OK : E_FULL) : E_ADDR;
+        if (req_bulk) wst = (ax_ok && areg == 4'h7) ? (s_bok ? OK : E_FULL) : E_ADDR;
     end
     wire wr_ok = req && req_wr && (wst == OK);
     wire w_board = wr_ok && is_board;
@@ -338,7 +337,7 @@ module ms_regs #(
         end
         if (req) begin
             rsp_status <= req_wr ? wst : (rd_ok ? OK : E_ADDR);
-            rsp_data   <= (req_bulk && wst == OK) ? {{(31-LB){1'b0}}, ax_free - {{(LB-7){1'b0}}, req_data[7:0]}}
+            rsp_data   <= (req_bulk && wst == OK) ? {{(31-LB){1'b0}}, s_free - {{(LB-7){1'b0}}, req_data[7:0]}}
                         : (req_wr || !rd_ok) ? 32'd0 : rd;
         end
         if (rst) begin

@@ -12,7 +12,11 @@
 // with bytes and FIFO room has its next period within a turn of each axis
 // (multistep_core::tdm::stream::DECODE_TURN).
 // A bulk frame goes to axis bax (bsel: a valid axis); the host side and the registers
-// are the same as with K ms_stream units.
+// are the same as with K ms_stream units, but the free bytes are those of one axis and
+// whether the open frame fits is one flag: one pair of pointer multiplexers, subtractor and
+// comparator for every axis instead of a subtractor and comparator each. The axis looked
+// at is the request's (rax) in a request's clock (rd), else the bulk frame's (bax): the
+// link never opens a frame or writes its bytes in a request's clock.
 module ms_replay #(
     parameter K  = 2,
     parameter LK = 1,
@@ -26,7 +30,7 @@ module ms_replay #(
     input  wire [K-1:0]        retarget_in,
     input  wire                bsel,      // the open bulk frame is for an axis here
     input  wire [LK-1:0]       bax,       // that axis
-    input  wire                bopen,
+    input  wire                bopen,     // a bulk frame for bax begins, blen bytes
     input  wire [7:0]          blen,
     input  wire                bwr,
     input  wire [7:0]          bidx,
@@ -35,9 +39,11 @@ module ms_replay #(
     input  wire [K-1:0]        init,
     input  wire [K-1:0]        halt,
     input  wire [K-1:0]        full,
+    input  wire                rd,        // a request (never with bopen or bwr) ...
+    input  wire [LK-1:0]       rax,       // ... for this axis: its free bytes are read back
     output wire [K-1:0]        armed,
-    output wire [K-1:0]        bok,
-    output wire [K*(LB+1)-1:0] free,
+    output reg                 bok,       // the open bulk frame fits bax's buffer
+    output wire [LB:0]         free,      // rax's free bytes (in rd's clock)
     output wire [K-1:0]        push,
     output wire [WD-1:0]       period,
     output wire [K-1:0]        more,
@@ -71,21 +77,21 @@ module ms_replay #(
         st = S_PICK;
         s = {LK{1'b0}};
         pv_ok = 1'b0;
+        bok = 1'b0;
     end
     genvar g;
     generate
         for (g = 0; g < K; g = g + 1) begin : ax
             /* verilator lint_off WIDTH */  // the genvar against LK-bit indices
-            wire mine = bsel && (bax == g);
             wire penq = pv_ok && (pv_ax == g);
             /* verilator lint_on WIDTH */
             ms_replay_axis #(.LB(LB)) u_axis (
                 .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
-                .retarget_in(retarget_in[g]), .bopen(bopen && mine),
+                .retarget_in(retarget_in[g]),
                 .blen(blen), .bcommit(bcommit[g]), .init(init[g]), .halt(halt[g]),
                 .full(full[g]), .left_nz(left_nz_v[g]), .serve(serve[g]), .n_rp(wr),
                 .n_hp(lo), .n_hn(rdata[7:4]), .pend(penq), .pbad(pbad), .armed(armed[g]),
-                .bok(bok[g]), .free(free[g*(LB+1) +: LB+1]), .push(push[g]),
+                .push(push[g]),
                 .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wp(wp_w[g]),
                 .rp(rp_w[g]), .hp(hp_v[g]),
                 .hn(hn_w[g]), .fresh(fresh_v[g]), .live(live_v[g]), .want(want_v[g]));
@@ -93,9 +99,16 @@ module ms_replay #(
     endgenerate
     assign period = pv[WD-1:0];
 
+    // ---- free bytes, 2^LB - (wp - rp), of the request's axis, else the bulk frame's ----
+    localparam [LB:0] SIZE = {1'b1, {LB{1'b0}}};
+    wire [LK-1:0] qax = rd ? rax : bax;
+    wire [LB:0]   bwp = wp_w[qax];
+    assign free = SIZE - (bwp - rp_w[qax]);
+    always @(posedge clk)
+        if (bopen && bsel) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;
+
     // ---- the buffers: one memory, axis-major ----
     reg  [7:0] mem [0:(1<<(LK+LB))-1];
-    wire [LB:0] bwp = wp_w[bax];
     /* verilator lint_off WIDTH */
     wire [LB-1:0] waddr = bwp[LB-1:0] + bidx;
     /* verilator lint_on WIDTH */
@@ -103,7 +116,7 @@ module ms_replay #(
     wire unused_wrap = bwp[LB];
     /* verilator lint_on UNUSED */
     always @(posedge clk) begin
-        if (bwr && bsel && bok[bax]) mem[{bax, waddr}] <= bbyte;
+        if (bwr && bsel && bok) mem[{bax, waddr}] <= bbyte;
         rdata <= mem[{s, wr[LB-1:0]}];
     end
 

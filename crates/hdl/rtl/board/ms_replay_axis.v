@@ -13,9 +13,8 @@ module ms_replay_axis #(
     input  wire          arm,       // StreamSteps write: the next start of the axis replays
     input  wire [31:0]   arm_steps, // that many steps (0 disarms)
     input  wire          retarget_in, // StreamSteps write while the axis runs: its count
-    input  wire          bopen,     // a bulk frame for this axis begins, blen bytes
-    input  wire [7:0]    blen,
-    input  wire          bcommit,   // its CRC checked and it was accepted
+    input  wire [7:0]    blen,      // a bulk frame's bytes
+    input  wire          bcommit,   // a frame for this axis: its CRC checked, and it fit
     input  wire          init,      // the core initializes the axis (the group's start)
     input  wire          halt,
     input  wire          full,      // the axis's FIFO
@@ -28,8 +27,6 @@ module ms_replay_axis #(
     input  wire          pend,      // a decoded period of this axis is pushed this clock
     input  wire          pbad,      // ... unless it is bad (0 or too wide): the fault
     output wire          armed,
-    output reg           bok,       // the open bulk frame fits
-    output wire [LB:0]   free,      // free bytes in the buffer
     output wire          push,
     output wire          more,      // periods still to push
     output wire          retarget,  // the count's retarget: the stream runs
@@ -51,10 +48,8 @@ module ms_replay_axis #(
         arm_q = 1'b0;
         run = 1'b0;
         fault = 1'b0;
-        bok = 1'b0;
     end
     assign armed = arm_q;
-    assign free  = {1'b1, {LB{1'b0}}} - (wp - rp);
     assign more  = run && (left_nz || pend || fault);
     assign push  = pend && !pbad && run;
     assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
@@ -91,6 +86,5 @@ module ms_replay_axis #(
                 fresh <= 1'b0;
             end
         end
-        if (bopen) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;
     end
 endmodule
