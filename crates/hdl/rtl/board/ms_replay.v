@@ -1,7 +1,7 @@
 // ms_replay: the replay units of K axes with one decoder (docs/HDL.md "Streamed moves"):
 // each axis keeps what ms_stream keeps but the decoder and the step count (ms_replay_axis),
-// the axes' byte buffers are one block RAM (2^LB bytes each), their last periods one small
-// memory, their step counts two more (ms_step_counts), and one decoder serves the axes in
+// the axes' byte buffers are one block RAM (2^LB bytes each), their last periods and the
+// high nibbles still to decode small memories, their step counts two more (ms_step_counts), and one decoder serves the axes in
 // turn.
 // A turn picks the next axis with a nibble to decode, a period to go and FIFO room, and
 // decodes from where the axis stands (ms_nibble) up to one whole period; that period and
@@ -54,8 +54,7 @@ module ms_replay #(
     // ---- the axes ----
     wire [LB:0]  wp_w [0:K-1];
     wire [LB:0]  rp_w [0:K-1];
-    wire [3:0]   hn_w [0:K-1];
-    wire [K-1:0] hp_v, fresh_v, live_v, want_v, serve, left_nz_v, retarget_v;
+    wire [K-1:0] hp_v, fresh_v, live_v, serve, left_nz_v, retarget_v;
     reg  [LK-1:0] s;           // the axis served
     reg  [LB:0]   wr;          // its next byte to fetch
     reg           lo;          // the fetched byte's low nibble is next (else nh)
@@ -89,12 +88,12 @@ module ms_replay #(
                 .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
                 .retarget_in(retarget_in[g]),
                 .blen(blen), .bcommit(bcommit[g]), .init(init[g]), .halt(halt[g]),
-                .full(full[g]), .left_nz(left_nz_v[g]), .serve(serve[g]), .n_rp(wr),
-                .n_hp(lo), .n_hn(rdata[7:4]), .pend(penq), .pbad(pbad), .armed(armed[g]),
+                .left_nz(left_nz_v[g]), .serve(serve[g]), .n_rp(wr),
+                .n_hp(lo), .pend(penq), .pbad(pbad), .armed(armed[g]),
                 .push(push[g]),
                 .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wp(wp_w[g]),
                 .rp(rp_w[g]), .hp(hp_v[g]),
-                .hn(hn_w[g]), .fresh(fresh_v[g]), .live(live_v[g]), .want(want_v[g]));
+                .fresh(fresh_v[g]), .live(live_v[g]));
         end
     endgenerate
     assign period = pv[WD-1:0];
@@ -130,6 +129,9 @@ module ms_replay #(
         .esc_n(esc_n), .got_n(got_n), .acc_n(acc_n));
     wire          s_live = live_v[s];
     wire          take   = (st == S_DEC) && s_live && done_p && !full[s];
+    // the served axis may decode: it is live, its FIFO has room, and a nibble is there
+    // (one comparison for all axes, at the axis served)
+    wire          want   = s_live && !full[s] && (hp_v[s] || rp_w[s] != wp_w[s]);
     localparam [31:0]   KM1  = K - 1;
     localparam [LK-1:0] LAST = KM1[LK-1:0];
     wire [LK-1:0] s_next = (s == LAST) ? {LK{1'b0}} : s + 1'b1;
@@ -143,6 +145,11 @@ module ms_replay #(
             /* verilator lint_on WIDTH */
         end
     endgenerate
+    // each axis's high nibble still to decode (valid while its hp is set): written as the
+    // axis is served, read at its pick
+    reg [3:0] hmem [0:(1<<LK)-1];
+    always @(posedge clk)
+        if (take) hmem[s] <= rdata[7:4];
     always @(posedge clk) begin
         pm <= pmem[s];
         if (take) pmem[s] <= p;
@@ -158,10 +165,10 @@ module ms_replay #(
             s  <= {LK{1'b0}};
         end else begin
             case (st)
-                S_PICK: if (want_v[s]) begin
+                S_PICK: if (want) begin
                     wr  <= rp_w[s];
                     lo  <= 1'b0;
-                    nh  <= hn_w[s];
+                    nh  <= hmem[s];
                     esc <= 2'd0;
                     st  <= hp_v[s] ? S_DEC : S_FETCH;
                 end else begin

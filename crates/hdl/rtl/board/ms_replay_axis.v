@@ -1,9 +1,9 @@
 // ms_replay_axis: one axis's part of the shared replay unit (ms_replay): its buffer's
 // pointers, its step count, and where its decoding stands between the decoder's turns:
-// the next byte to fetch (rp), the high nibble of the byte before when that nibble is
-// still to be decoded (hp, hn; the byte itself is free for the host again), and whether
-// it has a last period yet (`fresh`: not since init; the period itself is in ms_replay's
-// memory). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
+// the next byte to fetch (rp), whether the high nibble of the byte before is still to be
+// decoded (hp; the byte itself is free for the host again, the nibble is in ms_replay's
+// memory), and whether it has a last period yet (`fresh`: not since init; the period
+// itself is in ms_replay's memory too). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
 // ms_replay's (ms_step_counts, all axes' in two memories), which tells `left_nz`.
 module ms_replay_axis #(
     parameter LB = 9
@@ -17,13 +17,11 @@ module ms_replay_axis #(
     input  wire          bcommit,   // a frame for this axis: its CRC checked, and it fit
     input  wire          init,      // the core initializes the axis (the group's start)
     input  wire          halt,
-    input  wire          full,      // the axis's FIFO
     input  wire          left_nz,   // periods to go (ms_step_counts)
     // the decoder
     input  wire          serve,     // it decoded this axis's next period: take n_*
     input  wire [LB:0]   n_rp,
     input  wire          n_hp,
-    input  wire [3:0]    n_hn,
     input  wire          pend,      // a decoded period of this axis is pushed this clock
     input  wire          pbad,      // ... unless it is bad (0 or too wide): the fault
     output wire          armed,
@@ -34,10 +32,8 @@ module ms_replay_axis #(
     output reg  [LB:0]   wp,
     output reg  [LB:0]   rp,
     output reg           hp,
-    output reg  [3:0]    hn,
     output reg           fresh,
-    output wire          live,      // a period decoded now may be taken
-    output wire          want       // ... and there is a nibble to decode and FIFO room
+    output wire          live       // a period decoded now may be taken
 );
     reg        arm_q, run;
     initial begin
@@ -53,7 +49,6 @@ module ms_replay_axis #(
     assign more  = run && (left_nz || pend || fault);
     assign push  = pend && !pbad && run;
     assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
-    assign want  = live && !full && (hp || rp != wp);
     assign retarget = retarget_in && more;
 
     always @(posedge clk) begin
@@ -82,7 +77,6 @@ module ms_replay_axis #(
             if (serve) begin
                 rp    <= n_rp;
                 hp    <= n_hp;
-                hn    <= n_hn;
                 fresh <= 1'b0;
             end
         end
