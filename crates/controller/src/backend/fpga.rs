@@ -133,6 +133,9 @@ pub struct FpgaBackend {
     /// The board's registers are set up at the next poll (an adopted board: once every
     /// axis's settings are known, so no running axis's DIR level changes meanwhile).
     setup_due: bool,
+    /// The board was found reset and claimed, but its registers are not all set up again
+    /// (the link failed part way): done at the next poll, and before any start.
+    reclaim: bool,
     /// Set while a halt waits for the board: a poll lets go of the link (see `HostLink`).
     urgent: Option<Arc<AtomicBool>>,
     /// Idle axes whose offset is folded into the board's counter at the next poll (an
@@ -214,6 +217,7 @@ impl BoardBackend for FpgaBackend {
         now: u64,
     ) -> Result<(u64, Vec<u64>), CtlError> {
         self.link()?;
+        self.finish_claim()?;
         let mut writes = Vec::new();
         let mut runs = Vec::new();
         let mut feeds = Vec::new();
@@ -261,6 +265,7 @@ impl BoardBackend for FpgaBackend {
             )));
         }
         self.link()?;
+        self.finish_claim()?;
         if let Some(t) = src.as_track() {
             // a rate whose steps the replay unit cannot time is refused now, not mid-stream
             t.limit_periods((1u64 << self.params.tick_bits.min(63)) - 1)?;

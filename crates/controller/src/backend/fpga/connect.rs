@@ -93,6 +93,7 @@ impl FpgaBackend {
             armed_at: None,
             arm_lifetime: ARM_LIFETIME,
             setup_due: false,
+            reclaim: false,
             urgent: None,
             fold_due: 0,
             folding: None,
@@ -237,6 +238,19 @@ impl FpgaBackend {
         l.write(Reg::Board(BoardReg::EnableLow), enable_low)?;
         l.write(Reg::Board(BoardReg::Enable), mask & enabled)?;
         self.hall_stop = 0;
+        // every register this host sets is set: a reset board is claimed in full
+        self.reclaim = false;
+        Ok(())
+    }
+
+    /// A reset board's claim that the link cut short is finished before a start: a move
+    /// must not run on registers at their power-up values (every driver off).
+    pub(super) fn finish_claim(&mut self) -> Result<(), CtlError> {
+        if self.reclaim {
+            if let Err(e) = self.setup() {
+                return Err(self.failed(e));
+            }
+        }
         Ok(())
     }
 

@@ -180,6 +180,9 @@ impl FpgaBackend {
         self.session_changes += 1;
         self.doubt = 0;
         self.estopped = false;
+        // the board holds this host's token now, so no later poll sees the reset: until
+        // the setup is through, it is done again (the next poll, or a start)
+        self.reclaim = true;
         self.setup()?;
         for i in 0..self.axes.len() {
             self.read_count(i)?;

@@ -102,6 +102,40 @@ mod tests {
         assert_ne!(m.lock().unwrap().session, 0, "the token was written");
     }
 
+    /// A claim the link cut short is finished once the link is back: the reset board's
+    /// registers, its ENABLE among them, are set up again, so no move runs on a driver
+    /// the reset switched off while the host believes it on.
+    #[test]
+    fn a_claim_cut_short_is_finished_when_the_link_is_back() {
+        let (mut b, m) = connect();
+        // Y released, X on: the power-up value (0) and the default (both) differ from it
+        b.set_enabled(1, false).unwrap();
+        assert_eq!(m.lock().unwrap().enable, 1);
+        {
+            let mut m = m.lock().unwrap();
+            m.power_cycle();
+            // every reply to a Debounce write is lost: the claim's setup fails after
+            // the Session write, before the Enable write
+            m.mute = Some(0x0D);
+        }
+        events(&mut b, 1);
+        {
+            let m = m.lock().unwrap();
+            assert_ne!(m.session, 0, "the token was written");
+            assert_eq!(m.enable, 0, "the claim was cut before ENABLE");
+        }
+        m.lock().unwrap().mute = None;
+        std::thread::sleep(super::super::spec::RECONNECT_PERIOD);
+        events(&mut b, 2);
+        assert_eq!(m.lock().unwrap().enable, 1, "ENABLE set again");
+        m.lock().unwrap().steps = 300;
+        let l = launch(&b, 0, 300);
+        b.start(vec![l], None, &Default::default(), 3).unwrap();
+        m.lock().unwrap().finish();
+        events(&mut b, 4);
+        assert_eq!(b.count(0), 300, "the move after the claim runs");
+    }
+
     /// A count kept partly outside the register (adopted after a restart) is folded into
     /// the register once, at rest: later moves count from the register alone.
     #[test]

@@ -339,10 +339,14 @@ impl FpgaBackend {
         if self.link.is_none() {
             return;
         }
-        if self.setup_due {
-            self.setup_due = false;
-            if let Err(e) = self.setup() {
-                self.failed(e);
+        // a deferred setup, or a reset board's claim the link cut short: done again until
+        // it is through
+        if self.setup_due || self.reclaim {
+            match self.setup() {
+                Ok(()) => self.setup_due = false,
+                Err(e) => {
+                    self.failed(e);
+                }
             }
         }
         if let Err(e) = self.expire_armed() {
