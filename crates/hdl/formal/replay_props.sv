@@ -62,8 +62,10 @@ module replay_props (
         // ms_regs arms one axis a clock (a StreamSteps write) and commits one frame
         assume(arm != 2'b11);
         assume(bcommit != 2'b11);
-        // ms_link: a request never comes in the clock a frame opens or writes a byte
+        // ms_link: a request never comes in the clock a frame opens or writes a byte, nor
+        // a commit (the clock after its frame's request) with either or with a request
         assume(!(rd && (bopen || bwr)));
+        assume(!(bcommit != 2'b00 && (bopen || bwr || rd)));
         for (a = 0; a < 2; a = a + 1) begin
             // the core starts, and the host arms, only an axis with nothing to go
             if (init[a] || arm[a]) assume(!more[a]);

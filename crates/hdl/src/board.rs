@@ -5,8 +5,9 @@
 use crate::{CoreParams, HdlError, Widths, LIBRARY};
 
 /// The board modules, one small module per file (besides [`LIBRARY`], the core's).
-pub const BOARD_LIBRARY: [(&str, &str); 16] = [
+pub const BOARD_LIBRARY: [(&str, &str); 17] = [
     ("ms_sync.v", include_str!("../rtl/board/ms_sync.v")),
+    ("ms_onehot.v", include_str!("../rtl/board/ms_onehot.v")),
     ("ms_reset.v", include_str!("../rtl/board/ms_reset.v")),
     ("ms_uart_rx.v", include_str!("../rtl/board/ms_uart_rx.v")),
     ("ms_uart_tx.v", include_str!("../rtl/board/ms_uart_tx.v")),

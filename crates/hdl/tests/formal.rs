@@ -67,6 +67,7 @@ const HALL_LATCH: Props = Props {
     rtl: &[
         "rtl/board/ms_debounce.v",
         "rtl/board/ms_axis_io.v",
+        "rtl/board/ms_onehot.v",
         "rtl/board/ms_positions.v",
     ],
 };
@@ -96,6 +97,7 @@ const REPLAY: Props = Props {
     top: "replay_props",
     rtl: &[
         "rtl/board/ms_nibble.v",
+        "rtl/board/ms_onehot.v",
         "rtl/board/ms_step_counts.v",
         "rtl/board/ms_replay_axis.v",
         "rtl/board/ms_replay.v",
@@ -107,7 +109,11 @@ const REPLAY_DEPTH: u32 = 12;
 /// 32-bit counts; 12 clocks hold a reset, loads, starts, steps and retargets of both axes.
 const STEP_COUNTS: Props = Props {
     top: "step_counts_props",
-    rtl: &["rtl/board/ms_step_count.v", "rtl/board/ms_step_counts.v"],
+    rtl: &[
+        "rtl/board/ms_step_count.v",
+        "rtl/board/ms_onehot.v",
+        "rtl/board/ms_step_counts.v",
+    ],
 };
 const STEP_COUNTS_DEPTH: u32 = 12;
 
@@ -117,7 +123,7 @@ const STEP_COUNTS_DEPTH: u32 = 12;
 /// unbounded (within 3K clocks the scanner visits every axis, so a delta is in range).
 const POSITIONS: Props = Props {
     top: "positions_props",
-    rtl: &["rtl/board/ms_positions.v"],
+    rtl: &["rtl/board/ms_onehot.v", "rtl/board/ms_positions.v"],
 };
 const POSITIONS_DEPTH: u32 = 12;
 

@@ -65,13 +65,9 @@ module ms_positions #(
                 s = {LK{1'b0}};
                 for (i = 0; i < K; i = i + 1) d[i] = {WL{1'b0}};
             end
-            // the written axis: the OR of the numbers of the (at most one) bits set
-            reg [LK-1:0] wa;
-            always @(*) begin
-                wa = {LK{1'b0}};
-                for (i = 0; i < K; i = i + 1)
-                    if (wr[i]) wa = wa | i[LK-1:0];
-            end
+            // the written axis (one at a time)
+            wire [LK-1:0] wa;
+            ms_onehot #(.K(K), .LK(LK)) u_wa (.v(wr), .index(wa));
             wire          any_wr = |wr;
             wire [LK-1:0] a      = any_wr ? wa : rd ? ax : s;   // the axis visited
             wire [W-1:0]  base   = zero[a] ? {W{1'b0}} : pw[a];

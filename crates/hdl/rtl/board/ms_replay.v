@@ -1,8 +1,8 @@
 // ms_replay: the replay units of K axes with one decoder (docs/HDL.md "Streamed moves"):
-// each axis keeps what ms_stream keeps but the decoder and the step count (ms_replay_axis),
-// the axes' byte buffers are one block RAM (2^LB bytes each), their last periods and the
-// high nibbles still to decode small memories, their step counts two more (ms_step_counts), and one decoder serves the axes in
-// turn.
+// each axis keeps what ms_stream keeps but the decoder, the buffer's pointers and the step
+// count (ms_replay_axis); the axes' byte buffers are one block RAM (2^LB bytes each); their
+// pointers, last periods and high nibbles still to decode are small memories, their step
+// counts two more (ms_step_counts); and one decoder serves the axes in turn.
 // A turn picks the next axis with a nibble to decode, a period to go and FIFO room, and
 // decodes from where the axis stands (ms_nibble) up to one whole period; that period and
 // the axis's new place are taken together, the period pushed the clock after (as
@@ -13,10 +13,14 @@
 // (multistep_core::tdm::stream::DECODE_TURN).
 // A bulk frame goes to axis bax (bsel: a valid axis); the host side and the registers
 // are the same as with K ms_stream units, but the free bytes are those of one axis and
-// whether the open frame fits is one flag: one pair of pointer multiplexers, subtractor and
-// comparator for every axis instead of a subtractor and comparator each. The axis looked
-// at is the request's (rax) in a request's clock (rd), else the bulk frame's (bax): the
-// link never opens a frame or writes its bytes in a request's clock.
+// whether the open frame fits is one flag.
+// The pointers: each is written at one axis a clock, the write pointer as a frame is
+// committed, the read pointer as the decoder takes a period; an arm or a reset only marks
+// an axis's pointers as reading 0 (flags in ms_replay_axis). Each memory has two copies:
+// one read at the axis served, one at the axis looked at, which is the committed frame's
+// in a commit's clock, the request's (rax) in a request's (rd), else the open frame's
+// (bax): the link never opens a frame or writes its bytes in a request's clock or a
+// commit's (the clock after the frame's request), nor asks in a commit's.
 module ms_replay #(
     parameter K  = 2,
     parameter LK = 1,
@@ -39,7 +43,7 @@ module ms_replay #(
     input  wire [K-1:0]        init,
     input  wire [K-1:0]        halt,
     input  wire [K-1:0]        full,
-    input  wire                rd,        // a request (never with bopen or bwr) ...
+    input  wire                rd,        // a request (never with bopen, bwr or bcommit) ...
     input  wire [LK-1:0]       rax,       // ... for this axis: its free bytes are read back
     output wire [K-1:0]        armed,
     output reg                 bok,       // the open bulk frame fits bax's buffer
@@ -52,9 +56,7 @@ module ms_replay #(
     localparam [1:0] S_PICK = 2'd0, S_FETCH = 2'd1, S_DEC = 2'd2;
 
     // ---- the axes ----
-    wire [LB:0]  wp_w [0:K-1];
-    wire [LB:0]  rp_w [0:K-1];
-    wire [K-1:0] hp_v, fresh_v, live_v, serve, left_nz_v, retarget_v;
+    wire [K-1:0] wz_v, rz_v, hp_v, fresh_v, ready_v, live_v, serve, left_nz_v, retarget_v;
     reg  [LK-1:0] s;           // the axis served
     reg  [LB:0]   wr;          // its next byte to fetch
     reg           lo;          // the fetched byte's low nibble is next (else nh)
@@ -84,25 +86,47 @@ module ms_replay #(
             /* verilator lint_off WIDTH */  // the genvar against LK-bit indices
             wire penq = pv_ok && (pv_ax == g);
             /* verilator lint_on WIDTH */
-            ms_replay_axis #(.LB(LB)) u_axis (
+            ms_replay_axis u_axis (
                 .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
-                .retarget_in(retarget_in[g]),
-                .blen(blen), .bcommit(bcommit[g]), .init(init[g]), .halt(halt[g]),
-                .left_nz(left_nz_v[g]), .serve(serve[g]), .n_rp(wr),
-                .n_hp(lo), .pend(penq), .pbad(pbad), .armed(armed[g]),
-                .push(push[g]),
-                .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wp(wp_w[g]),
-                .rp(rp_w[g]), .hp(hp_v[g]),
-                .fresh(fresh_v[g]), .live(live_v[g]));
+                .retarget_in(retarget_in[g]), .bcommit(bcommit[g]), .init(init[g]),
+                .halt(halt[g]), .left_nz(left_nz_v[g]), .serve(serve[g]), .n_hp(lo),
+                .pend(penq), .pbad(pbad), .armed(armed[g]), .push(push[g]),
+                .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wz(wz_v[g]),
+                .rz(rz_v[g]), .hp(hp_v[g]), .fresh(fresh_v[g]), .ready(ready_v[g]),
+                .live(live_v[g]));
         end
     endgenerate
     assign period = pv[WD-1:0];
 
-    // ---- free bytes, 2^LB - (wp - rp), of the request's axis, else the bulk frame's ----
+    // ---- the pointers (distributed RAM, asynchronous reads), read at s and at qax ----
+    // the committed frame's axis (one at a time)
+    wire [LK-1:0] cax;
+    ms_onehot #(.K(K), .LK(LK)) u_cax (.v(bcommit), .index(cax));
+    wire          commit = |bcommit;
+    wire [LK-1:0] qax    = commit ? cax : rd ? rax : bax;
+    (* ram_style = "distributed" *) reg [LB:0] wm_s [0:(1<<LK)-1];
+    (* ram_style = "distributed" *) reg [LB:0] wm_q [0:(1<<LK)-1];
+    (* ram_style = "distributed" *) reg [LB:0] rm_s [0:(1<<LK)-1];
+    (* ram_style = "distributed" *) reg [LB:0] rm_q [0:(1<<LK)-1];
+    wire [LB:0] wp_s = wz_v[s] ? {(LB+1){1'b0}} : wm_s[s];
+    wire [LB:0] rp_s = rz_v[s] ? {(LB+1){1'b0}} : rm_s[s];
+    wire [LB:0] bwp  = wz_v[qax] ? {(LB+1){1'b0}} : wm_q[qax];
+    wire [LB:0] rp_q = rz_v[qax] ? {(LB+1){1'b0}} : rm_q[qax];
+    wire [LB:0] wp_n = bwp + {{(LB-7){1'b0}}, blen};   // a commit's new write pointer
+    always @(posedge clk) begin
+        if (commit) begin
+            wm_s[cax] <= wp_n;
+            wm_q[cax] <= wp_n;
+        end
+        if (take) begin
+            rm_s[s] <= wr;
+            rm_q[s] <= wr;
+        end
+    end
+
+    // ---- free bytes, 2^LB - (wp - rp), of the axis looked at ----
     localparam [LB:0] SIZE = {1'b1, {LB{1'b0}}};
-    wire [LK-1:0] qax = rd ? rax : bax;
-    wire [LB:0]   bwp = wp_w[qax];
-    assign free = SIZE - (bwp - rp_w[qax]);
+    assign free = SIZE - (bwp - rp_q);
     always @(posedge clk)
         if (bopen && bsel) bok <= ({{(LB-7){1'b0}}, blen} <= free) && !rst;
 
@@ -129,9 +153,11 @@ module ms_replay #(
         .esc_n(esc_n), .got_n(got_n), .acc_n(acc_n));
     wire          s_live = live_v[s];
     wire          take   = (st == S_DEC) && s_live && done_p && !full[s];
-    // the served axis may decode: it is live, its FIFO has room, and a nibble is there
-    // (one comparison for all axes, at the axis served)
-    wire          want   = s_live && !full[s] && (hp_v[s] || rp_w[s] != wp_w[s]);
+    // the served axis may decode: it runs, its FIFO has room, and a nibble is there (one
+    // comparison for all axes, at the axis served). From flip-flops: a halt, arm, init or
+    // reset of this clock, which `live` adds, ends the turn in the next (S_FETCH, S_DEC)
+    // and `take` never takes for it, so the e-stop's path to the halt stays out of the pick.
+    wire          want   = ready_v[s] && !full[s] && (hp_v[s] || rp_s != wp_s);
     localparam [31:0]   KM1  = K - 1;
     localparam [LK-1:0] LAST = KM1[LK-1:0];
     wire [LK-1:0] s_next = (s == LAST) ? {LK{1'b0}} : s + 1'b1;
@@ -166,7 +192,7 @@ module ms_replay #(
         end else begin
             case (st)
                 S_PICK: if (want) begin
-                    wr  <= rp_w[s];
+                    wr  <= rp_s;
                     lo  <= 1'b0;
                     nh  <= hmem[s];
                     esc <= 2'd0;
@@ -175,7 +201,7 @@ module ms_replay #(
                     s <= s_next;
                 end
                 // the read of {s, wr} is in flight; its byte is rdata in S_DEC
-                S_FETCH: if (!s_live || wr == wp_w[s]) begin
+                S_FETCH: if (!s_live || wr == wp_s) begin
                     st <= S_PICK;
                     s  <= s_next;
                 end else begin

@@ -1,26 +1,23 @@
-// ms_replay_axis: one axis's part of the shared replay unit (ms_replay): its buffer's
-// pointers, its step count, and where its decoding stands between the decoder's turns:
-// the next byte to fetch (rp), whether the high nibble of the byte before is still to be
-// decoded (hp; the byte itself is free for the host again, the nibble is in ms_replay's
-// memory), and whether it has a last period yet (`fresh`: not since init; the period
-// itself is in ms_replay's memory too). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
+// ms_replay_axis: one axis's part of the shared replay unit (ms_replay): whether its
+// buffer's pointers read as 0 (since an arm or a reset; the pointers themselves are in
+// ms_replay's memories: the write pointer, the next byte to fetch), and where its
+// decoding stands between the decoder's turns: whether the high nibble of the byte before
+// is still to be decoded (hp; the byte itself is free for the host again, the nibble is in
+// ms_replay's memory), and whether it has a last period yet (`fresh`: not since init; the
+// period itself is in ms_replay's memory too). Arm, retarget, init, halt and the fault are ms_stream's; the step count is
 // ms_replay's (ms_step_counts, all axes' in two memories), which tells `left_nz`.
-module ms_replay_axis #(
-    parameter LB = 9
-) (
+module ms_replay_axis (
     input  wire          clk,
     input  wire          rst,
     input  wire          arm,       // StreamSteps write: the next start of the axis replays
     input  wire [31:0]   arm_steps, // that many steps (0 disarms)
     input  wire          retarget_in, // StreamSteps write while the axis runs: its count
-    input  wire [7:0]    blen,      // a bulk frame's bytes
     input  wire          bcommit,   // a frame for this axis: its CRC checked, and it fit
     input  wire          init,      // the core initializes the axis (the group's start)
     input  wire          halt,
     input  wire          left_nz,   // periods to go (ms_step_counts)
     // the decoder
-    input  wire          serve,     // it decoded this axis's next period: take n_*
-    input  wire [LB:0]   n_rp,
+    input  wire          serve,     // it decoded this axis's next period: take n_hp
     input  wire          n_hp,
     input  wire          pend,      // a decoded period of this axis is pushed this clock
     input  wire          pbad,      // ... unless it is bad (0 or too wide): the fault
@@ -29,16 +26,17 @@ module ms_replay_axis #(
     output wire          more,      // periods still to push
     output wire          retarget,  // the count's retarget: the stream runs
     output reg           fault,
-    output reg  [LB:0]   wp,
-    output reg  [LB:0]   rp,
+    output reg           wz,        // the write pointer reads 0 (not written since)
+    output reg           rz,        // the read pointer reads 0 (not written since)
     output reg           hp,
     output reg           fresh,
-    output wire          live       // a period decoded now may be taken
+    output wire          ready,     // running with periods to go and no fault (flip-flops)
+    output wire          live       // ... and not stopped now: a period decoded may be taken
 );
     reg        arm_q, run;
     initial begin
-        wp = {(LB+1){1'b0}};
-        rp = {(LB+1){1'b0}};
+        wz = 1'b1;
+        rz = 1'b1;
         hp = 1'b0;
         fresh = 1'b1;
         arm_q = 1'b0;
@@ -48,20 +46,22 @@ module ms_replay_axis #(
     assign armed = arm_q;
     assign more  = run && (left_nz || pend || fault);
     assign push  = pend && !pbad && run;
-    assign live  = run && left_nz && !fault && !arm && !halt && !init && !rst;
+    assign ready = run && left_nz && !fault;
+    assign live  = ready && !arm && !halt && !init && !rst;
     assign retarget = retarget_in && more;
 
     always @(posedge clk) begin
-        if (bcommit) wp <= wp + {{(LB-7){1'b0}}, blen};
+        // the memories take the new pointer in the same clock
+        if (bcommit) wz <= 1'b0;
         if (rst) begin
-            wp    <= {(LB+1){1'b0}};
-            rp    <= {(LB+1){1'b0}};
+            wz    <= 1'b1;
+            rz    <= 1'b1;
             arm_q <= 1'b0;
             run   <= 1'b0;
             fault <= 1'b0;
         end else if (arm) begin
-            wp    <= {(LB+1){1'b0}};
-            rp    <= {(LB+1){1'b0}};
+            wz    <= 1'b1;
+            rz    <= 1'b1;
             hp    <= 1'b0;
             arm_q <= (arm_steps != 32'd0);
         end else if (halt) begin
@@ -75,7 +75,7 @@ module ms_replay_axis #(
         end else begin
             if (pend && pbad) fault <= 1'b1;
             if (serve) begin
-                rp    <= n_rp;
+                rz    <= 1'b0;
                 hp    <= n_hp;
                 fresh <= 1'b0;
             end

@@ -40,14 +40,10 @@ module ms_step_counts #(
     end
     wire [K-1:0] live = ~(load | halt | init) & {K{!rst}};
     wire [K-1:0] wr_v = (load | (retarget & live)) & {K{!rst}};
-    // the written axis: its number, the OR of those of the (at most one) bits set
-    reg  [LK-1:0] wa;
+    // the written axis (at most one bit of wr_v is set)
+    wire [LK-1:0] wa;
+    ms_onehot #(.K(K), .LK(LK)) u_wa (.v(wr_v), .index(wa));
     integer i;
-    always @(*) begin
-        wa = {LK{1'b0}};
-        for (i = 0; i < K; i = i + 1)
-            if (wr_v[i]) wa = wa | i[LK-1:0];
-    end
 
     // a step of s: done + 1 against steps, one subtract for < and ==, as ms_step_count
     wire        s_live  = live[s];
