@@ -1720,7 +1720,8 @@ fn streamed_move_under_way(r: &mut Rig, at: i64, dir: i64) {
 }
 
 /// A bulk write damaged mid-move is refused by the board and sent again: the move ends at
-/// its target, every STEP rise plan's. Damaged every time it is sent, what the board holds
+/// its target, every STEP rise plan's (or, when the simulated board runs slower than real
+/// time and the stream ran dry meanwhile, at its target with no edge early, saying so). Damaged every time it is sent, what the board holds
 /// of the code is unknown: the axis is stopped once the link answers, its count exact,
 /// and says `link_fault` (not that the stream starved).
 #[test]
@@ -1732,11 +1733,19 @@ fn a_damaged_bulk_write_mid_move_is_sent_again_or_the_move_stops_exact() {
     corrupt_bulk_to_x(&mut r, 40, 1);
     let x = r.wait_idle("X");
     let at = at + 6500;
+    // On a loaded machine the simulated board runs slower than real time and the frame
+    // sent again may come after the buffer ran dry: then the move still ends at its
+    // target, trusted, its edges late, none early, and says so.
+    let late = x
+        .fault
+        .as_deref()
+        .is_some_and(|f| f.starts_with("link_fault:") && f.contains("came late"));
     assert_eq!(
-        (x.position, x.state, x.trusted, x.fault.as_deref()),
-        (at, AxisState::Idle, true, None),
+        (x.position, x.trusted, x.state == AxisState::Idle || late),
+        (at, true, true),
         "{x:?}"
     );
+    assert!(x.fault.is_none() || late, "{x:?}");
     let t0 = Instant::now();
     let ex = loop {
         let (gos, rises) = edges_log(&r);
@@ -1750,7 +1759,16 @@ fn a_damaged_bulk_write_mid_move_is_sent_again_or_the_move_stops_exact() {
         }
         std::thread::sleep(Duration::from_millis(100));
     };
-    same_edges("X", &ex, &plan_edges("sine", 6500, (0.1, 0.2, 0.1)));
+    let plan = plan_edges("sine", 6500, (0.1, 0.2, 0.1));
+    if late {
+        assert_eq!(ex.len(), plan.len(), "X: every step, late or not");
+        assert!(
+            ex.iter().zip(&plan).all(|(g, w)| g >= w),
+            "X: an edge came early"
+        );
+    } else {
+        same_edges("X", &ex, &plan);
+    }
     assert!(
         !log_lines(&r, "sent again").is_empty(),
         "a frame was damaged"
