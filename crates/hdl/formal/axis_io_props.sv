@@ -17,14 +17,15 @@ module axis_io_props #(
     input wire          lvl_step
 );
     wire step_pin;
+    reg [WD-1:0] now = 0;   // ms_board's clock count (wrapping every 2^WD clocks)
     /* the other outputs are not checked here */
     ms_axis_io #(.WD(WD)) dut (
-        .clk(clk), .rst(rst), .core_step(core_step), .dir(dir), .start(1'b0),
-        .halt(halt), .kill(kill), .kill_pin(kill_pin), .width(width),
+        .clk(clk), .rst(rst), .core_step(core_step), .dir(dir),
+        .halt(halt), .kill(kill), .kill_pin(kill_pin), .fixed(width != 0), .now(now), .end_at(now + width),
         .strobe(1'b1), .load(10'd0), .hall(1'b0), .limit(1'b0),
         .hall_clr(1'b0), .en(1'b0), .lvl_step(lvl_step), .lvl_dir(1'b1), .lvl_en(1'b1),
         .step_pin(step_pin), .dir_pin(), .en_pin(), .count(), .latch(), .hall_flag(),
-        .hall_lvl(), .hall_edge(), .limit_lvl(), .limit_edge(), .period());
+        .hall_lvl(), .hall_edge(), .limit_lvl(), .limit_edge());
 
 `ifdef MUTATE
     localparam [WD:0] SLIP = 1;
@@ -59,6 +60,7 @@ module axis_io_props #(
 
     always @(posedge clk) begin
         init    <= 1'b0;
+        now     <= now + 1'b1;
         width_d <= width;
         stop_d <= stop;
         core_d <= core_step;

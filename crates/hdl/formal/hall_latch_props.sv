@@ -20,15 +20,15 @@ module hall_latch_props #(
 );
     wire [31:0] pos, hall_pos;
     wire        hall_flag, hall_edge, count, latch;
-    /* the pins and the period meter are not checked here */
+    /* the pins are not checked here */
     ms_axis_io #(.WD(3), .WB(WB), .LIMIT(0)) dut (
-        .clk(clk), .rst(rst), .core_step(core_step), .dir(dir), .start(1'b0),
-        .halt(1'b0), .kill(1'b0), .kill_pin(1'b0), .width(3'd0), .strobe(1'b1),
+        .clk(clk), .rst(rst), .core_step(core_step), .dir(dir),
+        .halt(1'b0), .kill(1'b0), .kill_pin(1'b0), .fixed(1'b0), .now(3'd0), .end_at(3'd0), .strobe(1'b1),
         .load(load), .hall(hall), .limit(1'b0),
         .hall_clr(hall_clr), .en(1'b0), .lvl_step(1'b1), .lvl_dir(1'b1), .lvl_en(1'b1),
         .step_pin(), .dir_pin(), .en_pin(), .count(count), .latch(latch),
         .hall_flag(hall_flag), .hall_lvl(), .hall_edge(hall_edge), .limit_lvl(),
-        .limit_edge(), .period());
+        .limit_edge());
     ms_positions #(.K(1), .LK(1), .MEM(0)) u_pos (.clk(clk), .rst(rst), .cnt(count), .up(dir),
         .latch(latch), .wr(pos_wr), .din(pos_in), .rd(1'b0), .ax(1'b0), .rd_pos(pos), .rd_hall(hall_pos));
 

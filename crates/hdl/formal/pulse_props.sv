@@ -21,8 +21,8 @@ module pulse_props #(
     wire pop, step, running, underrun;
     ms_pulse #(.WP(WP)) dut (
         .clk(clk), .go(go), .din(din), .empty(empty), .more(more), .arrive(arrive),
-        .ain(ain), .halt(halt), .pop(pop), .step(step), .running(running),
-        .underrun(underrun));
+        .ain(ain), .halt(halt), .clear(1'b0), .pop(pop), .step(step), .running(running),
+        .underrun(underrun), .period());
 
 `ifdef MUTATE
     localparam [WP:0] SLIP = 1;

@@ -4,7 +4,8 @@
 // are modelled (depth 2, popped whenever the solver says while not empty), an axis is armed
 // and started only while it has no periods to go (the core refuses a busy axis), a bulk
 // frame is committed only when it fit, and the buffers' bytes are whatever the solver
-// writes: any code, a bad one too. No retarget here (it changes the count on purpose).
+// writes: any code, a bad one too. The calculator pushes (`hold`) whenever the solver says,
+// never two clocks in a row. No retarget here (it changes the count on purpose).
 // MUTATE expects one period less than the armed steps: the check must then fail.
 module replay_props (
     input wire       clk,
@@ -22,7 +23,8 @@ module replay_props (
     input wire [1:0] halt,
     input wire [1:0] pop,
     input wire       rd,
-    input wire       rax
+    input wire       rax,
+    input wire       hold
 );
     localparam [2:0] DEPTH = 3'd2;
 `ifdef MUTATE
@@ -31,6 +33,7 @@ module replay_props (
     localparam [3:0] SLIP = 4'd0;
 `endif
     reg        rst = 1'b1;
+    reg        hold_d = 1'b0;
     reg  [2:0] count [0:1];        // periods in each axis's FIFO
     reg  [3:0] pushed [0:1];       // periods pushed since the axis's last init
     reg  [2:0] armed_for [0:1];    // the steps of its last arm
@@ -54,7 +57,7 @@ module replay_props (
         .clk(clk), .rst(rst), .arm(arm), .arm_steps({29'd0, arm_steps}),
         .retarget_in(2'b00), .bsel(bsel), .bax(bax), .bopen(bopen), .blen({6'd0, blen}),
         .bwr(bwr), .bidx({6'd0, bidx}), .bbyte(bbyte), .bcommit(bcommit), .init(init),
-        .halt(halt), .full(full), .rd(rd), .rax(rax), .armed(armed), .bok(bok), .free(free), .push(push),
+        .halt(halt), .full(full), .hold(hold), .rd(rd), .rax(rax), .armed(armed), .bok(bok), .free(free), .push(push),
         .period(period), .more(more), .fault(fault));
 
     integer a;
@@ -62,6 +65,7 @@ module replay_props (
         // ms_regs arms one axis a clock (a StreamSteps write) and commits one frame
         assume(arm != 2'b11);
         assume(bcommit != 2'b11);
+        assume(!(hold && hold_d));
         // ms_link: a request never comes in the clock a frame opens or writes a byte, nor
         // a commit (the clock after its frame's request) with either or with a request
         assume(!(rd && (bopen || bwr)));
@@ -80,10 +84,12 @@ module replay_props (
         cover(push[0] && more[1]);
         cover(pushed[1] == 4'd2 && count[1] == DEPTH);
         cover(fault[0]);
+        cover(hold_d && push[0]);
     end
 
     always @(posedge clk) begin
         rst <= 1'b0;
+        hold_d <= hold;
         for (a = 0; a < 2; a = a + 1) begin
             count[a] <= count[a] + (push[a] ? 3'd1 : 3'd0)
                         - ((pop[a] && count[a] != 3'd0) ? 3'd1 : 3'd0);

@@ -32,6 +32,9 @@
 //   stream[a]  at its start the axis does not take the calculator: its periods come on
 //              s_push / s_din while s_more is high (from init_ax[a] on), into the same
 //              FIFO and pulse unit; ax_full[a] is that FIFO's full flag.
+//   SHARED = 1: s_din's first word is every replayed axis's (one decoder), never pushed
+//              in a clock with calc_push (the decoder waits): the FIFOs then share one
+//              write-data multiplexer instead of one each.
 //
 // Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
 // read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
@@ -57,6 +60,7 @@ module ms_core #(
     parameter AW  = 7,     // 1 + LK + 5
     parameter LUTRAM = 0,  // 1: the family has distributed RAM (ECP5): dy's memory is there
     parameter RECUR = 0,   // 1: the per-step recurrence (ms_recur) beside the closed form
+    parameter SHARED = 0,  // 1: one replayed period bus for all axes (above)
     /* verilator lint_off UNUSEDPARAM */  // the recurrence's, unused without it
     parameter MR  = 0,     // ms_recur's multiplier digit bits (0: full width)
     parameter WRA = 56,    // its 2A (unsigned), B (two's complement) and 4M bits: fewer
@@ -85,7 +89,9 @@ module ms_core #(
     input  wire [K*WD-1:0] s_din,
     input  wire [K-1:0]  s_more,
     output wire [K-1:0]  init_ax,
-    output wire [K-1:0]  ax_full
+    output wire [K-1:0]  ax_full,
+    output wire          calc_push, // the calculator pushes a period this clock
+    output wire [K*WD-1:0] pulse_per // each pulse unit's period (the one being timed)
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
@@ -429,15 +435,21 @@ module ms_core #(
     assign ax_full = fifo_full;
 
     // ---- per axis: FIFO and pulse unit ----
+    assign calc_push = done;
+    // SHARED = 1: the replay decoder never pushes in the calculator's clock (its `hold`)
+    /* verilator lint_off UNUSED */  // with SHARED = 0 unused
+    wire [WD-1:0] din_shared = done ? period[WD-1:0] : s_din[WD-1:0];
+    /* verilator lint_on UNUSED */
     genvar a;
     generate
         for (a = 0; a < K; a = a + 1) begin : axis
             // a replayed axis never has the calculator, so the two pushes never collide
-            wire          push = (done && ({1'b0, m} == a)) || s_push[a];
+            wire          push = (done && m_bit[a]) || s_push[a];
             assign fifo_push[a] = push;
-            wire [WD-1:0] din  = s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
+            wire [WD-1:0] din  = (SHARED != 0) ? din_shared
+                               : s_push[a] ? s_din[a*WD +: WD] : period[WD-1:0];
             ms_fifo #(.W(WD), .LD(LF)) u_fifo (
-                .clk(clk), .clear(do_init && ({1'b0, ini_ax} == a)),
+                .clk(clk), .clear(do_init && ini_bit[a]),
                 .push(push), .din(din),
                 .pop(fifo_pop[a]), .dout(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .full(fifo_full[a]), .afull(fifo_afull[a]));
@@ -445,7 +457,8 @@ module ms_core #(
                 .clk(clk), .go(go && group[a]), .din(fifo_dout[a*WD +: WD]),
                 .empty(fifo_empty[a]), .more(calc_act[a] || s_more[a]),
                 .arrive(push), .ain(din), .pop(fifo_pop[a]),
-                .halt(halt[a]), .step(step[a]), .running(running[a]), .underrun(underrun[a]));
+                .halt(halt[a]), .clear(do_init && ini_bit[a]), .step(step[a]),
+                .running(running[a]), .underrun(underrun[a]), .period(pulse_per[a*WD +: WD]));
         end
     endgenerate
     assign dir  = dir_r;

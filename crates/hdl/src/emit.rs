@@ -162,6 +162,8 @@ fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20   /* verilator lint_off UNUSED */\n\
          \x20   wire pending;\n\
          \x20   wire [{k1}:0] init_ax, ax_full;\n\
+         \x20   wire calc_push;\n\
+         \x20   wire [{kd1}:0] pulse_per;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = ready;\n\
          \x20   ms_core #({}) u_core (\n\
@@ -169,7 +171,8 @@ fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20       .ready(ready), .pending(pending), .go(go), .halt({k}'d0), .divert({k}'d0),\n\
          \x20       .div_slot({ks}'d0), .step(step), .dir(dir),\n\
          \x20       .busy(busy), .underrun(underrun), .stream({k}'d0), .s_push({k}'d0),\n\
-         \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full));\n\
+         \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full),\n\
+         \x20       .calc_push(calc_push), .pulse_per(pulse_per));\n\
          endmodule\n",
         ports(p, w),
         core_params(w, p.axes, w.lk, lutram),
@@ -177,6 +180,7 @@ fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
         ks = p.axes * w.ls,
         k1 = p.axes - 1,
         kd = p.axes * w.wd,
+        kd1 = p.axes * w.wd - 1,
     );
     s
 }
@@ -195,7 +199,8 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20   wire            is_start = is_cmd && (wr_addr[4:0] == 5'd2);\n\
          \x20   wire [{k1}:0] rdy, pend;\n\
          \x20   /* verilator lint_off UNUSED */\n\
-         \x20   wire [{k1}:0] init_ax, ax_full;\n\
+         \x20   wire [{k1}:0] init_ax, ax_full, calc_push;\n\
+         \x20   wire [{kd1}:0] pulse_per;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = (|pend) && ((rdy | ~pend) == {{{k}{{1'b1}}}});\n",
         ports(p, w),
@@ -203,6 +208,7 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
         lk1 = w.lk - 1,
         axh = w.lk + 4,
         k1 = k - 1,
+        kd1 = k * w.wd - 1,
     );
     let params = core_params(w, 1, 1, lutram);
     for a in 0..k {
@@ -216,10 +222,12 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
              \x20       .divert(1'b0), .div_slot({ls}'d0), .step(step[{a}]),\n\
              \x20       .dir(dir[{a}]), .busy(busy[{a}]), .underrun(underrun[{a}]),\n\
              \x20       .stream(1'b0), .s_push(1'b0), .s_din({wd}'d0), .s_more(1'b0),\n\
-             \x20       .init_ax(init_ax[{a}]), .ax_full(ax_full[{a}]));\n",
+             \x20       .init_ax(init_ax[{a}]), .ax_full(ax_full[{a}]),\n\
+             \x20       .calc_push(calc_push[{a}]), .pulse_per(pulse_per[{lo} +: {wd}]));\n",
             lk = w.lk,
             ls = w.ls,
-            wd = w.wd
+            wd = w.wd,
+            lo = a * w.wd
         );
     }
     s.push_str("endmodule\n");

@@ -121,11 +121,13 @@ fn link_moves_on(p: CoreParams, name: &str, rounds: u32, seed: u64, baud: u32, t
             position[a] += if m.dir { n } else { -n };
             let pos = multistep_hdl::link::position_count(rep[reads[a][1]].data, 0);
             assert_eq!(pos, position[a], "{name}: round {r} axis {a} position");
+            // the period the pulse unit timed last: the move's last (its only one: from
+            // the go to the edge)
             let last = want.len() - 1;
             let per = if last > 0 {
                 want[last] - want[last - 1]
             } else {
-                0
+                want[0]
             };
             assert_eq!(
                 u64::from(rep[reads[a][2]].data),

@@ -12,33 +12,33 @@ use multistep_hdl::modules::{per_module, ModuleTable, PER_AXIS};
 type Budgets = &'static [(&'static str, u64)];
 
 /// Measured 2026-12-07 (LUT each, the same at K = 2, 4, 8 and 14): ms_fifo 19, ms_pulse
-/// 171, ms_axis_io 105, ms_debounce 32, ms_replay_axis 29 (the replay unit's per-axis
+/// 121, ms_axis_io 27, ms_debounce 32, ms_replay_axis 29 (the replay unit's per-axis
 /// flags; the shared decoder, ms_replay, with the pointers, the step counts,
-/// ms_step_counts, and the positions, ms_positions, are not an axis's); one axis 388.
+/// ms_step_counts, and the positions, ms_positions, are not an axis's); one axis 260.
 const ULX3S: Budgets = &[
     ("ms_fifo", 21),
-    ("ms_pulse", 180),
-    ("ms_axis_io", 110),
+    ("ms_pulse", 126),
+    ("ms_axis_io", 30),
     ("ms_debounce", 34),
     ("ms_replay_axis", 32),
 ];
-const ULX3S_AXIS: u64 = 405;
+const ULX3S_AXIS: u64 = 272;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// per-axis registers, the positions' deltas and the shared replay decoder's multiplexers
-/// and step count memories included: (K = 4 − K = 2) / 2, measured 554.
-const ULX3S_ADDED_AXIS: u64 = 600;
+/// and step count memories included: (K = 4 − K = 2) / 2, measured 403.
+const ULX3S_ADDED_AXIS: u64 = 420;
 
-/// Measured 2026-12-07: ms_fifo 31, ms_pulse 109, ms_axis_io 85, ms_debounce 40; one axis
-/// 265 (no replay unit and no limit input on this board: one filter an axis; the
+/// Measured 2026-12-07: ms_fifo 31, ms_pulse 101, ms_axis_io 26, ms_debounce 40; one axis
+/// 198 (no replay unit and no limit input on this board: one filter an axis; the
 /// positions a counter and a latch per axis in ms_positions, shared).
 const ICEBREAKER: Budgets = &[
     ("ms_fifo", 33),
-    ("ms_pulse", 115),
-    ("ms_axis_io", 90),
+    ("ms_pulse", 106),
+    ("ms_axis_io", 29),
     ("ms_debounce", 42),
 ];
-const ICEBREAKER_AXIS: u64 = 280;
+const ICEBREAKER_AXIS: u64 = 208;
 
 fn table(board: &str, axes: u32) -> ModuleTable {
     let b = Board::by_name(board).unwrap();

@@ -43,7 +43,7 @@ module tb;
     wire pop, step, running, underrun;
     ms_pulse #(.WP(WP)) dut (
         .clk(clk), .go(go), .din(din), .empty(empty), .more(more), .arrive(arrive),
-        .ain(ain), .halt(1'b0), .pop(pop), .step(step), .running(running),
+        .ain(ain), .halt(1'b0), .clear(1'b0), .pop(pop), .step(step), .running(running),
         .underrun(underrun)
     );
     initial begin

@@ -1,12 +1,11 @@
 // ms_axis_io: one axis's pins and counters around the core.
-//  - STEP: the core's STEP one clock later (50 % duty), or with a fixed width (`width` != 0)
-//    high for exactly `width` clocks from each of the core's rises (the core TDM model's
+//  - STEP: the core's STEP one clock later (50 % duty), or with a fixed width (`fixed`)
+//    high for exactly PulseWidth clocks from each of the core's rises (the core TDM model's
 //    PulseShape::Fixed); forced low at once (combinationally) by `kill_pin` (the e-stop
 //    input) and from the next clock by `kill` (the synchronized e-stop) and `halt`.
 //  - `count`: a STEP rise of the core that is not cut by `kill` or `halt` (one cut only by
 //    `kill_pin`, in the synchronizer's 2 clocks, is counted), which moves the position
-//    (ms_positions) by +1 / -1 (by DIR); the period meter: clocks between the last two
-//    rises (0 before the second).
+//    (ms_positions) by +1 / -1 (by DIR). (The period read back is the pulse unit's.)
 //  - Hall and limit inputs (synchronized and made active-high by the caller): debounced on
 //    the shared time base; the Hall edge is time-stamped: `latch` copies the position into
 //    the Hall latch (ms_positions) in the clock the accepted level began (the rises before
@@ -23,11 +22,12 @@ module ms_axis_io #(
     input  wire          rst,
     input  wire          core_step,
     input  wire          dir,        // the latched DIR bit (1 = position counts up)
-    input  wire          start,      // this axis starts a move: clear the period meter
     input  wire          halt,
     input  wire          kill,       // the e-stop, synchronized: STEP low at the next clock
     input  wire          kill_pin,   // the e-stop input itself: gates the STEP pin only
-    input  wire [WD-1:0] width,      // 0: 50 % duty; else the fixed STEP high time
+    input  wire          fixed,      // a fixed STEP high time (PulseWidth != 0); else 50 % duty
+    input  wire [WD-1:0] now,        // a free-running clock count (shared)
+    input  wire [WD-1:0] end_at,     // now + PulseWidth: where a pulse rising now ends (shared)
     input  wire          strobe,     // the filters' time base
     input  wire [WB-1:0] load,
     input  wire          hall,       // active-high, synchronized
@@ -46,24 +46,22 @@ module ms_axis_io #(
     output wire          hall_lvl,
     output wire          hall_edge,  // one clock at the accepted Hall edge
     output wire          limit_lvl,
-    output wire          limit_edge,
-    output reg  [WD-1:0] period
+    output wire          limit_edge
 );
     reg          core_d;   // the core's STEP one clock ago
     reg          s;        // STEP, active high, before the e-stop gate
-    reg [WD-1:0] pc;       // clocks since the last rise (saturating): the period meter's,
-                           // and a fixed-width pulse's, which ends when it reaches `width`
-    reg          have;     // a rise since the start
+    // A fixed-width pulse ends where `now` reaches the end taken at its rise: per axis a
+    // register and an equality, where a counter would need an adder and a comparator.
+    // A pulse keeps the width it rose with (PulseWidth is written only while no axis is
+    // busy; a fixed pulse may outlast the move's end).
+    reg [WD-1:0] t_end;
     initial begin
         core_d = 1'b0;
         s = 1'b0;
         hall_flag = 1'b0;
-        period = {WD{1'b0}};
-        pc = {WD{1'b0}};
-        have = 1'b0;
+        t_end = {WD{1'b0}};
     end
     wire rise  = core_step && !core_d;
-    wire fixed = (width != {WD{1'b0}});
     always @(posedge clk) begin
         core_d <= core_step;
         if (rst || halt || kill) begin
@@ -72,29 +70,16 @@ module ms_axis_io #(
             s <= core_step;
         end else if (rise) begin
             s <= 1'b1;
-        end else if (pc >= width) begin
-            // `width` clocks high: pc is 1 the clock after the rise (the width is written
-            // only while the axis is idle; a smaller one mid-pulse ends it at once)
+        end else if (now == t_end) begin
+            // PulseWidth clocks after the rise's clock: high for exactly that many
             s <= 1'b0;
         end
     end
     // a rise that reaches the pin
     wire out_rise = rise && !(rst || halt || kill);
     assign count = out_rise;
-    // A start clears the meter (no period before its second rise) but not pc, which a
-    // fixed-width pulse still high at the start counts.
-    always @(posedge clk) begin
-        if (rst) pc <= {WD{1'b0}};
-        else if (out_rise) pc <= {{(WD-1){1'b0}}, 1'b1};
-        else if (pc != {WD{1'b1}}) pc <= pc + 1'b1;
-        if (rst || start) begin
-            have   <= 1'b0;
-            period <= {WD{1'b0}};
-        end else if (out_rise) begin
-            if (have) period <= pc;
-            have <= 1'b1;
-        end
-    end
+    always @(posedge clk)
+        if (out_rise) t_end <= end_at;
     wire begins, accept;
     ms_debounce #(.W(WB)) u_hall (.clk(clk), .rst(rst), .d(hall), .strobe(strobe),
         .load(load), .q(hall_lvl), .begins(begins), .accept(accept), .rise(hall_edge));

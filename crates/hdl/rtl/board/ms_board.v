@@ -103,7 +103,8 @@ module ms_board #(
     wire [5:0]    levels;
     wire [K-1:0]  count, latch;
     wire [31:0]   rd_pos, rd_hall;
-    wire [K*WD-1:0] period;
+    wire [K*WD-1:0] period;    // each pulse unit's period, read back
+    wire          calc_push;
     // the replay units
     wire [K-1:0]  s_chain, s_arm, s_retarget, s_commit, s_armed, s_more, s_fault, s_push, init_ax, ax_full;
     wire          s_bok;    // the open bulk frame fits its axis's buffer
@@ -132,12 +133,13 @@ module ms_board #(
         .bad_frame(bad_frame), .sync_line(sync_s), .sync_oe(sync_oe));
     ms_core #(.K(K), .LK(LK), .LS(LS), .LF(LF), .WN(WN), .WD(WD), .WQ(WQ), .WT(WT), .WY(WY),
               .WK(WK), .RB(RB), .MD(MD), .AW(AW), .LUTRAM(LUTRAM), .RECUR(RECUR),
-              .MR(MR), .WRA(WRA), .WRB(WRB), .WRU(WRU)) u_core (
+              .MR(MR), .WRA(WRA), .WRB(WRB), .WRU(WRU),
+              .SHARED((LB > 0 && CHAINS == 0) ? 1 : 0)) u_core (
         .clk(clk), .wr_en(core_wr), .wr_addr(core_addr), .wr_data(core_data),
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
         .stream(s_armed), .s_push(s_push), .s_din(s_din), .s_more(s_more), .init_ax(init_ax),
-        .ax_full(ax_full));
+        .ax_full(ax_full), .calc_push(calc_push), .pulse_per(period));
     // a bulk frame's axis: the StreamData register 0x2000 | axis << 4 | 7
     wire          b_data = (bulk_addr[15:10] == 6'b001000) && (bulk_addr[3:0] == 4'h7);
     wire [5:0]    b_ax   = bulk_addr[9:4];
@@ -152,7 +154,7 @@ module ms_board #(
                 .retarget_in(s_retarget), .bsel(b_data && ({26'd0, b_ax} < K)),
                 .bax(b_ax[LK-1:0]), .bopen(bulk_open), .blen(bulk_len), .bwr(bulk_wr),
                 .bidx(bulk_idx), .bbyte(bulk_byte), .bcommit(s_commit), .init(init_ax),
-                .halt(halt), .full(ax_full), .rd(req), .rax(req_addr[4 +: LK]),
+                .halt(halt), .full(ax_full), .hold(calc_push), .rd(req), .rax(req_addr[4 +: LK]),
                 .armed(s_armed),
                 .bok(s_bok), .free(s_free),
                 .push(s_push), .period(r_period), .more(s_more), .fault(s_fault));
@@ -175,6 +177,18 @@ module ms_board #(
     ms_filter_clock #(.WD(WD), .WB(WB)) u_filter_clock (.clk(clk), .ticks(debounce),
         .load(filter_load), .strobe(filter_strobe));
     wire kill = estop_act || estop;
+    // the fixed-width pulses' clock and the end of a pulse rising now (registered: the
+    // width changes only while no axis is busy, and end_at is now + width at every clock)
+    wire          fixed_width = (pulse_width != {WD{1'b0}});
+    reg  [WD-1:0] now, end_at;
+    initial begin
+        now = {WD{1'b0}};
+        end_at = {WD{1'b0}};
+    end
+    always @(posedge clk) begin
+        now    <= now + 1'b1;
+        end_at <= now + pulse_width + 1'b1;
+    end
     wire en_off = levels[5] && estop;
     genvar a;
     generate
@@ -207,8 +221,8 @@ module ms_board #(
             end
             ms_axis_io #(.WD(WD), .WB(WB), .LIMIT(LIMITS)) u_io (
                 .clk(clk), .rst(rst), .core_step(step[a]), .dir(dir_q[a]),
-                .start(start_ax[a]), .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
-                .width(pulse_width),
+                .halt(halt[a]), .kill(kill), .kill_pin(estop_raw),
+                .fixed(fixed_width), .now(now), .end_at(end_at),
                 .strobe(filter_strobe), .load(filter_load), .hall(hall_s[a] == levels[3]),
                 .limit(limit_s[a] == levels[4]),
                 .hall_clr(hall_clr[a]), .en(enable[a] && !en_off), .lvl_step(levels[0]),
@@ -217,7 +231,7 @@ module ms_board #(
                 .dir_pin(dir_out[a]), .en_pin(enable_out[a]), .count(count[a]),
                 .latch(latch[a]), .hall_flag(hall_flag[a]),
                 .hall_lvl(hall_lvl[a]), .hall_edge(hall_edge[a]), .limit_lvl(limit_lvl[a]),
-                .limit_edge(limit_edge[a]), .period(period[a*WD +: WD]));
+                .limit_edge(limit_edge[a]));
         end
     endgenerate
 
@@ -247,6 +261,6 @@ module ms_board #(
     assign led = led_q;
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_chain) ^ (^r_period) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_chain) ^ (^r_period) ^ calc_push ^ (^start_ax) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

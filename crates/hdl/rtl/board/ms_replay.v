@@ -6,11 +6,13 @@
 // A turn picks the next axis with a nibble to decode, a period to go and FIFO room, and
 // decodes from where the axis stands (ms_nibble) up to one whole period; that period and
 // the axis's new place are taken together, the period pushed the clock after (as
-// ms_stream's). A turn that runs out of bytes, or whose axis stops, leaves the axis as it
-// was: it decodes the same nibbles again once more bytes are there. A turn takes at most
-// 14 clocks (the pick, 5 fetches, 8 nibbles: a 7-nibble code after a pad), so an axis
-// with bytes and FIFO room has its next period within a turn of each axis
-// (multistep_core::tdm::stream::DECODE_TURN).
+// ms_stream's) unless the calculator pushes in that clock (`hold`, never two clocks in a
+// row: the FIFOs share one write-data bus), then the clock after. A turn that runs out of
+// bytes, or whose axis stops, leaves the axis as it was: it decodes the same nibbles
+// again once more bytes are there. A turn takes at most 14 clocks (the pick, 5 fetches,
+// 8 nibbles: a 7-nibble code after a pad), so an axis with bytes and FIFO room has its
+// next period within a turn of each axis, and a clock (multistep_core::tdm::stream::
+// DECODE_TURN allows 16).
 // A bulk frame goes to axis bax (bsel: a valid axis); the host side and the registers
 // are the same as with K ms_stream units, but the free bytes are those of one axis and
 // whether the open frame fits is one flag.
@@ -43,6 +45,7 @@ module ms_replay #(
     input  wire [K-1:0]        init,
     input  wire [K-1:0]        halt,
     input  wire [K-1:0]        full,
+    input  wire                hold,      // the core's calculator pushes a period now
     input  wire                rd,        // a request (never with bopen, bwr or bcommit) ...
     input  wire [LK-1:0]       rax,       // ... for this axis: its free bytes are read back
     output wire [K-1:0]        armed,
@@ -56,7 +59,7 @@ module ms_replay #(
     localparam [1:0] S_PICK = 2'd0, S_FETCH = 2'd1, S_DEC = 2'd2;
 
     // ---- the axes ----
-    wire [K-1:0] wz_v, rz_v, hp_v, fresh_v, ready_v, live_v, serve, left_nz_v, retarget_v;
+    wire [K-1:0] a_push, wz_v, rz_v, hp_v, fresh_v, ready_v, live_v, serve, left_nz_v, retarget_v;
     reg  [LK-1:0] s;           // the axis served
     reg  [LB:0]   wr;          // its next byte to fetch
     reg           lo;          // the fetched byte's low nibble is next (else nh)
@@ -90,13 +93,14 @@ module ms_replay #(
                 .clk(clk), .rst(rst), .arm(arm[g]), .arm_steps(arm_steps),
                 .retarget_in(retarget_in[g]), .bcommit(bcommit[g]), .init(init[g]),
                 .halt(halt[g]), .left_nz(left_nz_v[g]), .serve(serve[g]), .n_hp(lo),
-                .pend(penq), .pbad(pbad), .armed(armed[g]), .push(push[g]),
+                .pend(penq), .pbad(pbad), .armed(armed[g]), .push(a_push[g]),
                 .more(more[g]), .retarget(retarget_v[g]), .fault(fault[g]), .wz(wz_v[g]),
                 .rz(rz_v[g]), .hp(hp_v[g]), .fresh(fresh_v[g]), .ready(ready_v[g]),
                 .live(live_v[g]));
         end
     endgenerate
     assign period = pv[WD-1:0];
+    assign push   = hold ? {K{1'b0}} : a_push;
 
     // ---- the pointers (distributed RAM, asynchronous reads), read at s and at qax ----
     // the committed frame's axis (one at a time)
@@ -181,7 +185,8 @@ module ms_replay #(
         if (take) pmem[s] <= p;
     end
     always @(posedge clk) begin
-        pv_ok <= take;
+        // a held period is pushed the clock after (a take needs two clocks after one)
+        pv_ok <= take || (pv_ok && hold);
         if (take) begin
             pv    <= p;
             pv_ax <= s;
