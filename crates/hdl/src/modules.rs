@@ -230,51 +230,40 @@ fn base_name(name: &str) -> &str {
     }
 }
 
-/// A design's module hierarchy from `stat -json`: which modules each instantiates, how
-/// often, and each module's own cells (those that are not instances of its modules).
+/// A design's module hierarchy from `stat -json`: which modules each instantiates, and
+/// how often.
 struct Hierarchy {
     top: String,
     children: BTreeMap<String, Vec<(String, u64)>>,
-    leaf: BTreeMap<String, serde_json::Map<String, serde_json::Value>>,
 }
 
 impl Hierarchy {
     fn parse(json: &str, top: &str) -> Result<Hierarchy, HdlError> {
         let modules = stat_modules(json)?;
         let mut children = BTreeMap::new();
-        let mut leaf = BTreeMap::new();
         for (name, m) in &modules {
             let cells = m
                 .get("num_cells_by_type")
                 .and_then(|c| c.as_object())
                 .ok_or_else(|| stat_error(format!("no cells in {name}")))?;
             let mut kids = Vec::new();
-            let mut own = serde_json::Map::new();
             for (cell, n) in cells {
                 // a plain module is named `\name` but instantiated as `name`
                 let key = modules
                     .get_key_value(cell)
                     .or_else(|| modules.get_key_value(&format!("\\{cell}")));
-                match key {
-                    Some((key, _)) => kids.push((key.clone(), n.as_u64().unwrap_or(0))),
-                    None => {
-                        own.insert(cell.clone(), n.clone());
-                    }
+                if let Some((key, _)) = key {
+                    kids.push((key.clone(), n.as_u64().unwrap_or(0)));
                 }
             }
             children.insert(name.clone(), kids);
-            leaf.insert(name.clone(), own);
         }
         let top = modules
             .keys()
             .find(|k| base_name(k) == top)
             .ok_or_else(|| stat_error(format!("no top module {top}")))?
             .clone();
-        Ok(Hierarchy {
-            top,
-            children,
-            leaf,
-        })
+        Ok(Hierarchy { top, children })
     }
 
     /// Every module below `name` (not `name` itself).
@@ -331,18 +320,6 @@ impl Hierarchy {
     }
 }
 
-/// Per-module rows from `stat -json` of a whole design synthesized without flattening,
-/// each module's own cells as that one run counted them.
-pub fn parse_hierarchy(json: &str, target: Target, top: &str) -> Result<Vec<ModuleRow>, HdlError> {
-    let tree = Hierarchy::parse(json, top)?;
-    let own = tree
-        .leaf
-        .iter()
-        .map(|(name, cells)| (name.clone(), parse_cells(cells, target)))
-        .collect();
-    tree.rows(&own, top)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,6 +364,24 @@ mod tests {
         assert_eq!(p, [("W", "24"), ("BULK", "1'b1"), ("S", "2'b10")]);
     }
 
+    /// The rows of the hierarchy below, each module's own cells as synthesis would count
+    /// them (a CCU2C: 2 LUT4).
+    fn rows_of(json: &str, top: &str) -> Result<Vec<ModuleRow>, HdlError> {
+        let tree = Hierarchy::parse(json, top)?;
+        let r = |lut, ff| Resources {
+            lut,
+            ff,
+            ..Resources::default()
+        };
+        let own = BTreeMap::from([
+            ("\\top".to_string(), r(10, 0)),
+            ("\\plain".to_string(), r(0, 1)),
+            ("$paramod\\mid\\K=2".to_string(), r(3, 4)),
+            ("\\leaf".to_string(), r(10, 0)),
+        ]);
+        tree.rows(&own, top)
+    }
+
     #[test]
     fn instances_multiply_down_the_hierarchy() {
         let json = r#"{"modules": {
@@ -395,7 +390,7 @@ mod tests {
             "$paramod\\mid\\K=2": {"num_cells_by_type": {"LUT4": 3, "TRELLIS_FF": 4, "\\leaf": 3, "plain": 1}},
             "\\leaf": {"num_cells_by_type": {"CCU2C": 5}}
         }}"#;
-        let rows = parse_hierarchy(json, Target::Ecp5, "top").unwrap();
+        let rows = rows_of(json, "top").unwrap();
         let row = |m: &str| rows.iter().find(|r| r.module == m).unwrap().clone();
         assert_eq!(rows[0].module, "top");
         assert_eq!((row("top").instances, row("top").each.lut), (1, 10));
@@ -425,6 +420,6 @@ mod tests {
         assert_eq!(t.total().lut, 10 + 6 + 60);
         // no module of the table is a per-axis one
         assert_eq!(t.per_axis(), Resources::default());
-        assert!(parse_hierarchy(json, Target::Ecp5, "nope").is_err());
+        assert!(rows_of(json, "nope").is_err());
     }
 }
