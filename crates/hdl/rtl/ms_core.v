@@ -149,13 +149,12 @@ module ms_core #(
     wire         div_now;     // the period just computed is the last before the ramp
 
     // ---- scheduler ----
-    reg  [WST-1:0] st_mem [0:K-1];
     reg  [K-1:0]   init_pend;
     reg  [K-1:0]   calc_act;
     reg            sel;       // free to select (no period in flight)
     reg            cstart;    // the calculator's start cycle
     reg  [LK-1:0]  m;         // axis in the calculator
-    reg  [WST-1:0] cur;       // m's state, read at select
+    wire [WST-1:0] cur;       // m's state, read at select
     reg  [WP-WY-1:0] rd;      // m's piece but dy, read at select
     wire [WY-1:0]  rdy;       // its dy
     wire [K-1:0]   fifo_full, fifo_afull, fifo_empty, fifo_push, fifo_pop, running;
@@ -199,7 +198,7 @@ module ms_core #(
     wire [LK-1:0] pick = index_of(pick_bit);
     wire do_init = sel && ini_any;
     wire do_sel  = sel && !ini_any && pick_any;
-    wire [LS-1:0] pick_slot = st_mem[pick][WST-1:WST-LS];
+    wire [LS-1:0] pick_slot;   // the picked axis's slot, read without a clock (below)
 
     // dy's memory and the register it is read into at select (ram_style is not a value a
     // parameter can set, so one memory per choice; iCE40 has no distributed RAM)
@@ -375,14 +374,45 @@ module ms_core #(
             last_slot[m] <= div_slot[m*LS +: LS];
         end
     end
-    always @(posedge clk) begin
-        if (do_init) st_mem[ini_ax] <= {WST{1'b0}};
-        else if (done) st_mem[m] <= next_st;
-        if (do_sel) begin
-            rd  <= pmem[{pick, pick_slot}];
-            cur <= st_mem[pick];
+    // Each axis's state {slot, j, last edge, base}: written at its init and as the
+    // calculator finishes its period, read at select into a register. The select's piece
+    // address needs the slot before that read. On ECP5 the state is distributed RAM, read
+    // there without a clock too (a block RAM's output would come too late for the
+    // calculator's first cycle, which takes j, at 50 MHz). The iCE40 has no distributed
+    // RAM: its state is block RAM, read only at select (flip-flops and their K-wide
+    // multiplexer cost 70 LUT4 an axis), with the slots in a small memory of their own.
+    wire           st_we = do_init || done;
+    wire [LK-1:0]  st_wa = do_init ? ini_ax : m;
+    wire [WST-1:0] st_wd = do_init ? {WST{1'b0}} : next_st;
+    always @(posedge clk)
+        if (do_sel) rd <= pmem[{pick, pick_slot}];
+    generate
+        if (LUTRAM != 0) begin : st_lutram
+            (* no_rw_check, ram_style = "distributed" *)
+            reg [WST-1:0] st_mem [0:K-1];
+            reg [WST-1:0] sq;
+            always @(posedge clk) begin
+                if (st_we) st_mem[st_wa] <= st_wd;
+                if (do_sel) sq <= st_mem[pick];
+            end
+            assign cur       = sq;
+            assign pick_slot = st_mem[pick][WST-1:WST-LS];
+        end else begin : st_block
+            (* no_rw_check, ram_style = "block" *)
+            reg [WST-1:0] st_mem [0:K-1];
+            reg [LS-1:0]  slot_mem [0:K-1];
+            reg [WST-1:0] sq;
+            always @(posedge clk) begin
+                if (st_we) begin
+                    st_mem[st_wa]   <= st_wd;
+                    slot_mem[st_wa] <= st_wd[WST-1:WST-LS];
+                end
+                if (do_sel) sq <= st_mem[pick];
+            end
+            assign cur       = sq;
+            assign pick_slot = slot_mem[pick];
         end
-    end
+    endgenerate
     initial begin
         m = {LK{1'b0}};
         rr_mask = {K{1'b1}};

@@ -270,9 +270,9 @@ pub const BOARDS: [Board; 4] = [
             filter_range: 1,
         },
         max_axes: 4,
-        // three axes: 91 % of the logic cells with SYNC and no limit filters; four do not
-        // fit (docs/HDL.md)
-        default_axes: 3,
+        // four axes: 95 % of the logic cells with SYNC and no limit filters, the axes'
+        // state in block RAM (docs/HDL.md); the calculator gives three 100 k steps/s
+        default_axes: 4,
         baud: 1_000_000,
         core: BoardCore {
             fifo_depth: 2,
@@ -294,7 +294,7 @@ pub const BOARDS: [Board; 4] = [
             file: ("icebreaker.pcf", include_str!("../boards/icebreaker.pcf")),
         },
         top: "ms_icebreaker_top",
-        // the UP5K is full with three computing axes
+        // the UP5K is full with four computing axes
         stream_buffer_bits: 0,
         sync: true,
         chains: false,

@@ -26,7 +26,7 @@ const ULX3S_AXIS: u64 = 272;
 
 /// What one more axis adds to the whole ULX3S board, its share of the register map's
 /// per-axis registers, the positions' deltas and the shared replay decoder's multiplexers
-/// and step count memories included: (K = 4 − K = 2) / 2, measured 403.
+/// and step count memories included: (K = 4 − K = 2) / 2, measured 405.
 const ULX3S_ADDED_AXIS: u64 = 420;
 
 /// Measured 2026-12-07: ms_fifo 31, ms_pulse 101, ms_axis_io 26, ms_debounce 40; one axis
