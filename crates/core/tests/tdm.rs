@@ -240,11 +240,14 @@ fn k_max_at_100k_steps_per_s_against_eq12() {
         (km.k_max as u64, km.k_eq12)
     };
     // one period at a time, identical moves started together: every common edge needs k
-    // periods within the shortest period, which is exactly eq. (12): 500/50
-    assert_eq!(k(Latencies::RADIX4, 1), (10, 10));
+    // periods within the shortest period, which is eq. (12): 500/50. With one FIFO slot
+    // they are computed after the rise that empties it, and the scheduler sees that room
+    // a tick later: k·50 ≤ 500 − 1, one axis short of eq. (12)
+    assert_eq!(k(Latencies::RADIX4, 1), (9, 10));
+    // a second slot hides that tick: eq. (12) exactly
     assert_eq!(k(Latencies::RADIX4, 4), (10, 10));
     // pipelined: t_calc = 32 but each period takes 50 cycles to arrive. With depth 1 the
-    // k-th period of a common edge is ready (k−1)·32 + 50 after it: k ≤ (500−50)/32 + 1
+    // k-th period of a common edge is ready (k−1)·32 + 50 + 1 after it: k ≤ (500−51)/32 + 1
     assert_eq!(k(Latencies::RADIX4_PIPELINED, 1), (15, 15));
     // a second FIFO slot hides the latency: eq. (12) again
     assert_eq!(k(Latencies::RADIX4_PIPELINED, 2), (15, 15));
@@ -565,6 +568,9 @@ fn reference_run(cfg: &TdmConfig, profiles: &[Profile]) -> RefRun {
     let mut t = 0u64;
     let mut order = Vec::new();
     while !axes.iter().all(|a| a.unit == Unit::Done) {
+        // the scheduler sees each FIFO as it was before this tick's pops (the core's
+        // scheduler does not look at pops)
+        let held: Vec<usize> = axes.iter().map(|a| a.fifo.len()).collect();
         for a in axes.iter_mut() {
             match a.unit {
                 Unit::NotStarted if t == start => a.try_load(t),
@@ -577,11 +583,11 @@ fn reference_run(cfg: &TdmConfig, profiles: &[Profile]) -> RefRun {
             }
         }
         if t >= next_issue {
-            let eligible = |a: &RefAxis| !a.periods.is_empty() && a.fifo.len() < d;
+            let eligible = |m: usize| !axes[m].periods.is_empty() && held[m] < d;
             let pick = match cfg.policy {
-                Policy::RoundRobin => (0..k).map(|i| (ptr + i) % k).find(|&m| eligible(&axes[m])),
+                Policy::RoundRobin => (0..k).map(|i| (ptr + i) % k).find(|&m| eligible(m)),
                 Policy::EarliestDeadline => (0..k)
-                    .filter(|&m| eligible(&axes[m]))
+                    .filter(|&m| eligible(m))
                     .min_by_key(|&m| (axes[m].deadline(start), m)),
             };
             if let Some(m) = pick {

@@ -863,8 +863,10 @@ impl<'a> Board<'a> {
                     break;
                 }
             } else {
-                // a room tick by the next decision is as good as now
-                queue.insert(m, room, t);
+                // a room tick by the next decision is as good as now. The core's scheduler
+                // sees a FIFO's room the tick after the pop that made it (it does not
+                // look at pops, which keeps the pulse unit's edge test out of its pick)
+                queue.insert(m, room + 1, t);
             }
         }
         for (m, a) in self.axes.iter_mut().enumerate() {
