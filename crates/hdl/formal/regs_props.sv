@@ -29,7 +29,7 @@ module regs_props (
     wire        core_wr, go;
     wire [6:0]  core_addr;
     wire [31:0] core_data;
-    wire [1:0]  start_ax, dir_q, dir_inv;
+    wire [1:0]  dir_q, dir_inv;
     wire [5:0]  levels;
     reg         pending = 1'b0;   // the core's pending group
     reg  [1:0]  group = 2'b00;
@@ -42,7 +42,7 @@ module regs_props (
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(core_busy), .core_underrun(2'b00), .core_dir(core_dir),
         .core_pending(pending), .core_ready(ready_x && pending), .go(go), .halt(),
-        .divert(), .div_slot(), .start_ax(start_ax), .dir_q(dir_q), .pulse_width(),
+        .divert(), .div_slot(), .dir_q(dir_q), .pulse_width(),
         .debounce(), .enable(), .levels(levels), .dir_inv(dir_inv), .en_low(), .pos_wr(),
         .hall_clr(), .rd_pos(32'd0), .rd_hall(32'd0), .hall_flag(2'b00), .hall_lvl(2'b00),
         .hall_edge(hall_edge), .limit_lvl(2'b00), .limit_edge(limit_edge), .period(8'd0),
@@ -67,6 +67,9 @@ module regs_props (
     reg  [1:0] busy_d = 2'b00;
     wire [1:0] level = dir_q ^ dir_inv ^ {2{levels[1]}};
     reg  [1:0] level_d;
+    // a start write on the core's bus: its axes
+    wire       start_wr  = core_wr && core_addr == 7'b1000010;
+    wire [1:0] start_ax  = start_wr ? core_data[1:0] : 2'b00;
     wire       start_now = (start_ax != 2'b00);
     wire [1:0] n = {1'b0, start_ax[0]} + {1'b0, start_ax[1]};
 
@@ -92,7 +95,7 @@ module regs_props (
         last_data <= req_data;
         if (last_ds && rsp_status == 8'd0) ds <= last_data;
         // the core: a start write on its bus makes the group pending until the go
-        if (core_wr && core_addr == 7'b1000010) begin
+        if (start_wr) begin
             pending <= 1'b1;
             group   <= core_data[1:0];
         end else if (go) begin

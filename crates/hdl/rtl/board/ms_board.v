@@ -95,7 +95,7 @@ module ms_board #(
     wire          core_wr, go, ready, pending, estop;
     wire [AW-1:0] core_addr;
     wire [31:0]   core_data;
-    wire [K-1:0]  step, dir, busy, underrun, halt, divert, start_ax, dir_q, enable;
+    wire [K-1:0]  step, dir, busy, underrun, halt, divert, dir_q, enable;
     wire [K-1:0]  dir_inv, en_low;
     wire [K-1:0]  pos_wr, hall_clr, hall_flag, hall_lvl, hall_edge, limit_lvl, limit_edge;
     wire [K*LS-1:0] div_slot;
@@ -125,7 +125,7 @@ module ms_board #(
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
         .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
-        .start_ax(start_ax), .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
+        .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
         .enable(enable), .levels(levels), .dir_inv(dir_inv), .en_low(en_low), .pos_wr(pos_wr), .hall_clr(hall_clr),
         .rd_pos(rd_pos), .rd_hall(rd_hall), .hall_flag(hall_flag), .hall_lvl(hall_lvl),
         .hall_edge(hall_edge), .limit_lvl(limit_lvl), .limit_edge(limit_edge),
@@ -261,6 +261,6 @@ module ms_board #(
     assign led = led_q;
     /* verilator lint_off UNUSED */  // the bulk path is unused without replay units (LB = 0)
     wire unused = rx_ferr ^ bulk_open ^ bulk_wr ^ (^bulk_len) ^ (^bulk_idx) ^ (^bulk_byte) ^
-                  (^s_arm) ^ (^s_chain) ^ (^r_period) ^ calc_push ^ (^start_ax) ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
+                  (^s_arm) ^ (^s_chain) ^ (^r_period) ^ calc_push ^ (^s_retarget) ^ (^s_commit) ^ (^init_ax) ^ (^ax_full) ^ b_data ^ (^b_ax);
     /* verilator lint_on UNUSED */
 endmodule

@@ -65,7 +65,6 @@ module ms_regs #(
     output reg  [K-1:0]  divert,
     output wire [K*LS-1:0] div_slot,
     // the axes
-    output reg  [K-1:0]  start_ax,   // one clock: these axes start (with the core's start write)
     output reg  [K-1:0]  dir_q,      // DIR, latched at the start
     output reg  [WD-1:0] pulse_width,
     output reg  [WD-1:0] debounce,
@@ -310,7 +309,6 @@ module ms_regs #(
     always @(posedge clk) begin
         free <= free + 1'b1;
         core_wr  <= 1'b0;
-        start_ax <= {K{1'b0}};
         pos_wr   <= {K{1'b0}};
         hall_clr <= {K{1'b0}};
         stop_req <= cut_mask;
@@ -382,7 +380,6 @@ module ms_regs #(
                         core_wr    <= 1'b1;
                         core_addr  <= {1'b1, {(AW-6){1'b0}}, 5'd2};
                         core_data  <= req_data;
-                        start_ax   <= mask;
                         dir_q      <= (dir_q & ~mask) | (core_dir & mask);
                         stopped    <= stopped & ~mask;
                         estopped   <= estopped & ~mask;
