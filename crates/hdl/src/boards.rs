@@ -179,8 +179,8 @@ pub const BOARDS: [Board; 4] = [
         default_axes: 8,
         baud: 3_000_000,
         // the closed form feeds its 8 axes at 100 k steps/s; `--recurrence 13` builds it
-        // with the per-step recurrence (32 axes' worth, 57.17 MHz routed, 69 % of the
-        // LUTs against 63.74 MHz and 57 %: docs/HDL.md, Boards)
+        // with the per-step recurrence (32 axes' worth, 53.44 MHz routed, 52 % of the
+        // LUTs against 62.88 MHz and 40 %: docs/HDL.md, Boards)
         core: ULX3S_25F_CORE,
         pinout: ULX3S_8,
         top: "ms_ulx3s_top",
