@@ -4,7 +4,7 @@
 //! `underrun MASK` and `dir MASK`.
 
 use crate::link::piece_words;
-use crate::{Arch, AxisMove, Design, HdlError};
+use crate::{Arch, AxisMove, Design, HdlError, PieceRegs};
 use std::fmt::Write as _;
 
 /// Name of the edge dump the testbench writes in its working directory.
@@ -44,7 +44,10 @@ fn calc_log(d: &Design) -> String {
 }
 
 /// The testbench for `moves` (one per axis, all started as one group), stopping after
-/// `timeout` cycles at the latest. Checks the moves against the core first.
+/// `timeout` cycles at the latest. Checks the moves against the core first. A move of
+/// more pieces than the core's slots is loaded while it runs ([`AxisMove::rolling`]): its
+/// first pieces before the start, then piece i into slot i mod slots once the axis has
+/// made the STEP rises of piece i − slots, the control word naming that slot the last.
 pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String, HdlError> {
     let k = d.params.axes;
     if moves.len() != k as usize {
@@ -53,8 +56,13 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
             moves.len()
         )));
     }
+    let slots = d.params.pieces as usize;
     for m in moves {
-        m.check(&d.params)?;
+        if m.pieces.len() > slots {
+            m.check_rolling(&d.params)?;
+        } else {
+            m.check(&d.params)?;
+        }
     }
     let aw = d.widths.aw;
     let mut s = String::new();
@@ -72,6 +80,7 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20   {top} dut (.clk(clk), .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),\n\
          \x20       .go(go), .step(step), .dir(dir), .busy(busy), .underrun(underrun));\n\
          \x20   integer f, a, tick, cycles;\n\
+         \x20   integer rises [0:{k1}];   // STEP rises of each axis so far\n\
          \x20   integer cycle = 0;\n\
          \x20   reg going = 1'b0;\n\
          \x20   reg [{k1}:0] prev = 0;\n\
@@ -83,8 +92,10 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       if (go && !going) $fdisplay(f, \"go %0d\", cycle);\n\
          \x20       if (go) begin going = 1'b1; tick = 0; end\n\
          \x20       for (a = 0; a < {k}; a = a + 1)\n\
-         \x20           if (step[a] != prev[a])\n\
+         \x20           if (step[a] != prev[a]) begin\n\
          \x20               $fdisplay(f, \"%0s %0d %0d\", step[a] ? \"rise\" : \"fall\", tick - 1, a);\n\
+         \x20               if (step[a]) rises[a] = rises[a] + 1;\n\
+         \x20           end\n\
          \x20       prev = step;\n\
          \x20       cycle = cycle + 1;\n\
          \x20   end\n\
@@ -95,41 +106,52 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       end\n\
          \x20   endtask\n\
          \x20   initial begin\n\
-         \x20       f = $fopen(\"{EDGE_FILE}\");\n",
+         \x20       f = $fopen(\"{EDGE_FILE}\");\n\
+         \x20       for (a = 0; a < {k}; a = a + 1) rises[a] = 0;\n",
         aw1 = aw - 1,
         k1 = k - 1,
         top = d.arch.top(),
         calc_log = calc_log(d),
     );
     for (a, m) in moves.iter().enumerate() {
-        let a = a as u32;
-        for (slot, pc) in m.pieces.iter().enumerate() {
-            for (word, v) in piece_words(&d.widths, pc).into_iter().enumerate() {
-                let _ = writeln!(
-                    s,
-                    "        wr({}, 32'd{v});",
-                    bus_addr(d, false, a, word as u32)
-                );
-            }
-            let _ = writeln!(
-                s,
-                "        wr({}, 32'd{slot});",
-                bus_addr(d, true, a, CMD_COMMIT)
-            );
+        let loaded = m.pieces.len().min(slots);
+        for i in 0..loaded {
+            piece_lines(&mut s, d, a as u32, &m.pieces[i], i);
         }
-        let ctl = (u32::from(m.dir) << 31) | (m.pieces.len() as u32 - 1);
-        let _ = writeln!(
-            s,
-            "        wr({}, 32'd{ctl});",
-            bus_addr(d, true, a, CMD_CONTROL)
-        );
+        control_line(&mut s, d, a as u32, m.dir, loaded - 1);
     }
     let mask: u64 = (1u64 << k) - 1;
     let _ = write!(
         s,
         "        $fdisplay(f, \"start %0d\", cycle);\n\
          \x20       wr({}, 32'd{mask});\n\
-         \x20       cycles = 0;\n\
+         \x20       cycles = 0;\n",
+        bus_addr(d, true, 0, CMD_START)
+    );
+    // the roll: piece i once piece i - slots is done, in the order those pieces end
+    let mut roll: Vec<(u64, usize, usize, u64)> = Vec::new();
+    for (a, m) in moves.iter().enumerate() {
+        let mut done = 0;
+        for i in slots..m.pieces.len() {
+            let freed = &m.pieces[i - slots];
+            done += freed.steps;
+            roll.push((freed.t0 + freed.dur, a, i, done));
+        }
+    }
+    roll.sort_unstable();
+    for (_, a, i, done) in roll {
+        let _ = writeln!(
+            s,
+            "        while (rises[{a}] < {done} && cycles < {timeout}) begin\n\
+             \x20           @(posedge clk); cycles = cycles + 1;\n\
+             \x20       end"
+        );
+        piece_lines(&mut s, d, a as u32, &moves[a].pieces[i], i);
+        control_line(&mut s, d, a as u32, moves[a].dir, i);
+    }
+    let _ = write!(
+        s,
+        "        cycles = 0;\n\
          \x20       while ((!going || busy != 0) && cycles < {timeout}) begin\n\
          \x20           @(posedge clk); cycles = cycles + 1;\n\
          \x20       end\n\
@@ -140,8 +162,34 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
          \x20       $fclose(f);\n\
          \x20       $finish;\n\
          \x20   end\n\
-         endmodule\n",
-        bus_addr(d, true, 0, CMD_START)
+         endmodule\n"
     );
     Ok(s)
+}
+
+/// The bus writes of piece `i` (`pc`) of `axis` into slot i mod slots.
+fn piece_lines(s: &mut String, d: &Design, axis: u32, pc: &PieceRegs, i: usize) {
+    for (word, v) in piece_words(&d.widths, pc).into_iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "        wr({}, 32'd{v});",
+            bus_addr(d, false, axis, word as u32)
+        );
+    }
+    let slot = i % d.params.pieces as usize;
+    let _ = writeln!(
+        s,
+        "        wr({}, 32'd{slot});",
+        bus_addr(d, true, axis, CMD_COMMIT)
+    );
+}
+
+/// The axis control word: DIR, and the slot of piece `last` as the move's last.
+fn control_line(s: &mut String, d: &Design, axis: u32, dir: bool, last: usize) {
+    let ctl = (u32::from(dir) << 31) | (last % d.params.pieces as usize) as u32;
+    let _ = writeln!(
+        s,
+        "        wr({}, 32'd{ctl});",
+        bus_addr(d, true, axis, CMD_CONTROL)
+    );
 }

@@ -132,6 +132,11 @@ fn check_split(profile: &IntProfile, dir: bool) -> Result<bool, TestCaseError> {
     let split = split.map_err(|e| TestCaseError::fail(format!("{e}: {profile:?}")))?;
     prop_assert_eq!(split.edges(), want);
     prop_assert_eq!(split.steps(), profile.steps());
+    // loaded while it runs, a core of 4 slots (whose move ticks wrap) takes the same pieces
+    let small = CoreParams { pieces: 4, ..n };
+    let rolled = AxisMove::rolling(profile, dir, &small)
+        .map_err(|e| TestCaseError::fail(format!("rolling: {e}: {profile:?}")))?;
+    prop_assert_eq!(&rolled.pieces, &split.pieces);
     prop_assert!(split.pieces.len() >= whole.pieces.len());
     let (max_t, max_n) = ((1u64 << n.tick_bits) - 1, (1u64 << n.step_bits) - 1);
     for pc in &split.pieces {
@@ -306,4 +311,68 @@ fn cosim_split_move_on_icebreaker_widths() {
     if let Some(k) = (0..plan.len()).find(|&k| out.edges[0][k] != plan[k]) {
         panic!("step {}: RTL {}, plan {}", k + 1, out.edges[0][k], plan[k]);
     }
+}
+
+/// `mv` on the RTL of `p` from `AxisMove::rolling`: `pieces` pieces, more than the slots
+/// (refused loaded before the start), its move ticks wrapping `wraps` times; every STEP
+/// rise is `plan`'s edge, and no underrun.
+fn cosim_rolling(p: &CoreParams, mv: &Move, dir: bool, pieces: usize, wraps: u64) {
+    let w = p.widths().unwrap();
+    let clock = p.clock_hz as u64;
+    let profile = int_profile(mv, clock).unwrap();
+    let e = AxisMove::from_profile(&profile, dir, p).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains(&format!("the core holds 1..={}", p.pieces)),
+        "{e}"
+    );
+    let m = AxisMove::rolling(&profile, dir, p).unwrap();
+    assert_eq!(m.pieces.len(), pieces);
+    let plan: Vec<u64> = multistep_core::edges(mv, clock as f64).unwrap().collect();
+    assert_eq!(m.edges(), plan);
+    let last = *plan.last().unwrap();
+    assert_eq!(last >> w.wt, wraps, "the move ticks' wraps: {last}");
+    let d = Design::new(p, Arch::Tdm).unwrap();
+    let tmp = tempfile::Builder::new()
+        .prefix("rolling")
+        .tempdir()
+        .unwrap();
+    let sim = Simulator::from_env().unwrap();
+    let out = simulate_in(sim, &d, &[m], tmp.path(), last + 100_000).unwrap();
+    assert_eq!(out.underrun, 0);
+    assert_eq!(out.dir, u32::from(dir));
+    assert_eq!(out.edges[0].len(), plan.len());
+    if let Some(k) = (0..plan.len()).find(|&k| out.edges[0][k] != plan[k]) {
+        panic!("step {}: RTL {}, plan {}", k + 1, out.edges[0][k], plan[k]);
+    }
+}
+
+/// A move of more pieces than the core has slots, loaded while it runs (the testbench's
+/// roll): a 4-slot core of 16 tick bits at 50 MHz (pieces of at most 1.3 ms, move ticks of
+/// 19 bits that wrap every 10.5 ms) runs a 30 ms trapezoid of 25 pieces, each written
+/// into the slot of the piece four before it once that one's steps are made.
+#[test]
+fn cosim_rolling_pieces_run_a_move_longer_than_the_slots() {
+    let p = CoreParams {
+        pieces: 4,
+        ..narrow()
+    };
+    let mv = Move::Phase(PhaseMove::new(
+        3_000,
+        Family::Trapezoid,
+        0.008,
+        0.014,
+        0.008,
+    ));
+    cosim_rolling(&p, &mv, true, 25, 2);
+}
+
+/// The same at the iCEBreaker's widths (20 tick bits at 18 MHz, 16 slots): a 2 s
+/// trapezoid of 8 000 steps is 35 pieces, where a move loaded before its start holds 16
+/// (about 0.9 s); its move ticks pass 2^25 once. 36 M clocks in Verilator.
+#[test]
+fn cosim_rolling_pieces_on_icebreaker_widths() {
+    let p = Board::by_name("icebreaker").unwrap().params(1).unwrap();
+    let mv = Move::Phase(PhaseMove::new(8_000, Family::Trapezoid, 0.4, 1.2, 0.4));
+    cosim_rolling(&p, &mv, false, 35, 1);
 }

@@ -52,8 +52,9 @@ impl PieceRegs {
     }
 
     /// Checks every register against the core's widths (the radicand is monotonic in j,
-    /// so its two ends bound it).
-    fn check(&self, w: &Widths, index: usize) -> Result<(), FitError> {
+    /// so its two ends bound it). `wraps`: the piece may end past move tick 2^WT (a core
+    /// loaded while it runs, [`AxisMove::rolling`]).
+    fn check(&self, w: &Widths, index: usize, wraps: bool) -> Result<(), FitError> {
         let err = |reason: String| FitError::Piece { index, reason };
         let fits = |x: u128, bits: u32| bits >= 128 || x >> bits == 0;
         if self.steps == 0 || !fits(self.steps.into(), w.wn) {
@@ -91,7 +92,7 @@ impl PieceRegs {
                 w.wd
             )));
         }
-        if !fits(u128::from(self.t0) + u128::from(last), w.wt) {
+        if !wraps && !fits(u128::from(self.t0) + u128::from(last), w.wt) {
             return Err(err(format!("ends after tick 2^{}", w.wt)));
         }
         Ok(())
@@ -211,11 +212,38 @@ impl AxisMove {
         dir: bool,
         p: &CoreParams,
     ) -> Result<AxisMove, FitError> {
+        let m = Self::split(profile, dir, p, p.pieces as usize, "the core holds")?;
+        m.check(p)?;
+        Ok(m)
+    }
+
+    /// The same pieces for a core loaded while it runs: up to 4096, however many slots
+    /// the core has. Piece i goes into slot i mod slots once piece i − slots is done
+    /// (its STEP rises made: the calculator runs ahead of the pulse unit), and the axis
+    /// control word then names its slot as the last, so the core never reads a slot
+    /// being written and stops where the loaded pieces end. The core's move ticks wrap:
+    /// an edge is a piece's t0 plus its local edge and a period the difference of two,
+    /// both modulo 2^WT, so a piece's t0 may pass 2^WT (the staging word's low WT bits).
+    pub fn rolling(profile: &IntProfile, dir: bool, p: &CoreParams) -> Result<AxisMove, FitError> {
+        let m = Self::split(profile, dir, p, MOST_PIECES, "a rolling load holds")?;
+        m.check_inner(p, true)?;
+        Ok(m)
+    }
+
+    /// The pieces of `profile` split to fit, at most `limit` of them (`holds`: what the
+    /// error says holds `limit`).
+    fn split(
+        profile: &IntProfile,
+        dir: bool,
+        p: &CoreParams,
+        limit: usize,
+        holds: &str,
+    ) -> Result<AxisMove, FitError> {
         let w = p.widths()?;
         let max = |bits: u32| (1u64 << bits.min(63)) - 1;
         let mut pieces = Vec::new();
         let mut planned = 0;
-        let most = (p.pieces as usize).max(MOST_PIECES);
+        let most = limit.max(MOST_PIECES);
         for (index, pc) in profile.pieces().iter().enumerate() {
             if pc.steps == 0 {
                 continue;
@@ -238,7 +266,7 @@ impl AxisMove {
                     reason: "splitting it leaves 128 bits".into(),
                 })?;
         }
-        if pieces.len() > p.pieces as usize {
+        if pieces.len() > limit {
             let more = if pieces.len() > most {
                 "more than "
             } else {
@@ -246,31 +274,42 @@ impl AxisMove {
             };
             return Err(FitError::Move(format!(
                 "{more}{} pieces with steps ({planned} planned, split at {} ticks and {} \
-                 steps); the core holds 1..={}",
+                 steps); {holds} 1..={limit}",
                 pieces.len().min(most),
                 max(w.wd),
                 max(w.wn),
-                p.pieces
             )));
         }
-        let m = AxisMove { dir, pieces };
-        m.check(p)?;
-        Ok(m)
+        Ok(AxisMove { dir, pieces })
     }
 
     /// Checks the move against the core: slot count, every register's width, every period
     /// (at least 2 ticks, at most the tick bits).
     pub fn check(&self, p: &CoreParams) -> Result<(), FitError> {
+        self.check_inner(p, false)
+    }
+
+    /// The checks of a move loaded while the core runs ([`rolling`](Self::rolling)): as
+    /// [`check`](Self::check), but up to 4096 pieces, ending past move tick 2^WT.
+    pub fn check_rolling(&self, p: &CoreParams) -> Result<(), FitError> {
+        self.check_inner(p, true)
+    }
+
+    fn check_inner(&self, p: &CoreParams, rolling: bool) -> Result<(), FitError> {
         let w = p.widths()?;
-        if self.pieces.is_empty() || self.pieces.len() > p.pieces as usize {
+        let slots = if rolling {
+            MOST_PIECES
+        } else {
+            p.pieces as usize
+        };
+        if self.pieces.is_empty() || self.pieces.len() > slots {
             return Err(FitError::Move(format!(
-                "{} pieces with steps; the core holds 1..={}",
+                "{} pieces with steps; the core holds 1..={slots}",
                 self.pieces.len(),
-                p.pieces
             )));
         }
         for (index, pc) in self.pieces.iter().enumerate() {
-            pc.check(&w, index)?;
+            pc.check(&w, index, rolling)?;
         }
         let edges = self.edges();
         let mut prev = 0;
