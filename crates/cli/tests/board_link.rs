@@ -1229,6 +1229,59 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
     assert_eq!(r.check_counters()[0], 900, "the board's Position register");
 }
 
+/// A computed move of more pieces than the board's slots on the iCEBreaker (no replay
+/// units to stream it): 5000 steps at 2000 steps/s, its 2.45 s cruise split into 43
+/// pieces of up to 2^20 − 1 ticks, 45 in all against 16 slots. `serve` loads the first 16
+/// and each later one as the axis passes the piece 16 before it: plan's edges, the full
+/// count, no fault.
+#[test]
+fn a_move_of_more_pieces_than_slots_is_loaded_while_it_runs() {
+    let mut r = Rig::on_board(Pins::Hil, &config(), "icebreaker", 1_000_000);
+    r.req("move X 5000 vmax=2000");
+    let x = r.wait_idle("X");
+    assert_eq!(
+        (x.position, x.state, x.fault),
+        (5000, AxisState::Idle, None)
+    );
+    let [ex, _] = r.move_edges([0, 0], 5000);
+    let params = multistep_core::MoveParams {
+        vmax: Some(2000.0),
+        amax: Some(40000.0),
+        ..Default::default()
+    };
+    same_edges("X", &ex, &plan_edges_at("trapezoid", 5000, params, 18e6));
+    assert_eq!(r.check_counters()[0], 5000, "the board's Position register");
+}
+
+/// The same move with the link cut 0.3 s after the start, for 2 s: the board runs the 16
+/// pieces it holds (about 0.9 s) and ends the move there. The axis is not left looking
+/// done: once the link is back it is in fault (`late_pieces`), short of its target, its
+/// count the board's.
+#[test]
+fn a_move_loaded_while_it_runs_ends_short_in_fault_when_the_link_is_cut() {
+    let mut r = Rig::on_board(Pins::Hil, &config(), "icebreaker", 1_000_000);
+    r.req("move X 5000 vmax=2000");
+    std::thread::sleep(Duration::from_millis(300));
+    r.board.as_mut().unwrap().send("cut");
+    std::thread::sleep(Duration::from_secs(2));
+    r.board.as_mut().unwrap().send("restore");
+    let x = r.wait_reachable("X");
+    let x = if x.state == AxisState::Moving {
+        r.wait_idle("X")
+    } else {
+        x
+    };
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    assert!(x.position > 0 && x.position < 5000, "{x:?}");
+    let why = x.fault.as_deref().unwrap_or("");
+    assert!(why.starts_with("late_pieces:"), "{x:?}");
+    assert_eq!(
+        r.check_counters()[0],
+        x.position,
+        "the board's Position register"
+    );
+}
+
 /// `track X 1000` then `track X 2`: a step of 0.5 s is longer than the 2^24 − 1 ticks (0.34 s
 /// at 50 MHz) the replay unit times, so the change is refused; X runs on, Y moves beside it
 /// and is seen to, and the stop completes.

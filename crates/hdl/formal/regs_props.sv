@@ -20,6 +20,7 @@ module regs_props (
     input wire [1:0]  busy_x,     // the axes' moves (the core's busy beside the pending group)
     input wire        ready_x,
     input wire [1:0]  core_dir,   // the DIR bits of the core's control words
+    input wire [1:0]  slot_x,     // the slot the core reports for the bus request's axis
     input wire        estop_in,
     input wire        sync_line,
     input wire [1:0]  hall_edge,
@@ -41,6 +42,7 @@ module regs_props (
         .req_data(req_data), .req_bulk(req_bulk), .rsp_status(rsp_status), .rsp_data(),
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(core_busy), .core_underrun(2'b00), .core_dir(core_dir),
+        .core_slot_ax(), .core_slot(slot_x),
         .core_pending(pending), .core_ready(ready_x && pending), .go(go), .halt(),
         .divert(), .div_slot(), .dir_q(dir_q), .pulse_width(),
         .debounce(), .enable(), .levels(levels), .dir_inv(dir_inv), .en_low(), .pos_wr(),

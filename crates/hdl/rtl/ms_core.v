@@ -91,7 +91,9 @@ module ms_core #(
     output wire [K-1:0]  init_ax,
     output wire [K-1:0]  ax_full,
     output wire          calc_push, // the calculator pushes a period this clock
-    output wire [K*WD-1:0] pulse_per // each pulse unit's period (the one being timed)
+    output wire [K*WD-1:0] pulse_per, // each pulse unit's period (the one being timed)
+    input  wire [LK-1:0] slot_ax,   // an axis whose slot the register map asks for ...
+    output wire [LS-1:0] slot_at    // ... its next period's piece slot (without a clock)
 );
     // piece word: {mode, steps, t0, dv, k, dy, y0}
     localparam WP  = 2 + WN + WT + WK + (WK + 1) + 2 * WY;
@@ -390,13 +392,18 @@ module ms_core #(
         if (LUTRAM != 0) begin : st_lutram
             (* no_rw_check, ram_style = "distributed" *)
             reg [WST-1:0] st_mem [0:K-1];
+            reg [LS-1:0]  slot_mem [0:K-1];   // the slots again, read at slot_ax
             reg [WST-1:0] sq;
             always @(posedge clk) begin
-                if (st_we) st_mem[st_wa] <= st_wd;
+                if (st_we) begin
+                    st_mem[st_wa]   <= st_wd;
+                    slot_mem[st_wa] <= st_wd[WST-1:WST-LS];
+                end
                 if (do_sel) sq <= st_mem[pick];
             end
             assign cur       = sq;
             assign pick_slot = st_mem[pick][WST-1:WST-LS];
+            assign slot_at   = slot_mem[slot_ax];
         end else begin : st_block
             (* no_rw_check, ram_style = "block" *)
             reg [WST-1:0] st_mem [0:K-1];
@@ -411,6 +418,7 @@ module ms_core #(
             end
             assign cur       = sq;
             assign pick_slot = slot_mem[pick];
+            assign slot_at   = slot_mem[slot_ax];
         end
     endgenerate
     initial begin

@@ -198,7 +198,7 @@ pub const BOARDS: [Board; 4] = [
         osc_hz: 25e6,
         // ecppll -i 25 -o 50: VCO 600 MHz. 14 axes with the per-step recurrence (the
         // closed form alone feeds 10 at 100 k steps/s) and the shared replay decoder take
-        // 67 % of the 25F's LUTs and route at 52.55 MHz (docs/HDL.md, Boards)
+        // 67 % of the 25F's LUTs and route at 54.46 MHz (docs/HDL.md, Boards)
         pll: Pll::Ehxplll {
             clki_div: 1,
             clkfb_div: 2,

@@ -164,6 +164,7 @@ fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20   wire [{k1}:0] init_ax, ax_full;\n\
          \x20   wire calc_push;\n\
          \x20   wire [{kd1}:0] pulse_per;\n\
+         \x20   wire [{ls1}:0] slot_at;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = ready;\n\
          \x20   ms_core #({}) u_core (\n\
@@ -172,11 +173,14 @@ fn tdm_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20       .div_slot({ks}'d0), .step(step), .dir(dir),\n\
          \x20       .busy(busy), .underrun(underrun), .stream({k}'d0), .s_push({k}'d0),\n\
          \x20       .s_din({kd}'d0), .s_more({k}'d0), .init_ax(init_ax), .ax_full(ax_full),\n\
-         \x20       .calc_push(calc_push), .pulse_per(pulse_per));\n\
+         \x20       .calc_push(calc_push), .pulse_per(pulse_per), .slot_ax({lk}'d0),\n\
+         \x20       .slot_at(slot_at));\n\
          endmodule\n",
         ports(p, w),
         core_params(w, p.axes, w.lk, lutram),
         k = p.axes,
+        lk = w.lk,
+        ls1 = w.ls - 1,
         ks = p.axes * w.ls,
         k1 = p.axes - 1,
         kd = p.axes * w.wd,
@@ -201,6 +205,7 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
          \x20   /* verilator lint_off UNUSED */\n\
          \x20   wire [{k1}:0] init_ax, ax_full, calc_push;\n\
          \x20   wire [{kd1}:0] pulse_per;\n\
+         \x20   wire [{ks1}:0] slot_at;\n\
          \x20   /* verilator lint_on UNUSED */\n\
          \x20   assign go = (|pend) && ((rdy | ~pend) == {{{k}{{1'b1}}}});\n",
         ports(p, w),
@@ -209,6 +214,7 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
         axh = w.lk + 4,
         k1 = k - 1,
         kd1 = k * w.wd - 1,
+        ks1 = k * w.ls - 1,
     );
     let params = core_params(w, 1, 1, lutram);
     for a in 0..k {
@@ -223,11 +229,13 @@ fn indep_top(p: &CoreParams, w: &Widths, lutram: bool) -> String {
              \x20       .dir(dir[{a}]), .busy(busy[{a}]), .underrun(underrun[{a}]),\n\
              \x20       .stream(1'b0), .s_push(1'b0), .s_din({wd}'d0), .s_more(1'b0),\n\
              \x20       .init_ax(init_ax[{a}]), .ax_full(ax_full[{a}]),\n\
-             \x20       .calc_push(calc_push[{a}]), .pulse_per(pulse_per[{lo} +: {wd}]));\n",
+             \x20       .calc_push(calc_push[{a}]), .pulse_per(pulse_per[{lo} +: {wd}]),\n\
+             \x20       .slot_ax(1'd0), .slot_at(slot_at[{so} +: {ls}]));\n",
             lk = w.lk,
             ls = w.ls,
             wd = w.wd,
-            lo = a * w.wd
+            lo = a * w.wd,
+            so = a * w.ls
         );
     }
     s.push_str("endmodule\n");

@@ -619,8 +619,10 @@ fn per_axis_dir_and_enable_levels_hold_through_estop_and_reset() {
 }
 
 /// Bad frames get an error reply and change nothing: a bad CRC, an unknown command, an
-/// unknown register, writes that would corrupt the running move; garbage without a sync
-/// byte and a truncated frame get no reply. The move's edges are exact throughout.
+/// unknown register, writes that would corrupt the running move (among them a commit into
+/// the slot it runs and a control word flipping its DIR); garbage without a sync byte and
+/// a truncated frame get no reply. A commit into another slot and a control word keeping
+/// DIR are taken. The move's edges are exact throughout.
 #[test]
 fn bad_frames_are_rejected_and_change_nothing() {
     let name = "board-bad";
@@ -654,6 +656,15 @@ fn bad_frames_are_rejected_and_change_nothing() {
         h.write(Reg::Board(BoardReg::Start), 1),
     ];
     let bad_mask = h.write(Reg::Board(BoardReg::Start), 0b10);
+    // what a load while the move runs writes: a commit into a slot the calculator is not
+    // in and a control word keeping DIR (its last slot still 0) are taken
+    let taken = [
+        h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 0)), 1),
+        h.write(
+            Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 1)),
+            1 << 31,
+        ),
+    ];
     h.s.sync();
     // garbage without a sync byte, and a truncated frame ended by a pause: no replies
     h.s.bytes(&[0x00, 0x5A, 0xFF, 0x13]);
@@ -676,6 +687,9 @@ fn bad_frames_are_rejected_and_change_nothing() {
         assert_eq!(rep[i].status, Status::Busy, "{name}: request {i}");
     }
     assert_eq!(rep[bad_mask].status, Status::BadValue);
+    for i in taken {
+        assert_eq!(rep[i].status, Status::Ok, "{name}: request {i}");
+    }
     assert_eq!(
         (rep[before].data, rep[after].data),
         (0, 0),

@@ -48,6 +48,7 @@ pub use session::{SessionKeeper, ARM_LIFETIME};
 mod connect;
 mod load;
 mod poll;
+mod roll;
 mod spec;
 #[cfg(test)]
 use load::halts_within_amax;
@@ -66,6 +67,8 @@ struct Running {
     /// not yet in the kept session: one durable write (an fsync) per wrap would be a
     /// busy disk's every few seconds while the axis tracks. Kept once the axis rests.
     wraps: i64,
+    /// A computed move of more pieces than slots: the pieces still to load.
+    roll: Option<roll::Roll>,
 }
 
 struct FpgaAxis {
@@ -193,9 +196,9 @@ impl BoardBackend for FpgaBackend {
     ) -> Result<Option<IntProfile>, CtlError> {
         let mv = spec.resolve()?;
         let computed = link::int_profile(&mv, clock_hz as u64).and_then(|ip| {
-            AxisMove::from_profile(&ip, true, &self.params)
+            self.computed(&ip, true, None)
                 .map(|_| ip)
-                .map_err(|e| LinkError::Move(e.to_string()))
+                .map_err(LinkError::Move)
         });
         match computed {
             Ok(ip) => Ok(Some(ip)),
@@ -231,7 +234,14 @@ impl BoardBackend for FpgaBackend {
             runs.push((l.axis, run));
             feeds.extend(feed.map(|f| (l.axis, f)));
         }
-        let streamed = feeds.iter().map(|(i, _)| 1u32 << i).sum();
+        // fed by the host: streams, and moves loaded while they run (a host restarted
+        // mid-way halts them: the rest is lost with it)
+        let streamed = feeds.iter().map(|(i, _)| 1u32 << i).sum::<u32>()
+            | runs
+                .iter()
+                .filter(|(_, r)| r.roll.is_some())
+                .map(|(i, _)| 1u32 << i)
+                .sum::<u32>();
         self.keep_session_with(streamed, if self.arming { mask } else { 0 });
         self.send_start(writes, &mut feeds, mask)?;
         if self.arming {
@@ -289,6 +299,7 @@ impl BoardBackend for FpgaBackend {
             end_tick,
             ramp_steps: 0,
             wraps: 0,
+            roll: None,
         });
         ax.late_told = false;
         ax.feed = Some(feed);

@@ -96,6 +96,8 @@ module ms_board #(
     wire [AW-1:0] core_addr;
     wire [31:0]   core_data;
     wire [K-1:0]  step, dir, busy, underrun, halt, divert, dir_q, enable;
+    wire [LK-1:0] slot_ax;   // the register map asks for the slot of this axis's next period
+    wire [LS-1:0] slot_at;
     wire [K-1:0]  dir_inv, en_low;
     wire [K-1:0]  pos_wr, hall_clr, hall_flag, hall_lvl, hall_edge, limit_lvl, limit_edge;
     wire [K*LS-1:0] div_slot;
@@ -124,6 +126,7 @@ module ms_board #(
         .s_armed(s_armed), .s_bok(s_bok), .s_free(s_free), .s_more(s_more), .s_fault(s_fault), .rsp_status(rsp_status), .rsp_data(rsp_data),
         .core_wr(core_wr), .core_addr(core_addr), .core_data(core_data),
         .core_busy(busy), .core_underrun(underrun), .core_dir(dir), .core_pending(pending),
+        .core_slot_ax(slot_ax), .core_slot(slot_at),
         .core_ready(ready), .go(go), .halt(halt), .divert(divert), .div_slot(div_slot),
         .dir_q(dir_q), .pulse_width(pulse_width), .debounce(debounce),
         .enable(enable), .levels(levels), .dir_inv(dir_inv), .en_low(en_low), .pos_wr(pos_wr), .hall_clr(hall_clr),
@@ -139,7 +142,8 @@ module ms_board #(
         .ready(ready), .pending(pending), .go(go), .halt(halt), .divert(divert),
         .div_slot(div_slot), .step(step), .dir(dir), .busy(busy), .underrun(underrun),
         .stream(s_armed), .s_push(s_push), .s_din(s_din), .s_more(s_more), .init_ax(init_ax),
-        .ax_full(ax_full), .calc_push(calc_push), .pulse_per(period));
+        .ax_full(ax_full), .calc_push(calc_push), .pulse_per(period), .slot_ax(slot_ax),
+        .slot_at(slot_at));
     // a bulk frame's axis: the StreamData register 0x2000 | axis << 4 | 7
     wire          b_data = (bulk_addr[15:10] == 6'b001000) && (bulk_addr[3:0] == 4'h7);
     wire [5:0]    b_ax   = bulk_addr[9:4];

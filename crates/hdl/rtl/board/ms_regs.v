@@ -58,6 +58,8 @@ module ms_regs #(
     input  wire [K-1:0]  core_busy,
     input  wire [K-1:0]  core_underrun,
     input  wire [K-1:0]  core_dir,
+    output wire [LK-1:0] core_slot_ax, // the core bus request's axis ...
+    input  wire [LS-1:0] core_slot,    // ... its next period's piece slot
     input  wire          core_pending,
     input  wire          core_ready,
     output wire          go,
@@ -190,7 +192,14 @@ module ms_regs #(
     wire        c_ok     = is_core && (req_addr[11:AW] == 0) &&
                            (c_cmd ? (c_word <= 5'd1 && {26'd0, c_ax} < K)
                                   : (c_word <= 5'd16 || RECUR != 0));   // staging words
-    wire        c_busy   = c_cmd && core_busy[c_ax[LK-1:0]];
+    // A busy axis takes a commit into a slot its calculator is not in and a control word
+    // that keeps its DIR: a move of more pieces than slots is loaded while it runs
+    // (docs/HDL.md, "Pieces and the calculator"). Its slot is its next period's piece;
+    // the host loads a slot only once the calculator is past it.
+    assign      core_slot_ax = c_ax[LK-1:0];
+    wire        c_busy   = c_cmd && core_busy[c_ax[LK-1:0]] &&
+                           ((c_word == 5'd0) ? (req_data[LS-1:0] == core_slot)
+                                             : (req_data[31] != core_dir[c_ax[LK-1:0]]));
     integer n, i;
     always @(*) begin
         n = 0;

@@ -1,6 +1,7 @@
 //! Loading moves onto the board: computed moves into its slots, streamed ones armed and
 //! preloaded, the Hall stop ramp, and one `Start` for them all.
 
+use super::roll;
 use super::*;
 
 impl FpgaBackend {
@@ -91,6 +92,7 @@ impl FpgaBackend {
             end_tick: now + (l.profile.duration() * clock).round() as u64,
             ramp_steps: 0,
             wraps: 0,
+            roll: None,
         };
         if let Some(c) = self.chained(l) {
             // computed on the board: every record goes before the start
@@ -219,8 +221,21 @@ impl FpgaBackend {
             return self.load_streamed(l, now);
         };
         let a = l.axis as u32;
-        let m = AxisMove::from_profile(ip, l.dir > 0, &self.params)
+        let m = self
+            .computed(ip, l.dir > 0, l.stop_on_sensor)
             .map_err(|e| CtlError::Setting(format!("the board cannot run this move: {e}")))?;
+        // more pieces than slots: the first ones now, the rest as the move runs
+        let slots = self.params.pieces as usize;
+        let (m, roll) = if m.pieces.len() > slots {
+            let first = AxisMove {
+                dir: m.dir,
+                pieces: m.pieces[..slots].to_vec(),
+            };
+            let ax = &self.axes[l.axis];
+            (first, Some(roll::Roll::new(m, slots, ax.count, ax.offset)))
+        } else {
+            (m, None)
+        };
         let mut w = vec![link::RegWrite {
             reg: Reg::Board(BoardReg::Clear),
             data: 1 << a,
@@ -265,8 +280,26 @@ impl FpgaBackend {
             end_tick: now + ip.end_tick(),
             ramp_steps,
             wraps: 0,
+            roll,
         };
         Ok((w, run, None))
+    }
+
+    /// `ip` as the board computes it: in its slots, or on a board without replay units
+    /// (where it cannot stream) loaded while it runs when it has more pieces than slots
+    /// (not a homing search, whose stop ramp takes the last slot).
+    pub(super) fn computed(
+        &self,
+        ip: &IntProfile,
+        dir: bool,
+        stop_on_sensor: Option<bool>,
+    ) -> Result<AxisMove, String> {
+        AxisMove::from_profile(ip, dir, &self.params).or_else(|e| {
+            if self.streams || stop_on_sensor == Some(true) {
+                return Err(e.to_string());
+            }
+            roll::rolling(ip, dir, &self.params, self.params.clock_hz)
+        })
     }
 }
 
@@ -281,7 +314,7 @@ pub(super) fn halts_within_amax(speed: f64, amax: f64) -> bool {
 pub(super) const NO_REPLAY: &str =
     "the board has no replay units for streamed moves (its build has \
     no stream buffers: a bulk write answers status 7), so it runs only trapezoids of \
-    whole-number speeds whose pieces, split to its tick width, fit its slots, and no \
+    whole-number speeds (those of more pieces than its slots loaded as they run), and no \
     tracking";
 
 /// Checks that every period of `plan`'s edges of `mv` at `clock_hz` fits the replay

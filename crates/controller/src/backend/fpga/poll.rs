@@ -110,7 +110,11 @@ impl FpgaBackend {
                     l.write(Reg::Axis(a, AxisReg::StreamSteps), 0)?;
                 }
                 let ax = &mut self.axes[i];
-                ax.running = None;
+                // a move loaded while it ran that ended with pieces still to load
+                let short = (ax.running.take())
+                    .filter(|r| !r.stopping)
+                    .and_then(|r| r.roll)
+                    .filter(|r| !r.loaded());
                 ax.speed = 0.0;
                 // with its motion: a stream is fed only while its axis runs (a StreamSteps
                 // write to an idle axis arms its next start)
@@ -124,9 +128,12 @@ impl FpgaBackend {
                 if st.underrun || st.stream_fault || feed.as_ref().is_some_and(|f| f.stopped) {
                     let why = late_reason(feed.as_ref(), st.stream_fault);
                     self.events.push_back((i, PinEvent::Late { why }));
+                } else if let Some(r) = short {
+                    self.events.push_back((i, PinEvent::Late { why: r.why() }));
                 }
                 continue;
             }
+            self.feed_roll(i)?;
             let ax = &mut self.axes[i];
             if (st.underrun || st.stream_fault) && !ax.late_told {
                 ax.late_told = true;

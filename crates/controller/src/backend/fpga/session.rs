@@ -144,10 +144,17 @@ impl FpgaBackend {
     }
 
     /// Reads the count of every axis a stream feeds and tops its stream up to the lead
-    /// from there (the board is read in full at the next poll).
+    /// from there, and loads the pieces due of a move loaded while it runs (the board is
+    /// read in full at the next poll).
     fn keep_fed(&mut self) -> Result<(), LinkError> {
         for i in 0..self.axes.len() {
             let ax = &self.axes[i];
+            let rolls = ax.running.as_ref().is_some_and(|r| r.roll.is_some());
+            if rolls {
+                self.read_count(i)?;
+                self.feed_roll(i)?;
+                continue;
+            }
             if ax.running.is_none() || ax.feed.as_ref().is_none_or(|f| f.lost.is_some()) {
                 continue;
             }
@@ -236,9 +243,9 @@ impl FpgaBackend {
                 let why = arm_expired_why(self.arm_lifetime);
                 self.events.push_back((i, PinEvent::Late { why }));
             } else if before.streamed >> i & 1 == 1 && busy >> i & 1 == 1 {
-                let why = "host_restarted: the host restarted mid-stream, so the rest of \
-                           the streamed motion was lost; the axis was halted at once (the \
-                           count is exact)"
+                let why = "host_restarted: the host restarted while it fed the motion (a \
+                           stream, or the pieces of a move loaded while it ran), so the rest \
+                           of it was lost; the axis was halted at once (the count is exact)"
                     .to_string();
                 self.events.push_back((i, PinEvent::Late { why }));
             } else if st.busy {
@@ -249,6 +256,7 @@ impl FpgaBackend {
                     end_tick: UNKNOWN_END,
                     ramp_steps: 0,
                     wraps: 0,
+                    roll: None,
                 });
                 continue;
             }

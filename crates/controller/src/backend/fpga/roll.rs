@@ -1,0 +1,151 @@
+//! A computed move of more pieces than the board's slots, loaded while it runs (on a
+//! board without replay units, where it cannot stream): its first pieces before the
+//! start, then piece i into slot i mod S once the axis has made the steps of piece i − S
+//! (the board's calculator runs ahead of its pulse unit, so it is past that piece), the
+//! axis control word then naming that slot the last (`AxisMove::rolling`; docs/HDL.md,
+//! "Pieces and the calculator"). Pieces are loaded at each poll; if they come too late,
+//! the board ends the move after the last piece loaded, and its end says so.
+
+use super::*;
+
+/// The least time between the end of piece i − S, from when piece i may be loaded, and
+/// the end of piece i − 1, by when the board needs it (s): a move whose pieces leave less
+/// is refused before it starts.
+pub(super) const ROLL_LEAD_S: f64 = 0.25;
+
+/// The pieces of a running move still to load.
+#[derive(Debug)]
+pub(super) struct Roll {
+    m: AxisMove,
+    /// The next piece to load.
+    next: usize,
+    /// The steps of the pieces before the next one less S: made, its slot is free.
+    freed: u64,
+    /// The board's count, less the host's wrap offset, at the start.
+    raw0: i64,
+    dir: i64,
+}
+
+/// `ip` split to the widths of a board of `p`, however many pieces that takes, for a
+/// load while it runs at `clock_hz`: refused when a piece's load would come less than
+/// [`ROLL_LEAD_S`] before the board needs it.
+pub(super) fn rolling(
+    ip: &IntProfile,
+    dir: bool,
+    p: &CoreParams,
+    clock_hz: f64,
+) -> Result<AxisMove, String> {
+    let m = AxisMove::rolling(ip, dir, p).map_err(|e| e.to_string())?;
+    let slots = p.pieces as usize;
+    let ends: Vec<u64> = m.pieces.iter().map(|pc| pc.t0 + pc.dur).collect();
+    for i in slots..ends.len() {
+        let lead = ends[i - 1].saturating_sub(ends[i - slots]) as f64 / clock_hz;
+        if lead < ROLL_LEAD_S {
+            return Err(format!(
+                "its {} pieces (split at the board's tick width) are more than its {slots} \
+                 slots, and loading them as the move runs leaves {lead:.3} s for piece {i} \
+                 (at least {ROLL_LEAD_S} s)",
+                m.pieces.len(),
+            ));
+        }
+    }
+    Ok(m)
+}
+
+impl Roll {
+    /// The rest of `m` after its first `slots` pieces (loaded before the start); `count`
+    /// and `offset` the axis's then.
+    pub(super) fn new(m: AxisMove, slots: usize, count: i64, offset: i64) -> Roll {
+        Roll {
+            dir: if m.dir { 1 } else { -1 },
+            freed: m.pieces[0].steps,
+            m,
+            next: slots,
+            raw0: count - offset,
+        }
+    }
+
+    /// Every piece is loaded.
+    pub(super) fn loaded(&self) -> bool {
+        self.next >= self.m.pieces.len()
+    }
+
+    /// Why a move ended with pieces still to load.
+    pub(super) fn why(&self) -> String {
+        format!(
+            "late_pieces: the host loaded the move's pieces too late ({} of {} loaded), so \
+             the board ended it after the last one loaded, short of its target (the count \
+             is exact)",
+            self.next,
+            self.m.pieces.len()
+        )
+    }
+}
+
+impl FpgaBackend {
+    /// Loads the pieces of `axis`'s running move whose slots its count (as last read)
+    /// shows free.
+    pub(super) fn feed_roll(&mut self, axis: usize) -> Result<(), LinkError> {
+        let slots = self.params.pieces as usize;
+        let w = self.params.widths()?;
+        let ax = &mut self.axes[axis];
+        let raw = ax.count - ax.offset;
+        let running = ax.running.as_mut().filter(|r| !r.stopping);
+        let Some(roll) = running.and_then(|r| r.roll.as_mut()) else {
+            return Ok(());
+        };
+        let made = u64::try_from((raw - roll.raw0) * roll.dir).unwrap_or(0);
+        let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
+        let a = axis as u32;
+        while !roll.loaded() && made >= roll.freed {
+            let i = roll.next;
+            let slot = (i % slots) as u32;
+            for wr in link::piece_writes(&w, a, slot, &roll.m.pieces[i]) {
+                l.write(wr.reg, wr.data)?;
+            }
+            // the move now ends with this piece
+            let ctl = (u32::from(roll.m.dir) << 31) | slot;
+            l.write(Reg::Core(core_addr(&w, true, a, 1)), ctl)?;
+            roll.next += 1;
+            roll.freed += roll.m.pieces[i + 1 - slots].steps;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The iCEBreaker's core as far as splitting goes: 16 slots of 2^20 − 1 ticks and
+    /// 2^14 − 1 steps at 18 MHz.
+    fn icebreaker() -> CoreParams {
+        let mut p = CoreParams::default();
+        (p.pieces, p.tick_bits, p.step_bits) = (16, 20, 14);
+        (p.clock_hz, p.max_rate, p.max_piece_s) = (18e6, 1e5, 0.04);
+        p
+    }
+
+    fn segments(segs: &[(u64, u64, u64)]) -> IntProfile {
+        let segs: Vec<IntSegment> = (segs.iter())
+            .map(|&(v0, ticks, steps)| IntSegment { v0, ticks, steps })
+            .collect();
+        IntProfile::segments(&segs, IntClock::hz(18_000_000)).unwrap()
+    }
+
+    #[test]
+    fn pieces_of_58_ms_roll_and_pieces_of_10_ms_leave_too_little_lead() {
+        let p = icebreaker();
+        // a 0.05 s ramp to 2000 steps/s and a 2 s cruise: 36 pieces of up to 58 ms, 15 of
+        // them 0.87 s
+        let long = segments(&[(0, 900_000, 50), (2000, 36_000_000, 4000)]);
+        assert!(AxisMove::from_profile(&long, true, &p).is_err());
+        let m = rolling(&long, true, &p, 18e6).unwrap();
+        assert_eq!(m.pieces.len(), 36);
+        assert_eq!(m.steps(), 4050);
+        // 40 segments of 10 ms: 15 of them are 0.15 s
+        let short = segments(&[(2000, 180_000, 20); 40]);
+        let e = rolling(&short, true, &p, 18e6).unwrap_err();
+        assert!(e.contains("leaves 0.150 s for piece 16"), "{e}");
+    }
+}
