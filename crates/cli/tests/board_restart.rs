@@ -2,7 +2,8 @@
 //! (`multistep board-sim`) runs a move, and started again on the same data: the board kept
 //! the host's session token, so the new service adopts what it is doing. A computed move
 //! runs to its end and its position is trusted; a streamed one, whose code died with the
-//! old service, is halted at once with its count exact and the fault `host_restarted`.
+//! old service, and one the old service was loading as it ran, are halted at once with
+//! their count exact and the fault `host_restarted`.
 
 mod common;
 
@@ -54,20 +55,18 @@ impl Rig {
     /// board-sim (ULX3S build, one axis, in real time: a killed service leaves the board
     /// running at the wall clock's pace) and `serve` on it.
     fn new() -> Rig {
+        Rig::on("ulx3s-25f")
+    }
+
+    /// The same with `board`'s build.
+    fn on(board: &str) -> Rig {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("board.toml");
         std::fs::write(&config, CONFIG).unwrap();
         let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("verilator");
         let (board, first) = Proc::spawn(
             Command::new(BIN)
-                .args([
-                    "board-sim",
-                    "--board",
-                    "ulx3s-25f",
-                    "--axes",
-                    "1",
-                    "--realtime",
-                ])
+                .args(["board-sim", "--board", board, "--axes", "1", "--realtime"])
                 .arg("--config")
                 .arg(&config)
                 .arg("--cache-dir")
@@ -172,6 +171,32 @@ fn a_computed_move_under_way_runs_to_its_end_under_the_restarted_serve() {
     let x = r.x_idle();
     assert_eq!((x.position, x.trusted), (at + 500, true), "{x:?}");
     assert_eq!(r.counter(), at + 500, "the board's Position register");
+}
+
+/// A move of more pieces than slots on the iCEBreaker (no replay units), loaded as it runs
+/// by the host, under way when `serve` dies: the board holds only the pieces sent, so the
+/// new `serve` halts the axis at once, as a stream's, and says `host_restarted`; the
+/// count stays exact and the next move runs.
+#[test]
+fn a_move_loaded_as_it_runs_is_halted_exact_by_the_restarted_serve() {
+    let mut r = Rig::on("icebreaker");
+    r.req("move X 5000 vmax=2000");
+    r.x_until("X never moved", |s| s.position > 200);
+    r.restart_after_kill9();
+    let x = r.x_idle();
+    assert_eq!(x.state, AxisState::Fault, "{x:?}");
+    let why = x.fault.as_deref().unwrap_or("");
+    assert!(why.starts_with("host_restarted"), "{x:?}");
+    assert!(x.position > 200 && x.position < 5000, "{x:?}");
+    r.req("stop X");
+    r.req("move X 100");
+    let y = r.x_idle();
+    assert_eq!(
+        (y.state, y.position),
+        (AxisState::Idle, x.position + 100),
+        "{y:?}"
+    );
+    assert_eq!(r.counter(), y.position, "the board's Position register");
 }
 
 /// A streamed move (sine: the host codes its edges) under way when `serve` dies: the board

@@ -236,13 +236,12 @@ impl BoardBackend for FpgaBackend {
         }
         // fed by the host: streams, and moves loaded while they run (a host restarted
         // mid-way halts them: the rest is lost with it)
-        let streamed = feeds.iter().map(|(i, _)| 1u32 << i).sum::<u32>()
-            | runs
-                .iter()
-                .filter(|(_, r)| r.roll.is_some())
-                .map(|(i, _)| 1u32 << i)
-                .sum::<u32>();
-        self.keep_session_with(streamed, if self.arming { mask } else { 0 });
+        let streamed = feeds.iter().map(|(i, _)| 1u32 << i).sum();
+        let rolled = (runs.iter())
+            .filter(|(_, r)| r.roll.is_some())
+            .map(|(i, _)| 1u32 << i)
+            .sum();
+        self.keep_session_with(streamed, rolled, if self.arming { mask } else { 0 });
         self.send_start(writes, &mut feeds, mask)?;
         if self.arming {
             self.armed_now(mask);
@@ -288,7 +287,7 @@ impl BoardBackend for FpgaBackend {
         // open-ended: armed for the most steps, closed with the real count at rest
         let writes = self.arm_writes(axis, dir, AxisReg::StreamSteps, u32::MAX)?;
         let mut feeds = [(axis, feed)];
-        self.keep_session_with(1 << axis, 0);
+        self.keep_session_with(1 << axis, 0, 0);
         self.send_start(writes, &mut feeds, 1 << axis)?;
         let [(_, feed)] = feeds;
         let ax = &mut self.axes[axis];

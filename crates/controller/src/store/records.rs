@@ -41,6 +41,10 @@ pub struct LinkSession {
     pub offsets: Vec<i64>,
     /// Axes whose motion the host streams (it cannot go on without the host).
     pub streamed: u32,
+    /// Of those, axes whose computed move the host loads as it runs: at rest after a
+    /// restart, the board ended it after the pieces it held.
+    #[serde(default)]
+    pub rolled: u32,
     /// Axes of a group armed for the SYNC line.
     pub armed: u32,
     /// An offset being folded into an idle axis's `Position` register: kept before the

@@ -57,6 +57,7 @@ fn the_link_session_survives_reopening() {
         streamed: 0b10,
         armed: 0b01,
         folding: None,
+        rolled: 0b10,
     };
     {
         let s = Store::open(dir.path()).unwrap();

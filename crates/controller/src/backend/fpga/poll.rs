@@ -134,6 +134,12 @@ impl FpgaBackend {
                 continue;
             }
             self.feed_roll(i)?;
+            let roll = self.axes[i].running.as_ref().and_then(|r| r.roll.as_ref());
+            if roll.is_some_and(|r| r.loaded()) {
+                // every piece is on the board: a restart from here lets the move end (the
+                // session is kept only when it changes)
+                self.keep_session_now();
+            }
             let ax = &mut self.axes[i];
             if (st.underrun || st.stream_fault) && !ax.late_told {
                 ax.late_told = true;

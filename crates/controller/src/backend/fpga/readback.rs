@@ -154,6 +154,7 @@ mod tests {
             streamed: 0,
             armed: 0,
             folding: None,
+            rolled: 0,
         };
         let mut b = FpgaBackend::with_opener_resuming("model".into(), open, 2, Some(before))
             .expect("the model answers");
@@ -200,6 +201,7 @@ mod tests {
             streamed: 0,
             armed: 0,
             folding: None,
+            rolled: 0,
         };
         store.put_link_session(&kept).unwrap();
         let mut model = Model::default();

@@ -46,8 +46,9 @@ fn arm_expired_why(lifetime: Duration) -> String {
 pub(super) const UNKNOWN_END: u64 = u64::MAX;
 
 impl FpgaBackend {
-    /// The session as it is now, `streamed` and `armed` axes added (a start about to go).
-    fn session_record(&self, streamed: u32, armed: u32) -> LinkSession {
+    /// The session as it is now, `streamed` (of them `rolled`) and `armed` axes added (a
+    /// start about to go).
+    fn session_record(&self, streamed: u32, rolled: u32, armed: u32) -> LinkSession {
         let mut r = LinkSession {
             token: self.session,
             // a running axis's wraps are kept once it rests (`Running::wraps`)
@@ -56,7 +57,8 @@ impl FpgaBackend {
                 .iter()
                 .map(|a| a.offset - a.running.as_ref().map_or(0, |r| r.wraps))
                 .collect(),
-            streamed,
+            streamed: streamed | rolled,
+            rolled,
             armed: self.armed | armed,
             folding: self.folding,
         };
@@ -64,13 +66,19 @@ impl FpgaBackend {
             if a.running.is_some() && a.feed.is_some() {
                 r.streamed |= 1 << i;
             }
+            // pieces still to load
+            let roll = a.running.as_ref().and_then(|r| r.roll.as_ref());
+            if roll.is_some_and(|r| !r.loaded()) {
+                r.streamed |= 1 << i;
+                r.rolled |= 1 << i;
+            }
         }
         r
     }
 
     /// Keeps the session when it changed; `streamed` and `armed`: axes of a start about to
     /// go, kept before it goes (a host killed right after still knows what they run).
-    pub(super) fn keep_session_with(&mut self, streamed: u32, armed: u32) {
+    pub(super) fn keep_session_with(&mut self, streamed: u32, rolled: u32, armed: u32) {
         // A board claimed anew (its counts lost) is kept only once the loss is told, and
         // so stored by the board: a host killed between the two would find its own token
         // at the next start and trust counts the board lost.
@@ -81,7 +89,7 @@ impl FpgaBackend {
         {
             return;
         }
-        let r = self.session_record(streamed, armed);
+        let r = self.session_record(streamed, rolled, armed);
         if self.kept.as_ref() == Some(&r) {
             return;
         }
@@ -164,7 +172,7 @@ impl FpgaBackend {
     }
 
     pub(super) fn keep_session_now(&mut self) {
-        self.keep_session_with(0, 0);
+        self.keep_session_with(0, 0, 0);
     }
 
     /// Connecting with the session a host stored before: adopts the board when it still
@@ -246,6 +254,12 @@ impl FpgaBackend {
                 let why = "host_restarted: the host restarted while it fed the motion (a \
                            stream, or the pieces of a move loaded while it ran), so the rest \
                            of it was lost; the axis was halted at once (the count is exact)"
+                    .to_string();
+                self.events.push_back((i, PinEvent::Late { why }));
+            } else if before.rolled >> i & 1 == 1 && !st.busy {
+                let why = "host_restarted: the host restarted while it loaded the move's \
+                           pieces as it ran, so the board ended it after the pieces it held, \
+                           short of its target (the count is exact)"
                     .to_string();
                 self.events.push_back((i, PinEvent::Late { why }));
             } else if st.busy {

@@ -14,6 +14,7 @@ fn kept(streamed: u32) -> LinkSession {
         streamed,
         armed: 0,
         folding: None,
+        rolled: 0,
     }
 }
 
