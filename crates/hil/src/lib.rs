@@ -153,6 +153,9 @@ pub struct SimState {
     pub ticks: u64,
     pub seconds: f64,
     pub clock_hz: f64,
+    /// The board is at work (an axis running, a frame in flight, a sensor settling): its
+    /// time passes. An idle board's time stands still until the host says something.
+    pub busy: bool,
     pub estop: bool,
     pub cut: bool,
     /// Bytes the host has sent the board over the link since the start.
@@ -605,6 +608,7 @@ impl World {
             ticks,
             seconds: ticks as f64 / self.clock_hz,
             clock_hz: self.clock_hz,
+            busy: self.busy(ticks),
             estop: self.estop,
             cut: self.cut,
             host_bytes: self.host_bytes,
