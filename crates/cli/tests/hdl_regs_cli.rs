@@ -3,7 +3,9 @@
 
 use multistep_core::int::{IntClock, IntPhaseMove, IntProfile};
 use multistep_hdl::boards::Board;
-use multistep_hdl::link::{move_writes, start_write, BoardReg, Command, Reg, Request};
+use multistep_hdl::link::{
+    move_writes, rolling_writes, start_write, BoardReg, Command, Reg, Request,
+};
 use multistep_hdl::{AxisMove, CoreParams};
 use std::process::Command as Process;
 
@@ -47,7 +49,9 @@ fn planned(board: &str, steps: u64, ticks: [u64; 3], start_speed: u64) -> (CoreP
         end_speed: 0,
     };
     let prof = IntProfile::phase(&m, IntClock::hz(p.clock_hz as u64)).unwrap();
-    let am = AxisMove::from_profile(&prof, true, &p).unwrap();
+    let am = AxisMove::from_profile(&prof, true, &p)
+        .or_else(|_| AxisMove::rolling(&prof, true, &p))
+        .unwrap();
     (p, am)
 }
 
@@ -121,8 +125,10 @@ fn segments_and_limits_moves_list_too() {
 }
 
 /// The iCEBreaker's 20 tick bits: a 5000-step move with 0.1 s ramps (1.8 M ticks each)
-/// is loaded as four pieces, split by the host; with a 0.8 s cruise too it needs 18, more
-/// than the 16 slots.
+/// is loaded as four pieces, split by the host. With a 0.8 s cruise too it needs 18, more
+/// than the 16 slots: the first 16, the start, then pieces 16 and 17, each after a
+/// `# piece i: once the axis has made N steps` line, as the link library loads them while
+/// the move runs. A move of more than 4096 pieces is one error.
 #[test]
 fn ramps_longer_than_the_tick_bits_are_split() {
     let ramps = [
@@ -150,12 +156,44 @@ fn ramps_longer_than_the_tick_bits_are_split() {
     want.push((s.reg.addr(), s.data));
     let got: Vec<(u16, u32)> = got.iter().map(|r| (r.1, r.2)).collect();
     assert_eq!(got, want, "{text}");
+    assert!(!text.contains("# piece"), "{text}");
+
     a.extend(["--cruise-time", "0.8"]);
     let o = multistep(&a);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let (p, am) = planned("icebreaker", 5000, [1_800_000, 14_400_000, 1_800_000], 0);
+    assert_eq!(am.pieces.len(), 18);
+    let (now, later) = rolling_writes(&p, 0, &am, 0).unwrap();
+    let mut want: Vec<(u16, u32)> = now.iter().map(|w| (w.reg.addr(), w.data)).collect();
+    want.push((s.reg.addr(), s.data));
+    for l in &later {
+        want.extend(l.writes.iter().map(|w| (w.reg.addr(), w.data)));
+    }
+    let got: Vec<(u16, u32)> = rows(&text).iter().map(|r| (r.1, r.2)).collect();
+    assert_eq!(got, want, "{text}");
+    // the last control word names piece 17's slot (1) the move's last
+    assert_eq!(got.last(), Some(&(0x1081, 0x8000_0001)), "{text}");
+    let notes: Vec<(usize, u64)> = (text.lines())
+        .filter_map(|l| l.strip_prefix("# piece "))
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            (
+                w[0].trim_end_matches(':').parse().unwrap(),
+                w[6].parse().unwrap(),
+            )
+        })
+        .collect();
+    let slots = p.pieces as usize;
+    assert_eq!(notes, am.late_pieces(slots).collect::<Vec<_>>());
+    assert_eq!(notes[0], (16, am.pieces[0].steps));
+    assert_eq!(notes.len(), 2);
+
+    let long = "hdl regs --board icebreaker --steps 600000 --vmax 2000 --amax 40000";
+    let o = multistep(&long.split_whitespace().collect::<Vec<_>>());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("18 pieces with steps"), "{err}");
-    assert!(err.contains("the core holds 1..=16"), "{err}");
+    assert!(err.contains("a rolling load holds 1..=4096"), "{err}");
 }
 
 #[test]

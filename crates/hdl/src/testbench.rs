@@ -131,10 +131,8 @@ pub fn testbench(d: &Design, moves: &[AxisMove], timeout: u64) -> Result<String,
     // the roll: piece i once piece i - slots is done, in the order those pieces end
     let mut roll: Vec<(u64, usize, usize, u64)> = Vec::new();
     for (a, m) in moves.iter().enumerate() {
-        let mut done = 0;
-        for i in slots..m.pieces.len() {
+        for (i, done) in m.late_pieces(slots) {
             let freed = &m.pieces[i - slots];
-            done += freed.steps;
             roll.push((freed.t0 + freed.dur, a, i, done));
         }
     }

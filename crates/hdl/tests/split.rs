@@ -10,7 +10,7 @@ use common::{Rng, CLOCK, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
 use multistep_core::{Family, Move, PhaseMove};
 use multistep_hdl::boards::Board;
-use multistep_hdl::link::{int_profile, move_writes};
+use multistep_hdl::link::{core_addr, int_profile, move_writes, rolling_writes, Reg};
 use multistep_hdl::simulator::Simulator;
 use multistep_hdl::tools::simulate_in;
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design, FitError};
@@ -137,6 +137,7 @@ fn check_split(profile: &IntProfile, dir: bool) -> Result<bool, TestCaseError> {
     let rolled = AxisMove::rolling(profile, dir, &small)
         .map_err(|e| TestCaseError::fail(format!("rolling: {e}: {profile:?}")))?;
     prop_assert_eq!(&rolled.pieces, &split.pieces);
+    check_rolling_writes(&small, &rolled)?;
     prop_assert!(split.pieces.len() >= whole.pieces.len());
     let (max_t, max_n) = ((1u64 << n.tick_bits) - 1, (1u64 << n.step_bits) - 1);
     for pc in &split.pieces {
@@ -151,6 +152,39 @@ fn check_split(profile: &IntProfile, dir: bool) -> Result<bool, TestCaseError> {
         .any(|pc| pc.steps > max_n || pc.local_edge(pc.steps - 1).is_none_or(|e| e > max_t));
     prop_assert_eq!(outgrown, split.pieces.len() > whole.pieces.len());
     Ok(outgrown)
+}
+
+/// The writes of `m` loaded while it runs on `p`: a move that fits the slots is
+/// `move_writes`' with no later loads; otherwise the first slots' pieces, each later
+/// piece i into slot i mod slots after the steps of pieces 0 to i − slots, the control
+/// word then naming its slot the last.
+fn check_rolling_writes(p: &CoreParams, m: &AxisMove) -> Result<(), TestCaseError> {
+    let (now, later) =
+        rolling_writes(p, 0, m, 0).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let slots = p.pieces as usize;
+    if m.pieces.len() <= slots {
+        prop_assert_eq!(now, move_writes(p, 0, m, 0).unwrap());
+        prop_assert!(later.is_empty());
+        return Ok(());
+    }
+    let w = p.widths().unwrap();
+    let first = AxisMove {
+        dir: m.dir,
+        pieces: m.pieces[..slots].to_vec(),
+    };
+    prop_assert_eq!(now, move_writes(p, 0, &first, 0).unwrap());
+    prop_assert_eq!(later.len(), m.pieces.len() - slots);
+    for (l, i) in later.iter().zip(slots..) {
+        let made: u64 = m.pieces[..=i - slots].iter().map(|pc| pc.steps).sum();
+        prop_assert_eq!((l.piece, l.made), (i, made));
+        let n = l.writes.len();
+        let (commit, ctl) = (l.writes[n - 2], l.writes[n - 1]);
+        prop_assert_eq!(commit.reg, Reg::Core(core_addr(&w, true, 0, 0)));
+        prop_assert_eq!(commit.data as usize, i % slots);
+        prop_assert_eq!(ctl.reg, Reg::Core(core_addr(&w, true, 0, 1)));
+        prop_assert_eq!(ctl.data, (u32::from(m.dir) << 31) | (i % slots) as u32);
+    }
+    Ok(())
 }
 
 proptest! {

@@ -339,6 +339,17 @@ impl AxisMove {
         self.pieces.iter().map(|p| p.steps).sum()
     }
 
+    /// The pieces a core of `slots` slots takes while the move runs
+    /// ([`rolling`](Self::rolling)), as `(i, made)`: piece i may go into slot i mod slots
+    /// once the axis has made `made` steps, those of pieces 0 to i − slots.
+    pub fn late_pieces(&self, slots: usize) -> impl Iterator<Item = (usize, u64)> + '_ {
+        let slots = slots.max(1);
+        (slots..self.pieces.len()).scan(0, move |made, i| {
+            *made += self.pieces[i - slots].steps;
+            Some((i, *made))
+        })
+    }
+
     /// Every edge tick (from the move's start), by the core's kernels.
     pub fn edges(&self) -> Vec<u64> {
         self.pieces

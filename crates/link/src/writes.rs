@@ -76,15 +76,7 @@ pub fn move_writes(
         return Err(LinkError::Axis { axis, axes: p.axes });
     }
     m.check(p)?;
-    if pulse_width > 0 {
-        let edges = m.edges();
-        let short = edges.windows(2).map(|e| e[1] - e[0]).min();
-        if let Some(s) = short.filter(|&s| s <= u64::from(pulse_width)) {
-            return Err(LinkError::Move(format!(
-                "a period of {s} ticks is not longer than the {pulse_width}-tick STEP pulse"
-            )));
-        }
-    }
+    check_pulse(m, pulse_width)?;
     let w = p.widths()?;
     let mut out = Vec::new();
     for (slot, pc) in m.pieces.iter().enumerate() {
@@ -95,6 +87,74 @@ pub fn move_writes(
         data: (u32::from(m.dir) << 31) | (m.pieces.len() as u32 - 1),
     });
     Ok(out)
+}
+
+/// With a fixed pulse width (`pulse_width` > 0) every period of `m` must be longer.
+fn check_pulse(m: &AxisMove, pulse_width: u32) -> Result<(), LinkError> {
+    if pulse_width > 0 {
+        let edges = m.edges();
+        let short = edges.windows(2).map(|e| e[1] - e[0]).min();
+        if let Some(s) = short.filter(|&s| s <= u64::from(pulse_width)) {
+            return Err(LinkError::Move(format!(
+                "a period of {s} ticks is not longer than the {pulse_width}-tick STEP pulse"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A piece of a move loaded while it runs: `writes` may go once the axis has made `made`
+/// steps of the move ([`AxisMove::late_pieces`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LateLoad {
+    /// The piece's index in the move.
+    pub piece: usize,
+    pub made: u64,
+    /// The piece into slot i mod slots, then the axis control word naming that slot the
+    /// move's last.
+    pub writes: Vec<RegWrite>,
+}
+
+/// The writes that load `m`, of more pieces than the core's slots, into `axis` as it runs
+/// ([`AxisMove::rolling`]): those before the start (its first pieces, the control word
+/// naming the last slot the last) and the later ones, each after the steps that free its
+/// slot. A move that fits the slots has no later loads. `pulse_width` as for
+/// [`move_writes`].
+pub fn rolling_writes(
+    p: &CoreParams,
+    axis: u32,
+    m: &AxisMove,
+    pulse_width: u32,
+) -> Result<(Vec<RegWrite>, Vec<LateLoad>), LinkError> {
+    if axis >= p.axes {
+        return Err(LinkError::Axis { axis, axes: p.axes });
+    }
+    m.check_rolling(p)?;
+    check_pulse(m, pulse_width)?;
+    let w = p.widths()?;
+    let slots = (p.pieces as usize).max(1);
+    let control = |last: usize| RegWrite {
+        reg: Reg::Core(core_addr(&w, true, axis, 1)),
+        data: (u32::from(m.dir) << 31) | (last % slots) as u32,
+    };
+    let first = m.pieces.len().min(slots);
+    let mut now: Vec<RegWrite> = (m.pieces[..first].iter().enumerate())
+        .flat_map(|(slot, pc)| piece_writes(&w, axis, slot as u32, pc))
+        .collect();
+    now.push(control(first - 1));
+    let later = m
+        .late_pieces(slots)
+        .map(|(i, made)| {
+            let mut writes = piece_writes(&w, axis, (i % slots) as u32, &m.pieces[i]);
+            writes.push(control(i));
+            LateLoad {
+                piece: i,
+                made,
+                writes,
+            }
+        })
+        .collect();
+    Ok((now, later))
 }
 
 /// The writes that load a stop ramp (one piece, its t0 counted from the last edge before

@@ -5,7 +5,7 @@ use crate::moveargs::MoveArgs;
 use clap::Args;
 use multistep_hdl::boards::Board;
 use multistep_hdl::link::{
-    int_profile, move_writes, requests, start_write, BoardReg, Reg, RegWrite,
+    int_profile, requests, rolling_writes, start_write, BoardReg, Reg, RegWrite,
 };
 use multistep_hdl::{AxisMove, BoardTop};
 use std::io::Write;
@@ -84,7 +84,12 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
         return streamed(a, board, &top, axes);
     }
     let profile = int_profile(&a.mv.spec().resolve()?, clock)?;
-    let m = AxisMove::from_profile(&profile, !a.reverse, &p)?;
+    // more pieces than the board's slots: loaded while it runs, as serve does on a board
+    // without replay units
+    let m = match AxisMove::from_profile(&profile, !a.reverse, &p) {
+        Ok(m) => m,
+        Err(_) => AxisMove::rolling(&profile, !a.reverse, &p)?,
+    };
     let mut writes = Vec::new();
     if let Some(w) = a.pulse_width {
         writes.push(RegWrite {
@@ -98,8 +103,11 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
             data: d,
         });
     }
-    writes.extend(move_writes(&p, a.axis, &m, a.pulse_width.unwrap_or(0))?);
+    let (now, later) = rolling_writes(&p, a.axis, &m, a.pulse_width.unwrap_or(0))?;
+    writes.extend(now);
     writes.push(start_write(1 << a.axis));
+    let first = writes.len();
+    writes.extend(later.iter().flat_map(|l| l.writes.iter().copied()));
     let reqs = requests(&writes, a.seq);
     let mut out = std::io::stdout().lock();
     writeln!(
@@ -115,11 +123,39 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
         m.pieces.len(),
         m.edges().last().copied().unwrap_or(0)
     )?;
+    if let Some(l) = later.first() {
+        writeln!(
+            out,
+            "# its {} pieces are more than the board's {} slots: the first {} before the \
+             start, each later one once the axis has made the steps that free its slot \
+             (Position register), before the calculator needs it",
+            m.pieces.len(),
+            p.pieces,
+            l.piece
+        )?;
+    }
     writeln!(
         out,
         "# seq addr data     frame (request, 11 bytes hex)  register"
     )?;
-    for (r, w) in reqs.iter().zip(&writes) {
+    let mut at = first;
+    let mut next = later.iter();
+    for (i, (r, w)) in reqs.iter().zip(&writes).enumerate() {
+        if i == at {
+            if let Some(l) = next.next() {
+                let ends = |j: usize| m.pieces[j].t0 + m.pieces[j].dur;
+                writeln!(
+                    out,
+                    "# piece {}: once the axis has made {} steps (move tick {}), before move \
+                     tick {}",
+                    l.piece,
+                    l.made,
+                    ends(l.piece - p.pieces as usize),
+                    ends(l.piece - 1)
+                )?;
+                at += l.writes.len();
+            }
+        }
         let frame: String = r.encode().iter().map(|b| format!("{b:02x}")).collect();
         writeln!(
             out,

@@ -224,18 +224,6 @@ impl FpgaBackend {
         let m = self
             .computed(ip, l.dir > 0, l.stop_on_sensor)
             .map_err(|e| CtlError::Setting(format!("the board cannot run this move: {e}")))?;
-        // more pieces than slots: the first ones now, the rest as the move runs
-        let slots = self.params.pieces as usize;
-        let (m, roll) = if m.pieces.len() > slots {
-            let first = AxisMove {
-                dir: m.dir,
-                pieces: m.pieces[..slots].to_vec(),
-            };
-            let ax = &self.axes[l.axis];
-            (first, Some(roll::Roll::new(m, slots, ax.count, ax.offset)))
-        } else {
-            (m, None)
-        };
         let mut w = vec![link::RegWrite {
             reg: Reg::Board(BoardReg::Clear),
             data: 1 << a,
@@ -247,7 +235,17 @@ impl FpgaBackend {
                 data: 0,
             });
         }
-        w.extend(link::move_writes(&self.params, a, &m, 0).map_err(link_err)?);
+        // more pieces than slots: the first ones now, the rest as the move runs
+        let mut roll = None;
+        if m.pieces.len() > self.params.pieces as usize {
+            let (now, later) = link::rolling_writes(&self.params, a, &m, 0).map_err(link_err)?;
+            w.extend(now);
+            let ax = &self.axes[l.axis];
+            let pieces = m.pieces.len();
+            roll = Some(roll::Roll::new(later, pieces, m.dir, ax.count, ax.offset));
+        } else {
+            w.extend(link::move_writes(&self.params, a, &m, 0).map_err(link_err)?);
+        }
         let mut ramp_steps = 0;
         if l.stop_on_sensor == Some(true) {
             let slot = self.params.pieces - 1;
@@ -298,7 +296,7 @@ impl FpgaBackend {
             if self.streams || stop_on_sensor == Some(true) {
                 return Err(e.to_string());
             }
-            roll::rolling(ip, dir, &self.params, self.params.clock_hz)
+            roll::rolling(ip, dir, &self.params)
         })
     }
 }

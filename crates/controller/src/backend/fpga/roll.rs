@@ -16,30 +16,25 @@ pub(super) const ROLL_LEAD_S: f64 = 0.25;
 /// The pieces of a running move still to load.
 #[derive(Debug)]
 pub(super) struct Roll {
-    m: AxisMove,
-    /// The next piece to load.
+    /// Every piece past the slots, with the steps that free its slot.
+    loads: Vec<link::LateLoad>,
+    /// The next of `loads`.
     next: usize,
-    /// The steps of the pieces before the next one less S: made, its slot is free.
-    freed: u64,
+    pieces: usize,
     /// The board's count, less the host's wrap offset, at the start.
     raw0: i64,
     dir: i64,
 }
 
 /// `ip` split to the widths of a board of `p`, however many pieces that takes, for a
-/// load while it runs at `clock_hz`: refused when a piece's load would come less than
-/// [`ROLL_LEAD_S`] before the board needs it.
-pub(super) fn rolling(
-    ip: &IntProfile,
-    dir: bool,
-    p: &CoreParams,
-    clock_hz: f64,
-) -> Result<AxisMove, String> {
+/// load while it runs: refused when a piece's load would come less than [`ROLL_LEAD_S`]
+/// before the board needs it.
+pub(super) fn rolling(ip: &IntProfile, dir: bool, p: &CoreParams) -> Result<AxisMove, String> {
     let m = AxisMove::rolling(ip, dir, p).map_err(|e| e.to_string())?;
     let slots = p.pieces as usize;
     let ends: Vec<u64> = m.pieces.iter().map(|pc| pc.t0 + pc.dur).collect();
     for i in slots..ends.len() {
-        let lead = ends[i - 1].saturating_sub(ends[i - slots]) as f64 / clock_hz;
+        let lead = ends[i - 1].saturating_sub(ends[i - slots]) as f64 / p.clock_hz;
         if lead < ROLL_LEAD_S {
             return Err(format!(
                 "its {} pieces (split at the board's tick width) are more than its {slots} \
@@ -53,31 +48,37 @@ pub(super) fn rolling(
 }
 
 impl Roll {
-    /// The rest of `m` after its first `slots` pieces (loaded before the start); `count`
-    /// and `offset` the axis's then.
-    pub(super) fn new(m: AxisMove, slots: usize, count: i64, offset: i64) -> Roll {
+    /// The later loads of a move of `pieces` pieces (`link::rolling_writes`), `dir` its
+    /// direction; `count` and `offset` the axis's at the start.
+    pub(super) fn new(
+        loads: Vec<link::LateLoad>,
+        pieces: usize,
+        dir: bool,
+        count: i64,
+        offset: i64,
+    ) -> Roll {
         Roll {
-            dir: if m.dir { 1 } else { -1 },
-            freed: m.pieces[0].steps,
-            m,
-            next: slots,
+            loads,
+            next: 0,
+            pieces,
             raw0: count - offset,
+            dir: if dir { 1 } else { -1 },
         }
     }
 
     /// Every piece is loaded.
     pub(super) fn loaded(&self) -> bool {
-        self.next >= self.m.pieces.len()
+        self.next >= self.loads.len()
     }
 
     /// Why a move ended with pieces still to load.
     pub(super) fn why(&self) -> String {
+        let loaded = self.loads.get(self.next).map_or(self.pieces, |l| l.piece);
         format!(
-            "late_pieces: the host loaded the move's pieces too late ({} of {} loaded), so \
-             the board ended it after the last one loaded, short of its target (the count \
-             is exact)",
-            self.next,
-            self.m.pieces.len()
+            "late_pieces: the host loaded the move's pieces too late ({loaded} of {} \
+             loaded), so the board ended it after the last one loaded, short of its target \
+             (the count is exact)",
+            self.pieces
         )
     }
 }
@@ -86,8 +87,6 @@ impl FpgaBackend {
     /// Loads the pieces of `axis`'s running move whose slots its count (as last read)
     /// shows free.
     pub(super) fn feed_roll(&mut self, axis: usize) -> Result<(), LinkError> {
-        let slots = self.params.pieces as usize;
-        let w = self.params.widths()?;
         let ax = &mut self.axes[axis];
         let raw = ax.count - ax.offset;
         let running = ax.running.as_mut().filter(|r| !r.stopping);
@@ -96,18 +95,11 @@ impl FpgaBackend {
         };
         let made = u64::try_from((raw - roll.raw0) * roll.dir).unwrap_or(0);
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
-        let a = axis as u32;
-        while !roll.loaded() && made >= roll.freed {
-            let i = roll.next;
-            let slot = (i % slots) as u32;
-            for wr in link::piece_writes(&w, a, slot, &roll.m.pieces[i]) {
+        while let Some(load) = roll.loads.get(roll.next).filter(|l| made >= l.made) {
+            for wr in &load.writes {
                 l.write(wr.reg, wr.data)?;
             }
-            // the move now ends with this piece
-            let ctl = (u32::from(roll.m.dir) << 31) | slot;
-            l.write(Reg::Core(core_addr(&w, true, a, 1)), ctl)?;
             roll.next += 1;
-            roll.freed += roll.m.pieces[i + 1 - slots].steps;
         }
         Ok(())
     }
@@ -140,12 +132,12 @@ mod tests {
         // them 0.87 s
         let long = segments(&[(0, 900_000, 50), (2000, 36_000_000, 4000)]);
         assert!(AxisMove::from_profile(&long, true, &p).is_err());
-        let m = rolling(&long, true, &p, 18e6).unwrap();
+        let m = rolling(&long, true, &p).unwrap();
         assert_eq!(m.pieces.len(), 36);
         assert_eq!(m.steps(), 4050);
         // 40 segments of 10 ms: 15 of them are 0.15 s
         let short = segments(&[(2000, 180_000, 20); 40]);
-        let e = rolling(&short, true, &p, 18e6).unwrap_err();
+        let e = rolling(&short, true, &p).unwrap_err();
         assert!(e.contains("leaves 0.150 s for piece 16"), "{e}");
     }
 }
