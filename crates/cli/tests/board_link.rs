@@ -623,16 +623,33 @@ fn a_board_reset_mid_move_and_a_cut_link_are_reported_and_survived() {
     assert_eq!((x.position, x.state), (before + 50, AxisState::Idle));
 }
 
+/// A homing search of 2000 steps at 250 steps/s: the 300 steps to the sensor take 1.2 s.
+fn slow_search() -> String {
+    config()
+        .replace("home_speed = 2000.0", "home_speed = 250.0")
+        .replace("home_search = 500", "home_search = 2000")
+}
+
 #[test]
 fn a_homing_search_longer_than_the_boards_pieces_streams_and_halts_on_the_edge() {
-    // At 250 steps/s the 300 steps to the sensor take 1.2 s, beyond the board's pieces
-    // (0.335 s each): the search streams and the board halts it at the Hall edge, which
-    // stays within amax (250 <= sqrt(2 * 40000) = 282.8).
-    let slow = config()
-        .replace("home_speed = 2000.0", "home_speed = 250.0")
-        .replace("home_search = 500", "home_search = 2000");
+    // 1.2 s to the sensor is beyond the board's pieces (0.335 s each): the search streams
+    // and the board halts it at the Hall edge, which stays within amax
+    // (250 <= sqrt(2 * 40000) = 282.8).
     let got = on_both(|pins| {
-        let mut r = Rig::with_config(pins, &slow);
+        let mut r = Rig::with_config(pins, &slow_search());
+        r.home_x_onto_the_edge()
+    });
+    assert_eq!(got, (500, true, true, None));
+}
+
+/// The same search on the iCEBreaker, which cannot stream: its 2000 steps are 135 pieces
+/// of up to 58 ms (21 of them to the sensor) against 16 slots. It is loaded as it runs,
+/// its stop ramp moving on ahead of it from slot to slot, and the board halts it at the
+/// Hall edge: the same home as the simulated board's.
+#[test]
+fn a_homing_search_longer_than_the_slots_is_loaded_as_it_runs_and_halts_on_the_edge() {
+    let got = on_both(|pins| {
+        let mut r = Rig::on_board(pins, &slow_search(), "icebreaker", 1_000_000);
         r.home_x_onto_the_edge()
     });
     assert_eq!(got, (500, true, true, None));

@@ -164,7 +164,7 @@ fn ramps_longer_than_the_tick_bits_are_split() {
     let text = String::from_utf8(o.stdout).unwrap();
     let (p, am) = planned("icebreaker", 5000, [1_800_000, 14_400_000, 1_800_000], 0);
     assert_eq!(am.pieces.len(), 18);
-    let (now, later) = rolling_writes(&p, 0, &am, 0).unwrap();
+    let (now, later) = rolling_writes(&p, 0, &am, 0, None).unwrap();
     let mut want: Vec<(u16, u32)> = now.iter().map(|w| (w.reg.addr(), w.data)).collect();
     want.push((s.reg.addr(), s.data));
     for l in &later {

@@ -355,11 +355,18 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
         .wait(u64::from(deb) - 1)
         .hall(0, false)
         .steps(0, 20);
-    h.s.mark(1)
-        .hall(0, true)
-        .wait(u64::from(deb) + 10)
-        .mark(2)
-        .idle();
+    h.s.mark(1).hall(0, true).wait(u64::from(deb) + 10).mark(2);
+    // diverted to its ramp (1 ms), the axis takes no more pieces: a commit into a slot
+    // it is not in and a control word keeping DIR, taken before the edge, are refused
+    let w = p.widths().unwrap();
+    let diverted = [
+        h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 0)), 1),
+        h.write(
+            Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 1)),
+            1 << 31,
+        ),
+    ];
+    h.s.sync().idle();
     let st1 = h.read(Reg::Axis(0, AxisReg::State));
     let hp = h.read(Reg::Axis(0, AxisReg::HallPosition));
     let pos1 = h.read(Reg::Axis(0, AxisReg::Position));
@@ -377,7 +384,12 @@ fn hall_debounce_latch_stop_ramp_and_limit() {
     h.s.sync();
     let (log, rep) = h.run_in_both(&b, name, 3_000_000);
     for (i, r) in rep.iter().enumerate() {
-        assert_eq!(r.status, Status::Ok, "{name}: request {i}");
+        let want = if diverted.contains(&i) {
+            Status::Busy
+        } else {
+            Status::Ok
+        };
+        assert_eq!(r.status, want, "{name}: request {i}");
     }
     // the synchronized input: high for deb/2 and deb - 1 clocks (glitches), then for good;
     // exactly one accepted Hall edge, the debounce after it rose
@@ -651,19 +663,20 @@ fn bad_frames_are_rejected_and_change_nothing() {
         h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 0)), 0),
         h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 1)), 0),
         h.write(Reg::Axis(0, AxisReg::Position), 77),
-        h.write(Reg::Axis(0, AxisReg::StopSlot), 2),
         h.write(Reg::Board(BoardReg::PulseWidth), 5),
         h.write(Reg::Board(BoardReg::Start), 1),
     ];
     let bad_mask = h.write(Reg::Board(BoardReg::Start), 0b10);
     // what a load while the move runs writes: a commit into a slot the calculator is not
-    // in and a control word keeping DIR (its last slot still 0) are taken
+    // in, a control word keeping DIR (its last slot still 0) and the stop ramp's slot
+    // are taken
     let taken = [
         h.write(Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 0)), 1),
         h.write(
             Reg::Core(multistep_hdl::link::core_addr(&w, true, 0, 1)),
             1 << 31,
         ),
+        h.write(Reg::Axis(0, AxisReg::StopSlot), 2),
     ];
     h.s.sync();
     // garbage without a sync byte, and a truncated frame ended by a pause: no replies
@@ -702,7 +715,7 @@ fn bad_frames_are_rejected_and_change_nothing() {
     );
     assert_eq!(
         (rep[pos].data, rep[slot].data),
-        (300, 0),
+        (300, 2),
         "{name}: position and slot"
     );
     let go = log.go[0];

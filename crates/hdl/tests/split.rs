@@ -10,7 +10,10 @@ use common::{Rng, CLOCK, HZ};
 use multistep_core::int::{IntEdgeGenerator, IntLimitsMove, IntPhaseMove, IntProfile, IntSegment};
 use multistep_core::{Family, Move, PhaseMove};
 use multistep_hdl::boards::Board;
-use multistep_hdl::link::{core_addr, int_profile, move_writes, rolling_writes, Reg};
+use multistep_hdl::link::{
+    core_addr, int_profile, move_writes, piece_writes, rolling_writes, stop_ramp_writes, Reg,
+    RegWrite,
+};
 use multistep_hdl::simulator::Simulator;
 use multistep_hdl::tools::simulate_in;
 use multistep_hdl::{Arch, AxisMove, CoreParams, Design, FitError};
@@ -160,20 +163,15 @@ fn check_split(profile: &IntProfile, dir: bool) -> Result<bool, TestCaseError> {
 /// word then naming its slot the last.
 fn check_rolling_writes(p: &CoreParams, m: &AxisMove) -> Result<(), TestCaseError> {
     let (now, later) =
-        rolling_writes(p, 0, m, 0).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        rolling_writes(p, 0, m, 0, None).map_err(|e| TestCaseError::fail(e.to_string()))?;
     let slots = p.pieces as usize;
-    if m.pieces.len() <= slots {
-        prop_assert_eq!(now, move_writes(p, 0, m, 0).unwrap());
-        prop_assert!(later.is_empty());
-        return Ok(());
-    }
     let w = p.widths().unwrap();
     let first = AxisMove {
         dir: m.dir,
-        pieces: m.pieces[..slots].to_vec(),
+        pieces: m.pieces[..slots.min(m.pieces.len())].to_vec(),
     };
     prop_assert_eq!(now, move_writes(p, 0, &first, 0).unwrap());
-    prop_assert_eq!(later.len(), m.pieces.len() - slots);
+    prop_assert_eq!(later.len(), m.pieces.len().saturating_sub(slots));
     for (l, i) in later.iter().zip(slots..) {
         let made: u64 = m.pieces[..=i - slots].iter().map(|pc| pc.steps).sum();
         prop_assert_eq!((l.piece, l.made), (i, made));
@@ -183,6 +181,38 @@ fn check_rolling_writes(p: &CoreParams, m: &AxisMove) -> Result<(), TestCaseErro
         prop_assert_eq!(commit.data as usize, i % slots);
         prop_assert_eq!(ctl.reg, Reg::Core(core_addr(&w, true, 0, 1)));
         prop_assert_eq!(ctl.data, (u32::from(m.dir) << 31) | (i % slots) as u32);
+    }
+    // with a homing search's stop ramp: slots − 1 pieces ahead, the ramp in the slot after
+    // the last loaded piece, moved on before that slot takes the next piece
+    let ramp = m.pieces[0];
+    let (now, later) = rolling_writes(p, 0, m, 0, Some(&ramp)).unwrap();
+    let ahead = slots - 1;
+    let stop_slot = |slot: usize| stop_ramp_writes(p, 0, slot as u32, &ramp).unwrap();
+    if m.pieces.len() <= ahead {
+        let mut want = move_writes(p, 0, m, 0).unwrap();
+        want.extend(stop_slot(slots - 1));
+        prop_assert_eq!(now, want);
+        prop_assert!(later.is_empty());
+        return Ok(());
+    }
+    let first = AxisMove {
+        dir: m.dir,
+        pieces: m.pieces[..ahead].to_vec(),
+    };
+    let mut want = move_writes(p, 0, &first, 0).unwrap();
+    want.extend(stop_slot(slots - 1));
+    prop_assert_eq!(now, want);
+    prop_assert_eq!(later.len(), m.pieces.len() - ahead);
+    for (l, i) in later.iter().zip(ahead..) {
+        let made: u64 = m.pieces[..=i + 1 - slots].iter().map(|pc| pc.steps).sum();
+        prop_assert_eq!((l.piece, l.made), (i, made));
+        let mut want = stop_slot((i + 1) % slots);
+        want.extend(piece_writes(&w, 0, (i % slots) as u32, &m.pieces[i]));
+        want.push(RegWrite {
+            reg: Reg::Core(core_addr(&w, true, 0, 1)),
+            data: (u32::from(m.dir) << 31) | (i % slots) as u32,
+        });
+        prop_assert_eq!(&l.writes, &want);
     }
     Ok(())
 }

@@ -120,11 +120,19 @@ pub struct LateLoad {
 /// naming the last slot the last) and the later ones, each after the steps that free its
 /// slot. A move that fits the slots has no later loads. `pulse_width` as for
 /// [`move_writes`].
+///
+/// With a Hall stop `ramp` (a homing search) the ramp takes a slot too: the first S − 1
+/// pieces go before the start and the ramp into slot S − 1 ([`stop_ramp_writes`]); piece
+/// i (from S − 1 on) goes into slot i mod S, where the ramp was, once the ramp has moved
+/// on into slot i + 1 mod S, freed by piece i + 1 − S. So the ramp is always loaded and
+/// never in the calculator's way; once the Hall stop has diverted the axis, the board
+/// refuses the axis's later loads (status 4) and the ramp ends the move.
 pub fn rolling_writes(
     p: &CoreParams,
     axis: u32,
     m: &AxisMove,
     pulse_width: u32,
+    ramp: Option<&PieceRegs>,
 ) -> Result<(Vec<RegWrite>, Vec<LateLoad>), LinkError> {
     if axis >= p.axes {
         return Err(LinkError::Axis { axis, axes: p.axes });
@@ -133,27 +141,38 @@ pub fn rolling_writes(
     check_pulse(m, pulse_width)?;
     let w = p.widths()?;
     let slots = (p.pieces as usize).max(1);
+    // the pieces ahead of the calculator at most: every slot, or all but the ramp's
+    let ahead = slots - usize::from(ramp.is_some());
+    if ahead == 0 {
+        return Err(LinkError::Move(format!(
+            "a stop ramp and a move need more than {slots} slot"
+        )));
+    }
     let control = |last: usize| RegWrite {
         reg: Reg::Core(core_addr(&w, true, axis, 1)),
         data: (u32::from(m.dir) << 31) | (last % slots) as u32,
     };
-    let first = m.pieces.len().min(slots);
+    let ramp_into = |slot: usize| match ramp {
+        Some(r) => stop_ramp_writes(p, axis, slot as u32, r),
+        None => Ok(Vec::new()),
+    };
+    let first = m.pieces.len().min(ahead);
     let mut now: Vec<RegWrite> = (m.pieces[..first].iter().enumerate())
         .flat_map(|(slot, pc)| piece_writes(&w, axis, slot as u32, pc))
         .collect();
     now.push(control(first - 1));
-    let later = m
-        .late_pieces(slots)
-        .map(|(i, made)| {
-            let mut writes = piece_writes(&w, axis, (i % slots) as u32, &m.pieces[i]);
-            writes.push(control(i));
-            LateLoad {
-                piece: i,
-                made,
-                writes,
-            }
-        })
-        .collect();
+    now.extend(ramp_into(slots - 1)?);
+    let mut later = Vec::new();
+    for (i, made) in m.late_pieces(ahead) {
+        let mut writes = ramp_into((i + 1) % slots)?;
+        writes.extend(piece_writes(&w, axis, (i % slots) as u32, &m.pieces[i]));
+        writes.push(control(i));
+        later.push(LateLoad {
+            piece: i,
+            made,
+            writes,
+        });
+    }
     Ok((now, later))
 }
 

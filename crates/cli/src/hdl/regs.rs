@@ -103,7 +103,7 @@ pub fn run(a: &RegsArgs) -> anyhow::Result<()> {
             data: d,
         });
     }
-    let (now, later) = rolling_writes(&p, a.axis, &m, a.pulse_width.unwrap_or(0))?;
+    let (now, later) = rolling_writes(&p, a.axis, &m, a.pulse_width.unwrap_or(0), None)?;
     writes.extend(now);
     writes.push(start_write(1 << a.axis));
     let first = writes.len();

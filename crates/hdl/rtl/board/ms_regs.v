@@ -115,6 +115,7 @@ module ms_regs #(
 
     reg [31:0]   dir_setup;
     reg [K-1:0]  hall_stop, limit_stop, stopped, estopped, stop_req;
+    reg [K-1:0]  diverted;     // a Hall stop diverted the busy axis to its stop ramp
     reg [LS-1:0] slot [0:K-1];
     reg [31:0]   free;         // free-running clock count (never reset)
     reg [31:0]   session;      // the host's token; 0 after configuration and every reset
@@ -149,6 +150,7 @@ module ms_regs #(
         estop = 1'b0;
         core_wr = 1'b0;
         divert = {K{1'b0}};
+        diverted = {K{1'b0}};
         s_arm = {K{1'b0}};
         s_retarget = {K{1'b0}};
         s_commit = {K{1'b0}};
@@ -195,11 +197,13 @@ module ms_regs #(
     // A busy axis takes a commit into a slot its calculator is not in and a control word
     // that keeps its DIR: a move of more pieces than slots is loaded while it runs
     // (docs/HDL.md, "Pieces and the calculator"). Its slot is its next period's piece;
-    // the host loads a slot only once the calculator is past it.
+    // the host loads a slot only once the calculator is past it. Once a Hall stop has
+    // diverted it, neither: the stop ramp is its last piece, whatever the host sends.
     assign      core_slot_ax = c_ax[LK-1:0];
     wire        c_busy   = c_cmd && core_busy[c_ax[LK-1:0]] &&
-                           ((c_word == 5'd0) ? (req_data[LS-1:0] == core_slot)
-                                             : (req_data[31] != core_dir[c_ax[LK-1:0]]));
+                           (diverted[c_ax[LK-1:0]] ||
+                            ((c_word == 5'd0) ? (req_data[LS-1:0] == core_slot)
+                                              : (req_data[31] != core_dir[c_ax[LK-1:0]])));
     integer n, i;
     always @(*) begin
         n = 0;
@@ -299,7 +303,9 @@ module ms_regs #(
             endcase
         end else if (ax_ok) begin
             case (areg)
-                4'h1, 4'h4: wst = ax_busy ? E_BUSY : OK;
+                4'h1: wst = ax_busy ? E_BUSY : OK;
+                // StopSlot: the stop ramp moves as a move loaded while it runs takes slots
+                4'h4: wst = OK;
                 // StreamSteps of an axis replaying a stream: its new step count
                 4'h5: wst = (ax_busy && !s_more[ax[LK-1:0]]) ? E_BUSY : OK;
                 4'h8: wst = (CHAINS == 0) ? E_ADDR : ax_busy ? E_BUSY : OK;
@@ -323,6 +329,7 @@ module ms_regs #(
         stop_req <= cut_mask;
         arm_cut  <= arm_expire;
         divert   <= hall_edge & hall_stop & core_busy;
+        diverted <= (diverted | (hall_edge & hall_stop)) & core_busy;
         s_arm    <= {K{1'b0}};
         s_retarget <= {K{1'b0}};
         s_commit <= {K{1'b0}};

@@ -224,6 +224,25 @@ impl FpgaBackend {
         let m = self
             .computed(ip, l.dir > 0, l.stop_on_sensor)
             .map_err(|e| CtlError::Setting(format!("the board cannot run this move: {e}")))?;
+        let homing = l.stop_on_sensor == Some(true);
+        let slots = self.params.pieces as usize;
+        // a homing search's stop ramp takes a slot: the pieces ahead of the calculator
+        // have the rest
+        let ahead = slots - usize::from(homing);
+        if homing && self.streams && m.pieces.len() > ahead {
+            // its pieces, split to the tick width, take every slot: stream it
+            return self.load_streamed(l, now);
+        }
+        let mut ramp = None;
+        let mut ramp_steps = 0;
+        if homing {
+            let amax = self.axes[l.axis].settings.amax;
+            let (profile, steps) = self.stop_ramp(l.profile.peak_speed(), amax)?;
+            let rm = AxisMove::from_profile(&profile, l.dir > 0, &self.params)
+                .map_err(|e| CtlError::Setting(format!("the Hall stop ramp: {e}")))?;
+            ramp = Some(rm.pieces[0]);
+            ramp_steps = steps;
+        }
         let mut w = vec![link::RegWrite {
             reg: Reg::Board(BoardReg::Clear),
             data: 1 << a,
@@ -235,38 +254,23 @@ impl FpgaBackend {
                 data: 0,
             });
         }
-        // more pieces than slots: the first ones now, the rest as the move runs
+        // more pieces than the slots ahead: the first ones now, the rest as the move runs
         let mut roll = None;
-        if m.pieces.len() > self.params.pieces as usize {
-            let (now, later) = link::rolling_writes(&self.params, a, &m, 0).map_err(link_err)?;
+        if m.pieces.len() > ahead {
+            let (now, later) =
+                link::rolling_writes(&self.params, a, &m, 0, ramp.as_ref()).map_err(link_err)?;
             w.extend(now);
             let ax = &self.axes[l.axis];
             let pieces = m.pieces.len();
             roll = Some(roll::Roll::new(later, pieces, m.dir, ax.count, ax.offset));
         } else {
             w.extend(link::move_writes(&self.params, a, &m, 0).map_err(link_err)?);
-        }
-        let mut ramp_steps = 0;
-        if l.stop_on_sensor == Some(true) {
-            let slot = self.params.pieces - 1;
-            if m.pieces.len() as u32 > slot {
-                // its pieces, split to the tick width, take every slot: stream it
-                if self.streams {
-                    return self.load_streamed(l, now);
-                }
-                return Err(CtlError::Setting(format!(
-                    "a homing move of {} pieces leaves no slot for the stop ramp",
-                    m.pieces.len()
-                )));
+            if let Some(r) = &ramp {
+                let slot = self.params.pieces - 1;
+                w.extend(link::stop_ramp_writes(&self.params, a, slot, r).map_err(link_err)?);
             }
-            let amax = self.axes[l.axis].settings.amax;
-            let (ramp, steps) = self.stop_ramp(l.profile.peak_speed(), amax)?;
-            let rm = AxisMove::from_profile(&ramp, l.dir > 0, &self.params)
-                .map_err(|e| CtlError::Setting(format!("the Hall stop ramp: {e}")))?;
-            w.extend(
-                link::stop_ramp_writes(&self.params, a, slot, &rm.pieces[0]).map_err(link_err)?,
-            );
-            ramp_steps = steps;
+        }
+        if homing {
             self.hall_stop |= 1 << a;
         } else {
             self.hall_stop &= !(1 << a);
@@ -285,19 +289,19 @@ impl FpgaBackend {
 
     /// `ip` as the board computes it: in its slots, or on a board without replay units
     /// (where it cannot stream) loaded while it runs when it has more pieces than slots
-    /// (not a homing search, whose stop ramp takes the last slot).
+    /// (a homing search: than the slots its stop ramp leaves).
     pub(super) fn computed(
         &self,
         ip: &IntProfile,
         dir: bool,
         stop_on_sensor: Option<bool>,
     ) -> Result<AxisMove, String> {
-        AxisMove::from_profile(ip, dir, &self.params).or_else(|e| {
-            if self.streams || stop_on_sensor == Some(true) {
-                return Err(e.to_string());
-            }
-            roll::rolling(ip, dir, &self.params)
-        })
+        let ahead = self.params.pieces as usize - usize::from(stop_on_sensor == Some(true));
+        match AxisMove::from_profile(ip, dir, &self.params) {
+            Ok(m) if self.streams || m.pieces.len() <= ahead => Ok(m),
+            Err(e) if self.streams => Err(e.to_string()),
+            _ => roll::rolling(ip, dir, &self.params, ahead),
+        }
     }
 }
 

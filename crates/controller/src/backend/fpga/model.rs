@@ -45,6 +45,10 @@ pub struct Model {
     pub position_reads: [usize; 2],
     /// The Hall and limit filter time written, ticks.
     pub debounce: u32,
+    /// Commits and control words to the core are refused with status 4 (a Hall stop
+    /// diverted the axis), and counted.
+    pub refuse_core: bool,
+    pub refused: usize,
     last: Option<(Vec<u8>, Reply)>,
     out: Vec<u8>,
 }
@@ -149,6 +153,11 @@ impl Model {
                 (Status::Ok, 0)
             }
             (0x10 | 0x12 | 0x16 | 0x17, true) => (Status::Ok, 0),
+            // the core's commands: bit 6 of its address (AW = 7 for two axes)
+            (0x1040..=0x107F, true) if self.refuse_core => {
+                self.refused += 1;
+                (Status::Busy, 0)
+            }
             (0x1000..=0x1FFF, true) => (Status::Ok, 0),
             (0x2000..=0x201F, false) if ar == 0 => {
                 let busy = self.busy >> a & 1 == 1;

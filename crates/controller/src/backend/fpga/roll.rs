@@ -27,19 +27,25 @@ pub(super) struct Roll {
 }
 
 /// `ip` split to the widths of a board of `p`, however many pieces that takes, for a
-/// load while it runs: refused when a piece's load would come less than [`ROLL_LEAD_S`]
-/// before the board needs it.
-pub(super) fn rolling(ip: &IntProfile, dir: bool, p: &CoreParams) -> Result<AxisMove, String> {
+/// load while it runs with `ahead` slots for its pieces (all, or all but a homing
+/// search's stop ramp's): refused when a piece's load would come less than
+/// [`ROLL_LEAD_S`] before the board needs it.
+pub(super) fn rolling(
+    ip: &IntProfile,
+    dir: bool,
+    p: &CoreParams,
+    ahead: usize,
+) -> Result<AxisMove, String> {
     let m = AxisMove::rolling(ip, dir, p).map_err(|e| e.to_string())?;
-    let slots = p.pieces as usize;
+    let ahead = ahead.max(1);
     let ends: Vec<u64> = m.pieces.iter().map(|pc| pc.t0 + pc.dur).collect();
-    for i in slots..ends.len() {
-        let lead = ends[i - 1].saturating_sub(ends[i - slots]) as f64 / p.clock_hz;
+    for i in ahead..ends.len() {
+        let lead = ends[i - 1].saturating_sub(ends[i - ahead]) as f64 / p.clock_hz;
         if lead < ROLL_LEAD_S {
             return Err(format!(
-                "its {} pieces (split at the board's tick width) are more than its {slots} \
-                 slots, and loading them as the move runs leaves {lead:.3} s for piece {i} \
-                 (at least {ROLL_LEAD_S} s)",
+                "its {} pieces (split at the board's tick width) are more than the {ahead} \
+                 slots it has, and loading them as the move runs leaves {lead:.3} s for \
+                 piece {i} (at least {ROLL_LEAD_S} s)",
                 m.pieces.len(),
             ));
         }
@@ -90,6 +96,9 @@ impl FpgaBackend {
         let ax = &mut self.axes[axis];
         let raw = ax.count - ax.offset;
         let running = ax.running.as_mut().filter(|r| !r.stopping);
+        let running_homing = running
+            .as_ref()
+            .is_some_and(|r| r.stop_on_sensor == Some(true));
         let Some(roll) = running.and_then(|r| r.roll.as_mut()) else {
             return Ok(());
         };
@@ -97,7 +106,18 @@ impl FpgaBackend {
         let l = self.link.as_mut().ok_or(LinkError::Io("no link".into()))?;
         while let Some(load) = roll.loads.get(roll.next).filter(|l| made >= l.made) {
             for wr in &load.writes {
-                l.write(wr.reg, wr.data)?;
+                match l.write(wr.reg, wr.data) {
+                    // a Hall stop has diverted a homing search to its ramp since the
+                    // state was read: the board takes no more pieces, nor needs them
+                    Err(LinkError::Refused {
+                        status: Status::Busy,
+                        ..
+                    }) if running_homing => {
+                        roll.next = roll.loads.len();
+                        return Ok(());
+                    }
+                    r => r?,
+                }
             }
             roll.next += 1;
         }
@@ -125,6 +145,62 @@ mod tests {
         IntProfile::segments(&segs, IntClock::hz(18_000_000)).unwrap()
     }
 
+    /// A load refused as busy (the board's answer once a Hall stop has diverted the axis
+    /// to its ramp) ends a homing search's loads quietly, the ramp ending the move; any
+    /// other move's is a link error.
+    #[test]
+    fn a_busy_refusal_ends_a_searchs_loads_and_fails_any_other_move() {
+        use super::super::model::connect;
+        let (mut b, m) = connect();
+        let w = b.params.widths().unwrap();
+        let commit = link::RegWrite {
+            reg: Reg::Core(core_addr(&w, true, 0, 0)),
+            data: 1,
+        };
+        let load = |piece| link::LateLoad {
+            piece,
+            made: 0,
+            writes: vec![commit],
+        };
+        for (search, ok) in [(Some(true), true), (None, false)] {
+            b.axes[0].running = Some(Running {
+                dir: 1,
+                stop_on_sensor: search,
+                stopping: false,
+                end_tick: 0,
+                ramp_steps: 0,
+                wraps: 0,
+                roll: Some(Roll::new(vec![load(4), load(5)], 6, true, 0, 0)),
+            });
+            m.lock().unwrap().refuse_core = true;
+            let r = b.feed_roll(0);
+            assert_eq!(r.is_ok(), ok, "{search:?}: {r:?}");
+            if !ok {
+                assert!(
+                    matches!(
+                        r,
+                        Err(LinkError::Refused {
+                            status: Status::Busy,
+                            ..
+                        })
+                    ),
+                    "{r:?}"
+                );
+            }
+            let roll = b.axes[0].running.as_ref().unwrap().roll.as_ref().unwrap();
+            assert_eq!(roll.loaded(), ok, "{search:?}");
+            assert_eq!(m.lock().unwrap().refused, 1, "one refusal, no retry");
+            m.lock().unwrap().refused = 0;
+        }
+        // taken, both loads go
+        m.lock().unwrap().refuse_core = false;
+        let r = b.axes[0].running.as_mut().unwrap();
+        r.roll = Some(Roll::new(vec![load(4), load(5)], 6, true, 0, 0));
+        b.feed_roll(0).unwrap();
+        let roll = b.axes[0].running.as_ref().unwrap().roll.as_ref().unwrap();
+        assert!(roll.loaded());
+    }
+
     #[test]
     fn pieces_of_58_ms_roll_and_pieces_of_10_ms_leave_too_little_lead() {
         let p = icebreaker();
@@ -132,12 +208,12 @@ mod tests {
         // them 0.87 s
         let long = segments(&[(0, 900_000, 50), (2000, 36_000_000, 4000)]);
         assert!(AxisMove::from_profile(&long, true, &p).is_err());
-        let m = rolling(&long, true, &p).unwrap();
+        let m = rolling(&long, true, &p, 16).unwrap();
         assert_eq!(m.pieces.len(), 36);
         assert_eq!(m.steps(), 4050);
         // 40 segments of 10 ms: 15 of them are 0.15 s
         let short = segments(&[(2000, 180_000, 20); 40]);
-        let e = rolling(&short, true, &p).unwrap_err();
+        let e = rolling(&short, true, &p, 16).unwrap_err();
         assert!(e.contains("leaves 0.150 s for piece 16"), "{e}");
     }
 }
