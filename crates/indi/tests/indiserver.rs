@@ -853,8 +853,10 @@ fn the_telescope_slews_aborts_tracks_guides_and_parks() {
     while mount("slewing") == "1" {
         assert!(Instant::now() < end, "the abort did not stop the slew");
     }
+    // short of the target (a finished slew ends within 1"); on a loaded machine the
+    // abort has come as late as 0.125 degrees before it
     let dec: f64 = mount("dec").parse().unwrap();
-    assert!(dec < 29.0 && dec > -15.0, "{dec}");
+    assert!(dec < 29.0 && dec > -20.0 + 0.01, "{dec}");
 
     // Guiding: Busy for the pulse, Ok after, the duration back at 0.
     let ns = format!("{M}.TELESCOPE_TIMED_GUIDE_NS");
