@@ -1234,14 +1234,7 @@ fn a_board_without_replay_units_refuses_streamed_moves_and_tracking() {
     r.req("move X 900 vmax=2000");
     let x = r.wait_idle("X");
     assert_eq!((x.position, x.state), (900, AxisState::Idle));
-    let [ex, _] = r.move_edges([0, 0], 900);
-    let params = multistep_core::MoveParams {
-        vmax: Some(2000.0),
-        amax: Some(40000.0),
-        ..Default::default()
-    };
-    same_edges("X", &ex, &plan_edges_at("trapezoid", 900, params, 18e6));
-    assert_eq!(r.check_counters()[0], 900, "the board's Position register");
+    x_ran_plans_trapezoid_on_the_icebreaker(&mut r, 900);
 }
 
 /// A computed move of more pieces than the board's slots on the iCEBreaker (no replay
@@ -1258,14 +1251,24 @@ fn a_move_of_more_pieces_than_slots_is_loaded_while_it_runs() {
         (x.position, x.state, x.fault),
         (5000, AxisState::Idle, None)
     );
-    let [ex, _] = r.move_edges([0, 0], 5000);
+    x_ran_plans_trapezoid_on_the_icebreaker(&mut r, 5000);
+}
+
+/// X's edges are plan's trapezoid of `steps` at 2000 steps/s (the config's 40 000
+/// steps/s²) on the iCEBreaker's 18 MHz clock, and the board's Position register agrees.
+fn x_ran_plans_trapezoid_on_the_icebreaker(r: &mut Rig, steps: u64) {
+    let [ex, _] = r.move_edges([0, 0], steps as usize);
     let params = multistep_core::MoveParams {
         vmax: Some(2000.0),
         amax: Some(40000.0),
         ..Default::default()
     };
-    same_edges("X", &ex, &plan_edges_at("trapezoid", 5000, params, 18e6));
-    assert_eq!(r.check_counters()[0], 5000, "the board's Position register");
+    same_edges("X", &ex, &plan_edges_at("trapezoid", steps, params, 18e6));
+    assert_eq!(
+        r.check_counters()[0],
+        steps as i64,
+        "the board's Position register"
+    );
 }
 
 /// The same move with the link cut 0.3 s after the start, for 2 s of the board's time: the board

@@ -2,9 +2,14 @@
 //! board without replay units, where it cannot stream): its first pieces before the
 //! start, then piece i into slot i mod S once the axis has made the steps of piece i − S
 //! (the board's calculator runs ahead of its pulse unit, so it is past that piece), the
-//! axis control word then naming that slot the last (`AxisMove::rolling`; docs/HDL.md,
-//! "Pieces and the calculator"). Pieces are loaded at each poll; if they come too late,
-//! the board ends the move after the last piece loaded, and its end says so.
+//! axis control word then naming that slot the last (`link::rolling_writes`; docs/HDL.md,
+//! "Pieces and the calculator"). A homing search keeps one slot for its stop ramp: its
+//! pieces take the other S − 1, and before piece i goes to slot i mod S the ramp moves on
+//! to slot (i + 1) mod S, so the StopSlot the board diverts to on the Hall edge is always
+//! one the calculator has not reached. Pieces are loaded at each poll; if they come too
+//! late, the board ends the move after the last piece loaded, and its end says so; once a
+//! Hall stop has diverted the axis the board refuses further loads (busy), which ends the
+//! roll.
 
 use super::*;
 
