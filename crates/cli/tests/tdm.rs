@@ -103,7 +103,7 @@ fn sweep_prints_k_max_and_writes_an_svg() {
         "tdm",
         "--sweep",
         "--rates",
-        "80000:100000:2",
+        "120000:140000:2",
         "--max-axes",
         "16",
         "--fifo-depths",
@@ -117,10 +117,10 @@ fn sweep_prints_k_max_and_writes_an_svg() {
     let v: Value = serde_json::from_str(&out).unwrap();
     let rows = v["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 2);
-    assert_eq!(rows[1]["k_eq12"], 500 / 50);
+    assert_eq!(rows[1]["k_eq12"], 357 / 51);
     // identical cruising moves started together: eq. (12) is exact with 4 slots. With one,
-    // the scheduler sees the slot a rise frees a tick later: k·50 ≤ Δt_min − 1, one axis
-    // short where Δt_min is a multiple of 50 (500 at 100 k), as at 625 (80 k)
+    // the scheduler sees the slot a rise frees a tick later: k·51 ≤ Δt_min − 1, one axis
+    // short where Δt_min is a multiple of 51 (357 at 140 k), not at 416 (120 k)
     for (r, short) in rows.iter().zip([0, 1]) {
         for s in r["series"].as_array().unwrap() {
             let eq12 = r["k_eq12"].as_u64().unwrap();

@@ -34,7 +34,7 @@ backlash = 700
 
 [[axis]]
 name = "M"
-vmax = 20000.0
+vmax = 19000.0
 amax = 50000.0
 jmax = 400000.0
 backlash = 700

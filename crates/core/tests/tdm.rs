@@ -92,21 +92,21 @@ fn seed000_two_axis_run_passes_with_fifo_depth_1() {
         assert!(r.min_slack_ticks > 0);
         assert_eq!(r.edges, 4200);
         assert_eq!(r.start_skew_ticks, 0);
-        // prefill: one period per axis, 50 cycles each
-        assert_eq!(r.start_tick, 2 * 50);
+        // prefill: one period per axis, 51 cycles each
+        assert_eq!(r.start_tick, 2 * 51);
         // both moves end at 50 ms: round(f·T) = 2.5 M ticks after the common start
         assert_eq!(pulses[0].last().unwrap().rise, r.start_tick + 2_500_000);
         assert_eq!(pulses[1].last().unwrap().rise, r.start_tick + 2_500_000);
         check_against_plan(&r, &axes, &pulses, F);
         let u = r.calculator_utilization();
         assert!(u > 0.0 && u < 0.2, "{u}");
-        assert_eq!(r.busy_cycles, 4200 * 50);
+        assert_eq!(r.busy_cycles, 4200 * 51);
     }
 }
 
 #[test]
 fn overloaded_board_reports_underruns_and_the_exact_delay() {
-    // 32 axes at 100 k steps/s: 500-tick periods, 50 cycles each: about 3× overload
+    // 32 axes at 100 k steps/s: 500-tick periods, 51 cycles each: about 3× overload
     let p = rate_move(100e3, 0.02, 0.01, 0.02).unwrap();
     let mut axes: Vec<Axis> = (0..32).map(|_| Axis::new(p.clone(), F).unwrap()).collect();
     for policy in [Policy::RoundRobin, Policy::EarliestDeadline] {
@@ -146,7 +146,7 @@ fn start_waits_for_prefill_and_dir_setup() {
         ..TdmConfig::default()
     };
     let (r, _) = run(cfg, &mut axes);
-    assert_eq!(r.start_tick, 6 * 50, "3 periods for each of 2 axes");
+    assert_eq!(r.start_tick, 6 * 51, "3 periods for each of 2 axes");
     let cfg = TdmConfig {
         fifo_depth: 3,
         latencies: Latencies::RADIX4_PIPELINED,
@@ -155,7 +155,7 @@ fn start_waits_for_prefill_and_dir_setup() {
     let (r, pulses) = run(cfg, &mut axes);
     assert_eq!(
         r.start_tick,
-        5 * 32 + 50,
+        5 * 32 + 51,
         "6 periods started 32 cycles apart"
     );
     check_against_plan(&r, &axes, &pulses, F);
@@ -240,14 +240,14 @@ fn k_max_at_100k_steps_per_s_against_eq12() {
         (km.k_max as u64, km.k_eq12)
     };
     // one period at a time, identical moves started together: every common edge needs k
-    // periods within the shortest period, which is eq. (12): 500/50. With one FIFO slot
-    // they are computed after the rise that empties it, and the scheduler sees that room
-    // a tick later: k·50 ≤ 500 − 1, one axis short of eq. (12)
-    assert_eq!(k(Latencies::RADIX4, 1), (9, 10));
-    // a second slot hides that tick: eq. (12) exactly
-    assert_eq!(k(Latencies::RADIX4, 4), (10, 10));
-    // pipelined: t_calc = 32 but each period takes 50 cycles to arrive. With depth 1 the
-    // k-th period of a common edge is ready (k−1)·32 + 50 + 1 after it: k ≤ (500−51)/32 + 1
+    // periods within the shortest period, which is eq. (12): ⌊500/51⌋ = 9. With one FIFO
+    // slot they are computed after the rise that empties it, and the scheduler sees that
+    // room a tick later: k·51 ≤ 500 − 1, still 9 (at 50 cycles a period it was one short)
+    assert_eq!(k(Latencies::RADIX4, 1), (9, 9));
+    // a second slot: eq. (12) exactly
+    assert_eq!(k(Latencies::RADIX4, 4), (9, 9));
+    // pipelined: t_calc = 32 but each period takes 51 cycles to arrive. With depth 1 the
+    // k-th period of a common edge is ready (k−1)·32 + 51 + 1 after it: k ≤ (500−52)/32 + 1
     assert_eq!(k(Latencies::RADIX4_PIPELINED, 1), (15, 15));
     // a second FIFO slot hides the latency: eq. (12) again
     assert_eq!(k(Latencies::RADIX4_PIPELINED, 2), (15, 15));

@@ -36,14 +36,15 @@
 //              in a clock with calc_push (the decoder waits): the FIFOs then share one
 //              write-data multiplexer instead of one each.
 //
-// Timing: one period takes exactly ND + NS + NQ + 4 cycles: select (the piece memory is
-// read), the calculator's ND + NS + NQ + 2, and the FIFO write; the next select follows.
+// Timing: one period takes exactly ND + NS + NQ + 5 cycles: select (the piece memory and
+// dy's are read), dy into its register, the calculator's ND + NS + NQ + 2, and the FIFO
+// write; the next select follows.
 // With RECUR = 1 a step after the move's first two, on a piece with hi > 0, is found by
 // ms_recur (multistep_core::int::recurrence) from the prediction of the last three periods:
 // select, the prediction, ms_recur's LR + 1 + moves and the FIFO write, LR + 4 + moves
 // cycles (LR: ms_recur's clocks to U). A walk that fails hands the step to the closed form
-// two cycles after its answer, so the step costs the two sums exactly (the core TDM
-// model's RecurrenceClocks { jump: LR + 4, tick: 1, closed: ND + NS + NQ + 4 }).
+// three cycles after its answer, so the step costs the two sums exactly (the core TDM
+// model's RecurrenceClocks { jump: LR + 4, tick: 1, closed: ND + NS + NQ + 5 }).
 module ms_core #(
     parameter K   = 2,
     parameter LK  = 1,     // axis index bits (>= 1)
@@ -58,7 +59,7 @@ module ms_core #(
     parameter RB  = 2,
     parameter MD  = 16,
     parameter AW  = 7,     // 1 + LK + 5
-    parameter LUTRAM = 0,  // 1: the family has distributed RAM (ECP5): dy's memory is there
+    parameter LUTRAM = 0,  // 1: the family has distributed RAM (ECP5): state there, dy registered
     parameter RECUR = 0,   // 1: the per-step recurrence (ms_recur) beside the closed form
     parameter SHARED = 0,  // 1: one replayed period bus for all axes (above)
     /* verilator lint_off UNUSEDPARAM */  // the recurrence's, unused without it
@@ -134,11 +135,12 @@ module ms_core #(
     // divert's): a read never meets a write to its own address, so synthesis needs no
     // bypass for that case (on iCE40 a 188-bit register and its multiplexer). The piece
     // is in block RAM on every family (on ECP5 yosys would pick distributed RAM: 1203
-    // more logic sites in the 8-axis ULX3S build, docs/HDL.md), but for dy: the
-    // multiplier takes it in the calculator's first cycle, too late after the block RAM's
-    // 5.8 ns clock-to-output at 50 MHz on ECP5, so it has its own memory (distributed RAM
-    // there, LUTRAM = 1: yosys would pick block RAM from 64 words on, 47.87 MHz routed in
-    // the 14-axis ULX3S build) read into flip-flops.
+    // more logic sites in the 8-axis ULX3S build, docs/HDL.md). dy has a block RAM of its
+    // own: the multiplier takes it in the calculator's first cycle, and straight from the
+    // block RAM's 5.8 ns clock-to-output that missed 50 MHz on ECP5 (47.87 MHz routed in
+    // the 14-axis ULX3S build), so there (LUTRAM = 1) it passes through a register, and on
+    // every family the calculator starts two clocks after select (one count of cycles for
+    // all). In distributed RAM it cost the 14-axis ULX3S build 1 491 more LUTs.
     (* no_rw_check, ram_style = "block" *)
     reg [WP-WY-1:0] pmem [0:(1<<(LK+LS))-1];
     always @(posedge clk) begin
@@ -154,7 +156,7 @@ module ms_core #(
     reg  [K-1:0]   init_pend;
     reg  [K-1:0]   calc_act;
     reg            sel;       // free to select (no period in flight)
-    reg            cstart;    // the calculator's start cycle
+    reg            cstart;    // the cycle after select (dy into its register)
     reg  [LK-1:0]  m;         // axis in the calculator
     wire [WST-1:0] cur;       // m's state, read at select
     reg  [WP-WY-1:0] rd;      // m's piece but dy, read at select
@@ -202,19 +204,19 @@ module ms_core #(
     wire do_sel  = sel && !ini_any && pick_any;
     wire [LS-1:0] pick_slot;   // the picked axis's slot, read without a clock (below)
 
-    // dy's memory and the register it is read into at select (ram_style is not a value a
-    // parameter can set, so one memory per choice; iCE40 has no distributed RAM)
+    // dy's memory, read at select, and on ECP5 the register the multiplier reads it from
     generate
-        if (LUTRAM != 0) begin : dy_lutram
-            (* no_rw_check, ram_style = "distributed" *)
+        if (LUTRAM != 0) begin : dy_reg
+            (* no_rw_check, ram_style = "block" *)
             reg [WY-1:0] dmem [0:(1<<(LK+LS))-1];
-            reg [WY-1:0] q;
+            reg [WY-1:0] q, qr;
             always @(posedge clk) begin
                 if (commit) dmem[{wax, wr_data[LS-1:0]}] <= stg[4*32 +: WY];
                 if (do_sel) q <= dmem[{pick, pick_slot}];
+                if (cstart) qr <= q;
             end
-            assign rdy = q;
-        end else begin : dy_any
+            assign rdy = qr;
+        end else begin : dy_direct
             (* no_rw_check *)
             reg [WY-1:0] dmem [0:(1<<(LK+LS))-1];
             reg [WY-1:0] q;
@@ -312,12 +314,21 @@ module ms_core #(
             wire signed [WG-1:0] last_l = $signed({4'b0, c_last}) - $signed({4'b0, c_base})
                                         - $signed({4'b0, k_t0});
             reg signed [WG-1:0] g_d, g_l;
-            reg                 rgo, fa1, fa2;
+            reg                 rgo, fa1, fa2, fa3;
+            reg                 cgo_c;  // the closed form starts (the clock after cstart)
             reg [WU-1:0]        m4_q;   // the step's 4M
             reg [WU-1:0]        m4_n;   // the next step's, settled long before done
             wire                r_fail;
+            initial begin
+                rgo = 1'b0;
+                cgo_c = 1'b0;
+                fa1 = 1'b0;
+                fa2 = 1'b0;
+                fa3 = 1'b0;
+            end
             always @(posedge clk) begin
-                rgo <= cstart && use_r;
+                rgo   <= cstart && use_r;
+                cgo_c <= cstart && !use_r;
                 if (cstart) begin
                     g_d  <= delta;
                     g_l  <= last_l;
@@ -326,6 +337,7 @@ module ms_core #(
                 m4_n <= m4_q + r_4den;
                 fa1  <= r_fail;
                 fa2  <= fa1;
+                fa3  <= fa2;
             end
             // the walk's first tick: the prediction clamped to [1, hi]
             wire signed [WG-1:0] guess = g_l + g_d;
@@ -338,8 +350,9 @@ module ms_core #(
                 .hi(r_hi), .two_a(r_2a), .b(r_b), .m4(m4_q), .busy(), .done(r_done),
                 .fail(r_fail), .at(r_at), .moves());
             /* verilator lint_on PINCONNECTEMPTY */
-            // a failed walk's step takes the closed form two cycles after the answer
-            assign c_start = (cstart && !use_r) || fa2;
+            // a failed walk's step takes the closed form three cycles after the answer (a
+            // closed-form step's select, dy's register and its start: the step costs both)
+            assign c_start = cgo_c || fa3;
             wire [2:0]     known_n = (known == 3'd4) ? known : known + 3'd1;
             wire [WRS-1:0] rs_next = {known_n, period[WD-1:0], p1, p2, m4_n};
             always @(posedge clk) begin
@@ -357,7 +370,11 @@ module ms_core #(
                 end
             end
         end else begin : closed
-            assign c_start = cstart;
+            // the calculator starts the clock after cstart (dy's register)
+            reg cgo;
+            initial cgo = 1'b0;
+            always @(posedge clk) cgo <= cstart;
+            assign c_start = cgo;
             assign r_done  = 1'b0;
             assign r_at    = {WQ{1'b0}};
         end

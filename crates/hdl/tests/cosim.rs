@@ -361,7 +361,7 @@ fn overloaded_core_equals_the_model_edge_by_edge() {
         }])
     };
     let mut rng = Rng(0x0be2_10ad);
-    // (axes, FIFO depth, radix bits, moves): 200 k steps/s against 6 x 50 cycles; 16 axes
+    // (axes, FIFO depth, radix bits, moves): 200 k steps/s against 6 x 51 cycles; 16 axes
     // waiting longer than half a period; radix 2 with mixed random moves
     let runs: Vec<(u32, u32, u32, Vec<IntMove>)> = vec![
         (6, 2, 2, vec![fast(200_000, 200); 6]),

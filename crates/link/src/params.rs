@@ -306,9 +306,9 @@ impl Widths {
     }
 
     /// The RTL's cycles per period besides the three units (`ms_core.v`): select (piece
-    /// memory read), the radicand add (square-root load), the numerator (divider load),
-    /// the FIFO write.
-    pub const OVERHEAD_CYCLES: u32 = 4;
+    /// memory read), dy into its register (out of block RAM, before the multiplier), the
+    /// radicand add (square-root load), the numerator (divider load), the FIFO write.
+    pub const OVERHEAD_CYCLES: u32 = 5;
 
     /// Cycles from one period's select to the next select (the same for every mode).
     pub fn period_cycles(&self) -> u32 {
@@ -392,14 +392,14 @@ mod tests {
             (w.mul_cycles(), w.sqrt_cycles(), w.div_cycles()),
             (2, 32, 12)
         );
-        assert_eq!(w.period_cycles(), 50);
-        assert_eq!(w.latencies().latency(), 50);
-        assert_eq!(w.latencies().interval(), 50);
+        assert_eq!(w.period_cycles(), 51);
+        assert_eq!(w.latencies().latency(), 51);
+        assert_eq!(w.latencies().interval(), 51);
         let r2 = CoreParams {
             radix_bits: 1,
             ..Default::default()
         };
-        assert_eq!(r2.widths().unwrap().period_cycles(), 2 + 64 + 24 + 4);
+        assert_eq!(r2.widths().unwrap().period_cycles(), 2 + 64 + 24 + 5);
     }
 
     /// The core TDM model's default calculator is this RTL at its default parameters.

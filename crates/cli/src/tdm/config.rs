@@ -23,7 +23,7 @@ pub struct ConfigFile {
     /// round-robin (default) or earliest-deadline; `--policy` overrides it.
     pub policy: Option<String>,
     /// Calculator latencies in cycles, 0 to 2³² − 1 each, not all 0 (defaults: the radix-4
-    /// datapath of the Verilog core, 50 cycles/period).
+    /// datapath of the Verilog core, 51 cycles/period).
     pub mul_cycles: Option<u32>,
     pub div_cycles: Option<u32>,
     pub sqrt_cycles: Option<u32>,

@@ -70,11 +70,11 @@ pub struct RecurrenceClocks {
 impl RecurrenceClocks {
     /// The Verilog unit `ms_recur` (crates/hdl, 50 MHz on an ECP5): 5 clocks for the jump
     /// and the first test, one per tick moved; the closed form as the current core
-    /// computes it at its default widths (`tdm::Latencies::RADIX4`: 50 clocks).
+    /// computes it at its default widths (`tdm::Latencies::RADIX4`: 51 clocks).
     pub const MODEL: RecurrenceClocks = RecurrenceClocks {
         jump: 5,
         tick: 1,
-        closed: 50,
+        closed: 51,
     };
 
     /// A model for a chain's jump: Newton's formula for R and Δ¹…Δ⁴ is ten products of

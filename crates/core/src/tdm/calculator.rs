@@ -20,13 +20,14 @@
 //! Default latencies ([`Latencies::RADIX4`]) are those of the Verilog core in
 //! `crates/hdl` at its default parameters (`multistep_hdl::Widths::latencies`, checked by
 //! a test there): the 20-bit step index in 16-bit digits (2 cycles), the 64-bit root at 2
-//! bits per cycle (32), the 24-bit quotient at 2 bits per cycle (12), and 4 state-machine
-//! cycles (select and piece-memory read, radicand add, numerator, FIFO write): 50 cycles
-//! per period, so at 50 MHz one calculator serves 10 axes at 100 000 steps/s by seed
-//! eq. (12). The three units are separate (seed 000 §1.2: one multiplier, one divider, one
-//! square-root unit), so a state machine could also overlap different axes' periods, each
-//! in a different unit (seed 000 §2.2 pipelines its flow): then a period is still 50 cycles
-//! from start to FIFO, but a new one starts every 32 cycles, the busiest unit's occupancy
+//! bits per cycle (32), the 24-bit quotient at 2 bits per cycle (12), and 5 state-machine
+//! cycles (select and piece-memory read, dy into the register before the multiplier,
+//! radicand add, numerator, FIFO write): 51 cycles per period, so at 50 MHz one calculator
+//! serves 9 axes at 100 000 steps/s by seed eq. (12). The three units are separate (seed
+//! 000 §1.2: one multiplier, one divider, one square-root unit), so a state machine could
+//! also overlap different axes' periods, each in a different unit (seed 000 §2.2 pipelines
+//! its flow): then a period is still 51 cycles from start to FIFO, but a new one starts
+//! every 32 cycles, the busiest unit's occupancy
 //! ([`Latencies::RADIX4_PIPELINED`], a model only: the RTL runs one period at a time).
 
 /// Operation latencies of the period calculator, in clock cycles.
@@ -48,17 +49,17 @@ pub struct Latencies {
 impl Latencies {
     pub const MULS_PER_PERIOD: u32 = 1;
 
-    /// Radix-4 square root and divider, one period at a time: 2 + 32 + 12 + 4 = 50 cycles
+    /// Radix-4 square root and divider, one period at a time: 2 + 32 + 12 + 5 = 51 cycles
     /// per period, the Verilog core at its default parameters.
     pub const RADIX4: Latencies = Latencies {
         mul: 2,
         div: 12,
         sqrt: 32,
-        overhead: 4,
+        overhead: 5,
         pipelined: false,
     };
 
-    /// Radix-4 units, periods of different axes overlapped: 50 cycles latency, one period
+    /// Radix-4 units, periods of different axes overlapped: 51 cycles latency, one period
     /// every 32 cycles (a model only).
     pub const RADIX4_PIPELINED: Latencies = Latencies {
         pipelined: true,
@@ -66,12 +67,12 @@ impl Latencies {
     };
 
     /// One root bit and one quotient bit per cycle (the Verilog core with `radix_bits` 1):
-    /// 2 + 64 + 24 + 4 = 94 cycles.
+    /// 2 + 64 + 24 + 5 = 95 cycles.
     pub const RADIX2: Latencies = Latencies {
         mul: 2,
         div: 24,
         sqrt: 64,
-        overhead: 4,
+        overhead: 5,
         pipelined: false,
     };
 
@@ -109,11 +110,11 @@ mod tests {
 
     #[test]
     fn cycle_counts_of_the_documented_datapaths() {
-        assert_eq!(Latencies::RADIX4.latency(), 2 + 12 + 32 + 4);
-        assert_eq!(Latencies::RADIX4.interval(), 50);
-        assert_eq!(Latencies::RADIX4_PIPELINED.latency(), 50);
+        assert_eq!(Latencies::RADIX4.latency(), 2 + 12 + 32 + 5);
+        assert_eq!(Latencies::RADIX4.interval(), 51);
+        assert_eq!(Latencies::RADIX4_PIPELINED.latency(), 51);
         assert_eq!(Latencies::RADIX4_PIPELINED.interval(), 32);
-        assert_eq!(Latencies::RADIX2.interval(), 2 + 24 + 64 + 4);
+        assert_eq!(Latencies::RADIX2.interval(), 2 + 24 + 64 + 5);
         assert_eq!(Latencies::default(), Latencies::RADIX4);
     }
 }
