@@ -350,8 +350,8 @@ module ms_core #(
                 .hi(r_hi), .two_a(r_2a), .b(r_b), .m4(m4_q), .busy(), .done(r_done),
                 .fail(r_fail), .at(r_at), .moves());
             /* verilator lint_on PINCONNECTEMPTY */
-            // a failed walk's step takes the closed form three cycles after the answer (a
-            // closed-form step's select, dy's register and its start: the step costs both)
+            // a failed walk's step takes the closed form three cycles after the answer, so
+            // it costs the jump, the ticks and a closed-form period exactly
             assign c_start = cgo_c || fa3;
             wire [2:0]     known_n = (known == 3'd4) ? known : known + 3'd1;
             wire [WRS-1:0] rs_next = {known_n, period[WD-1:0], p1, p2, m4_n};
