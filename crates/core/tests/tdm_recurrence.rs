@@ -140,10 +140,11 @@ fn one_calculator_feeds_32_axes_on_the_worst_move_at_100k_steps_a_second() {
         println!("{name}: {most} axes at 100 k steps/s without an underrun");
     }
     // the closed form alone (51 clocks a period) cannot: 32 axes underrun
+    let closed = RecurrenceClocks::MODEL.closed;
     let closed_only = RecurrenceClocks {
-        jump: 51,
+        jump: closed,
         tick: 0,
-        closed: 51,
+        closed,
     };
     let (r, _) = run(&vec![p; 32], closed_only, 16);
     assert!(r.underruns > 0, "{r:?}");

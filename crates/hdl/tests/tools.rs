@@ -42,9 +42,9 @@ fn yosys_two_axes_lut_ratio_goal() {
 }
 
 /// On ECP5 the piece memory is block RAM (in distributed RAM it cost the 8-axis ULX3S build
-/// 1203 logic sites): at K = 8 the TDM core's distributed RAM is only dy's memory
-/// (128 bits x 32 words: 64 TRELLIS_DPR16X4), the axes' state and the FIFOs (8 x 6); the
-/// whole 442-bit word there would be 222 more.
+/// 1203 logic sites), and so is dy's (128 bits x 32 words: 64 TRELLIS_DPR16X4 there): at
+/// K = 8 the TDM core's distributed RAM is the FIFOs (8 x 6) and the axes' state, 68 in
+/// all (yosys 0.23), so either memory back in distributed RAM fails the bound.
 #[test]
 fn ecp5_piece_memory_is_block_ram() {
     let dir = tempfile::tempdir().unwrap();
@@ -52,7 +52,7 @@ fn ecp5_piece_memory_is_block_ram() {
         .unwrap_or_else(|e| panic!("{e}"));
     let t = rows[0].tdm;
     assert!(t.bram >= 8, "{t:?}");
-    assert!(t.lutram <= 64 + 48 + 32, "{t:?}");
+    assert!(t.lutram <= 48 + 32, "{t:?}");
 }
 
 #[test]

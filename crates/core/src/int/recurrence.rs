@@ -74,7 +74,7 @@ impl RecurrenceClocks {
     pub const MODEL: RecurrenceClocks = RecurrenceClocks {
         jump: 5,
         tick: 1,
-        closed: 51,
+        closed: crate::tdm::Latencies::RADIX4.latency() as u32,
     };
 
     /// A model for a chain's jump: Newton's formula for R and Δ¹…Δ⁴ is ten products of

@@ -77,7 +77,7 @@ impl Latencies {
     };
 
     /// Cycles from the start of a period's computation to its FIFO write.
-    pub fn latency(&self) -> u64 {
+    pub const fn latency(&self) -> u64 {
         Self::MULS_PER_PERIOD as u64 * self.mul as u64
             + self.div as u64
             + self.sqrt as u64
