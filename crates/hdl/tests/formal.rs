@@ -192,9 +192,8 @@ fn check(props: &Props, mode: Mode, mutate: bool) -> Verdict {
         String::from_utf8_lossy(&out.stderr)
     );
     let vcd = dir.join("trace.vcd");
-    // Yices 2: the same checks took z3 25 times as long (the register map's bounded check:
-    // 26.6 s against 1.0 s); unrolled: z3 took minutes on the pulse unit's first step
-    // with the default encoding
+    // Yices 2: the register map's bounded check took z3 26.6 s, Yices 1.0 s (docs/HDL.md);
+    // unrolled: z3 took minutes on the pulse unit's first step with the default encoding
     let mut args: Vec<String> = vec!["-s".into(), "yices".into(), "--unroll".into()];
     let depth = match mode {
         Mode::Bmc(d) => d,
